@@ -1,0 +1,70 @@
+/* The application context: owner of every handle.
+ *
+ * The application creates resources here and gets typed handles back; the
+ * context keeps each resource's description. Devices attached to the context
+ * (device.h) each load their own representation of a handle on demand. Destroying
+ * a handle unloads it from every attached device (objects still in use by
+ * submitted work are released when that work has finished) and frees the slot,
+ * bumping its generation so the old handle reads as stale everywhere.
+ *
+ * Thread-safe: all calls may be made from any thread. */
+#ifndef CORVID_CONTEXT_H
+#define CORVID_CONTEXT_H
+
+#include "corvid/command_list.h"
+#include "corvid/handle.h"
+#include "corvid/pipeline_registry.h"
+#include "corvid/result.h"
+#include "corvid/types.h"
+
+typedef struct cv_context cv_context;
+
+typedef struct cv_context_desc {
+    /* Pool sizes per resource type; 0 = default (65536, cmdlists and pipelines 4096). */
+    uint32_t max_buffers, max_textures, max_samplers, max_pipelines, max_cmdlists;
+} cv_context_desc;
+
+/* A resource description of any type. */
+typedef struct cv_resource_desc {
+    cv_handle_type type;
+    union {
+        cv_buffer_desc buffer;
+        cv_texture_desc texture;
+        cv_sampler_desc sampler;
+        cv_pipeline_desc pipeline;
+    };
+} cv_resource_desc;
+
+cv_result cv_context_create(const cv_context_desc *desc, cv_context **out);
+/* Destroys every device still attached, then every resource. */
+void cv_context_destroy(cv_context *ctx);
+
+cv_result cv_buffer_create(cv_context *ctx, const cv_buffer_desc *desc, cv_buffer *out);
+cv_result cv_texture_create(cv_context *ctx, const cv_texture_desc *desc, cv_texture *out);
+cv_result cv_sampler_create(cv_context *ctx, const cv_sampler_desc *desc, cv_sampler *out);
+/* Fails with CV_ERROR_UNKNOWN_PIPELINE if the registry has no such name. */
+cv_result cv_pipeline_create(cv_context *ctx, const char *name, cv_pipeline *out);
+cv_result cv_cmdlist_create(cv_context *ctx, cv_cmdlist *out);
+
+/* Destroys any handle type. Stale, double and null destroys fail and change nothing. */
+cv_result cv_destroy(cv_context *ctx, cv_handle h);
+#define cv_buffer_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_buffer)(h)))
+#define cv_texture_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_texture)(h)))
+#define cv_sampler_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_sampler)(h)))
+#define cv_pipeline_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_pipeline)(h)))
+#define cv_cmdlist_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_cmdlist)(h)))
+
+/* CV_OK if h is live; otherwise why not (invalid, stale, ...). */
+cv_result cv_context_check(cv_context *ctx, cv_handle h);
+/* Copies the description of a live buffer/texture/sampler/pipeline handle. */
+cv_result cv_context_describe(cv_context *ctx, cv_handle h, cv_resource_desc *out);
+/* Number of live handles of a type (for leak checks). */
+uint32_t cv_context_live_count(cv_context *ctx, cv_handle_type type);
+
+/* Starts (re)recording a command list. The returned recorder belongs to the
+ * calling thread until cv_command_list_end(); record with the cv_cmd_* calls. */
+cv_result cv_cmdlist_begin(cv_context *ctx, cv_cmdlist h, cv_command_list **out);
+/* The recorded list behind a handle (for backends and encoders). */
+cv_result cv_cmdlist_get(cv_context *ctx, cv_cmdlist h, cv_command_list **out);
+
+#endif

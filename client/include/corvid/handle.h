@@ -1,0 +1,66 @@
+/* Typed, generational 64-bit resource handles.
+ *
+ * A handle names a resource owned by the application (a cv_context). It is a
+ * plain 64-bit value so it can cross the wire, packed as
+ *
+ *     bits 63..56  resource type (cv_handle_type)
+ *     bits 55..32  generation (1..2^24-1; bumps every time the slot is freed)
+ *     bits 31..0   slot index
+ *
+ * The value 0 is never a valid handle. Each resource kind has its own struct
+ * type, so passing a cv_buffer where a cv_texture is wanted does not compile;
+ * handles that arrive as raw u64 (from the wire, from a decoded command list)
+ * are checked at run time: wrong type, stale generation and double destroy all
+ * give distinct errors. Lookup is an array index plus a compare (O(1)).
+ *
+ * One handle, many representations: every cv_device keeps its own object for a
+ * handle, loaded and unloaded independently (see device.h). */
+#ifndef CORVID_HANDLE_H
+#define CORVID_HANDLE_H
+
+#include <stdint.h>
+#include <stdbool.h>
+
+typedef enum cv_handle_type {
+    CV_HANDLE_NONE = 0,
+    CV_HANDLE_BUFFER = 1,
+    CV_HANDLE_TEXTURE = 2,
+    CV_HANDLE_SAMPLER = 3,
+    CV_HANDLE_PIPELINE = 4,
+    CV_HANDLE_CMDLIST = 5,
+    CV_HANDLE_FENCE = 6,
+    CV_HANDLE_TYPE_COUNT
+} cv_handle_type;
+
+typedef struct cv_handle { uint64_t id; } cv_handle;     /* any type, checked at run time */
+typedef struct cv_buffer { uint64_t id; } cv_buffer;
+typedef struct cv_texture { uint64_t id; } cv_texture;
+typedef struct cv_sampler { uint64_t id; } cv_sampler;
+typedef struct cv_pipeline { uint64_t id; } cv_pipeline;
+typedef struct cv_cmdlist { uint64_t id; } cv_cmdlist;
+typedef struct cv_fence { uint64_t id; } cv_fence;
+
+#define CV_HANDLE_INDEX_BITS 32u
+#define CV_HANDLE_GENERATION_BITS 24u
+#define CV_HANDLE_GENERATION_MAX ((1u << CV_HANDLE_GENERATION_BITS) - 1u)
+
+static inline uint64_t cv_handle_pack(cv_handle_type type, uint32_t generation, uint32_t index) {
+    return ((uint64_t)type << 56) | ((uint64_t)(generation & CV_HANDLE_GENERATION_MAX) << 32) | index;
+}
+static inline cv_handle_type cv_handle_type_of(uint64_t id) { return (cv_handle_type)(id >> 56); }
+static inline uint32_t cv_handle_generation(uint64_t id) {
+    return (uint32_t)(id >> 32) & CV_HANDLE_GENERATION_MAX;
+}
+static inline uint32_t cv_handle_index(uint64_t id) { return (uint32_t)id; }
+
+/* Converts any typed handle to the untyped cv_handle (compile error for other types). */
+#define cv_any(h) _Generic((h),                                     \
+    cv_handle: (h),                                                 \
+    cv_buffer: (cv_handle){ (h).id }, cv_texture: (cv_handle){ (h).id }, \
+    cv_sampler: (cv_handle){ (h).id }, cv_pipeline: (cv_handle){ (h).id }, \
+    cv_cmdlist: (cv_handle){ (h).id }, cv_fence: (cv_handle){ (h).id })
+
+/* "buffer", "texture", ... ("none" for 0, "invalid" for an unknown tag). */
+const char *cv_handle_type_name(cv_handle_type type);
+
+#endif

@@ -1,0 +1,324 @@
+/* The application context: handle pools, resource descriptions, command lists
+ * and the set of attached devices (see context.h). */
+#include "context_internal.h"
+
+#include "corvid/handle_pool.h"
+
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct cv_context {
+    pthread_mutex_t lock;
+    cv_handle_pool pools[CV_HANDLE_TYPE_COUNT];
+    cv_resource_desc *descs[CV_HANDLE_TYPE_COUNT];   /* by slot, for described types */
+    cv_command_list *lists;                          /* by cmdlist slot */
+    cv_device **devices;
+    uint32_t device_count, device_capacity;
+};
+
+static bool is_described(cv_handle_type t) {
+    return t == CV_HANDLE_BUFFER || t == CV_HANDLE_TEXTURE || t == CV_HANDLE_SAMPLER ||
+           t == CV_HANDLE_PIPELINE;
+}
+
+static bool valid_type(cv_handle_type t) { return t > CV_HANDLE_NONE && t < CV_HANDLE_TYPE_COUNT; }
+
+cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
+    if (!out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_context_create: out is NULL");
+    cv_context_desc d = desc ? *desc : (cv_context_desc){ 0 };
+    uint32_t caps[CV_HANDLE_TYPE_COUNT] = {
+        [CV_HANDLE_BUFFER] = d.max_buffers ? d.max_buffers : 65536,
+        [CV_HANDLE_TEXTURE] = d.max_textures ? d.max_textures : 65536,
+        [CV_HANDLE_SAMPLER] = d.max_samplers ? d.max_samplers : 4096,
+        [CV_HANDLE_PIPELINE] = d.max_pipelines ? d.max_pipelines : 4096,
+        [CV_HANDLE_CMDLIST] = d.max_cmdlists ? d.max_cmdlists : 4096,
+        [CV_HANDLE_FENCE] = 4096,
+    };
+    cv_context *ctx = calloc(1, sizeof(*ctx));
+    if (!ctx)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: context");
+    pthread_mutex_init(&ctx->lock, NULL);
+    cv_result r = CV_OK;
+    for (int t = CV_HANDLE_BUFFER; t < CV_HANDLE_TYPE_COUNT && r == CV_OK; t++) {
+        r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, caps[t]);
+        if (r == CV_OK && is_described((cv_handle_type)t)) {
+            ctx->descs[t] = calloc(caps[t], sizeof(cv_resource_desc));
+            if (!ctx->descs[t])
+                r = cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: %u descriptions", caps[t]);
+        }
+    }
+    if (r == CV_OK) {
+        ctx->lists = calloc(caps[CV_HANDLE_CMDLIST], sizeof(cv_command_list));
+        if (!ctx->lists)
+            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: command lists");
+    }
+    if (r != CV_OK) {
+        cv_context_destroy(ctx);
+        return r;
+    }
+    *out = ctx;
+    return CV_OK;
+}
+
+void cv_context_destroy(cv_context *ctx) {
+    if (!ctx)
+        return;
+    /* Devices detach themselves; take them one at a time without holding the lock. */
+    for (;;) {
+        pthread_mutex_lock(&ctx->lock);
+        cv_device *dev = ctx->device_count ? ctx->devices[ctx->device_count - 1] : NULL;
+        pthread_mutex_unlock(&ctx->lock);
+        if (!dev)
+            break;
+        cv_device_destroy(dev);
+    }
+    if (ctx->lists) {
+        for (uint32_t i = 0; i < ctx->pools[CV_HANDLE_CMDLIST].capacity; i++)
+            cv_command_list_finish(&ctx->lists[i]);
+        free(ctx->lists);
+    }
+    for (int t = 0; t < CV_HANDLE_TYPE_COUNT; t++) {
+        free(ctx->descs[t]);
+        if (ctx->pools[t].capacity)
+            cv_handle_pool_finish(&ctx->pools[t]);
+    }
+    free(ctx->devices);
+    pthread_mutex_destroy(&ctx->lock);
+    free(ctx);
+}
+
+/* Allocates a handle of `type` and stores its description under the lock. */
+static cv_result create_described(cv_context *ctx, const cv_resource_desc *desc, uint64_t *out) {
+    pthread_mutex_lock(&ctx->lock);
+    uint64_t id;
+    cv_result r = cv_handle_pool_alloc(&ctx->pools[desc->type], &id);
+    if (r == CV_OK) {
+        ctx->descs[desc->type][cv_handle_index(id)] = *desc;
+        *out = id;
+    }
+    pthread_mutex_unlock(&ctx->lock);
+    return r;
+}
+
+static bool label_ok(const char *label) { return memchr(label, '\0', CV_LABEL_MAX) != NULL; }
+
+cv_result cv_buffer_create(cv_context *ctx, const cv_buffer_desc *desc, cv_buffer *out) {
+    if (!ctx || !desc || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_buffer_create: NULL argument");
+    if (desc->size == 0)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer '%.*s': size is 0", CV_LABEL_MAX, desc->label);
+    if (desc->usage & ~(uint32_t)CV_BUFFER_USAGE_ALL)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer '%.*s': unknown usage bits 0x%x", CV_LABEL_MAX,
+                        desc->label, desc->usage);
+    if (!label_ok(desc->label))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer label is not NUL-terminated");
+    cv_resource_desc d = { .type = CV_HANDLE_BUFFER, .buffer = *desc };
+    if (d.buffer.usage == 0)
+        d.buffer.usage = CV_BUFFER_USAGE_STORAGE;
+    return create_described(ctx, &d, &out->id);
+}
+
+cv_result cv_texture_create(cv_context *ctx, const cv_texture_desc *desc, cv_texture *out) {
+    if (!ctx || !desc || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_texture_create: NULL argument");
+    if (!label_ok(desc->label))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture label is not NUL-terminated");
+    if (desc->width == 0 || desc->height == 0 || desc->width > CV_MAX_TEXTURE_DIM ||
+        desc->height > CV_MAX_TEXTURE_DIM)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "texture '%s': size %ux%u outside 1..%u", desc->label,
+                        desc->width, desc->height, CV_MAX_TEXTURE_DIM);
+    if (desc->format == CV_FORMAT_UNDEFINED || (unsigned)desc->format >= CV_FORMAT_COUNT)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': invalid format %d", desc->label,
+                        (int)desc->format);
+    cv_resource_desc d = { .type = CV_HANDLE_TEXTURE, .texture = *desc };
+    bool depth = cv_format_is_depth(desc->format);
+    if (d.texture.usage == 0)
+        d.texture.usage = depth ? CV_TEXTURE_USAGE_DEPTH_TARGET | CV_TEXTURE_USAGE_SAMPLED
+                                : CV_TEXTURE_USAGE_SAMPLED | CV_TEXTURE_USAGE_STORAGE;
+    if (depth && (d.texture.usage & (CV_TEXTURE_USAGE_STORAGE | CV_TEXTURE_USAGE_COLOR_TARGET)))
+        return cv_error(CV_ERROR_USAGE_MISMATCH, "texture '%s': a depth format cannot be a storage or color target",
+                        desc->label);
+    if (!depth && (d.texture.usage & CV_TEXTURE_USAGE_DEPTH_TARGET))
+        return cv_error(CV_ERROR_USAGE_MISMATCH, "texture '%s': depth target usage needs a depth format (got %s)",
+                        desc->label, cv_format_name(desc->format));
+    return create_described(ctx, &d, &out->id);
+}
+
+cv_result cv_sampler_create(cv_context *ctx, const cv_sampler_desc *desc, cv_sampler *out) {
+    if (!ctx || !desc || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_sampler_create: NULL argument");
+    if ((unsigned)desc->filter > CV_FILTER_NEAREST || (unsigned)desc->address > CV_ADDRESS_REPEAT ||
+        !label_ok(desc->label))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "sampler: invalid filter %d or address mode %d",
+                        (int)desc->filter, (int)desc->address);
+    cv_resource_desc d = { .type = CV_HANDLE_SAMPLER, .sampler = *desc };
+    return create_described(ctx, &d, &out->id);
+}
+
+cv_result cv_pipeline_create(cv_context *ctx, const char *name, cv_pipeline *out) {
+    if (!ctx || !name || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_pipeline_create: NULL argument");
+    if (strlen(name) >= CV_LABEL_MAX || !cv_pipeline_registry_find(name))
+        return cv_error(CV_ERROR_UNKNOWN_PIPELINE, "no pipeline named '%.64s' in the registry", name);
+    cv_resource_desc d = { .type = CV_HANDLE_PIPELINE };
+    strcpy(d.pipeline.name, name);
+    return create_described(ctx, &d, &out->id);
+}
+
+cv_result cv_cmdlist_create(cv_context *ctx, cv_cmdlist *out) {
+    if (!ctx || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_cmdlist_create: NULL argument");
+    pthread_mutex_lock(&ctx->lock);
+    uint64_t id;
+    cv_result r = cv_handle_pool_alloc(&ctx->pools[CV_HANDLE_CMDLIST], &id);
+    if (r == CV_OK) {
+        cv_command_list *list = &ctx->lists[cv_handle_index(id)];
+        uint32_t version = list->version;
+        cv_command_list_finish(list);
+        cv_command_list_init(list);
+        list->version = version;   /* keeps versions unique per slot across reuse */
+        list->id = id;
+        out->id = id;
+    }
+    pthread_mutex_unlock(&ctx->lock);
+    return r;
+}
+
+static cv_result check_locked(cv_context *ctx, uint64_t id) {
+    cv_handle_type t = cv_handle_type_of(id);
+    if (id == 0)
+        return cv_error(CV_ERROR_INVALID_HANDLE, "null handle");
+    if (!valid_type(t))
+        return cv_error(CV_ERROR_INVALID_HANDLE, "handle 0x%016llx has no valid type tag", (unsigned long long)id);
+    return cv_handle_pool_check(&ctx->pools[t], id);
+}
+
+cv_result cv_context_check(cv_context *ctx, cv_handle h) {
+    if (!ctx)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_context_check: NULL context");
+    pthread_mutex_lock(&ctx->lock);
+    cv_result r = check_locked(ctx, h.id);
+    pthread_mutex_unlock(&ctx->lock);
+    return r;
+}
+
+cv_result cv_context_describe(cv_context *ctx, cv_handle h, cv_resource_desc *out) {
+    if (!ctx || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_context_describe: NULL argument");
+    pthread_mutex_lock(&ctx->lock);
+    cv_result r = check_locked(ctx, h.id);
+    if (r == CV_OK && !is_described(cv_handle_type_of(h.id)))
+        r = cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "a %s handle has no resource description",
+                     cv_handle_type_name(cv_handle_type_of(h.id)));
+    if (r == CV_OK)
+        *out = ctx->descs[cv_handle_type_of(h.id)][cv_handle_index(h.id)];
+    pthread_mutex_unlock(&ctx->lock);
+    return r;
+}
+
+uint32_t cv_context_live_count(cv_context *ctx, cv_handle_type type) {
+    if (!ctx || !valid_type(type))
+        return 0;
+    pthread_mutex_lock(&ctx->lock);
+    uint32_t n = ctx->pools[type].live;
+    pthread_mutex_unlock(&ctx->lock);
+    return n;
+}
+
+cv_result cv_destroy(cv_context *ctx, cv_handle h) {
+    if (!ctx)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_destroy: NULL context");
+    pthread_mutex_lock(&ctx->lock);
+    cv_result r = check_locked(ctx, h.id);
+    if (r != CV_OK) {
+        pthread_mutex_unlock(&ctx->lock);
+        return r;
+    }
+    cv_handle_type t = cv_handle_type_of(h.id);
+    cv_handle_pool_free(&ctx->pools[t], h.id);
+    if (t == CV_HANDLE_CMDLIST)
+        ctx->lists[cv_handle_index(h.id)].ended_ok = false;
+    uint32_t n = ctx->device_count;
+    cv_device **devices = n ? malloc(n * sizeof(*devices)) : NULL;
+    if (devices)
+        memcpy(devices, ctx->devices, n * sizeof(*devices));
+    pthread_mutex_unlock(&ctx->lock);
+    for (uint32_t i = 0; devices && i < n; i++)
+        cv_device_forget(devices[i], h.id);
+    free(devices);
+    return CV_OK;
+}
+
+cv_result cv_cmdlist_begin(cv_context *ctx, cv_cmdlist h, cv_command_list **out) {
+    if (!ctx || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_cmdlist_begin: NULL argument");
+    pthread_mutex_lock(&ctx->lock);
+    cv_result r = cv_handle_pool_check(&ctx->pools[CV_HANDLE_CMDLIST], h.id);
+    if (r == CV_OK) {
+        cv_command_list *list = &ctx->lists[cv_handle_index(h.id)];
+        cv_command_list_begin(list);
+        *out = list;
+    }
+    pthread_mutex_unlock(&ctx->lock);
+    return r;
+}
+
+cv_result cv_cmdlist_get(cv_context *ctx, cv_cmdlist h, cv_command_list **out) {
+    if (!ctx || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_cmdlist_get: NULL argument");
+    pthread_mutex_lock(&ctx->lock);
+    cv_result r = cv_handle_pool_check(&ctx->pools[CV_HANDLE_CMDLIST], h.id);
+    if (r == CV_OK)
+        *out = &ctx->lists[cv_handle_index(h.id)];
+    pthread_mutex_unlock(&ctx->lock);
+    return r;
+}
+
+cv_result cv_context_executable_list(cv_context *ctx, uint64_t id, cv_command_list **out) {
+    pthread_mutex_lock(&ctx->lock);
+    cv_result r = cv_handle_pool_check(&ctx->pools[CV_HANDLE_CMDLIST], id);
+    if (r == CV_OK) {
+        cv_command_list *list = &ctx->lists[cv_handle_index(id)];
+        if (list->recording)
+            r = cv_error(CV_ERROR_BAD_STATE, "command list 0x%016llx is still recording", (unsigned long long)id);
+        else if (!list->ended_ok)
+            r = cv_error(CV_ERROR_BAD_STATE, "command list 0x%016llx %s%s", (unsigned long long)id,
+                         list->error ? "failed recording: " : "was never recorded",
+                         list->error ? list->error_message : "");
+        else
+            *out = list;
+    }
+    pthread_mutex_unlock(&ctx->lock);
+    return r;
+}
+
+cv_result cv_context_attach_device(cv_context *ctx, cv_device *dev) {
+    pthread_mutex_lock(&ctx->lock);
+    if (ctx->device_count == ctx->device_capacity) {
+        uint32_t cap = ctx->device_capacity ? ctx->device_capacity * 2 : 8;
+        cv_device **d = realloc(ctx->devices, cap * sizeof(*d));
+        if (!d) {
+            pthread_mutex_unlock(&ctx->lock);
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "attaching device");
+        }
+        ctx->devices = d;
+        ctx->device_capacity = cap;
+    }
+    ctx->devices[ctx->device_count++] = dev;
+    pthread_mutex_unlock(&ctx->lock);
+    return CV_OK;
+}
+
+void cv_context_detach_device(cv_context *ctx, cv_device *dev) {
+    pthread_mutex_lock(&ctx->lock);
+    for (uint32_t i = 0; i < ctx->device_count; i++) {
+        if (ctx->devices[i] == dev) {
+            memmove(&ctx->devices[i], &ctx->devices[i + 1], (ctx->device_count - i - 1) * sizeof(*ctx->devices));
+            ctx->device_count--;
+            break;
+        }
+    }
+    pthread_mutex_unlock(&ctx->lock);
+}

@@ -1,0 +1,492 @@
+/* The core of every device (see device.h, backend.h): per-device handle
+ * tables, load/unload, compile caching, submission tickets, in-flight tracking
+ * and deferred release. Backends only create objects and run commands. */
+#include "device_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "context_internal.h"
+
+static cv_device_resource *slot_of(const cv_device *dev, uint64_t id) {
+    cv_handle_type t = cv_handle_type_of(id);
+    if (t <= CV_HANDLE_NONE || t >= CV_HANDLE_TYPE_COUNT)
+        return NULL;
+    const resource_table *tab = &dev->tables[t];
+    uint32_t index = cv_handle_index(id);
+    return index < tab->capacity ? &tab->slots[index] : NULL;
+}
+
+const cv_device_resource *cv_device_lookup(const cv_device *dev, uint64_t id) {
+    const cv_device_resource *s = id ? slot_of(dev, id) : NULL;
+    return s && s->id == id ? s : NULL;
+}
+
+cv_backend_device *cv_device_backend_data(const cv_device *dev) { return dev->bd; }
+const cv_device_info *cv_device_get_info(const cv_device *dev) { return &dev->info; }
+const char *cv_device_label(const cv_device *dev) { return dev->label; }
+cv_context *cv_device_context(const cv_device *dev) { return dev->ctx; }
+
+cv_result cv_device_require(cv_device *dev, uint64_t id, cv_handle_type type, const char *what,
+                            cv_device_resource **out) {
+    if (id == 0)
+        return cv_error(CV_ERROR_INVALID_HANDLE, "%s: null %s handle", what, cv_handle_type_name(type));
+    if (cv_handle_type_of(id) != type)
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "%s: needs a %s handle, got a %s handle (0x%016llx)", what,
+                        cv_handle_type_name(type), cv_handle_type_name(cv_handle_type_of(id)),
+                        (unsigned long long)id);
+    cv_device_resource *s = slot_of(dev, id);
+    if (s && s->id == id) {
+        *out = s;
+        return CV_OK;
+    }
+    cv_result live = cv_context_check(dev->ctx, (cv_handle){ id });
+    if (live != CV_OK)
+        return cv_error(live, "%s: %s", what, cv_last_error());
+    return cv_error(CV_ERROR_NOT_LOADED, "%s: %s handle 0x%016llx is not loaded on device '%s'", what,
+                    cv_handle_type_name(type), (unsigned long long)id, dev->label);
+}
+
+/* ---- deferred release ---------------------------------------------------- */
+
+static void release_now(cv_device *dev, cv_handle_type type, void *obj) {
+    if (type == CV_HANDLE_CMDLIST)
+        dev->backend->list_release(dev->bd, obj);
+    else
+        dev->backend->resource_destroy(dev->bd, type, obj);
+}
+
+static void release_later(cv_device *dev, cv_handle_type type, void *obj, uint64_t after) {
+    if (after <= dev->backend->completed(dev->bd)) {
+        release_now(dev, type, obj);
+        return;
+    }
+    if (dev->deferred_count == dev->deferred_capacity) {
+        uint32_t cap = dev->deferred_capacity ? dev->deferred_capacity * 2 : 64;
+        deferred_release *d = realloc(dev->deferred, cap * sizeof(*d));
+        if (!d) {
+            /* Cannot queue it: wait for the work instead of leaking or freeing early. */
+            dev->backend->wait(dev->bd, after, UINT64_MAX);
+            release_now(dev, type, obj);
+            return;
+        }
+        dev->deferred = d;
+        dev->deferred_capacity = cap;
+    }
+    dev->deferred[dev->deferred_count++] = (deferred_release){ type, obj, after };
+}
+
+static void collect_finished(cv_device *dev) {
+    if (!dev->deferred_count)
+        return;
+    uint64_t done = dev->backend->completed(dev->bd);
+    uint32_t kept = 0;
+    for (uint32_t i = 0; i < dev->deferred_count; i++) {
+        if (dev->deferred[i].after <= done)
+            release_now(dev, dev->deferred[i].type, dev->deferred[i].obj);
+        else
+            dev->deferred[kept++] = dev->deferred[i];
+    }
+    dev->deferred_count = kept;
+}
+
+/* ---- create / destroy ------------------------------------------------------ */
+
+cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc,
+                           cv_device **out) {
+    if (!ctx || !backend || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_create: NULL argument");
+    cv_device_desc d = desc ? *desc : (cv_device_desc){ 0 };
+    cv_device *dev = calloc(1, sizeof(*dev));
+    if (!dev)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_device_create");
+    pthread_mutex_init(&dev->lock, NULL);
+    dev->ctx = ctx;
+    dev->backend = backend;
+    cv_result r = backend->device_create(&d, &dev->info, &dev->bd);
+    if (r != CV_OK) {
+        pthread_mutex_destroy(&dev->lock);
+        free(dev);
+        return r;
+    }
+    if (d.label[0] && memchr(d.label, '\0', CV_LABEL_MAX))
+        snprintf(dev->label, sizeof(dev->label), "%s", d.label);
+    else
+        snprintf(dev->label, sizeof(dev->label), "%s:%u", backend->name, dev->info.adapter_index);
+    r = cv_context_attach_device(ctx, dev);
+    if (r != CV_OK) {
+        backend->device_destroy(dev->bd);
+        pthread_mutex_destroy(&dev->lock);
+        free(dev);
+        return r;
+    }
+    *out = dev;
+    return CV_OK;
+}
+
+void cv_device_destroy(cv_device *dev) {
+    if (!dev)
+        return;
+    cv_context_detach_device(dev->ctx, dev);
+    pthread_mutex_lock(&dev->lock);
+    if (dev->last_ticket)
+        dev->backend->wait(dev->bd, dev->last_ticket, UINT64_MAX);
+    collect_finished(dev);
+    for (uint32_t i = 0; i < dev->compiled_capacity; i++)
+        if (dev->compiled[i].obj)
+            dev->backend->list_release(dev->bd, dev->compiled[i].obj);
+    for (int t = 0; t < CV_HANDLE_TYPE_COUNT; t++) {
+        resource_table *tab = &dev->tables[t];
+        for (uint32_t i = 0; i < tab->capacity; i++)
+            if (tab->slots[i].id)
+                dev->backend->resource_destroy(dev->bd, (cv_handle_type)t, tab->slots[i].obj);
+        free(tab->slots);
+    }
+    dev->backend->device_destroy(dev->bd);
+    free(dev->compiled);
+    free(dev->deferred);
+    pthread_mutex_unlock(&dev->lock);
+    pthread_mutex_destroy(&dev->lock);
+    free(dev);
+}
+
+/* ---- load / unload ------------------------------------------------------- */
+
+static cv_result ensure_slot(cv_device *dev, uint64_t id, cv_device_resource **out) {
+    resource_table *tab = &dev->tables[cv_handle_type_of(id)];
+    uint32_t index = cv_handle_index(id);
+    if (index >= tab->capacity) {
+        uint32_t cap = tab->capacity ? tab->capacity : 64;
+        while (cap <= index)
+            cap *= 2;
+        cv_device_resource *s = realloc(tab->slots, (size_t)cap * sizeof(*s));
+        if (!s)
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "device '%s': handle table of %u entries", dev->label, cap);
+        memset(s + tab->capacity, 0, (size_t)(cap - tab->capacity) * sizeof(*s));
+        tab->slots = s;
+        tab->capacity = cap;
+    }
+    *out = &tab->slots[index];
+    return CV_OK;
+}
+
+cv_result cv_device_load(cv_device *dev, cv_handle h) {
+    if (!dev)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_load: NULL device");
+    cv_resource_desc desc;
+    cv_result r = cv_context_describe(dev->ctx, h, &desc);   /* before the device lock: lock order */
+    if (r != CV_OK)
+        return r;
+    const cv_pipeline_info *pipeline = NULL;
+    if (desc.type == CV_HANDLE_PIPELINE)
+        pipeline = cv_pipeline_registry_find(desc.pipeline.name);
+    pthread_mutex_lock(&dev->lock);
+    collect_finished(dev);
+    cv_device_resource *s = NULL;
+    r = ensure_slot(dev, h.id, &s);
+    if (r == CV_OK && s->id == h.id)
+        r = cv_error(CV_ERROR_ALREADY_LOADED, "%s handle 0x%016llx is already loaded on device '%s'",
+                     cv_handle_type_name(desc.type), (unsigned long long)h.id, dev->label);
+    if (r == CV_OK && s->id != 0) {
+        /* A stale representation of an older generation of this slot: the
+         * context destroyed it but this device was not told yet. */
+        release_later(dev, desc.type, s->obj, s->last_use);
+        memset(s, 0, sizeof(*s));
+        dev->loaded--;
+        dev->epoch++;
+    }
+    void *obj = NULL;
+    if (r == CV_OK)
+        r = dev->backend->resource_create(dev->bd, h.id, &desc, pipeline, &obj);
+    if (r == CV_OK) {
+        *s = (cv_device_resource){ .id = h.id, .desc = desc, .pipeline = pipeline, .obj = obj };
+        dev->loaded++;
+    }
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
+/* Removes a representation or compiled list of `id` (lock held); false if none. */
+static bool drop(cv_device *dev, uint64_t id) {
+    cv_handle_type t = cv_handle_type_of(id);
+    if (t == CV_HANDLE_CMDLIST) {
+        uint32_t index = cv_handle_index(id);
+        if (index >= dev->compiled_capacity || dev->compiled[index].id != id)
+            return false;
+        compiled_list *c = &dev->compiled[index];
+        release_later(dev, CV_HANDLE_CMDLIST, c->obj, c->last_ticket);
+        memset(c, 0, sizeof(*c));
+        dev->loaded--;
+        return true;
+    }
+    cv_device_resource *s = slot_of(dev, id);
+    if (!s || s->id != id)
+        return false;
+    release_later(dev, t, s->obj, s->last_use);
+    memset(s, 0, sizeof(*s));
+    dev->loaded--;
+    dev->epoch++;
+    return true;
+}
+
+cv_result cv_device_unload(cv_device *dev, cv_handle h) {
+    if (!dev)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_unload: NULL device");
+    pthread_mutex_lock(&dev->lock);
+    cv_result r = CV_OK;
+    if (!drop(dev, h.id)) {
+        cv_result live = cv_context_check(dev->ctx, h);
+        r = live != CV_OK ? live
+                          : cv_error(CV_ERROR_NOT_LOADED, "%s handle 0x%016llx is not loaded on device '%s'",
+                                     cv_handle_type_name(cv_handle_type_of(h.id)), (unsigned long long)h.id,
+                                     dev->label);
+    }
+    collect_finished(dev);
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
+void cv_device_forget(cv_device *dev, uint64_t id) {
+    pthread_mutex_lock(&dev->lock);
+    drop(dev, id);
+    pthread_mutex_unlock(&dev->lock);
+}
+
+bool cv_device_has(cv_device *dev, cv_handle h) {
+    if (!dev || !h.id)
+        return false;
+    pthread_mutex_lock(&dev->lock);
+    bool has;
+    if (cv_handle_type_of(h.id) == CV_HANDLE_CMDLIST) {
+        /* Loaded = compiled from the list as it is now, against current resources. */
+        uint32_t index = cv_handle_index(h.id);
+        cv_command_list *list;
+        has = index < dev->compiled_capacity && dev->compiled[index].id == h.id &&
+              cv_cmdlist_get(dev->ctx, (cv_cmdlist){ h.id }, &list) == CV_OK &&
+              dev->compiled[index].version == list->version && dev->compiled[index].epoch == dev->epoch;
+    } else {
+        has = cv_device_lookup(dev, h.id) != NULL;
+    }
+    pthread_mutex_unlock(&dev->lock);
+    return has;
+}
+
+uint32_t cv_device_loaded_count(cv_device *dev) {
+    pthread_mutex_lock(&dev->lock);
+    uint32_t n = dev->loaded;
+    pthread_mutex_unlock(&dev->lock);
+    return n;
+}
+
+/* ---- host data ------------------------------------------------------------ */
+
+/* Waits until no submitted work uses the resource (lock held). */
+static cv_result wait_for_resource(cv_device *dev, cv_device_resource *s) {
+    if (s->last_use > dev->backend->completed(dev->bd))
+        return dev->backend->wait(dev->bd, s->last_use, UINT64_MAX);
+    return CV_OK;
+}
+
+static cv_result buffer_access(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, const void *src,
+                               void *dst) {
+    if (!dev || (!src && !dst))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer %s: NULL argument", src ? "write" : "read");
+    pthread_mutex_lock(&dev->lock);
+    cv_device_resource *s;
+    cv_result r = cv_device_require(dev, b.id, CV_HANDLE_BUFFER, src ? "buffer write" : "buffer read", &s);
+    if (r == CV_OK && (size == 0 || offset > s->desc.buffer.size || size > s->desc.buffer.size - offset))
+        r = cv_error(CV_ERROR_OUT_OF_RANGE, "buffer '%s' (%llu bytes): %s of %llu bytes at offset %llu is out of range",
+                     s->desc.buffer.label, (unsigned long long)s->desc.buffer.size, src ? "write" : "read",
+                     (unsigned long long)size, (unsigned long long)offset);
+    if (r == CV_OK)
+        r = wait_for_resource(dev, s);
+    if (r == CV_OK)
+        r = src ? dev->backend->buffer_write(dev->bd, s->obj, offset, size, src)
+                : dev->backend->buffer_read(dev->bd, s->obj, offset, size, dst);
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
+cv_result cv_device_write_buffer(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, const void *data) {
+    return buffer_access(dev, b, offset, size, data, NULL);
+}
+
+cv_result cv_device_read_buffer(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, void *out) {
+    return buffer_access(dev, b, offset, size, NULL, out);
+}
+
+static cv_result texture_access(cv_device *dev, cv_texture t, cv_rect rect, const void *src, void *dst) {
+    if (!dev || (!src && !dst))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture %s: NULL argument", src ? "write" : "read");
+    pthread_mutex_lock(&dev->lock);
+    cv_device_resource *s;
+    cv_result r = cv_device_require(dev, t.id, CV_HANDLE_TEXTURE, src ? "texture write" : "texture read", &s);
+    if (r == CV_OK) {
+        const cv_texture_desc *d = &s->desc.texture;
+        if (rect.width == 0 || rect.height == 0 || rect.x > d->width || rect.width > d->width - rect.x ||
+            rect.y > d->height || rect.height > d->height - rect.y)
+            r = cv_error(CV_ERROR_OUT_OF_RANGE, "texture '%s' (%ux%u): %s of %ux%u at (%u,%u) is out of range",
+                         d->label, d->width, d->height, src ? "write" : "read", rect.width, rect.height, rect.x,
+                         rect.y);
+    }
+    if (r == CV_OK)
+        r = wait_for_resource(dev, s);
+    if (r == CV_OK)
+        r = src ? dev->backend->texture_write(dev->bd, s->obj, &s->desc.texture, rect, src)
+                : dev->backend->texture_read(dev->bd, s->obj, &s->desc.texture, rect, dst);
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
+cv_result cv_device_write_texture(cv_device *dev, cv_texture t, cv_rect rect, const void *data) {
+    return texture_access(dev, t, rect, data, NULL);
+}
+
+cv_result cv_device_read_texture(cv_device *dev, cv_texture t, cv_rect rect, void *out) {
+    return texture_access(dev, t, rect, NULL, out);
+}
+
+/* ---- compile / submit ----------------------------------------------------- */
+
+static cv_result compiled_slot(cv_device *dev, uint64_t id, compiled_list **out) {
+    uint32_t index = cv_handle_index(id);
+    if (index >= dev->compiled_capacity) {
+        uint32_t cap = dev->compiled_capacity ? dev->compiled_capacity : 16;
+        while (cap <= index)
+            cap *= 2;
+        compiled_list *c = realloc(dev->compiled, (size_t)cap * sizeof(*c));
+        if (!c)
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "device '%s': compiled list table", dev->label);
+        memset(c + dev->compiled_capacity, 0, (size_t)(cap - dev->compiled_capacity) * sizeof(*c));
+        dev->compiled = c;
+        dev->compiled_capacity = cap;
+    }
+    *out = &dev->compiled[index];
+    return CV_OK;
+}
+
+/* Returns the up-to-date compiled form of the list (lock held). */
+static cv_result compile_locked(cv_device *dev, uint64_t id, compiled_list **out) {
+    cv_command_list *list;
+    cv_result r = cv_context_executable_list(dev->ctx, id, &list);
+    if (r != CV_OK)
+        return r;
+    compiled_list *c = NULL;
+    r = compiled_slot(dev, id, &c);
+    if (r != CV_OK)
+        return r;
+    if (c->id == id && c->version == list->version && c->epoch == dev->epoch) {
+        *out = c;
+        return CV_OK;
+    }
+    r = cv_validate_list(dev, list);
+    if (r != CV_OK)
+        return r;
+    void *obj = NULL;
+    r = dev->backend->list_compile(dev->bd, dev, list, &obj);
+    if (r != CV_OK)
+        return r;
+    if (c->id)
+        release_later(dev, CV_HANDLE_CMDLIST, c->obj, c->last_ticket);
+    else
+        dev->loaded++;
+    *c = (compiled_list){ .id = id, .version = list->version, .epoch = dev->epoch, .obj = obj };
+    *out = c;
+    return CV_OK;
+}
+
+cv_result cv_device_compile(cv_device *dev, cv_cmdlist list) {
+    if (!dev)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_compile: NULL device");
+    pthread_mutex_lock(&dev->lock);
+    compiled_list *c;
+    cv_result r = compile_locked(dev, list.id, &c);
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
+static void mark_use(uint64_t id, void *user) {
+    void **args = user;
+    cv_device *dev = args[0];
+    uint64_t ticket = *(uint64_t *)args[1];
+    cv_device_resource *s = slot_of(dev, id);
+    if (s && s->id == id)
+        s->last_use = ticket;
+}
+
+cv_result cv_device_submit(cv_device *dev, cv_cmdlist list, uint64_t *ticket) {
+    if (!dev)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_submit: NULL device");
+    pthread_mutex_lock(&dev->lock);
+    collect_finished(dev);
+    compiled_list *c = NULL;
+    cv_result r = compile_locked(dev, list.id, &c);
+    uint64_t t = dev->last_ticket + 1;
+    if (r == CV_OK)
+        r = dev->backend->submit(dev->bd, c->obj, t);
+    if (r == CV_OK) {
+        dev->last_ticket = t;
+        c->last_ticket = t;
+        cv_command_list *l;
+        if (cv_context_executable_list(dev->ctx, list.id, &l) == CV_OK) {
+            void *args[2] = { dev, &t };
+            for (uint32_t i = 0; i < l->count; i++)
+                cv_command_visit_handles(l, &l->commands[i], mark_use, args);
+        }
+        if (ticket)
+            *ticket = t;
+    }
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
+cv_result cv_device_wait(cv_device *dev, uint64_t ticket, uint64_t timeout_ns) {
+    if (!dev)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_wait: NULL device");
+    pthread_mutex_lock(&dev->lock);
+    cv_result r = CV_OK;
+    if (ticket > dev->last_ticket)
+        r = cv_error(CV_ERROR_INVALID_ARGUMENT, "device '%s': ticket %llu was never submitted (last is %llu)",
+                     dev->label, (unsigned long long)ticket, (unsigned long long)dev->last_ticket);
+    pthread_mutex_unlock(&dev->lock);
+    if (r != CV_OK)
+        return r;
+    /* Waiting does not hold the device lock, so other threads can submit meanwhile. */
+    r = dev->backend->wait(dev->bd, ticket, timeout_ns);
+    pthread_mutex_lock(&dev->lock);
+    collect_finished(dev);
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
+cv_result cv_device_wait_idle(cv_device *dev) {
+    if (!dev)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_wait_idle: NULL device");
+    pthread_mutex_lock(&dev->lock);
+    uint64_t last = dev->last_ticket;
+    pthread_mutex_unlock(&dev->lock);
+    return last ? cv_device_wait(dev, last, UINT64_MAX) : CV_OK;
+}
+
+cv_result cv_device_timings(cv_device *dev, uint64_t ticket, cv_pass_timing *out, uint32_t capacity,
+                            uint32_t *count) {
+    if (!dev || !count || (capacity && !out))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_timings: NULL argument");
+    pthread_mutex_lock(&dev->lock);
+    cv_result r = CV_OK;
+    compiled_list *found = NULL;
+    for (uint32_t i = 0; i < dev->compiled_capacity && !found; i++)
+        if (dev->compiled[i].id && dev->compiled[i].last_ticket == ticket)
+            found = &dev->compiled[i];
+    if (!found)
+        r = cv_error(CV_ERROR_NOT_FOUND, "device '%s': no timings for ticket %llu (kept only for the latest "
+                     "submission of each list)", dev->label, (unsigned long long)ticket);
+    else if (ticket > dev->backend->completed(dev->bd))
+        r = cv_error(CV_ERROR_BAD_STATE, "device '%s': ticket %llu has not finished; wait for it first",
+                     dev->label, (unsigned long long)ticket);
+    else
+        r = dev->backend->timings(dev->bd, found->obj, out, capacity, count);
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}

@@ -1,0 +1,56 @@
+/* The core device object, shared by device.c, validate.c and transfer.c. */
+#ifndef CORVID_DEVICE_INTERNAL_H
+#define CORVID_DEVICE_INTERNAL_H
+
+#include <pthread.h>
+
+#include "corvid/backend.h"
+
+/* One table of representations per handle type, indexed by slot, grown on demand. */
+typedef struct resource_table {
+    cv_device_resource *slots;
+    uint32_t capacity;
+} resource_table;
+
+/* A list compiled for this device (indexed by cmdlist slot). */
+typedef struct compiled_list {
+    uint64_t id;             /* cmdlist handle, 0 = none */
+    uint32_t version;        /* list version it was compiled from */
+    uint64_t epoch;          /* device resource epoch it was validated against */
+    void *obj;               /* backend's compiled form */
+    uint64_t last_ticket;    /* latest submission, 0 = never submitted */
+} compiled_list;
+
+/* Something to release once the GPU has finished ticket `after`. */
+typedef struct deferred_release {
+    cv_handle_type type;     /* CV_HANDLE_CMDLIST = a compiled list */
+    void *obj;
+    uint64_t after;
+} deferred_release;
+
+struct cv_device {
+    pthread_mutex_t lock;
+    cv_context *ctx;
+    const cv_backend *backend;
+    cv_backend_device *bd;
+    cv_device_info info;
+    char label[CV_LABEL_MAX];
+    resource_table tables[CV_HANDLE_TYPE_COUNT];
+    compiled_list *compiled;
+    uint32_t compiled_capacity;
+    deferred_release *deferred;
+    uint32_t deferred_count, deferred_capacity;
+    uint64_t last_ticket;    /* highest ticket submitted */
+    uint64_t epoch;          /* bumps whenever a representation goes away */
+    uint32_t loaded;         /* representations loaded (resources + compiled lists) */
+};
+
+/* Validates a list against this device's resources (lock held). validate.c */
+cv_result cv_validate_list(cv_device *dev, const cv_command_list *list);
+
+/* The representation of id if loaded; otherwise a cv_error saying why
+ * (null, wrong type, stale, not loaded), naming `what`. Lock held. */
+cv_result cv_device_require(cv_device *dev, uint64_t id, cv_handle_type type, const char *what,
+                            cv_device_resource **out);
+
+#endif

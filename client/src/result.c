@@ -1,0 +1,49 @@
+/* Result names, descriptions and the per-thread error message. */
+#include "corvid/result.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+
+static _Thread_local char last_error[512];
+
+const char *cv_result_name(cv_result r) {
+    switch (r) {
+#define CV_RESULT_NAME(name, value, text) case name: return #name;
+        CV_RESULT_TABLE(CV_RESULT_NAME)
+#undef CV_RESULT_NAME
+    }
+    return "CV_RESULT_UNKNOWN";
+}
+
+const char *cv_result_string(cv_result r) {
+    switch (r) {
+#define CV_RESULT_TEXT(name, value, text) case name: return text;
+        CV_RESULT_TABLE(CV_RESULT_TEXT)
+#undef CV_RESULT_TEXT
+    }
+    return "unknown result code";
+}
+
+const char *cv_last_error(void) { return last_error; }
+
+void cv_clear_error(void) { last_error[0] = '\0'; }
+
+cv_result cv_verror(cv_result code, const char *fmt, va_list ap) {
+    char message[sizeof(last_error)];
+    vsnprintf(message, sizeof(message), fmt, ap);
+    snprintf(last_error, sizeof(last_error), "%s", message);
+    static int log_errors = -1;
+    if (log_errors < 0)
+        log_errors = getenv("CORVID_LOG_ERRORS") != NULL;
+    if (log_errors)
+        fprintf(stderr, "corvid: %s: %s\n", cv_result_name(code), last_error);
+    return code;
+}
+
+cv_result cv_error(cv_result code, const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    cv_verror(code, fmt, ap);
+    va_end(ap);
+    return code;
+}

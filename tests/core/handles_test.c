@@ -1,0 +1,137 @@
+/* Handle pools and context handles: packing, generation bumps, exhaustion,
+ * stale use, double destroy, wrong types, generation wrap-around. */
+#include <string.h>
+
+#include "check.h"
+#include "corvid/context.h"
+#include "corvid/handle_pool.h"
+
+static void test_packing(void) {
+    uint64_t id = cv_handle_pack(CV_HANDLE_TEXTURE, 0xABCDEF, 0x12345678);
+    CHECK_EQ_INT(cv_handle_type_of(id), CV_HANDLE_TEXTURE);
+    CHECK_EQ_INT(cv_handle_generation(id), 0xABCDEF);
+    CHECK_EQ_INT(cv_handle_index(id), 0x12345678);
+    CHECK(id == 0x02ABCDEF12345678ull);
+}
+
+static void test_pool_generations(void) {
+    cv_handle_pool pool;
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_BUFFER, 4));
+    uint64_t a, b;
+    CHECK_OK(cv_handle_pool_alloc(&pool, &a));
+    CHECK(a != 0);
+    CHECK_EQ_INT(cv_handle_index(a), 0);
+    CHECK_EQ_INT(cv_handle_generation(a), 1);
+    CHECK_EQ_INT(cv_handle_pool_slot_generation(&pool, 0), 1);
+    CHECK_OK(cv_handle_pool_free(&pool, a));
+    CHECK_EQ_INT(cv_handle_pool_slot_generation(&pool, 0), 2);
+    CHECK_OK(cv_handle_pool_alloc(&pool, &b));
+    CHECK_EQ_INT(cv_handle_index(b), 0);          /* slot reused ... */
+    CHECK_EQ_INT(cv_handle_generation(b), 2);     /* ... with a new generation */
+    CHECK(a != b);
+    CHECK_RESULT(cv_handle_pool_check(&pool, a), CV_ERROR_STALE_HANDLE);
+    CHECK_RESULT(cv_handle_pool_free(&pool, a), CV_ERROR_STALE_HANDLE);
+    CHECK_OK(cv_handle_pool_check(&pool, b));
+    CHECK_OK(cv_handle_pool_free(&pool, b));
+    CHECK_RESULT(cv_handle_pool_free(&pool, b), CV_ERROR_STALE_HANDLE);   /* double free */
+    CHECK_EQ_INT(pool.live, 0);
+    cv_handle_pool_finish(&pool);
+}
+
+static void test_pool_exhaustion_and_bad_ids(void) {
+    cv_handle_pool pool;
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_SAMPLER, 3));
+    uint64_t ids[3], extra = 0;
+    for (int i = 0; i < 3; i++)
+        CHECK_OK(cv_handle_pool_alloc(&pool, &ids[i]));
+    CHECK_RESULT(cv_handle_pool_alloc(&pool, &extra), CV_ERROR_OUT_OF_HANDLES);
+    CHECK(extra == 0);
+    CHECK(strstr(cv_last_error(), "3 sampler handles") != NULL);
+    CHECK_EQ_INT(pool.live, 3);
+    CHECK_OK(cv_handle_pool_free(&pool, ids[1]));
+    CHECK_OK(cv_handle_pool_alloc(&pool, &extra));
+    CHECK_EQ_INT(cv_handle_index(extra), 1);
+    CHECK_RESULT(cv_handle_pool_check(&pool, 0), CV_ERROR_INVALID_HANDLE);
+    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_BUFFER, 1, 0)), CV_ERROR_WRONG_HANDLE_TYPE);
+    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_SAMPLER, 1, 99)), CV_ERROR_INVALID_HANDLE);
+    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_SAMPLER, 0, 0)), CV_ERROR_INVALID_HANDLE);
+    CHECK_RESULT(cv_handle_pool_init(&(cv_handle_pool){ 0 }, CV_HANDLE_NONE, 4), CV_ERROR_INVALID_ARGUMENT);
+    cv_handle_pool_finish(&pool);
+}
+
+static void test_generation_wraps_past_zero(void) {
+    cv_handle_pool pool;
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_TEXTURE, 1));
+    pool.generation[0] = CV_HANDLE_GENERATION_MAX;
+    uint64_t id;
+    CHECK_OK(cv_handle_pool_alloc(&pool, &id));
+    CHECK_EQ_INT(cv_handle_generation(id), CV_HANDLE_GENERATION_MAX);
+    CHECK_OK(cv_handle_pool_free(&pool, id));
+    CHECK_EQ_INT(cv_handle_pool_slot_generation(&pool, 0), 1);   /* skips 0: 0 is never a valid generation */
+    cv_handle_pool_finish(&pool);
+}
+
+static void test_context_handles(void) {
+    cv_context *ctx;
+    CHECK_OK(cv_context_create(&(cv_context_desc){ .max_buffers = 2 }, &ctx));
+    cv_buffer a, b, c;
+    CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 64, .label = "a" }, &a));
+    CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 64, .label = "b" }, &b));
+    CHECK_RESULT(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 64 }, &c), CV_ERROR_OUT_OF_HANDLES);
+    CHECK_RESULT(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 0 }, &c), CV_ERROR_INVALID_ARGUMENT);
+    cv_resource_desc d;
+    CHECK_OK(cv_context_describe(ctx, cv_any(a), &d));
+    CHECK_EQ_INT(d.type, CV_HANDLE_BUFFER);
+    CHECK_EQ_INT(d.buffer.size, 64);
+    CHECK_EQ_INT(d.buffer.usage, CV_BUFFER_USAGE_STORAGE);   /* zero means default */
+    CHECK(strcmp(d.buffer.label, "a") == 0);
+
+    CHECK_OK(cv_buffer_destroy(ctx, a));
+    CHECK_RESULT(cv_buffer_destroy(ctx, a), CV_ERROR_STALE_HANDLE);
+    CHECK_RESULT(cv_context_describe(ctx, cv_any(a), &d), CV_ERROR_STALE_HANDLE);
+    CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 32 }, &c));
+    CHECK_EQ_INT(cv_handle_index(c.id), cv_handle_index(a.id));
+    CHECK_EQ_INT(cv_handle_generation(c.id), cv_handle_generation(a.id) + 1);
+    CHECK_RESULT(cv_context_check(ctx, cv_any(a)), CV_ERROR_STALE_HANDLE);
+
+    /* A raw u64 from the wire with another type's tag is caught at run time. */
+    cv_handle forged = { cv_handle_pack(CV_HANDLE_TEXTURE, cv_handle_generation(b.id), cv_handle_index(b.id)) };
+    CHECK_RESULT(cv_context_check(ctx, forged), CV_ERROR_STALE_HANDLE);
+    CHECK_RESULT(cv_destroy(ctx, (cv_handle){ 0 }), CV_ERROR_INVALID_HANDLE);
+    CHECK_RESULT(cv_destroy(ctx, (cv_handle){ 0xFF00000100000000ull }), CV_ERROR_INVALID_HANDLE);
+
+    cv_texture t;
+    CHECK_RESULT(cv_texture_create(ctx, &(cv_texture_desc){ .width = 0, .height = 4, .format = CV_FORMAT_R32F }, &t),
+                 CV_ERROR_OUT_OF_RANGE);
+    CHECK_RESULT(cv_texture_create(ctx, &(cv_texture_desc){ .width = 4, .height = 4 }, &t), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_texture_create(ctx, &(cv_texture_desc){ .width = 4, .height = 4, .format = CV_FORMAT_D32F,
+                                                           .usage = CV_TEXTURE_USAGE_STORAGE }, &t),
+                 CV_ERROR_USAGE_MISMATCH);
+    cv_pipeline p;
+    CHECK_RESULT(cv_pipeline_create(ctx, "no.such.pipeline", &p), CV_ERROR_UNKNOWN_PIPELINE);
+    CHECK(strstr(cv_last_error(), "no.such.pipeline") != NULL);
+    CHECK_OK(cv_pipeline_create(ctx, "test.fill_u32", &p));
+    CHECK_OK(cv_pipeline_destroy(ctx, p));
+    CHECK_OK(cv_buffer_destroy(ctx, b));
+    CHECK_OK(cv_buffer_destroy(ctx, c));
+    CHECK_EQ_INT(cv_context_live_count(ctx, CV_HANDLE_BUFFER), 0);
+    cv_context_destroy(ctx);
+}
+
+static void test_result_table(void) {
+    CHECK(strcmp(cv_result_name(CV_ERROR_STALE_HANDLE), "CV_ERROR_STALE_HANDLE") == 0);
+    CHECK(strcmp(cv_result_name((cv_result)12345), "CV_RESULT_UNKNOWN") == 0);
+    CHECK(strlen(cv_result_string(CV_ERROR_OUT_OF_RANGE)) > 5);
+    CHECK_RESULT(cv_error(CV_ERROR_IO, "file %s: %d", "x.exr", 7), CV_ERROR_IO);
+    CHECK(strcmp(cv_last_error(), "file x.exr: 7") == 0);
+}
+
+int main(void) {
+    test_packing();
+    test_pool_generations();
+    test_pool_exhaustion_and_bad_ids();
+    test_generation_wraps_past_zero();
+    test_context_handles();
+    test_result_table();
+    return check_report("handles");
+}
