@@ -75,6 +75,15 @@ static cv_result check_span(uint32_t index, const char *field, cv_span s, uint32
     return CV_OK;
 }
 
+/* A stored label as the NUL-terminated string protobuf-c packs. A list with
+ * only empty labels may have no data array at all. */
+static char *label_text(const cv_command_list *list, cv_span s, char text[CV_LABEL_MAX]) {
+    if (s.size)
+        memcpy(text, list->data + s.offset, s.size);
+    text[s.size] = '\0';
+    return text;
+}
+
 #define ENC_SCALAR(f) m->f = cmd->f;
 #define ENC_U32(f) ENC_SCALAR(f)
 #define ENC_U64(f) ENC_SCALAR(f)
@@ -89,12 +98,11 @@ static cv_result check_span(uint32_t index, const char *field, cv_span s, uint32
     if ((r = check_span(index, #f, cmd->f, CV_MAX_LIST_DATA, list->data_size)) != CV_OK) \
         return r;                                                                       \
     m->f.len = cmd->f.size;                                                             \
-    m->f.data = (uint8_t *)list->data + cmd->f.offset;
+    m->f.data = cmd->f.size ? (uint8_t *)list->data + cmd->f.offset : NULL;
 #define ENC_STRING(f)                                                                   \
     if ((r = check_span(index, #f, cmd->f, CV_LABEL_MAX - 1, list->data_size)) != CV_OK) \
         return r;                                                                       \
-    cv_list_string(list, cmd->f, sc->f##_text, sizeof(sc->f##_text));                   \
-    m->f = sc->f##_text;
+    m->f = label_text(list, cmd->f, sc->f##_text);
 #define ENC_BINDINGS(f)                                                                       \
     if ((r = check_span(index, #f, cmd->f, CV_MAX_BINDINGS, list->binding_count)) != CV_OK)   \
         return r;                                                                             \
@@ -263,14 +271,6 @@ static cv_result skip_field(const uint8_t **p, const uint8_t *end, size_t at, ui
     return CV_OK;
 }
 
-/* A handle in an ANY field may be of any resource type, but must be one. */
-static cv_result check_any_tag(uint32_t index, const char *field, uint64_t id) {
-    if (cv_handle_type_of(id) < CV_HANDLE_TYPE_COUNT)
-        return CV_OK;
-    return cv_error(CV_ERROR_INVALID_HANDLE, "decode: command %u field '%s': 0x%016llx has type tag %u, which no resource type has",
-                    index, field, (unsigned long long)id, (unsigned)cv_handle_type_of(id));
-}
-
 static cv_result convert_bindings(uint32_t index, const char *field, Corvid__Binding *const *in, size_t count,
                                   cv_binding out[CV_MAX_BINDINGS]) {
     if (count > CV_MAX_BINDINGS)
@@ -291,10 +291,7 @@ static cv_result convert_bindings(uint32_t index, const char *field, Corvid__Bin
 #define DEC_BUFFER(f) DEC_HANDLE(f)
 #define DEC_TEXTURE(f) DEC_HANDLE(f)
 #define DEC_PIPELINE(f) DEC_HANDLE(f)
-#define DEC_ANY(f)                                          \
-    if ((r = check_any_tag(index, #f, m->f)) != CV_OK)      \
-        return r;                                           \
-    a.f.id = m->f;
+#define DEC_ANY(f) DEC_HANDLE(f)
 #define DEC_BYTES(f)            \
     a.f = m->f.data;            \
     a.f##_size = (uint32_t)m->f.len;
@@ -327,11 +324,15 @@ static cv_result replay_command(cv_command_list *list, uint32_t index, const uin
                                 proto_arena *arena) {
     proto_arena_reset(arena, UNPACK_BUDGET(len));
     const Corvid__Command *w = corvid__command__unpack(&arena->allocator, len, bytes);
-    if (!w)
+    if (!w && arena->out_of_memory)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "decode: command %u: no memory to unpack its %zu bytes", index, len);
+    if (!w && arena->over_limit)
         return cv_error(CV_ERROR_MALFORMED,
-                        "decode: command %u: %zu bytes that are not a valid Command message "
-                        "(or that unpack to more than %zu bytes)",
+                        "decode: command %u: its %zu bytes unpack to more than %zu bytes (hostile or corrupt)",
                         index, len, UNPACK_BUDGET(len));
+    if (!w)
+        return cv_error(CV_ERROR_MALFORMED, "decode: command %u: %zu bytes that are not a valid Command message",
+                        index, len);
     if (w->queue >= CV_QUEUE_TYPE_COUNT)
         return cv_error(CV_ERROR_MALFORMED, "decode: command %u: queue %u is not a queue type (0..%d)", index,
                         w->queue, CV_QUEUE_TYPE_COUNT - 1);

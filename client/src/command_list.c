@@ -74,7 +74,8 @@ void cv_list_string(const cv_command_list *l, cv_span s, char *buf, size_t cap) 
     if (cap == 0)
         return;
     size_t n = s.size < cap - 1 ? s.size : cap - 1;
-    memcpy(buf, l->data + s.offset, n);
+    if (n)
+        memcpy(buf, l->data + s.offset, n);
     buf[n] = '\0';
 }
 
@@ -114,6 +115,13 @@ static cv_result check_tag(cv_command_list *list, const char *field, uint64_t id
         return CV_OK;
     return fail(list, CV_ERROR_WRONG_HANDLE_TYPE, "field '%s' wants a %s handle, got a %s handle (0x%016llx)",
                 field, cv_handle_type_name(want), cv_handle_type_name(cv_handle_type_of(id)),
+                (unsigned long long)id);
+}
+
+static cv_result check_any_tag(cv_command_list *list, const char *field, uint64_t id) {
+    if (cv_handle_type_of(id) < CV_HANDLE_TYPE_COUNT)
+        return CV_OK;
+    return fail(list, CV_ERROR_INVALID_HANDLE, "field '%s': 0x%016llx has no valid handle type tag", field,
                 (unsigned long long)id);
 }
 
@@ -222,7 +230,7 @@ static void apply_structure(cv_command_list *list, const cv_command *c) {
 #define CV_COPY_BUFFER(n) CV_COPY_HANDLE(n, CV_HANDLE_BUFFER)
 #define CV_COPY_TEXTURE(n) CV_COPY_HANDLE(n, CV_HANDLE_TEXTURE)
 #define CV_COPY_PIPELINE(n) CV_COPY_HANDLE(n, CV_HANDLE_PIPELINE)
-#define CV_COPY_ANY(n) cmd->n = a->n;
+#define CV_COPY_ANY(n) if (r == CV_OK) { r = check_any_tag(list, #n, a->n.id); cmd->n = a->n; }
 #define CV_COPY_BYTES(n) if (r == CV_OK) r = store_bytes(list, #n, a->n, a->n##_size, CV_MAX_UPDATE_BYTES, &cmd->n);
 #define CV_COPY_STRING(n) if (r == CV_OK) r = store_string(list, #n, a->n, &cmd->n);
 #define CV_COPY_BINDINGS(n) if (r == CV_OK) r = store_bindings(list, #n, a->n, a->n##_count, &cmd->n);
@@ -232,9 +240,9 @@ static cv_result begin_record(cv_command_list *list, cv_command_type type, cv_qu
                               const void *args) {
     if (list->error != CV_OK)
         return cv_error(list->error, "%s", list->error_message);
-    if (!list->recording)
-        return fail(list, CV_ERROR_BAD_STATE, "%s recorded into a list that is not recording",
-                    cv_command_name(type));
+    if (!list->recording)   /* not sticky: an ended list stays as it was */
+        return cv_error(CV_ERROR_BAD_STATE, "%s recorded into a list that is not recording",
+                        cv_command_name(type));
     if (!args)
         return fail(list, CV_ERROR_INVALID_ARGUMENT, "%s with NULL arguments", cv_command_name(type));
     if ((unsigned)queue >= CV_QUEUE_TYPE_COUNT)

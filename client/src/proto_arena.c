@@ -17,17 +17,20 @@ struct proto_arena_block {
 static void *arena_alloc(void *self, size_t size) {
     proto_arena *arena = self;
     const size_t align = alignof(max_align_t);
-    if (size > SIZE_MAX - align)
+    size_t rounded = (size + align - 1) & ~(align - 1);
+    if (size > SIZE_MAX - align || rounded > arena->limit - arena->handed_out) {
+        arena->over_limit = true;
         return NULL;
-    size = (size + align - 1) & ~(align - 1);
-    if (size > arena->limit - arena->handed_out)
-        return NULL;
+    }
+    size = rounded;
     proto_arena_block *b = arena->blocks;
     if (!b || b->capacity - b->used < size) {
         size_t capacity = size > PROTO_ARENA_BLOCK_BYTES ? size : PROTO_ARENA_BLOCK_BYTES;
         b = malloc(sizeof(*b) + capacity);
-        if (!b)
+        if (!b) {
+            arena->out_of_memory = true;
             return NULL;
+        }
         b->next = arena->blocks;
         b->capacity = capacity;
         b->used = 0;
@@ -52,6 +55,8 @@ void proto_arena_init(proto_arena *arena) {
     arena->blocks = NULL;
     arena->handed_out = 0;
     arena->limit = 0;
+    arena->over_limit = false;
+    arena->out_of_memory = false;
 }
 
 void proto_arena_reset(proto_arena *arena, size_t limit) {
@@ -68,6 +73,8 @@ void proto_arena_reset(proto_arena *arena, size_t limit) {
     }
     arena->handed_out = 0;
     arena->limit = limit;
+    arena->over_limit = false;
+    arena->out_of_memory = false;
 }
 
 void proto_arena_finish(proto_arena *arena) {

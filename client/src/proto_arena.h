@@ -9,6 +9,7 @@
 #ifndef CORVID_PROTO_ARENA_H
 #define CORVID_PROTO_ARENA_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <protobuf-c/protobuf-c.h>
 
@@ -19,11 +20,14 @@ typedef struct proto_arena {
     proto_arena_block *blocks;   /* newest first; only the newest has room */
     size_t handed_out;           /* bytes given out since the last reset */
     size_t limit;
+    bool over_limit;             /* an allocation was refused for the limit ... */
+    bool out_of_memory;          /* ... or failed in malloc, since the last reset */
 } proto_arena;
 
 void proto_arena_init(proto_arena *arena);
-/* Releases everything handed out (keeping the newest block for reuse) and sets
- * the limit for what is handed out next. */
+/* Releases everything handed out (keeping the newest block for reuse), clears
+ * the failure flags and sets the limit for what is handed out next. The arena
+ * must not move while in use (its allocator points at it). */
 void proto_arena_reset(proto_arena *arena, size_t limit);
 void proto_arena_finish(proto_arena *arena);
 

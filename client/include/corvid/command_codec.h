@@ -9,6 +9,10 @@
  * nesting), plus the wire's own checks (well-formed protobuf, a known command
  * in every Command, queue numbers in range, handle tags that exist).
  *
+ * Every value travels bit for bit except a float -0.0, which arrives as +0.0:
+ * proto3 leaves out a float equal to its default 0, and protobuf-c compares
+ * by value.
+ *
  * Both directions are generated from CV_COMMAND_TABLE, so a command added to
  * the table is encoded and decoded with no change here (tests/codec checks the
  * .proto declares it). */

@@ -115,9 +115,11 @@ CV_COMMAND_TABLE(CV_CMD_RECORD_DECL)
 #undef CV_CMD_RECORD_DECL
 
 /* Accessors for a stored command's side data. */
-static inline const void *cv_list_bytes(const cv_command_list *l, cv_span s) { return l->data + s.offset; }
+static inline const void *cv_list_bytes(const cv_command_list *l, cv_span s) {
+    return s.size ? l->data + s.offset : NULL;
+}
 static inline const cv_binding *cv_list_bindings(const cv_command_list *l, cv_span s) {
-    return l->bindings + s.offset;
+    return s.size ? l->bindings + s.offset : NULL;
 }
 /* Copies a STRING field into buf (NUL-terminated, truncated to cap). */
 void cv_list_string(const cv_command_list *l, cv_span s, char *buf, size_t cap);

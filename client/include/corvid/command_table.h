@@ -8,7 +8,10 @@
  *
  * CV_COMMAND_TABLE: X(id, UPPER, lower, Camel, allowed queue bits)
  *   id is also the field number of the command in proto's Command.cmd oneof;
- *   Camel + "Cmd" is the proto message name.
+ *   Camel + "Cmd" is the proto message name. UPPER must be Camel in UPPER_SNAKE
+ *   form and lower its lower_snake form: protobuf-c derives CORVID__<UPPER>_CMD__INIT
+ *   and CORVID__COMMAND__CMD_<UPPER> from <Camel>Cmd and <lower>, and the codec
+ *   pastes these tokens (a mismatch fails to compile).
  * CV_FIELDS_<lower>: F(field number, TYPE, name), TYPE one of
  *   U32 U64 I32 F32          scalars
  *   BUFFER TEXTURE PIPELINE  typed handles (uint64 on the wire)

@@ -5,6 +5,8 @@
 #include "corvid/handle.h"
 #include "corvid/types.h"
 #include "corvid/command_list.h"
+#include "corvid/command_codec.h"
+#include "corvid/transfer.h"
 #include "corvid/pipeline_registry.h"
 #include "corvid/context.h"
 #include "corvid/device.h"
