@@ -48,6 +48,7 @@ _Static_assert(CV_MAX_ENCODED_LIST <= UINT32_MAX, "decoded sizes must fit in uin
 #define ENC_SCRATCH_BUFFER(f)
 #define ENC_SCRATCH_TEXTURE(f)
 #define ENC_SCRATCH_PIPELINE(f)
+#define ENC_SCRATCH_ACCEL(f)
 #define ENC_SCRATCH_ANY(f)
 #define ENC_SCRATCH_BYTES(f)
 #define ENC_SCRATCH_STRING(f) char f##_text[CV_LABEL_MAX];
@@ -93,6 +94,7 @@ static char *label_text(const cv_command_list *list, cv_span s, char text[CV_LAB
 #define ENC_BUFFER(f) ENC_HANDLE(f)
 #define ENC_TEXTURE(f) ENC_HANDLE(f)
 #define ENC_PIPELINE(f) ENC_HANDLE(f)
+#define ENC_ACCEL(f) ENC_HANDLE(f)
 #define ENC_ANY(f) ENC_HANDLE(f)
 #define ENC_BYTES(f)                                                                    \
     if ((r = check_span(index, #f, cmd->f, CV_MAX_LIST_DATA, list->data_size)) != CV_OK) \
@@ -291,6 +293,7 @@ static cv_result convert_bindings(uint32_t index, const char *field, Corvid__Bin
 #define DEC_BUFFER(f) DEC_HANDLE(f)
 #define DEC_TEXTURE(f) DEC_HANDLE(f)
 #define DEC_PIPELINE(f) DEC_HANDLE(f)
+#define DEC_ACCEL(f) DEC_HANDLE(f)
 #define DEC_ANY(f) DEC_HANDLE(f)
 #define DEC_BYTES(f)            \
     a.f = m->f.data;            \

@@ -197,6 +197,12 @@ static cv_result check_structure(cv_command_list *list, const cv_command *c) {
     case CV_CMD_TIMESTAMP:
     case CV_CMD_BARRIER:
         break;
+    case CV_CMD_TRACE_RAYS:
+        if (in_pass)
+            return fail(list, CV_ERROR_BAD_STATE, "trace_rays inside a render pass");
+        if (c->u.trace_rays.flags & ~(uint32_t)CV_TRACE_FLAGS_ALL)
+            return fail(list, CV_ERROR_INVALID_ARGUMENT, "trace_rays: unknown flags 0x%x", c->u.trace_rays.flags);
+        break;
     default:
         if (in_pass)
             return fail(list, CV_ERROR_BAD_STATE, "%s inside a render pass", cv_command_name(c->type));
@@ -230,6 +236,7 @@ static void apply_structure(cv_command_list *list, const cv_command *c) {
 #define CV_COPY_BUFFER(n) CV_COPY_HANDLE(n, CV_HANDLE_BUFFER)
 #define CV_COPY_TEXTURE(n) CV_COPY_HANDLE(n, CV_HANDLE_TEXTURE)
 #define CV_COPY_PIPELINE(n) CV_COPY_HANDLE(n, CV_HANDLE_PIPELINE)
+#define CV_COPY_ACCEL(n) CV_COPY_HANDLE(n, CV_HANDLE_ACCEL)
 #define CV_COPY_ANY(n) if (r == CV_OK) { r = check_any_tag(list, #n, a->n.id); cmd->n = a->n; }
 #define CV_COPY_BYTES(n) if (r == CV_OK) r = store_bytes(list, #n, a->n, a->n##_size, CV_MAX_UPDATE_BYTES, &cmd->n);
 #define CV_COPY_STRING(n) if (r == CV_OK) r = store_string(list, #n, a->n, &cmd->n);
@@ -311,6 +318,7 @@ static void visit_bindings(const cv_command_list *list, cv_span s, cv_handle_vis
 #define CV_VISIT_BUFFER(n) CV_VISIT_ID(n)
 #define CV_VISIT_TEXTURE(n) CV_VISIT_ID(n)
 #define CV_VISIT_PIPELINE(n) CV_VISIT_ID(n)
+#define CV_VISIT_ACCEL(n) CV_VISIT_ID(n)
 #define CV_VISIT_ANY(n) CV_VISIT_ID(n)
 #define CV_VISIT_BINDINGS(n) visit_bindings(list, cmd->n, fn, user);
 #define CV_VISIT_FIELD(num, TYPE, name) CV_VISIT_##TYPE(name)

@@ -19,7 +19,7 @@ struct cv_context {
 
 static bool is_described(cv_handle_type t) {
     return t == CV_HANDLE_BUFFER || t == CV_HANDLE_TEXTURE || t == CV_HANDLE_SAMPLER ||
-           t == CV_HANDLE_PIPELINE;
+           t == CV_HANDLE_PIPELINE || t == CV_HANDLE_ACCEL;
 }
 
 static bool valid_type(cv_handle_type t) { return t > CV_HANDLE_NONE && t < CV_HANDLE_TYPE_COUNT; }
@@ -35,6 +35,7 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
         [CV_HANDLE_PIPELINE] = d.max_pipelines ? d.max_pipelines : 4096,
         [CV_HANDLE_CMDLIST] = d.max_cmdlists ? d.max_cmdlists : 4096,
         [CV_HANDLE_FENCE] = 4096,
+        [CV_HANDLE_ACCEL] = d.max_accels ? d.max_accels : 4096,
     };
     cv_context *ctx = calloc(1, sizeof(*ctx));
     if (!ctx)
@@ -164,6 +165,20 @@ cv_result cv_pipeline_create(cv_context *ctx, const char *name, cv_pipeline *out
         return cv_error(CV_ERROR_UNKNOWN_PIPELINE, "no pipeline named '%.64s' in the registry", name);
     cv_resource_desc d = { .type = CV_HANDLE_PIPELINE };
     strcpy(d.pipeline.name, name);
+    return create_described(ctx, &d, &out->id);
+}
+
+cv_result cv_accel_create(cv_context *ctx, const cv_accel_desc *desc, cv_accel *out) {
+    if (!ctx || !desc || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_accel_create: NULL argument");
+    if (!label_ok(desc->label))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "acceleration structure label is not NUL-terminated");
+    if (desc->triangle_count == 0 || desc->triangle_count > CV_MAX_ACCEL_TRIANGLES || desc->node_count == 0 ||
+        desc->node_count > desc->triangle_count)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "acceleration structure '%s': %u triangles and %u nodes (needs "
+                        "1..%u triangles and 1..triangles nodes)", desc->label, desc->triangle_count,
+                        desc->node_count, CV_MAX_ACCEL_TRIANGLES);
+    cv_resource_desc d = { .type = CV_HANDLE_ACCEL, .accel = *desc };
     return create_described(ctx, &d, &out->id);
 }
 

@@ -347,6 +347,27 @@ cv_result cv_device_read_texture(cv_device *dev, cv_texture t, cv_rect rect, voi
     return texture_access(dev, t, rect, NULL, out);
 }
 
+cv_result cv_device_write_accel(cv_device *dev, cv_accel accel, const void *nodes, const void *triangles) {
+    if (!dev || !nodes || !triangles)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_write_accel: NULL argument");
+    pthread_mutex_lock(&dev->lock);
+    cv_device_resource *s;
+    cv_result r = cv_device_require(dev, accel.id, CV_HANDLE_ACCEL, "accel write", &s);
+    if (r == CV_OK && !dev->backend->accel_write)
+        r = cv_error(CV_ERROR_UNSUPPORTED, "device '%s' (%s backend) cannot trace rays", dev->label,
+                     dev->backend->name);
+    if (r == CV_OK)
+        r = wait_for_resource(dev, s);
+    if (r == CV_OK) {
+        s->ready = false;   /* a failed rebuild leaves no half-built structure in use */
+        r = dev->backend->accel_write(dev->bd, s->obj, &s->desc.accel, nodes, triangles);
+        s->ready = r == CV_OK;
+        dev->epoch++;   /* lists compiled against the old structure are re-checked */
+    }
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
 /* ---- compile / submit ----------------------------------------------------- */
 
 static cv_result compiled_slot(cv_device *dev, uint64_t id, compiled_list **out) {

@@ -4,7 +4,8 @@
  * list, in-flight tracking, deferred release) happens as usual; the mock keeps
  * resources in host memory and emulates the data-movement commands (copies,
  * clears, updates) so tests can check what a list moves. Dispatches and draws
- * are validated but not executed. Submissions finish immediately; pass timings
+ * and ray traces are validated but not executed (an acceleration structure
+ * keeps a copy of its BVH). Submissions finish immediately; pass timings
  * are the host time spent emulating each marker region. */
 #include <stdlib.h>
 #include <string.h>
@@ -64,6 +65,9 @@ static cv_result mock_resource_create(cv_backend_device *bd, uint64_t id, const 
         o->width = desc->texture.width;
         o->texel = cv_format_bytes(desc->texture.format);
         o->size = (uint64_t)desc->texture.width * desc->texture.height * o->texel;
+    } else if (desc->type == CV_HANDLE_ACCEL) {
+        o->size = (uint64_t)desc->accel.node_count * CV_ACCEL_NODE_BYTES +
+                  (uint64_t)desc->accel.triangle_count * CV_ACCEL_TRIANGLE_BYTES;
     }
     if (o->size) {
         o->bytes = calloc(1, o->size);
@@ -120,6 +124,16 @@ static cv_result mock_texture_read(cv_backend_device *bd, void *tex, const cv_te
                                    void *out) {
     (void)bd, (void)desc;
     texture_rows(tex, rect, out, false);
+    return CV_OK;
+}
+
+static cv_result mock_accel_write(cv_backend_device *bd, void *accel, const cv_accel_desc *desc, const void *nodes,
+                                  const void *triangles) {
+    (void)bd;
+    mock_object *o = accel;
+    size_t node_bytes = (size_t)desc->node_count * CV_ACCEL_NODE_BYTES;
+    memcpy(o->bytes, nodes, node_bytes);
+    memcpy(o->bytes + node_bytes, triangles, (size_t)desc->triangle_count * CV_ACCEL_TRIANGLE_BYTES);
     return CV_OK;
 }
 
@@ -295,6 +309,7 @@ static const cv_backend mock_backend = {
     .buffer_read = mock_buffer_read,
     .texture_write = mock_texture_write,
     .texture_read = mock_texture_read,
+    .accel_write = mock_accel_write,
     .list_compile = mock_list_compile,
     .list_release = mock_list_release,
     .submit = mock_submit,

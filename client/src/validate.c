@@ -359,6 +359,34 @@ static cv_result check_barrier(validator *v, const cv_barrier_cmd *c) {
     return need(v, c->resource.id, t, "resource", &res);
 }
 
+static cv_result check_trace_rays(validator *v, const cv_trace_rays_cmd *c) {
+    const cv_device_resource *accel, *rays, *hits;
+    cv_result r = need(v, c->accel.id, CV_HANDLE_ACCEL, "accel", &accel);
+    if (r == CV_OK)
+        r = need(v, c->rays.id, CV_HANDLE_BUFFER, "rays", &rays);
+    if (r == CV_OK)
+        r = need(v, c->hits.id, CV_HANDLE_BUFFER, "hits", &hits);
+    if (r != CV_OK)
+        return r;
+    if (!accel->ready)
+        return fail(v, CV_ERROR_BAD_STATE, "accel '%s' has no data yet (cv_device_write_accel)",
+                    accel->desc.accel.label);
+    if (c->count == 0 || c->count > CV_MAX_TRACE_RAYS)
+        return fail(v, CV_ERROR_OUT_OF_RANGE, "count %u outside 1..%u", c->count, CV_MAX_TRACE_RAYS);
+    if (c->rays_offset % CV_BINDING_OFFSET_ALIGNMENT || c->hits_offset % CV_BINDING_OFFSET_ALIGNMENT)
+        return fail(v, CV_ERROR_INVALID_ARGUMENT, "rays_offset %llu and hits_offset %llu must be multiples of %u",
+                    (unsigned long long)c->rays_offset, (unsigned long long)c->hits_offset,
+                    CV_BINDING_OFFSET_ALIGNMENT);
+    if (!(rays->desc.buffer.usage & CV_BUFFER_USAGE_STORAGE) || !(hits->desc.buffer.usage & CV_BUFFER_USAGE_STORAGE))
+        return fail(v, CV_ERROR_USAGE_MISMATCH, "rays and hits buffers need storage usage");
+    if (c->rays.id == c->hits.id)
+        return fail(v, CV_ERROR_INVALID_ARGUMENT, "rays and hits are the same buffer '%s'", rays->desc.buffer.label);
+    r = buffer_range(v, rays, "rays", c->rays_offset, (uint64_t)c->count * CV_RAY_BYTES);
+    if (r == CV_OK)
+        r = buffer_range(v, hits, "hits", c->hits_offset, (uint64_t)c->count * CV_HIT_BYTES);
+    return r;
+}
+
 static cv_result check_command(validator *v) {
     const cv_command *c = v->cmd;
     switch (c->type) {
@@ -390,6 +418,7 @@ static cv_result check_command(validator *v) {
     case CV_CMD_TIMESTAMP:
     case CV_CMD_BEGIN_MARKER:
     case CV_CMD_END_MARKER: return CV_OK;
+    case CV_CMD_TRACE_RAYS: return check_trace_rays(v, &c->u.trace_rays);
     default: return fail(v, CV_ERROR_MALFORMED, "unknown command type %d", (int)c->type);
     }
 }

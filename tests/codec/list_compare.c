@@ -31,6 +31,7 @@ static bool same_span_content(const cv_command_list *a, const cv_command_list *b
 #define CMP_BUFFER(f) CMP_SCALAR(f)
 #define CMP_TEXTURE(f) CMP_SCALAR(f)
 #define CMP_PIPELINE(f) CMP_SCALAR(f)
+#define CMP_ACCEL(f) CMP_SCALAR(f)
 #define CMP_ANY(f) CMP_SCALAR(f)
 #define CMP_BYTES(f) \
     if (!same_span_content(a, b, x->f, y->f, 1, false)) return differ(what, i, #f);

@@ -78,6 +78,7 @@ static cv_queue_type random_queue(test_rng *r, cv_command_type type) {
 #define GEN_BUFFER(f) a.f.id = random_handle(r, CV_HANDLE_BUFFER);
 #define GEN_TEXTURE(f) a.f.id = random_handle(r, CV_HANDLE_TEXTURE);
 #define GEN_PIPELINE(f) a.f.id = random_handle(r, CV_HANDLE_PIPELINE);
+#define GEN_ACCEL(f) a.f.id = random_handle(r, CV_HANDLE_ACCEL);
 #define GEN_ANY(f) a.f.id = random_handle(r, (cv_handle_type)test_rng_below(r, CV_HANDLE_TYPE_COUNT));
 /* Push constants and update data alike: up to the push limit, any length. */
 #define GEN_BYTES(f)                                                 \
@@ -95,11 +96,18 @@ static cv_queue_type random_queue(test_rng *r, cv_command_type type) {
     a.f = f##_buf;
 #define GEN_FIELD(num, TYPE, f) GEN_##TYPE(f)
 
+/* Field values that recording itself constrains (beyond sizes and handle tags). */
+static void constrain_args(cv_command_type type, void *args) {
+    if (type == CV_CMD_TRACE_RAYS)
+        ((cv_trace_rays_args *)args)->flags &= CV_TRACE_FLAGS_ALL;
+}
+
 #define GEN_COMMAND(id, UPPER, lower, Camel, queues)                             \
     static cv_result gen_##lower(cv_command_list *list, test_rng *r) {           \
         cv_##lower##_args a;                                                     \
         memset(&a, 0, sizeof(a));                                                \
         CV_FIELDS_##lower(GEN_FIELD)                                             \
+        constrain_args(CV_CMD_##UPPER, &a);                                      \
         return cv_cmd_##lower(list, random_queue(r, CV_CMD_##UPPER), &a);        \
     }
 CV_COMMAND_TABLE(GEN_COMMAND)

@@ -135,7 +135,23 @@ static void update_unaligned(world *w, cv_command_list *l) {
 static void clear_depth_as_color(world *w, cv_command_list *l) {
     cv_cmd_clear_texture(l, CV_QUEUE_COMPUTE, &(cv_clear_texture_args){ .texture = w->depth, .r = 1 });
 }
+static void trace_unbuilt_accel(world *w, cv_command_list *l) {
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel_unbuilt, .rays = w->big,
+                                                                .hits = w->small, .count = 4 });
+}
+static void trace_too_many_rays(world *w, cv_command_list *l) {
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel, .rays = w->big,
+                                                                .hits = w->small, .count = 100 });   /* 2000 hit bytes */
+}
+static void trace_into_its_rays(world *w, cv_command_list *l) {
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel, .rays = w->big,
+                                                                .hits = w->big, .hits_offset = 4096, .count = 4 });
+}
 /* Recording-time errors: the list never becomes executable. */
+static void trace_unknown_flags(world *w, cv_command_list *l) {
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel, .rays = w->big,
+                                                                .hits = w->small, .count = 4, .flags = 0x80 });
+}
 static void draw_on_compute_queue(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
     cv_cmd_draw(l, CV_QUEUE_COMPUTE, &(cv_draw_args){ .pipeline = w->triangle, .bindings = &b, .bindings_count = 1,
@@ -190,6 +206,10 @@ static const bad_case cases[] = {
     { "indices out of range", index_out_of_range, CV_ERROR_OUT_OF_RANGE, 2 },
     { "unaligned buffer update", update_unaligned, CV_ERROR_INVALID_ARGUMENT },
     { "color clear of a depth texture", clear_depth_as_color, CV_ERROR_FORMAT_MISMATCH },
+    { "trace against an unbuilt accel", trace_unbuilt_accel, CV_ERROR_BAD_STATE },
+    { "more hits than the hit buffer holds", trace_too_many_rays, CV_ERROR_OUT_OF_RANGE },
+    { "hits written over the rays", trace_into_its_rays, CV_ERROR_INVALID_ARGUMENT },
+    { "trace with unknown flags", trace_unknown_flags, CV_ERROR_INVALID_ARGUMENT },
     { "draw on the compute queue", draw_on_compute_queue, CV_ERROR_QUEUE_MISMATCH },
     { "draw outside a render pass", draw_outside_pass, CV_ERROR_BAD_STATE },
     { "texture handle in a buffer field", texture_in_buffer_field, CV_ERROR_WRONG_HANDLE_TYPE },

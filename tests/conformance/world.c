@@ -22,6 +22,25 @@ static cv_result make_pipeline(world *w, const char *name, cv_pipeline *out) {
     return r == CV_OK ? cv_device_load(w->dev, cv_any(*out)) : r;
 }
 
+/* A flat BVH of one triangle in the layout of scene/include/corvid/bvh_gpu.h:
+ * one two-child node whose first child is a leaf of triangle 0. */
+static cv_result make_accel(world *w, bool write, const char *label, cv_accel *out) {
+    cv_accel_desc d = { .triangle_count = 1, .node_count = 1 };
+    strncpy(d.label, label, sizeof(d.label) - 1);
+    cv_result r = cv_accel_create(w->ctx, &d, out);
+    if (r == CV_OK)
+        r = cv_device_load(w->dev, cv_any(*out));
+    if (r != CV_OK || !write)
+        return r;
+    const float node[16] = { 0, 0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0 };
+    uint32_t links[16];
+    memcpy(links, node, sizeof(node));
+    links[3] = 0x80000000u;   /* a_link: leaf, first triangle 0 */
+    links[7] = 1;             /* a_count */
+    const float tri[12] = { 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0 };   /* v0, e1, e2 with ids 0 */
+    return cv_device_write_accel(w->dev, *out, links, tri);
+}
+
 cv_result world_init(world *w, const fixture *fx) {
     memset(w, 0, sizeof(*w));
     w->fx = fx;
@@ -43,6 +62,8 @@ cv_result world_init(world *w, const fixture *fx) {
     if (r == CV_OK) r = make_pipeline(w, "test.gradient", &w->gradient);
     if (r == CV_OK) r = make_pipeline(w, "test.sample_copy", &w->sample_copy);
     if (r == CV_OK) r = make_pipeline(w, "test.triangle", &w->triangle);
+    if (r == CV_OK) r = make_accel(w, true, "one triangle", &w->accel);
+    if (r == CV_OK) r = make_accel(w, false, "unbuilt", &w->accel_unbuilt);
     if (r == CV_OK) r = cv_buffer_create(w->ctx, &(cv_buffer_desc){ .size = 256, .label = "unloaded" }, &w->unloaded);
     if (r == CV_OK) r = make_buffer(w, 256, 0, "destroyed", &w->destroyed);
     if (r == CV_OK) r = cv_buffer_destroy(w->ctx, w->destroyed);

@@ -19,6 +19,8 @@ typedef struct world {
     cv_texture depth;       /* 16x16 D32F */
     cv_sampler sampler;
     cv_pipeline fill, saxpy, gradient, sample_copy, triangle;
+    cv_accel accel;         /* one triangle, data written */
+    cv_accel accel_unbuilt; /* loaded, no data written */
     cv_buffer unloaded;     /* live handle, never loaded on dev */
     cv_buffer destroyed;    /* destroyed handle */
     cv_cmdlist list;

@@ -107,6 +107,16 @@ static void test_context_handles(void) {
     CHECK_RESULT(cv_texture_create(ctx, &(cv_texture_desc){ .width = 4, .height = 4, .format = CV_FORMAT_D32F,
                                                            .usage = CV_TEXTURE_USAGE_STORAGE }, &t),
                  CV_ERROR_USAGE_MISMATCH);
+    cv_accel accel;
+    CHECK_RESULT(cv_accel_create(ctx, &(cv_accel_desc){ .triangle_count = 0, .node_count = 1 }, &accel),
+                 CV_ERROR_OUT_OF_RANGE);
+    CHECK_RESULT(cv_accel_create(ctx, &(cv_accel_desc){ .triangle_count = 4, .node_count = 5 }, &accel),
+                 CV_ERROR_OUT_OF_RANGE);
+    CHECK_OK(cv_accel_create(ctx, &(cv_accel_desc){ .triangle_count = 4, .node_count = 3, .label = "bvh" }, &accel));
+    CHECK_EQ_INT(cv_handle_type_of(accel.id), CV_HANDLE_ACCEL);
+    CHECK_OK(cv_context_describe(ctx, cv_any(accel), &d));
+    CHECK_EQ_INT(d.accel.triangle_count, 4);
+    CHECK_OK(cv_accel_destroy(ctx, accel));
     cv_pipeline p;
     CHECK_RESULT(cv_pipeline_create(ctx, "no.such.pipeline", &p), CV_ERROR_UNKNOWN_PIPELINE);
     CHECK(strstr(cv_last_error(), "no.such.pipeline") != NULL);

@@ -16,7 +16,10 @@
  *   by one per submit; completed() returns the highest finished ticket.
  * - buffer/texture read and write are synchronous and are called only when no
  *   submitted work uses the resource.
- * - device_destroy is called after every object was destroyed; it waits idle. */
+ * - device_destroy is called after every object was destroyed; it waits idle.
+ * - accel_write builds the device's acceleration structure from a flat BVH
+ *   (types.h, cv_accel_desc); it is synchronous like the other writes. A
+ *   backend without it (NULL) cannot trace rays. */
 #ifndef CORVID_BACKEND_H
 #define CORVID_BACKEND_H
 
@@ -44,6 +47,8 @@ struct cv_backend {
                                cv_rect rect, const void *data);
     cv_result (*texture_read)(cv_backend_device *bd, void *tex, const cv_texture_desc *desc,
                               cv_rect rect, void *out);
+    cv_result (*accel_write)(cv_backend_device *bd, void *accel, const cv_accel_desc *desc,
+                             const void *nodes, const void *triangles);
 
     cv_result (*list_compile)(cv_backend_device *bd, cv_device *dev, const cv_command_list *list,
                               void **out_compiled);
@@ -63,6 +68,7 @@ typedef struct cv_device_resource {
     const cv_pipeline_info *pipeline;   /* pipelines only */
     void *obj;                          /* the backend's object */
     uint64_t last_use;                  /* ticket of the last submission using it */
+    bool ready;                         /* accels: data written, can be traced */
 } cv_device_resource;
 
 /* The loaded representation of id on dev, or NULL (not loaded, stale, wrong id).

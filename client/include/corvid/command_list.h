@@ -40,6 +40,7 @@ typedef struct cv_binding {
 #define CV_STORE_BUFFER(n) cv_buffer n;
 #define CV_STORE_TEXTURE(n) cv_texture n;
 #define CV_STORE_PIPELINE(n) cv_pipeline n;
+#define CV_STORE_ACCEL(n) cv_accel n;
 #define CV_STORE_ANY(n) cv_handle n;
 #define CV_STORE_BYTES(n) cv_span n;
 #define CV_STORE_STRING(n) cv_span n;
@@ -52,6 +53,7 @@ typedef struct cv_binding {
 #define CV_ARG_BUFFER(n) cv_buffer n;
 #define CV_ARG_TEXTURE(n) cv_texture n;
 #define CV_ARG_PIPELINE(n) cv_pipeline n;
+#define CV_ARG_ACCEL(n) cv_accel n;
 #define CV_ARG_ANY(n) cv_handle n;
 #define CV_ARG_BYTES(n) const void *n; uint32_t n##_size;
 #define CV_ARG_STRING(n) const char *n;

@@ -14,7 +14,7 @@
  *   pastes these tokens (a mismatch fails to compile).
  * CV_FIELDS_<lower>: F(field number, TYPE, name), TYPE one of
  *   U32 U64 I32 F32          scalars
- *   BUFFER TEXTURE PIPELINE  typed handles (uint64 on the wire)
+ *   BUFFER TEXTURE PIPELINE ACCEL  typed handles (uint64 on the wire)
  *   ANY                      a handle of any type, 0 allowed (barrier target)
  *   BYTES                    up to CV_MAX_UPDATE_BYTES of data
  *   STRING                   a label, at most CV_LABEL_MAX-1 bytes
@@ -45,7 +45,8 @@
     X(14, BARRIER, barrier, Barrier, CV_Q_ALL)                                            \
     X(15, TIMESTAMP, timestamp, Timestamp, CV_Q_ALL)                                      \
     X(16, BEGIN_MARKER, begin_marker, BeginMarker, CV_Q_ALL)                              \
-    X(17, END_MARKER, end_marker, EndMarker, CV_Q_ALL)
+    X(17, END_MARKER, end_marker, EndMarker, CV_Q_ALL)                                    \
+    X(18, TRACE_RAYS, trace_rays, TraceRays, CV_Q_GC)
 
 /* Compute dispatch of groups_x * groups_y * groups_z workgroups. */
 #define CV_FIELDS_dispatch(F) \
@@ -101,6 +102,13 @@
 /* Debug marker; each begin/end pair is also a timed pass (device.h). */
 #define CV_FIELDS_begin_marker(F) F(1, STRING, label)
 #define CV_FIELDS_end_marker(F)
+/* Traces `count` rays (cv_ray) against `accel`, writing one cv_hit per ray.
+ * flags: cv_trace_flags. The device runs whichever trace path it measured
+ * faster (its own compute traversal or the driver's ray-tracing pipeline);
+ * both report the same hits. */
+#define CV_FIELDS_trace_rays(F) \
+    F(1, ACCEL, accel) F(2, BUFFER, rays) F(3, U64, rays_offset) F(4, BUFFER, hits) \
+    F(5, U64, hits_offset) F(6, U32, count) F(7, U32, flags)
 
 typedef enum cv_command_type {
     CV_CMD_NONE = 0,

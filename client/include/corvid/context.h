@@ -20,8 +20,8 @@
 typedef struct cv_context cv_context;
 
 typedef struct cv_context_desc {
-    /* Pool sizes per resource type; 0 = default (65536, cmdlists and pipelines 4096). */
-    uint32_t max_buffers, max_textures, max_samplers, max_pipelines, max_cmdlists;
+    /* Pool sizes per resource type; 0 = default (buffers and textures 65536, others 4096). */
+    uint32_t max_buffers, max_textures, max_samplers, max_pipelines, max_cmdlists, max_accels;
 } cv_context_desc;
 
 /* A resource description of any type. */
@@ -32,6 +32,7 @@ typedef struct cv_resource_desc {
         cv_texture_desc texture;
         cv_sampler_desc sampler;
         cv_pipeline_desc pipeline;
+        cv_accel_desc accel;
     };
 } cv_resource_desc;
 
@@ -45,6 +46,7 @@ cv_result cv_sampler_create(cv_context *ctx, const cv_sampler_desc *desc, cv_sam
 /* Fails with CV_ERROR_UNKNOWN_PIPELINE if the registry has no such name. */
 cv_result cv_pipeline_create(cv_context *ctx, const char *name, cv_pipeline *out);
 cv_result cv_cmdlist_create(cv_context *ctx, cv_cmdlist *out);
+cv_result cv_accel_create(cv_context *ctx, const cv_accel_desc *desc, cv_accel *out);
 
 /* Destroys any handle type. Stale, double and null destroys fail and change nothing. */
 cv_result cv_destroy(cv_context *ctx, cv_handle h);
@@ -53,10 +55,11 @@ cv_result cv_destroy(cv_context *ctx, cv_handle h);
 #define cv_sampler_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_sampler)(h)))
 #define cv_pipeline_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_pipeline)(h)))
 #define cv_cmdlist_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_cmdlist)(h)))
+#define cv_accel_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_accel)(h)))
 
 /* CV_OK if h is live; otherwise why not (invalid, stale, ...). */
 cv_result cv_context_check(cv_context *ctx, cv_handle h);
-/* Copies the description of a live buffer/texture/sampler/pipeline handle. */
+/* Copies the description of a live buffer/texture/sampler/pipeline/accel handle. */
 cv_result cv_context_describe(cv_context *ctx, cv_handle h, cv_resource_desc *out);
 /* Number of live handles of a type (for leak checks). */
 uint32_t cv_context_live_count(cv_context *ctx, cv_handle_type type);

@@ -38,6 +38,7 @@ typedef struct cv_device_info {
     bool separate_compute_queue;   /* a compute-only queue family is used */
     bool separate_copy_queue;      /* a transfer-only queue family is used */
     bool ray_tracing_pipeline;     /* VK_KHR_ray_tracing_pipeline available */
+    char trace_path[16];           /* path trace_rays uses: "compute", "pipeline", "none" */
     bool gpu_timestamps;           /* pass timings come from the GPU */
     uint64_t max_storage_buffer_range;
     uint32_t max_dispatch[3];      /* workgroup count limits */
@@ -78,6 +79,11 @@ cv_result cv_device_read_buffer(cv_device *dev, cv_buffer b, uint64_t offset, ui
                                 void *out);
 cv_result cv_device_write_texture(cv_device *dev, cv_texture t, cv_rect rect, const void *data);
 cv_result cv_device_read_texture(cv_device *dev, cv_texture t, cv_rect rect, void *out);
+
+/* Builds the device's acceleration structure from a flat BVH (see
+ * cv_accel_desc for the layout); sizes come from the accel's description.
+ * Until this succeeds, trace_rays on the accel is rejected. */
+cv_result cv_device_write_accel(cv_device *dev, cv_accel accel, const void *nodes, const void *triangles);
 
 /* Validates and compiles a list for this device (submit does this on demand). */
 cv_result cv_device_compile(cv_device *dev, cv_cmdlist list);

@@ -29,6 +29,7 @@ typedef enum cv_handle_type {
     CV_HANDLE_PIPELINE = 4,
     CV_HANDLE_CMDLIST = 5,
     CV_HANDLE_FENCE = 6,
+    CV_HANDLE_ACCEL = 7,
     CV_HANDLE_TYPE_COUNT
 } cv_handle_type;
 
@@ -39,6 +40,7 @@ typedef struct cv_sampler { uint64_t id; } cv_sampler;
 typedef struct cv_pipeline { uint64_t id; } cv_pipeline;
 typedef struct cv_cmdlist { uint64_t id; } cv_cmdlist;
 typedef struct cv_fence { uint64_t id; } cv_fence;
+typedef struct cv_accel { uint64_t id; } cv_accel;       /* acceleration structure for tracing rays */
 
 #define CV_HANDLE_INDEX_BITS 32u
 #define CV_HANDLE_GENERATION_BITS 24u
@@ -58,7 +60,8 @@ static inline uint32_t cv_handle_index(uint64_t id) { return (uint32_t)id; }
     cv_handle: (h),                                                 \
     cv_buffer: (cv_handle){ (h).id }, cv_texture: (cv_handle){ (h).id }, \
     cv_sampler: (cv_handle){ (h).id }, cv_pipeline: (cv_handle){ (h).id }, \
-    cv_cmdlist: (cv_handle){ (h).id }, cv_fence: (cv_handle){ (h).id })
+    cv_cmdlist: (cv_handle){ (h).id }, cv_fence: (cv_handle){ (h).id }, \
+    cv_accel: (cv_handle){ (h).id })
 
 /* "buffer", "texture", ... ("none" for 0, "invalid" for an unknown tag). */
 const char *cv_handle_type_name(cv_handle_type type);

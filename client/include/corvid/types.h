@@ -94,6 +94,33 @@ typedef struct cv_pipeline_desc {
     char name[CV_LABEL_MAX];  /* a name from the pipeline registry (pipeline_registry.h) */
 } cv_pipeline_desc;
 
+/* An acceleration structure over triangles, for the trace_rays command.
+ * Its data (cv_device_write_accel) is a flat BVH in the GPU layout of
+ * scene/include/corvid/bvh_gpu.h: node_count cv_bvh_node2 (64 bytes each, root
+ * first) and triangle_count cv_bvh_tri (48 bytes each, in leaf order). Each
+ * device builds what its trace paths need from it (its own traversal kernels
+ * read it as is; the driver's ray-tracing pipeline gets an acceleration
+ * structure built from the same triangles). */
+typedef struct cv_accel_desc {
+    uint32_t triangle_count;  /* 1..CV_MAX_ACCEL_TRIANGLES */
+    uint32_t node_count;      /* 1..triangle_count */
+    char label[CV_LABEL_MAX];
+} cv_accel_desc;
+#define CV_MAX_ACCEL_TRIANGLES (1u << 27)
+#define CV_ACCEL_NODE_BYTES 64u
+#define CV_ACCEL_TRIANGLE_BYTES 48u
+
+/* trace_rays: rays are cv_ray (32 bytes: origin, tmin, dir, tmax), hits are
+ * cv_hit (20 bytes: t, u, v, triangle, instance), as in bvh_gpu.h. */
+#define CV_RAY_BYTES 32u
+#define CV_HIT_BYTES 20u
+#define CV_MAX_TRACE_RAYS (1u << 26)
+enum cv_trace_flags {
+    CV_TRACE_ANY_HIT = 1u << 0,         /* stop at the first hit (shadow, AO); else closest hit */
+    CV_TRACE_CULL_BACK_FACES = 1u << 1, /* ignore triangles seen from behind */
+    CV_TRACE_FLAGS_ALL = 0x3u,
+};
+
 /* A texel rectangle. */
 typedef struct cv_rect { uint32_t x, y, width, height; } cv_rect;
 
