@@ -1,0 +1,82 @@
+/* The hybrid renderer: one frame of seed 000's pipeline across N devices.
+ *
+ *   primary:      G-buffer raster (world position, normal, material)
+ *   primary ->    each device gets the G-buffer columns of its partition
+ *   all devices:  ray generation for their columns (sun shadow rays in a cone,
+ *                 cosine AO rays), trace_rays (any hit), resolve to visibility
+ *   -> primary:   each device's visibility columns are copied back
+ *   primary:      temporal accumulation, edge-avoiding a-trous filter,
+ *                 composite (sun + sky light, emission) to linear HDR
+ *
+ * Columns are split with partition/ (tile-snapped, rebalanced every frame from
+ * each device's measured trace time). Devices are any cv_device: virtual GPUs on
+ * lavapipe, real GPUs, or a mix. The scene is uploaded once per device (vertex
+ * list, materials, BVH as an acceleration structure). */
+#ifndef CORVID_RENDERER_H
+#define CORVID_RENDERER_H
+
+#include "corvid/bvh.h"
+#include "corvid/device.h"
+#include "corvid/partition.h"
+#include "corvid/scene.h"
+
+#define CV_RENDER_MAX_DEVICES 16
+
+typedef struct cv_render_settings {
+    uint32_t width, height;     /* [640x360] pixels */
+    uint32_t frames;            /* [4] frames accumulated (more = less noise) */
+    uint32_t ao_samples;        /* [4] AO rays per pixel per frame (0..32) */
+    float ao_radius;            /* [2% of the scene diagonal] AO ray length, metres */
+    float sun_cone_degrees;     /* [1.5] half angle of the sun's cone (soft shadows) */
+    uint32_t camera;            /* [0] scene camera index; a framing camera if the scene has none */
+    uint32_t tile;              /* [8] partition tile width, pixels */
+} cv_render_settings;
+
+/* Per-device figures of the last frame. */
+typedef struct cv_render_device_stats {
+    cv_column_range columns;
+    uint64_t rays;
+    double trace_ms;            /* GPU (or CPU, on lavapipe) time of raygen+trace+resolve */
+    double ms_per_column;
+} cv_render_device_stats;
+
+typedef struct cv_render_stats {
+    uint32_t device_count;
+    uint32_t frames;
+    cv_render_device_stats devices[CV_RENDER_MAX_DEVICES];
+    uint64_t rays_total;        /* over all frames */
+    uint64_t transfer_bytes;    /* over all frames, between devices */
+    double transfer_ms;
+    double upload_ms;           /* scene upload to all devices */
+    double frame_ms;            /* wall time per frame, mean */
+} cv_render_stats;
+
+/* The frame as planes of RGBA floats (width * height * 4 each). */
+typedef struct cv_render_output {
+    uint32_t width, height;
+    float *radiance;            /* linear HDR; alpha 1 on geometry, 0 on sky */
+    float *albedo;
+    float *normal;              /* xyz, w = material index */
+    float *position;            /* world position, w = 1 on geometry */
+    float *visibility;          /* r = sun visibility, g = ambient occlusion (filtered) */
+} cv_render_output;
+
+typedef struct cv_renderer cv_renderer;
+
+/* Uploads the scene to every device (device 0 is the primary). The devices
+ * must share one context and outlive the renderer. */
+cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, const cv_scene *scene,
+                             const cv_bvh *bvh, cv_renderer **out);
+void cv_renderer_destroy(cv_renderer *r);
+
+/* Renders settings->frames frames and reads the result back. `progress`, if
+ * set, is called after every frame. */
+cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings, cv_render_output *out,
+                             cv_render_stats *stats, void (*progress)(uint32_t frame, uint32_t frames, void *user),
+                             void *user);
+void cv_render_output_free(cv_render_output *out);
+
+/* The settings with defaults filled in for this scene. */
+cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene);
+
+#endif

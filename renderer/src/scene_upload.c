@@ -1,0 +1,100 @@
+/* Builds the renderer's vertex list and material table from a scene. */
+#include "scene_upload.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Normals go through the inverse transpose of the instance's 3x3 part. */
+static void normal_matrix(const float t[3][4], float out[3][3]) {
+    float inv[3][4];
+    if (!cv_transform_invert(t, inv)) {
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++)
+                out[r][c] = r == c;
+        return;
+    }
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            out[r][c] = inv[c][r];
+}
+
+static void transform_normal(const float m[3][3], const float n[3], float out[3]) {
+    for (int r = 0; r < 3; r++)
+        out[r] = m[r][0] * n[0] + m[r][1] * n[1] + m[r][2] * n[2];
+    float l = sqrtf(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]);
+    if (l > 0.0f)
+        for (int r = 0; r < 3; r++)
+            out[r] /= l;
+}
+
+cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out) {
+    memset(out, 0, sizeof(*out));
+    uint64_t triangles = cv_scene_world_triangle_count(scene);
+    if (triangles == 0)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: the scene has no triangles");
+    out->vertex_count = triangles * 3;
+    out->vertices = malloc(out->vertex_count * sizeof(render_vertex));
+    out->material_count = cv_scene_material_count(scene) ? cv_scene_material_count(scene) : 1;
+    out->materials = calloc(out->material_count, sizeof(render_material));
+    if (!out->vertices || !out->materials) {
+        render_scene_data_free(out);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: %llu vertices", (unsigned long long)out->vertex_count);
+    }
+    uint64_t v = 0;
+    for (uint32_t i = 0; i < cv_scene_instance_count(scene); i++) {
+        const cv_instance *inst = cv_scene_instance(scene, i);
+        const cv_mesh *mesh = cv_scene_mesh(scene, inst->mesh);
+        float nm[3][3];
+        normal_matrix(inst->transform, nm);
+        uint32_t material = inst->material < out->material_count ? inst->material : 0;
+        for (uint32_t t = 0; t < mesh->triangle_count; t++) {
+            float world[3][3];
+            cv_scene_world_triangle(scene, i, t, world);
+            for (int k = 0; k < 3; k++, v++) {
+                render_vertex *rv = &out->vertices[v];
+                memcpy(rv->position, world[k], sizeof(world[k]));
+                rv->material = material;
+                transform_normal(nm, &mesh->normals[3 * mesh->indices[3 * t + k]], rv->normal);
+                rv->pad = 0.0f;
+            }
+        }
+    }
+    for (uint32_t m = 0; m < out->material_count; m++) {
+        cv_material mat = cv_scene_material_count(scene) ? *cv_scene_material(scene, m) : cv_material_default();
+        render_material *rm = &out->materials[m];
+        memcpy(rm->base_color_roughness, mat.base_color, sizeof(mat.base_color));
+        rm->base_color_roughness[3] = mat.roughness;
+        memcpy(rm->emission_metalness, mat.emission, sizeof(mat.emission));
+        rm->emission_metalness[3] = mat.metalness;
+    }
+    /* The sun: the scene's first directional light, else a default one. */
+    float dir[3] = { -0.3f, -1.0f, -0.2f }, color[3] = { 1.0f, 0.95f, 0.85f }, irradiance = 3.0f;
+    for (uint32_t l = 0; l < cv_scene_light_count(scene); l++) {
+        const cv_light *light = cv_scene_light(scene, l);
+        if (light->type == CV_LIGHT_DIRECTIONAL) {
+            memcpy(dir, light->direction, sizeof(dir));
+            memcpy(color, light->color, sizeof(color));
+            irradiance = light->intensity;
+            break;
+        }
+    }
+    float len = sqrtf(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    for (int k = 0; k < 3; k++) {
+        out->sun_direction[k] = dir[k] / len;
+        out->sun_color[k] = color[k];
+    }
+    out->sun_irradiance = irradiance;
+    cv_scene_bounds(scene, out->bounds_min, out->bounds_max);
+    float d2 = 0.0f;
+    for (int k = 0; k < 3; k++)
+        d2 += (out->bounds_max[k] - out->bounds_min[k]) * (out->bounds_max[k] - out->bounds_min[k]);
+    out->diagonal = sqrtf(d2);
+    return CV_OK;
+}
+
+void render_scene_data_free(render_scene_data *d) {
+    free(d->vertices);
+    free(d->materials);
+    memset(d, 0, sizeof(*d));
+}

@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# The README's main job: installs missing dependencies, builds, and renders the
+# default scene (the procedural room) on 2 virtual GPUs on lavapipe, writing
+# out/frame.exr and out/frame.png. Extra arguments go to corvid-render
+# (scripts/render.sh --help lists them).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup-deps.sh
+bash scripts/build.sh
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
+gpus=(--gpus 2 --adapters llvmpipe)
+for arg in "$@"; do
+  case "$arg" in --gpus|--gpus=*|--virtual-gpus|--virtual-gpus=*|--adapters|--adapters=*) gpus=() ;; esac
+done
+exec build/apps/corvid-render "${gpus[@]}" "$@"

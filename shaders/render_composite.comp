@@ -1,0 +1,58 @@
+// render.composite: shades the G-buffer with the filtered visibility into linear
+// HDR radiance: Lambertian sun light (with soft shadow visibility) plus sky light
+// scaled by ambient occlusion, plus emission; the sky color where there is no
+// geometry. Also writes the albedo AOV.
+// Push: { vec4 sun (xyz = unit direction the light travels, w = irradiance);
+//         vec4 sun_color; vec4 sky (rgb radiance); uint width; uint height; uint material_count; uint pad; }.
+// i0: positions, i1: normals (w = material), i2: visibility (RGBA16F),
+// b3: Material { vec4 base_color_roughness; vec4 emission_metalness; }[],
+// i4: radiance out (RGBA32F), i5: albedo out (RGBA32F).
+#version 460
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+struct Material {
+    vec4 base_color_roughness;
+    vec4 emission_metalness;
+};
+
+layout(push_constant, std430) uniform Push {
+    vec4 sun;
+    vec4 sun_color;
+    vec4 sky;
+    uint width;
+    uint height;
+    uint material_count;
+    uint pad;
+} pc;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
+layout(set = 0, binding = 2, rgba16f) uniform readonly image2D visibility;
+layout(set = 0, binding = 3, std430) readonly buffer Materials { Material materials[]; };
+layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D radiance;
+layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D albedo_out;
+
+const float PI = 3.14159265358979;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (p.x >= int(pc.width) || p.y >= int(pc.height))
+        return;
+    vec4 pos = imageLoad(gbuffer_position, p);
+    if (pos.w == 0.0) {
+        imageStore(radiance, p, vec4(pc.sky.rgb, 0.0));
+        imageStore(albedo_out, p, vec4(0.0));
+        return;
+    }
+    vec4 nm = imageLoad(gbuffer_normal, p);
+    uint id = min(uint(nm.w), pc.material_count - 1u);
+    Material m = materials[id];
+    vec3 albedo = m.base_color_roughness.rgb * (1.0 - m.emission_metalness.w * 0.5);
+    vec2 vis = imageLoad(visibility, p).rg;
+    float n_dot_l = max(dot(nm.xyz, -pc.sun.xyz), 0.0);
+    vec3 direct = pc.sun_color.rgb * pc.sun.w * n_dot_l * vis.x / PI;
+    vec3 ambient = pc.sky.rgb * vis.y;
+    vec3 color = albedo * (direct + ambient) + m.emission_metalness.rgb;
+    imageStore(radiance, p, vec4(color, 1.0));
+    imageStore(albedo_out, p, vec4(albedo, 1.0));
+}
