@@ -1,0 +1,154 @@
+/* The scene model: what the renderer draws and the BVH builders consume.
+ *
+ * A cv_scene owns its data (everything passed in is copied):
+ *   meshes     indexed triangle lists in object space: float3 positions, float3
+ *              normals, optional float2 uvs, u32 indices (3 per triangle);
+ *   materials  metal/roughness parameters (base color, emission, transmission, ior);
+ *   instances  a mesh placed in the world: mesh index, 3x4 row-major
+ *              object-to-world transform, material index;
+ *   cameras    pinhole cameras (position, target, up, vertical field of view);
+ *   lights     directional and point lights.
+ * Indices are dense and stable: the n-th mesh added has index n.
+ *
+ * Geometry is validated when added (finite positions, indices in range, an
+ * invertible transform), so everything downstream (BVH build, traversal) may
+ * assume it is well formed. Instance transforms and mesh positions can change
+ * after creation (cv_scene_set_instance_transform, cv_scene_set_mesh_positions)
+ * for animation; see bvh.h for rebuilding or refitting after such changes.
+ *
+ * Triangles are front-facing when their vertices run counter-clockwise as seen
+ * from the viewer (geometric normal = cross(v1 - v0, v2 - v0), as in glTF).
+ * Units are metres by convention (the procedural scenes use them). */
+#ifndef CORVID_SCENE_H
+#define CORVID_SCENE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "corvid/result.h"
+
+typedef struct cv_scene cv_scene;
+
+#define CV_SCENE_NAME_MAX 64
+
+/* Input to cv_scene_add_mesh. normals may be NULL (smooth, area-weighted
+ * normals are then computed); uvs may be NULL (the mesh has none). */
+typedef struct cv_mesh_desc {
+    const float *positions;     /* vertex_count * 3 */
+    const float *normals;       /* vertex_count * 3, or NULL */
+    const float *uvs;           /* vertex_count * 2, or NULL */
+    uint32_t vertex_count;      /* >= 1 */
+    const uint32_t *indices;    /* triangle_count * 3, each < vertex_count */
+    uint32_t triangle_count;    /* >= 1 */
+    const char *name;           /* may be NULL; truncated to CV_SCENE_NAME_MAX - 1 */
+} cv_mesh_desc;
+
+/* A stored mesh (read-only view; the arrays belong to the scene). */
+typedef struct cv_mesh {
+    float *positions;           /* vertex_count * 3 */
+    float *normals;             /* vertex_count * 3 */
+    float *uvs;                 /* vertex_count * 2, or NULL */
+    uint32_t *indices;          /* triangle_count * 3 */
+    uint32_t vertex_count;
+    uint32_t triangle_count;
+    char name[CV_SCENE_NAME_MAX];
+} cv_mesh;
+
+typedef struct cv_material {
+    float base_color[3];        /* linear rgb, 0..1 */
+    float roughness;            /* 0..1 (perceptual) */
+    float metalness;            /* 0..1 */
+    float emission[3];          /* linear rgb radiance, >= 0 */
+    float transmission;         /* 0..1: fraction of light passing through */
+    float ior;                  /* index of refraction, >= 1 */
+} cv_material;
+
+/* Base color 0.8 grey, roughness 0.5, dielectric, no emission, opaque, ior 1.5. */
+cv_material cv_material_default(void);
+
+typedef struct cv_instance {
+    uint32_t mesh;              /* index of a mesh of the scene */
+    uint32_t material;          /* index of a material of the scene */
+    float transform[3][4];      /* object to world, row-major: world = T * (p, 1) */
+} cv_instance;
+
+typedef struct cv_camera {
+    float position[3];
+    float target[3];            /* a point looked at (forward = target - position) */
+    float up[3];                /* need not be orthogonal to forward, must not be parallel */
+    float vertical_fov;         /* full vertical angle, radians, in (0, pi) */
+} cv_camera;
+
+typedef enum cv_light_type {
+    CV_LIGHT_DIRECTIONAL = 0,
+    CV_LIGHT_POINT = 1,
+} cv_light_type;
+
+typedef struct cv_light {
+    cv_light_type type;
+    float direction[3];         /* directional: unit direction the light travels (sun to scene) */
+    float position[3];          /* point: world position */
+    float color[3];             /* linear rgb, max component 1 by convention */
+    float intensity;            /* directional: irradiance (lux-like); point: intensity */
+} cv_light;
+
+cv_result cv_scene_create(cv_scene **out);
+void cv_scene_destroy(cv_scene *scene);             /* NULL is allowed */
+
+/* Each add copies its input and returns the new element's index in *out_index
+ * (may be NULL). Fails with CV_ERROR_INVALID_ARGUMENT naming the bad field. */
+cv_result cv_scene_add_mesh(cv_scene *scene, const cv_mesh_desc *desc, uint32_t *out_index);
+cv_result cv_scene_add_material(cv_scene *scene, const cv_material *material, uint32_t *out_index);
+cv_result cv_scene_add_instance(cv_scene *scene, const cv_instance *instance, uint32_t *out_index);
+cv_result cv_scene_add_camera(cv_scene *scene, const cv_camera *camera, uint32_t *out_index);
+cv_result cv_scene_add_light(cv_scene *scene, const cv_light *light, uint32_t *out_index);
+
+/* Moves an instance (same checks as add). */
+cv_result cv_scene_set_instance_transform(cv_scene *scene, uint32_t instance,
+                                          const float transform[3][4]);
+/* Replaces a mesh's positions (same vertex count, finite values); topology,
+ * normals and uvs are kept. */
+cv_result cv_scene_set_mesh_positions(cv_scene *scene, uint32_t mesh, const float *positions,
+                                      uint32_t vertex_count);
+
+uint32_t cv_scene_mesh_count(const cv_scene *scene);
+uint32_t cv_scene_material_count(const cv_scene *scene);
+uint32_t cv_scene_instance_count(const cv_scene *scene);
+uint32_t cv_scene_camera_count(const cv_scene *scene);
+uint32_t cv_scene_light_count(const cv_scene *scene);
+
+/* Triangles stored in meshes (each mesh counted once). */
+uint64_t cv_scene_triangle_count(const cv_scene *scene);
+/* Triangles in the world: sum over instances of their mesh's triangle count. */
+uint64_t cv_scene_world_triangle_count(const cv_scene *scene);
+
+/* Element views; NULL when the index is out of range. Valid until the scene
+ * is changed or destroyed. */
+const cv_mesh *cv_scene_mesh(const cv_scene *scene, uint32_t index);
+const cv_material *cv_scene_material(const cv_scene *scene, uint32_t index);
+const cv_instance *cv_scene_instance(const cv_scene *scene, uint32_t index);
+const cv_camera *cv_scene_camera(const cv_scene *scene, uint32_t index);
+const cv_light *cv_scene_light(const cv_scene *scene, uint32_t index);
+
+/* World-space bounds of all instances ({0,0,0} twice for an empty scene). */
+void cv_scene_bounds(const cv_scene *scene, float min[3], float max[3]);
+
+/* The three world-space vertices of one triangle of one instance: each
+ * position transformed by the instance's transform, exactly as the BVH
+ * builders do it (same float operations, so results compare bit for bit).
+ * Indices must be in range (checked with assert). */
+void cv_scene_world_triangle(const cv_scene *scene, uint32_t instance, uint32_t triangle,
+                             float out[3][3]);
+
+/* A camera that frames the whole scene (from the +x+y+z diagonal, 60 degree
+ * vertical field of view), for scenes that bring none. */
+cv_camera cv_scene_framing_camera(const cv_scene *scene);
+
+/* 3x4 affine helpers used by importers and procedural scenes. */
+void cv_transform_identity(float out[3][4]);
+/* out = a * b, both taken as 4x4 matrices with last row (0, 0, 0, 1). */
+void cv_transform_multiply(const float a[3][4], const float b[3][4], float out[3][4]);
+/* Inverse of an affine transform; false (out untouched) when singular or not finite. */
+bool cv_transform_invert(const float t[3][4], float out[3][4]);
+void cv_transform_point(const float t[3][4], const float p[3], float out[3]);
+
+#endif

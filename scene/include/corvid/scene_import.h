@@ -1,0 +1,27 @@
+/* Scene import through assimp: glTF 2.0 (.gltf, .glb), OBJ and every other
+ * format assimp reads.
+ *
+ * The node tree is walked with its transforms composed: each mesh reference of
+ * each node becomes one instance (the mesh is stored once); references under
+ * a singular transform (a node scaled to zero hides its meshes) are skipped.
+ * Polygons are triangulated; points and lines are dropped; meshes left
+ * without triangles are not stored. Materials map from assimp's
+ * keys (base color or diffuse color, roughness, metallic, emissive color times
+ * emissive intensity, transmission, ior; OBJ's Ns and d stand in for roughness
+ * and transmission) with cv_material_default() for what
+ * a file leaves out. Cameras and lights (directional; point and spot as point)
+ * are placed by their nodes (orthographic cameras are skipped).
+ *
+ * Failures name the file and the problem:
+ *   CV_ERROR_NOT_FOUND  the file does not exist;
+ *   CV_ERROR_IO         it cannot be opened or read (a directory, no permission);
+ *   CV_ERROR_MALFORMED  assimp rejects it (its message is included), or it is
+ *                       empty, has no triangles, or has non-finite positions. */
+#ifndef CORVID_SCENE_IMPORT_H
+#define CORVID_SCENE_IMPORT_H
+
+#include "corvid/scene.h"
+
+cv_result cv_scene_import(const char *path, cv_scene **out);
+
+#endif
