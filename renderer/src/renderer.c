@@ -292,15 +292,20 @@ static void record_accumulate(cv_renderer *r, uint32_t frame, cv_command_list *l
         .push_size = sizeof(push), .groups_x = groups(r->width, 8), .groups_y = groups(r->height, 8), .groups_z = 1 });
 }
 
-/* Three a-trous iterations (steps 1, 2, 4) history -> ping -> pong -> ping, then composite. */
-static void record_filter_composite(cv_renderer *r, cv_command_list *l) {
-    const int chain[4] = { TEX_HISTORY, TEX_PING, TEX_PONG, TEX_PING };
+/* The texture holding the final visibility after `iterations` filter steps. */
+static int filtered_texture(uint32_t iterations) {
+    return iterations == 0 ? TEX_HISTORY : (iterations % 2 ? TEX_PING : TEX_PONG);
+}
+
+/* a-trous iterations (steps 1, 2, 4, ...) history -> ping -> pong -> ping ..., then composite. */
+static void record_filter_composite(cv_renderer *r, uint32_t iterations, cv_command_list *l) {
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "filter" });
-    for (uint32_t i = 0; i < 3; i++) {
+    for (uint32_t i = 0; i < iterations; i++) {
+        int src = i == 0 ? TEX_HISTORY : filtered_texture(i), dst = filtered_texture(i + 1);
         struct { uint32_t width, height, step; float sigma; } push = { r->width, r->height, 1u << i,
                                                                        r->data.diagonal * 0.01f };
         cv_binding b[4] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
-                            bind_texture(r->textures[chain[i]]), bind_texture(r->textures[chain[i + 1]]) };
+                            bind_texture(r->textures[src]), bind_texture(r->textures[dst]) };
         cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
             .pipeline = r->pipelines[PIPE_FILTER], .bindings = b, .bindings_count = 4, .push = &push,
             .push_size = sizeof(push), .groups_x = groups(r->width, 8), .groups_y = groups(r->height, 8),
@@ -315,7 +320,7 @@ static void record_filter_composite(cv_renderer *r, cv_command_list *l) {
                { 0.35f, 0.45f, 0.6f, 0.0f },
                r->width, r->height, r->data.material_count, 0 };
     cv_binding b[6] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
-                        bind_texture(r->textures[TEX_PING]), bind_buffer(r->materials),
+                        bind_texture(r->textures[filtered_texture(iterations)]), bind_buffer(r->materials),
                         bind_texture(r->textures[TEX_RADIANCE]), bind_texture(r->textures[TEX_ALBEDO]) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "composite" });
     cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
@@ -340,7 +345,7 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
     if (!s.width) s.width = 640;
     if (!s.height) s.height = 360;
     if (!s.frames) s.frames = 4;
-    if (!s.ao_samples && !(in && in->ao_samples)) s.ao_samples = 4;
+    if (!s.ao_samples) s.ao_samples = 4;
     if (s.ao_radius <= 0.0f) {
         float lo[3], hi[3];
         cv_scene_bounds(scene, lo, hi);
@@ -348,8 +353,11 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
                         (hi[2] - lo[2]) * (hi[2] - lo[2]));
         s.ao_radius = d * 0.02f;
     }
-    if (s.sun_cone_degrees <= 0.0f) s.sun_cone_degrees = 1.5f;
+    if (s.sun_cone_degrees == 0.0f) s.sun_cone_degrees = 1.5f;
+    if (s.sun_cone_degrees < 0.0f) s.sun_cone_degrees = 0.0f;
     if (!s.tile) s.tile = 8;
+    if (s.filter_iterations == 0) s.filter_iterations = 3;
+    if (s.filter_iterations < 0) s.filter_iterations = 0;
     return s;
 }
 
@@ -365,7 +373,7 @@ static cv_result read_half_rgba(cv_device *dev, cv_texture t, uint32_t w, uint32
     return res;
 }
 
-static cv_result read_output(cv_renderer *r, cv_render_output *out) {
+static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_output *out) {
     size_t n = (size_t)r->width * r->height * 4;
     memset(out, 0, sizeof(*out));
     out->width = r->width;
@@ -382,7 +390,8 @@ static cv_result read_output(cv_renderer *r, cv_render_output *out) {
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_ALBEDO], all, out->albedo);
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_NORMAL], all, out->normal);
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_POSITION], all, out->position);
-    if (res == CV_OK) res = read_half_rgba(p, r->textures[TEX_PING], r->width, r->height, out->visibility);
+    if (res == CV_OK)
+        res = read_half_rgba(p, r->textures[filtered_texture(iterations)], r->width, r->height, out->visibility);
     if (res != CV_OK)
         cv_render_output_free(out);
     return res;
@@ -406,9 +415,11 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     if (!r || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_render: NULL argument");
     cv_render_settings s = cv_render_settings_resolve(settings, r->scene);
-    if (s.width > CV_MAX_TEXTURE_DIM || s.height > CV_MAX_TEXTURE_DIM || s.ao_samples > 32 || s.frames > 4096)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %ux%u, %u AO samples, %u frames (limits %u, 32, 4096)",
-                        s.width, s.height, s.ao_samples, s.frames, CV_MAX_TEXTURE_DIM);
+    if (s.width > CV_MAX_TEXTURE_DIM || s.height > CV_MAX_TEXTURE_DIM || s.ao_samples > 32 || s.frames > 4096 ||
+        s.filter_iterations > 8)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations "
+                        "(limits %u, 32, 4096, 8)", s.width, s.height, s.ao_samples, s.frames, s.filter_iterations,
+                        CV_MAX_TEXTURE_DIM);
     cv_camera camera = s.camera < cv_scene_camera_count(r->scene) ? *cv_scene_camera(r->scene, s.camera)
                                                                    : cv_scene_framing_camera(r->scene);
     cv_result res = ensure_targets(r, s.width, s.height);
@@ -483,7 +494,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         if (res == CV_OK) {
             record_accumulate(r, f, l);
             if (f + 1 == s.frames)
-                record_filter_composite(r, l);
+                record_filter_composite(r, (uint32_t)s.filter_iterations, l);
             res = run_list(primary, r->lists[0], &ticket);
         }
         if (res == CV_OK) res = cv_device_wait(primary, ticket, UINT64_MAX);
@@ -494,7 +505,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     }
     st.frame_ms = (now_ms() - frames_start) / s.frames;
     if (res == CV_OK)
-        res = read_output(r, out);
+        res = read_output(r, (uint32_t)s.filter_iterations, out);
     if (res == CV_OK && stats)
         *stats = st;
     return res;

@@ -27,9 +27,10 @@ typedef struct cv_render_settings {
     uint32_t frames;            /* [4] frames accumulated (more = less noise) */
     uint32_t ao_samples;        /* [4] AO rays per pixel per frame (0..32) */
     float ao_radius;            /* [2% of the scene diagonal] AO ray length, metres */
-    float sun_cone_degrees;     /* [1.5] half angle of the sun's cone (soft shadows) */
+    float sun_cone_degrees;     /* [1.5] half angle of the sun's cone (soft shadows); < 0 = hard shadows */
     uint32_t camera;            /* [0] scene camera index; a framing camera if the scene has none */
     uint32_t tile;              /* [8] partition tile width, pixels */
+    int32_t filter_iterations;  /* [3] a-trous iterations (steps 1, 2, 4, ...); -1 = none */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */

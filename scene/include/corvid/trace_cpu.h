@@ -18,17 +18,16 @@
 #include <stdbool.h>
 #include <stdint.h>
 #include "corvid/bvh.h"
+#include "corvid/types.h"
 
 typedef enum cv_bvh_layout {
     CV_BVH_LAYOUT_SKIP = 0,
     CV_BVH_LAYOUT_NODE2 = 1,
 } cv_bvh_layout;
 
-enum cv_trace_flags {
-    CV_TRACE_CLOSEST = 0,
-    CV_TRACE_ANY_HIT = 1u << 0,
-    CV_TRACE_CULL_BACK_FACES = 1u << 1,
-};
+/* Flags are the trace_rays command's (corvid/types.h): CV_TRACE_ANY_HIT,
+ * CV_TRACE_CULL_BACK_FACES; CV_TRACE_CLOSEST (0) names the default. */
+#define CV_TRACE_CLOSEST 0u
 
 /* What to trace against: exactly one of flat and two_level is set. */
 typedef struct cv_trace_target {
