@@ -1,0 +1,216 @@
+/* VkDevice creation and teardown: adapter choice from the desc, queue
+ * families, enabled features, the ticket semaphore and the device info the
+ * core reports. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vk_device.h"
+#include "vk_immediate.h"
+#include "vk_trace.h"
+
+static cv_result pick_adapter(vk_instance *inst, const char *spec, vk_adapter *out) {
+    vk_adapter *adapters;
+    uint32_t count;
+    cv_result r = vk_adapters_enumerate(inst, &adapters, &count);
+    if (r != CV_OK)
+        return r;
+    uint32_t index;
+    r = vk_adapters_resolve(adapters, count, spec, &index);
+    if (r == CV_OK)
+        *out = adapters[index];
+    free(adapters);
+    return r;
+}
+
+static cv_result create_vk_device(cv_backend_device *bd) {
+    const vk_adapter *a = &bd->adapter;
+    uint32_t families[VK_SLOT_COUNT] = { a->graphics_family, a->compute_family, a->copy_family };
+    float priority = 1.0f;
+    VkDeviceQueueCreateInfo queue_infos[VK_SLOT_COUNT];
+    uint32_t queue_count = 0;
+    for (int s = 0; s < VK_SLOT_COUNT; s++)
+        if (families[s] != VK_NO_FAMILY)
+            queue_infos[queue_count++] = (VkDeviceQueueCreateInfo){
+                .sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO,
+                .queueFamilyIndex = families[s],
+                .queueCount = 1,
+                .pQueuePriorities = &priority,
+            };
+
+    /* Enable what the adapter has of what kernels may use; require only what we checked. */
+    VkPhysicalDeviceVulkan13Features have13 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES };
+    VkPhysicalDeviceVulkan12Features have12 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES,
+                                                .pNext = &have13 };
+    VkPhysicalDeviceFeatures2 have = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &have12 };
+    vkGetPhysicalDeviceFeatures2(a->physical, &have);
+
+    VkPhysicalDeviceVulkan13Features f13 = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES,
+        .dynamicRendering = VK_TRUE,
+        .synchronization2 = VK_TRUE,
+        .maintenance4 = have13.maintenance4,
+    };
+    VkPhysicalDeviceVulkan12Features f12 = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES,
+        .pNext = &f13,
+        .timelineSemaphore = VK_TRUE,
+        .scalarBlockLayout = have12.scalarBlockLayout,
+    };
+    VkPhysicalDeviceFeatures2 features = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2,
+        .pNext = &f12,
+        .features = {
+            .shaderStorageImageReadWithoutFormat = have.features.shaderStorageImageReadWithoutFormat,
+            .shaderStorageImageWriteWithoutFormat = have.features.shaderStorageImageWriteWithoutFormat,
+            .shaderInt64 = have.features.shaderInt64,
+            .vertexPipelineStoresAndAtomics = have.features.vertexPipelineStoresAndAtomics,
+            .fragmentStoresAndAtomics = have.features.fragmentStoresAndAtomics,
+        },
+    };
+    const char *extensions[] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
+    VkDeviceCreateInfo info = {
+        .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
+        .pNext = &features,
+        .queueCreateInfoCount = queue_count,
+        .pQueueCreateInfos = queue_infos,
+        .enabledExtensionCount = 1,
+        .ppEnabledExtensionNames = extensions,
+    };
+    VkResult vr = vkCreateDevice(a->physical, &info, NULL, &bd->device);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkCreateDevice on adapter %u '%s'", a->info.index, a->info.name);
+
+    uint32_t family_count = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &family_count, NULL);
+    VkQueueFamilyProperties props[32];
+    if (family_count > 32)
+        family_count = 32;
+    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &family_count, props);
+    for (int s = 0; s < VK_SLOT_COUNT; s++) {
+        if (families[s] == VK_NO_FAMILY)
+            continue;
+        vk_queue *q = &bd->queues[s];
+        q->present = true;
+        q->family = families[s];
+        q->flags = props[families[s]].queueFlags;
+        uint32_t bits = props[families[s]].timestampValidBits;
+        q->timestamp_mask = bits >= 64 ? UINT64_MAX : bits ? (1ull << bits) - 1 : 0;
+        vkGetDeviceQueue(bd->device, families[s], 0, &q->queue);
+        bd->families[bd->family_count++] = families[s];
+        VkCommandPoolCreateInfo pool_info = { .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
+                                              .queueFamilyIndex = families[s] };
+        vr = vkCreateCommandPool(bd->device, &pool_info, NULL, &q->pool);
+        if (vr != VK_SUCCESS)
+            return vk_fail(vr, "vkCreateCommandPool for queue family %u", families[s]);
+    }
+    bd->slot_of_type[CV_QUEUE_GRAPHICS] = VK_SLOT_GRAPHICS;
+    bd->slot_of_type[CV_QUEUE_COMPUTE] = bd->queues[VK_SLOT_COMPUTE].present ? VK_SLOT_COMPUTE : VK_SLOT_GRAPHICS;
+    bd->slot_of_type[CV_QUEUE_COPY] = bd->queues[VK_SLOT_COPY].present ? VK_SLOT_COPY : VK_SLOT_GRAPHICS;
+
+    bd->cmd_push_descriptor_set =
+        (PFN_vkCmdPushDescriptorSetKHR)vkGetDeviceProcAddr(bd->device, "vkCmdPushDescriptorSetKHR");
+    if (!bd->cmd_push_descriptor_set)
+        return cv_error(CV_ERROR_UNSUPPORTED, "vulkan: vkCmdPushDescriptorSetKHR missing on '%s'", a->info.name);
+    return CV_OK;
+}
+
+cv_result vk_device_create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what) {
+    VkSemaphoreTypeCreateInfo type = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_TYPE_CREATE_INFO,
+                                       .semaphoreType = VK_SEMAPHORE_TYPE_TIMELINE };
+    VkSemaphoreCreateInfo info = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO, .pNext = &type };
+    VkResult vr = vkCreateSemaphore(bd->device, &info, NULL, out);
+    return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkCreateSemaphore (%s timeline)", what);
+}
+
+static void fill_info(const cv_backend_device *bd, cv_device_info *info) {
+    const cv_vulkan_adapter_info *a = &bd->adapter.info;
+    memset(info, 0, sizeof(*info));
+    snprintf(info->name, sizeof(info->name), "%s", a->name);
+    snprintf(info->backend, sizeof(info->backend), "vulkan");
+    snprintf(info->driver, sizeof(info->driver), "%s", a->driver);
+    info->adapter_index = a->index;
+    info->vendor_id = a->vendor_id;
+    info->device_id = a->device_id;
+    info->separate_compute_queue = bd->queues[VK_SLOT_COMPUTE].present;
+    info->separate_copy_queue = bd->queues[VK_SLOT_COPY].present;
+    info->ray_tracing_pipeline = a->ray_tracing_pipeline;
+    info->gpu_timestamps = bd->queues[VK_SLOT_GRAPHICS].timestamp_mask != 0 && bd->timestamp_period_ns > 0;
+    info->max_storage_buffer_range = bd->limits.maxStorageBufferRange;
+    for (int i = 0; i < 3; i++)
+        info->max_dispatch[i] = bd->limits.maxComputeWorkGroupCount[i];
+}
+
+cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out) {
+    cv_backend_device *bd = calloc(1, sizeof(*bd));
+    if (!bd)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: device");
+    if (memchr(desc->label, '\0', CV_LABEL_MAX))
+        snprintf(bd->label, sizeof(bd->label), "%s", desc->label);
+    cv_result r = vk_instance_acquire(desc->validation, &bd->instance);
+    if (r != CV_OK) {
+        free(bd);
+        return r;
+    }
+    r = pick_adapter(bd->instance, desc->adapter, &bd->adapter);
+    if (r == CV_OK) {
+        VkPhysicalDeviceProperties props;
+        vkGetPhysicalDeviceProperties(bd->adapter.physical, &props);
+        bd->limits = props.limits;
+        bd->timestamp_period_ns = props.limits.timestampPeriod;
+        if (!bd->label[0])
+            snprintf(bd->label, sizeof(bd->label), "vulkan:%u", bd->adapter.info.index);
+        r = create_vk_device(bd);
+    }
+    if (r == CV_OK) {
+        vk_memory_init(&bd->memory, bd->device, bd->adapter.physical);
+        r = vk_device_create_timeline(bd, &bd->ticket, "ticket");
+    }
+    if (r == CV_OK)
+        r = vk_device_create_timeline(bd, &bd->chain, "segment chain");
+    if (r == CV_OK)
+        r = vk_immediate_init(bd);
+    if (r != CV_OK) {
+        vk_device_destroy(bd);
+        return r;
+    }
+    fill_info(bd, info);
+    *out = bd;
+    return CV_OK;
+}
+
+void vk_device_destroy(cv_backend_device *bd) {
+    if (bd->device) {
+        vkDeviceWaitIdle(bd->device);
+        vk_trace_finish(bd);
+        vk_immediate_finish(bd);
+        if (bd->memory.device)
+            vk_memory_finish(&bd->memory);
+        vkDestroySemaphore(bd->device, bd->chain, NULL);
+        vkDestroySemaphore(bd->device, bd->ticket, NULL);
+        for (int s = 0; s < VK_SLOT_COUNT; s++)
+            if (bd->queues[s].pool)
+                vkDestroyCommandPool(bd->device, bd->queues[s].pool, NULL);
+        vkDestroyDevice(bd->device, NULL);
+    }
+    vk_instance_release(bd->instance);
+    free(bd);
+}
+
+void vk_device_sharing(const cv_backend_device *bd, VkSharingMode *mode, uint32_t *family_count,
+                       const uint32_t **families) {
+    bool shared = bd->family_count > 1;
+    *mode = shared ? VK_SHARING_MODE_CONCURRENT : VK_SHARING_MODE_EXCLUSIVE;
+    *family_count = shared ? bd->family_count : 0;
+    *families = shared ? bd->families : NULL;
+}
+
+void vk_device_name(const cv_backend_device *bd, VkObjectType type, uint64_t handle, const char *label) {
+    if (!bd->instance->set_object_name || !label || !label[0])
+        return;
+    char name[CV_LABEL_MAX];
+    snprintf(name, sizeof(name), "%s", label);
+    VkDebugUtilsObjectNameInfoEXT info = { .sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT,
+                                           .objectType = type, .objectHandle = handle, .pObjectName = name };
+    bd->instance->set_object_name(bd->device, &info);
+}

@@ -1,0 +1,80 @@
+/* The Vulkan device behind one cv_device: a VkDevice on an adapter, its
+ * queues (graphics, and compute-only and transfer-only ones where the adapter
+ * has such families), the timeline semaphore that carries the core's tickets,
+ * the memory allocator and the immediate command buffer for host transfers.
+ *
+ * Every backend call except wait() runs under the core's device lock, so the
+ * members below need no lock of their own (the memory allocator has one for
+ * cv_vulkan_get_memory_stats, which runs outside it). */
+#ifndef CORVID_VK_DEVICE_H
+#define CORVID_VK_DEVICE_H
+
+#include <stdatomic.h>
+
+#include "vk_adapters.h"
+#include "vk_memory.h"
+
+typedef struct vk_texture vk_texture;
+typedef struct vk_pipeline vk_pipeline;
+
+/* Hardware queues a device may use; command queue types map onto these. */
+typedef enum vk_queue_slot {
+    VK_SLOT_GRAPHICS = 0,
+    VK_SLOT_COMPUTE = 1,
+    VK_SLOT_COPY = 2,
+    VK_SLOT_COUNT
+} vk_queue_slot;
+
+typedef struct vk_queue {
+    bool present;
+    VkQueue queue;
+    uint32_t family;
+    VkQueueFlags flags;
+    uint64_t timestamp_mask;     /* valid bits of timestamps; 0 = no timestamps */
+    VkCommandPool pool;          /* command buffers of compiled lists */
+} vk_queue;
+
+struct cv_backend_device {
+    vk_instance *instance;
+    vk_adapter adapter;
+    VkPhysicalDeviceLimits limits;
+    VkDevice device;
+    vk_queue queues[VK_SLOT_COUNT];
+    vk_queue_slot slot_of_type[CV_QUEUE_TYPE_COUNT];
+    uint32_t families[VK_SLOT_COUNT];   /* distinct families in use, for shared resources */
+    uint32_t family_count;
+
+    VkSemaphore ticket;          /* timeline; its value is the highest finished ticket */
+    VkSemaphore chain;           /* timeline linking the segments of one submission */
+    uint64_t chain_value;
+
+    VkCommandPool immediate_pool;
+    VkCommandBuffer immediate_cmd;
+    VkSemaphore immediate;       /* timeline; value = immediate submissions finished */
+    uint64_t immediate_value;    /* value of the latest immediate submission */
+    vk_texture **pending_images; /* created, still in VK_IMAGE_LAYOUT_UNDEFINED */
+    uint32_t pending_count, pending_capacity;
+
+    vk_memory memory;
+    vk_pipeline *trace_pipeline;     /* built on the first trace_rays (vk_trace.h) */
+    PFN_vkCmdPushDescriptorSetKHR cmd_push_descriptor_set;
+    double timestamp_period_ns;
+    char label[CV_LABEL_MAX];
+
+    atomic_uint buffers, images, samplers, pipelines;   /* live objects, for stats */
+};
+
+cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out);
+void vk_device_destroy(cv_backend_device *bd);
+
+cv_result vk_device_create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what);
+
+/* Sharing mode for new buffers and images: CONCURRENT across every family in
+ * use when there is more than one, so segments on different queues can use
+ * the same resource without ownership transfers. */
+void vk_device_sharing(const cv_backend_device *bd, VkSharingMode *mode, uint32_t *family_count,
+                       const uint32_t **families);
+/* Gives an object a debug name (shown in validation messages); no-op without validation. */
+void vk_device_name(const cv_backend_device *bd, VkObjectType type, uint64_t handle, const char *label);
+
+#endif

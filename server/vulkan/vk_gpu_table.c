@@ -1,0 +1,174 @@
+/* Virtual multi-GPU: the device indirection table.
+ *
+ * Virtual device indices are redirected to adapter indices. With N instances
+ * per adapter, each adapter appears N times, and each appearance becomes its
+ * own VkDevice, so code written for several GPUs runs, and is tested, on one
+ * (or on lavapipe). The instances of one adapter run concurrently from several
+ * threads; on a CPU adapter they share its cores, so they test correctness,
+ * not speed-up. Several real adapters use the same table. */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vk_adapters.h"
+
+#define ENV_VIRTUAL_GPUS "CORVID_VIRTUAL_GPUS"
+
+static cv_result parse_count(const char *text, const char *what, uint32_t *out) {
+    char *end = NULL;
+    errno = 0;
+    unsigned long v = text ? strtoul(text, &end, 10) : 0;
+    if (!text || !*text || *end || errno || v == 0 || v > CV_VULKAN_MAX_GPUS)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%s' is not a count in 1..%u", what, text ? text : "",
+                        CV_VULKAN_MAX_GPUS);
+    *out = (uint32_t)v;
+    return CV_OK;
+}
+
+/* Matches "--name value" and "--name=value"; *value points into argv. */
+static bool match_flag(int argc, char **argv, int i, const char *name, const char **value, int *used) {
+    size_t n = strlen(name);
+    if (strncmp(argv[i], name, n) != 0)
+        return false;
+    if (argv[i][n] == '=') {
+        *value = argv[i] + n + 1;
+        *used = 1;
+        return true;
+    }
+    if (argv[i][n] != '\0')
+        return false;
+    *value = i + 1 < argc ? argv[i + 1] : NULL;
+    *used = i + 1 < argc ? 2 : 1;
+    return true;
+}
+
+cv_result cv_vulkan_gpu_args(int *argc, char **argv, cv_vulkan_gpu_config *config) {
+    if (!argc || !argv || !config)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_vulkan_gpu_args: NULL argument");
+    cv_vulkan_gpu_config c = *config;
+    int kept = 0;
+    for (int i = 0; i < *argc;) {
+        const char *value = NULL;
+        int used = 0;
+        cv_result r = CV_OK;
+        if (match_flag(*argc, argv, i, "--virtual-gpus", &value, &used))
+            r = parse_count(value, "--virtual-gpus", &c.virtual_per_adapter);
+        else if (match_flag(*argc, argv, i, "--gpus", &value, &used))
+            r = parse_count(value, "--gpus", &c.total);
+        else if (match_flag(*argc, argv, i, "--adapters", &value, &used))
+            c.adapters = value;
+        if (r != CV_OK)
+            return r;
+        if (used && !value)
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s needs a value", argv[i]);
+        if (!used) {
+            argv[kept++] = argv[i];
+            used = 1;
+        }
+        i += used;
+    }
+    /* argv is compacted only once everything parsed, so a failure changes nothing. */
+    for (int i = kept; i < *argc; i++)
+        argv[i] = NULL;
+    *argc = kept;
+    *config = c;
+    return CV_OK;
+}
+
+/* The adapters the table spreads over: the listed ones, or every usable
+ * adapter of the best type present. */
+static cv_result table_adapters(const vk_adapter *adapters, uint32_t count, const char *list, uint32_t *out,
+                                uint32_t *out_count) {
+    uint32_t n = 0;
+    if (list && *list) {
+        char spec[256];
+        for (const char *p = list; *p && n < CV_VULKAN_MAX_GPUS;) {
+            size_t len = strcspn(p, ",");
+            snprintf(spec, sizeof(spec), "%.*s", (int)len, p);
+            cv_result r = vk_adapters_resolve(adapters, count, spec, &out[n]);
+            if (r != CV_OK)
+                return r;
+            n++;
+            p += len + (p[len] == ',');
+        }
+    } else {
+        uint32_t best;
+        cv_result r = vk_adapters_choose(adapters, count, CV_VULKAN_PURPOSE_RENDER, &best);
+        if (r != CV_OK)
+            return r;
+        for (uint32_t i = 0; i < count && n < CV_VULKAN_MAX_GPUS; i++)
+            if (adapters[i].info.usable && adapters[i].info.type == adapters[best].info.type)
+                out[n++] = i;
+    }
+    if (n == 0)
+        return cv_error(CV_ERROR_NOT_FOUND, "vulkan: adapter list '%s' names no adapter", list ? list : "");
+    *out_count = n;
+    return CV_OK;
+}
+
+cv_result cv_vulkan_gpu_table_build(const cv_vulkan_gpu_config *config, cv_vulkan_gpu_table *out) {
+    if (!out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_vulkan_gpu_table_build: NULL table");
+    cv_vulkan_gpu_config c = config ? *config : (cv_vulkan_gpu_config){ 0 };
+    if (c.virtual_per_adapter == 0) {
+        const char *env = getenv(ENV_VIRTUAL_GPUS);
+        c.virtual_per_adapter = 1;
+        if (env && *env) {
+            cv_result r = parse_count(env, ENV_VIRTUAL_GPUS, &c.virtual_per_adapter);
+            if (r != CV_OK)
+                return r;
+        }
+    }
+    vk_instance *inst;
+    cv_result r = vk_instance_acquire(false, &inst);
+    if (r != CV_OK)
+        return r;
+    vk_adapter *adapters = NULL;
+    uint32_t count = 0, chosen[CV_VULKAN_MAX_GPUS], chosen_count = 0;
+    r = vk_adapters_enumerate(inst, &adapters, &count);
+    if (r == CV_OK)
+        r = table_adapters(adapters, count, c.adapters, chosen, &chosen_count);
+    free(adapters);
+    vk_instance_release(inst);
+    if (r != CV_OK)
+        return r;
+
+    uint32_t total = c.total ? c.total : chosen_count * c.virtual_per_adapter;
+    if (total > CV_VULKAN_MAX_GPUS)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "vulkan: %u adapters x %u virtual GPUs exceeds %u devices",
+                        chosen_count, c.virtual_per_adapter, CV_VULKAN_MAX_GPUS);
+    cv_vulkan_gpu_table table = { .count = total };
+    for (uint32_t i = 0; i < total; i++) {
+        /* Explicit totals go round-robin over adapters; otherwise each
+         * adapter's instances are adjacent (gpu0..N-1 on the first adapter). */
+        uint32_t adapter = chosen[c.total ? i % chosen_count : i / c.virtual_per_adapter];
+        uint32_t instance = 0;
+        for (uint32_t j = 0; j < i; j++)
+            instance += table.gpus[j].adapter == adapter;
+        table.gpus[i] = (cv_vulkan_gpu){ .adapter = adapter, .instance = instance };
+    }
+    *out = table;
+    return CV_OK;
+}
+
+cv_result cv_vulkan_create_devices(cv_context *ctx, const cv_vulkan_gpu_table *table, bool validation,
+                                   cv_device **out) {
+    if (!ctx || !table || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_vulkan_create_devices: NULL argument");
+    for (uint32_t i = 0; i < table->count; i++) {
+        char adapter[16];
+        snprintf(adapter, sizeof(adapter), "%u", table->gpus[i].adapter);
+        cv_device_desc desc = { .adapter = adapter, .validation = validation };
+        snprintf(desc.label, sizeof(desc.label), "gpu%u", i);
+        cv_result r = cv_device_create(ctx, cv_vulkan_backend(), &desc, &out[i]);
+        if (r != CV_OK) {
+            while (i-- > 0) {
+                cv_device_destroy(out[i]);
+                out[i] = NULL;
+            }
+            return r;
+        }
+    }
+    return CV_OK;
+}

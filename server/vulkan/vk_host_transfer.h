@@ -1,0 +1,16 @@
+/* Host <-> device data for buffers and textures (the backend's read/write
+ * calls). Synchronous; the core calls them only when no submitted work uses
+ * the resource. */
+#ifndef CORVID_VK_HOST_TRANSFER_H
+#define CORVID_VK_HOST_TRANSFER_H
+
+#include "vk_resources.h"
+
+cv_result vk_host_buffer_write(cv_backend_device *bd, vk_buffer *b, uint64_t offset, uint64_t size,
+                               const void *data);
+cv_result vk_host_buffer_read(cv_backend_device *bd, vk_buffer *b, uint64_t offset, uint64_t size, void *out);
+/* Texture data is tightly packed rows of rect.width texels. */
+cv_result vk_host_texture_write(cv_backend_device *bd, vk_texture *t, cv_rect rect, const void *data);
+cv_result vk_host_texture_read(cv_backend_device *bd, vk_texture *t, cv_rect rect, void *out);
+
+#endif

@@ -1,0 +1,255 @@
+/* Buffer, texture and sampler objects. Memory comes from the block allocator
+ * (vk_memory.h); textures are optimally tiled 2D images with one view, checked
+ * against the adapter's format features before anything is created. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "vk_immediate.h"
+#include "vk_resources.h"
+
+VkFormat vk_format_of(cv_format f) {
+    switch (f) {
+    case CV_FORMAT_RGBA8_UNORM: return VK_FORMAT_R8G8B8A8_UNORM;
+    case CV_FORMAT_RGBA16F: return VK_FORMAT_R16G16B16A16_SFLOAT;
+    case CV_FORMAT_RGBA32F: return VK_FORMAT_R32G32B32A32_SFLOAT;
+    case CV_FORMAT_R32F: return VK_FORMAT_R32_SFLOAT;
+    case CV_FORMAT_RG16F: return VK_FORMAT_R16G16_SFLOAT;
+    case CV_FORMAT_R11G11B10F: return VK_FORMAT_B10G11R11_UFLOAT_PACK32;
+    case CV_FORMAT_R32_UINT: return VK_FORMAT_R32_UINT;
+    case CV_FORMAT_D32F: return VK_FORMAT_D32_SFLOAT;
+    default: return VK_FORMAT_UNDEFINED;
+    }
+}
+
+/* ---- buffers ------------------------------------------------------------------- */
+
+static VkBufferUsageFlags buffer_usage(uint32_t usage) {
+    VkBufferUsageFlags u = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    if (usage & CV_BUFFER_USAGE_STORAGE)
+        u |= VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+    if (usage & CV_BUFFER_USAGE_UNIFORM)
+        u |= VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT;
+    if (usage & CV_BUFFER_USAGE_INDEX)
+        u |= VK_BUFFER_USAGE_INDEX_BUFFER_BIT;
+    if (usage & CV_BUFFER_USAGE_INDIRECT)
+        u |= VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
+    return u;
+}
+
+cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk_buffer **out) {
+    vk_buffer *b = calloc(1, sizeof(*b));
+    if (!b)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: buffer '%s'", desc->label);
+    VkSharingMode sharing;
+    uint32_t family_count;
+    const uint32_t *families;
+    vk_device_sharing(bd, &sharing, &family_count, &families);
+    VkBufferCreateInfo info = {
+        .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
+        .size = desc->size,
+        .usage = buffer_usage(desc->usage),
+        .sharingMode = sharing,
+        .queueFamilyIndexCount = family_count,
+        .pQueueFamilyIndices = families,
+    };
+    VkResult vr = vkCreateBuffer(bd->device, &info, NULL, &b->buffer);
+    if (vr != VK_SUCCESS) {
+        free(b);
+        return vk_fail(vr, "vkCreateBuffer '%s' (%llu bytes)", desc->label, (unsigned long long)desc->size);
+    }
+    VkMemoryRequirements req;
+    vkGetBufferMemoryRequirements(bd->device, b->buffer, &req);
+    cv_result r = vk_memory_alloc(&bd->memory, &req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, VK_MEMORY_LINEAR,
+                                  desc->label[0] ? desc->label : "buffer", &b->memory);
+    if (r == CV_OK) {
+        vr = vkBindBufferMemory(bd->device, b->buffer, b->memory.memory, b->memory.offset);
+        if (vr != VK_SUCCESS) {
+            vk_memory_free(&bd->memory, &b->memory);
+            r = vk_fail(vr, "vkBindBufferMemory '%s'", desc->label);
+        }
+    }
+    if (r != CV_OK) {
+        vkDestroyBuffer(bd->device, b->buffer, NULL);
+        free(b);
+        return r;
+    }
+    b->size = desc->size;
+    vk_device_name(bd, VK_OBJECT_TYPE_BUFFER, (uint64_t)b->buffer, desc->label);
+    atomic_fetch_add(&bd->buffers, 1u);
+    *out = b;
+    return CV_OK;
+}
+
+void vk_buffer_destroy(cv_backend_device *bd, vk_buffer *b) {
+    vkDestroyBuffer(bd->device, b->buffer, NULL);
+    vk_memory_free(&bd->memory, &b->memory);
+    atomic_fetch_sub(&bd->buffers, 1u);
+    free(b);
+}
+
+/* ---- textures ------------------------------------------------------------------ */
+
+typedef struct usage_need {
+    uint32_t usage;                  /* cv_texture_usage bit */
+    VkImageUsageFlags vk_usage;
+    VkFormatFeatureFlags feature;
+    const char *name;
+} usage_need;
+
+static const usage_need usage_needs[] = {
+    { CV_TEXTURE_USAGE_SAMPLED, VK_IMAGE_USAGE_SAMPLED_BIT, VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT, "sampling" },
+    { CV_TEXTURE_USAGE_STORAGE, VK_IMAGE_USAGE_STORAGE_BIT, VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT, "storage" },
+    { CV_TEXTURE_USAGE_COLOR_TARGET, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT, VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT,
+      "color target" },
+    { CV_TEXTURE_USAGE_DEPTH_TARGET, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+      VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT, "depth target" },
+};
+
+/* Vulkan usage for a texture, or CV_ERROR_UNSUPPORTED naming the missing feature. */
+static cv_result texture_usage(const cv_backend_device *bd, const cv_texture_desc *desc, VkFormat format,
+                               VkImageUsageFlags *out) {
+    VkFormatProperties props;
+    vkGetPhysicalDeviceFormatProperties(bd->adapter.physical, format, &props);
+    VkFormatFeatureFlags have = props.optimalTilingFeatures;
+    VkFormatFeatureFlags copies = VK_FORMAT_FEATURE_TRANSFER_SRC_BIT | VK_FORMAT_FEATURE_TRANSFER_DST_BIT;
+    if ((have & copies) != copies)
+        return cv_error(CV_ERROR_UNSUPPORTED, "texture '%s': format %s cannot be copied on '%s'", desc->label,
+                        cv_format_name(desc->format), bd->adapter.info.name);
+    VkImageUsageFlags usage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    for (size_t i = 0; i < sizeof(usage_needs) / sizeof(usage_needs[0]); i++) {
+        const usage_need *n = &usage_needs[i];
+        if (!(desc->usage & n->usage))
+            continue;
+        if (!(have & n->feature))
+            return cv_error(CV_ERROR_UNSUPPORTED, "texture '%s': format %s does not support %s on '%s'", desc->label,
+                            cv_format_name(desc->format), n->name, bd->adapter.info.name);
+        usage |= n->vk_usage;
+    }
+    *out = usage;
+    return CV_OK;
+}
+
+static cv_result create_image(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture *t,
+                              VkImageUsageFlags usage) {
+    VkSharingMode sharing;
+    uint32_t family_count;
+    const uint32_t *families;
+    vk_device_sharing(bd, &sharing, &family_count, &families);
+    VkImageCreateInfo info = {
+        .sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
+        .imageType = VK_IMAGE_TYPE_2D,
+        .format = t->format,
+        .extent = { desc->width, desc->height, 1 },
+        .mipLevels = 1,
+        .arrayLayers = 1,
+        .samples = VK_SAMPLE_COUNT_1_BIT,
+        .tiling = VK_IMAGE_TILING_OPTIMAL,
+        .usage = usage,
+        .sharingMode = sharing,
+        .queueFamilyIndexCount = family_count,
+        .pQueueFamilyIndices = families,
+        .initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
+    };
+    VkResult vr = vkCreateImage(bd->device, &info, NULL, &t->image);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkCreateImage '%s' (%ux%u %s)", desc->label, desc->width, desc->height,
+                       cv_format_name(desc->format));
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(bd->device, t->image, &req);
+    cv_result r = vk_memory_alloc(&bd->memory, &req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, VK_MEMORY_OPTIMAL,
+                                  desc->label[0] ? desc->label : "texture", &t->memory);
+    if (r != CV_OK)
+        return r;
+    vr = vkBindImageMemory(bd->device, t->image, t->memory.memory, t->memory.offset);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkBindImageMemory '%s'", desc->label);
+    VkImageViewCreateInfo view = {
+        .sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
+        .image = t->image,
+        .viewType = VK_IMAGE_VIEW_TYPE_2D,
+        .format = t->format,
+        .subresourceRange = { t->aspect, 0, 1, 0, 1 },
+    };
+    vr = vkCreateImageView(bd->device, &view, NULL, &t->view);
+    return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkCreateImageView '%s'", desc->label);
+}
+
+static void release_image(cv_backend_device *bd, vk_texture *t) {
+    vkDestroyImageView(bd->device, t->view, NULL);
+    vkDestroyImage(bd->device, t->image, NULL);
+    vk_memory_free(&bd->memory, &t->memory);
+}
+
+cv_result vk_texture_create(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture **out) {
+    VkFormat format = vk_format_of(desc->format);
+    if (format == VK_FORMAT_UNDEFINED)
+        return cv_error(CV_ERROR_UNSUPPORTED, "texture '%s': format %s has no Vulkan equivalent", desc->label,
+                        cv_format_name(desc->format));
+    VkImageUsageFlags usage = 0;
+    cv_result r = texture_usage(bd, desc, format, &usage);
+    if (r != CV_OK)
+        return r;
+    vk_texture *t = calloc(1, sizeof(*t));
+    if (!t)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: texture '%s'", desc->label);
+    t->format = format;
+    t->aspect = cv_format_is_depth(desc->format) ? VK_IMAGE_ASPECT_DEPTH_BIT : VK_IMAGE_ASPECT_COLOR_BIT;
+    t->width = desc->width;
+    t->height = desc->height;
+    t->texel_bytes = cv_format_bytes(desc->format);
+    r = create_image(bd, desc, t, usage);
+    if (r == CV_OK)
+        r = vk_immediate_add_image(bd, t);
+    if (r != CV_OK) {
+        release_image(bd, t);
+        free(t);
+        return r;
+    }
+    vk_device_name(bd, VK_OBJECT_TYPE_IMAGE, (uint64_t)t->image, desc->label);
+    atomic_fetch_add(&bd->images, 1u);
+    *out = t;
+    return CV_OK;
+}
+
+void vk_texture_destroy(cv_backend_device *bd, vk_texture *t) {
+    vk_immediate_forget_image(bd, t);
+    release_image(bd, t);
+    atomic_fetch_sub(&bd->images, 1u);
+    free(t);
+}
+
+/* ---- samplers ------------------------------------------------------------------ */
+
+cv_result vk_sampler_create(cv_backend_device *bd, const cv_sampler_desc *desc, vk_sampler **out) {
+    vk_sampler *s = calloc(1, sizeof(*s));
+    if (!s)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: sampler '%s'", desc->label);
+    VkFilter filter = desc->filter == CV_FILTER_NEAREST ? VK_FILTER_NEAREST : VK_FILTER_LINEAR;
+    VkSamplerAddressMode address =
+        desc->address == CV_ADDRESS_REPEAT ? VK_SAMPLER_ADDRESS_MODE_REPEAT : VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    VkSamplerCreateInfo info = {
+        .sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO,
+        .magFilter = filter,
+        .minFilter = filter,
+        .mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST,
+        .addressModeU = address,
+        .addressModeV = address,
+        .addressModeW = address,
+        .maxLod = 0.0f,
+    };
+    VkResult vr = vkCreateSampler(bd->device, &info, NULL, &s->sampler);
+    if (vr != VK_SUCCESS) {
+        free(s);
+        return vk_fail(vr, "vkCreateSampler '%s'", desc->label);
+    }
+    vk_device_name(bd, VK_OBJECT_TYPE_SAMPLER, (uint64_t)s->sampler, desc->label);
+    atomic_fetch_add(&bd->samplers, 1u);
+    *out = s;
+    return CV_OK;
+}
+
+void vk_sampler_destroy(cv_backend_device *bd, vk_sampler *s) {
+    vkDestroySampler(bd->device, s->sampler, NULL);
+    atomic_fetch_sub(&bd->samplers, 1u);
+    free(s);
+}

@@ -1,0 +1,38 @@
+/* Buffers, 2D textures and samplers: the device objects behind handles. */
+#ifndef CORVID_VK_RESOURCES_H
+#define CORVID_VK_RESOURCES_H
+
+#include "vk_device.h"
+
+typedef struct vk_buffer {
+    VkBuffer buffer;
+    vk_allocation memory;
+    VkDeviceSize size;
+} vk_buffer;
+
+struct vk_texture {
+    VkImage image;
+    VkImageView view;
+    vk_allocation memory;
+    VkFormat format;
+    VkImageAspectFlags aspect;
+    uint32_t width, height, texel_bytes;
+    bool pending;                /* awaiting its first layout transition (vk_immediate.h) */
+};
+
+typedef struct vk_sampler {
+    VkSampler sampler;
+} vk_sampler;
+
+/* The Vulkan format of a Corvid format (VK_FORMAT_UNDEFINED if none). */
+VkFormat vk_format_of(cv_format f);
+
+cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk_buffer **out);
+void vk_buffer_destroy(cv_backend_device *bd, vk_buffer *b);
+/* CV_ERROR_UNSUPPORTED if the adapter's format lacks a feature a usage needs. */
+cv_result vk_texture_create(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture **out);
+void vk_texture_destroy(cv_backend_device *bd, vk_texture *t);
+cv_result vk_sampler_create(cv_backend_device *bd, const cv_sampler_desc *desc, vk_sampler **out);
+void vk_sampler_destroy(cv_backend_device *bd, vk_sampler *s);
+
+#endif
