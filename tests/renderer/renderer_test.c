@@ -23,6 +23,12 @@ static cv_render_settings settings(void) {
                                  .filter_iterations = -1 };
 }
 
+/* CORVID_TEST_ADAPTER picks the adapter (default lavapipe, as in CI). */
+static const char *test_adapter(void) {
+    const char *env = getenv("CORVID_TEST_ADAPTER");
+    return env && env[0] ? env : "llvmpipe";
+}
+
 static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *s,
                            cv_render_output *out, cv_render_stats *stats) {
     cv_context *ctx;
@@ -31,7 +37,7 @@ static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *b
     cv_renderer *r = NULL;
     cv_result res = cv_context_create(NULL, &ctx);
     if (res == CV_OK)
-        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = gpus, .adapters = "llvmpipe" }, &table);
+        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = gpus, .adapters = test_adapter() }, &table);
     if (res == CV_OK)
         res = cv_vulkan_create_devices(ctx, &table, true, devices);
     if (res == CV_OK)

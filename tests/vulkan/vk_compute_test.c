@@ -215,7 +215,7 @@ static void test_sample_copy(fixture *f, cv_address_mode address) {
 int main(void) {
     fixture f = { 0 };
     CHECK_OK(cv_context_create(NULL, &f.ctx));
-    CHECK_OK(vkt_device(f.ctx, "llvmpipe", "compute", &f.dev));
+    CHECK_OK(vkt_device(f.ctx, vkt_adapter(), "compute", &f.dev));
     if (!f.dev)
         return check_report("vk_compute");
     CHECK_OK(cv_cmdlist_create(f.ctx, &f.list));

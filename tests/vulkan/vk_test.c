@@ -1,7 +1,17 @@
 /* Helpers for the Vulkan backend tests (see vk_test.h). */
+#include <stdlib.h>
+#include <string.h>
+
 #include "vk_test.h"
 
 #include <stdio.h>
+
+const char *vkt_adapter(void) {
+    const char *env = getenv("CORVID_TEST_ADAPTER");
+    return env && env[0] ? env : "llvmpipe";
+}
+
+bool vkt_is_lavapipe(void) { return strcmp(vkt_adapter(), "llvmpipe") == 0; }
 
 cv_result vkt_device(cv_context *ctx, const char *adapter, const char *label, cv_device **out) {
     cv_device_desc desc = { .adapter = adapter, .validation = true };

@@ -8,6 +8,11 @@
 #include "corvid/corvid.h"
 #include "corvid/vulkan.h"
 
+/* The adapter the tests run on: CORVID_TEST_ADAPTER (e.g. "NVIDIA", "H100") or,
+ * by default, "llvmpipe", so CI always tests lavapipe even where a GPU exists. */
+const char *vkt_adapter(void);
+/* Whether the tests run on lavapipe (where lavapipe-only facts are checked too). */
+bool vkt_is_lavapipe(void);
 /* A validated Vulkan device on `adapter` (NULL = default) labelled `label`. */
 cv_result vkt_device(cv_context *ctx, const char *adapter, const char *label, cv_device **out);
 /* Creates and loads a buffer/texture/sampler/pipeline on dev (0 handle on failure). */

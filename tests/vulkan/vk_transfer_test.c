@@ -25,7 +25,7 @@ int main(void) {
     cv_context *ctx;
     CHECK_OK(cv_context_create(NULL, &ctx));
     cv_vulkan_gpu_table table;
-    CHECK_OK(cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 2, .adapters = "llvmpipe" },
+    CHECK_OK(cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 2, .adapters = vkt_adapter() },
                                        &table));
     CHECK_EQ_INT(table.count, 2);
     cv_device *gpu[2] = { NULL, NULL };

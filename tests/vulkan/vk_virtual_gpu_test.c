@@ -104,7 +104,7 @@ int main(void) {
     CHECK_OK(cv_vulkan_gpu_table_build(NULL, &table));
     CHECK_EQ_INT(table.count, 3);
     uint32_t lavapipe = UINT32_MAX;
-    CHECK_OK(cv_vulkan_find_adapter("llvmpipe", &lavapipe));
+    CHECK_OK(cv_vulkan_find_adapter(vkt_adapter(), &lavapipe));
     for (uint32_t i = 0; i < table.count; i++) {
         CHECK_EQ_INT(table.gpus[i].adapter, lavapipe);
         CHECK_EQ_INT(table.gpus[i].instance, i);

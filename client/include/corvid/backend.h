@@ -33,7 +33,7 @@ struct cv_backend {
                                cv_backend_device **out);
     void (*device_destroy)(cv_backend_device *bd);
 
-    /* Creates the device object for a buffer, texture, sampler or pipeline
+    /* Creates the device object for a buffer, texture, sampler, pipeline or accel
      * (pipeline: desc->pipeline.name resolved to `pipeline` from the registry). */
     cv_result (*resource_create)(cv_backend_device *bd, uint64_t id, const cv_resource_desc *desc,
                                  const cv_pipeline_info *pipeline, void **out_obj);

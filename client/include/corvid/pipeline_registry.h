@@ -34,7 +34,7 @@ typedef struct cv_pipeline_info {
     uint32_t color_count;            /* graphics only */
     cv_format color_formats[CV_MAX_COLOR_TARGETS];
     cv_format depth_format;          /* graphics only; UNDEFINED = no depth */
-    const char *compute_shader;      /* file stems in shaders/, NULL where unused */
+    const char *compute_shader;      /* file names in shaders/, extension included; NULL where unused */
     const char *vertex_shader;
     const char *fragment_shader;
 } cv_pipeline_info;
