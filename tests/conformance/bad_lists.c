@@ -75,10 +75,11 @@ static void dispatch_zero_groups(world *w, cv_command_list *l) {
 }
 static void dispatch_too_many_groups(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
+    uint32_t limit = cv_device_get_info(w->dev)->max_dispatch[1];   /* 65535 on lavapipe and NVIDIA */
     cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->fill, .bindings = &b,
                                                             .bindings_count = 1, .push = U32S(0, 0),
-                                                            .push_size = 8, .groups_x = 1u << 20,
-                                                            .groups_y = 1, .groups_z = 1 });
+                                                            .push_size = 8, .groups_x = 1,
+                                                            .groups_y = limit + 1, .groups_z = 1 });
 }
 static void storage_texture_without_usage(world *w, cv_command_list *l) {
     cv_binding b = tex_binding(w->sampled);

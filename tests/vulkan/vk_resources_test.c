@@ -65,16 +65,21 @@ static void test_formats(cv_context *ctx, cv_device *dev) {
                               .texture = { .width = 8, .height = 8, .format = CV_FORMAT_D32F,
                                            .usage = CV_TEXTURE_USAGE_STORAGE, .label = "depth-storage" } };
     void *obj = NULL;
-    CHECK_RESULT(backend->resource_create(cv_device_backend_data(dev), 1, &desc, NULL, &obj), CV_ERROR_UNSUPPORTED);
-    CHECK(strstr(cv_last_error(), "depth-storage") != NULL && strstr(cv_last_error(), "storage") != NULL);
-    CHECK(obj == NULL);
+    cv_result r = backend->resource_create(cv_device_backend_data(dev), 1, &desc, NULL, &obj);
+    if (vkt_is_lavapipe() || r != CV_OK) {   /* lavapipe lacks depth storage; NVIDIA has it */
+        CHECK_EQ_INT(r, CV_ERROR_UNSUPPORTED);
+        CHECK(strstr(cv_last_error(), "depth-storage") != NULL && strstr(cv_last_error(), "storage") != NULL);
+        CHECK(obj == NULL);
+    } else {
+        backend->resource_destroy(cv_device_backend_data(dev), CV_HANDLE_TEXTURE, obj);
+    }
 }
 
 int main(void) {
     cv_context *ctx;
     cv_device *dev = NULL;
     CHECK_OK(cv_context_create(NULL, &ctx));
-    CHECK_OK(vkt_device(ctx, NULL, "resources", &dev));
+    CHECK_OK(vkt_device(ctx, vkt_adapter(), "resources", &dev));
     if (!dev)
         return check_report("vk_resources");
     test_registry(ctx, dev);

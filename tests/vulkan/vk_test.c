@@ -14,7 +14,7 @@ const char *vkt_adapter(void) {
 bool vkt_is_lavapipe(void) { return strcmp(vkt_adapter(), "llvmpipe") == 0; }
 
 cv_result vkt_device(cv_context *ctx, const char *adapter, const char *label, cv_device **out) {
-    cv_device_desc desc = { .adapter = adapter, .validation = true };
+    cv_device_desc desc = { .adapter = adapter ? adapter : vkt_adapter(), .validation = true };
     snprintf(desc.label, sizeof(desc.label), "%s", label);
     return cv_device_create(ctx, cv_vulkan_backend(), &desc, out);
 }

@@ -13,7 +13,7 @@
 const char *vkt_adapter(void);
 /* Whether the tests run on lavapipe (where lavapipe-only facts are checked too). */
 bool vkt_is_lavapipe(void);
-/* A validated Vulkan device on `adapter` (NULL = default) labelled `label`. */
+/* A validated Vulkan device on `adapter` (NULL = vkt_adapter()) labelled `label`. */
 cv_result vkt_device(cv_context *ctx, const char *adapter, const char *label, cv_device **out);
 /* Creates and loads a buffer/texture/sampler/pipeline on dev (0 handle on failure). */
 cv_buffer vkt_buffer(cv_context *ctx, cv_device *dev, uint64_t size, uint32_t usage, const char *label);

@@ -1,9 +1,17 @@
 /* trace_rays on the Vulkan backend against the CPU reference traversal: the
  * procedural room, a flat BVH in the two-child layout, and primary, random,
- * shadow and AO rays. The kernel runs the same traversal with the same
- * rounding as scene/src/trace_cpu.c, so every hit must match bit for bit:
- * closest hits (t, u, v, triangle, instance), any-hit occlusion, and
- * back-face culling. Rays and hits sit at offsets inside larger buffers. */
+ * shadow and AO rays, closest and any hit, with and without back-face culling.
+ * Rays and hits sit at offsets inside larger buffers.
+ *
+ * On lavapipe the kernel rounds exactly as scene/src/trace_cpu.c does, so
+ * every hit must match bit for bit. Other drivers may round division
+ * differently (GLSL allows 2.5 ulp), so there the rule is the issue's: the same
+ * triangle and instance, t within 1e-4 relative, misses agree; any-hit rays
+ * agree on occlusion. The only exception allowed is a grazing hit: a ray that
+ * passes within 1e-5 (barycentric) of a triangle edge, where a last-bit
+ * difference legitimately changes which triangle is hit; those are counted and
+ * must stay under 0.1% of the rays. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -22,7 +30,43 @@ typedef struct tracer {
     const cv_bvh *bvh;
 } tracer;
 
-/* Traces on the device and on the CPU; returns the number of differing hits. */
+/* Whether the ray passes within `slack` (barycentric) of triangle `tri`'s
+ * edges at a t inside its interval: a hit that one rounding may give and
+ * another may not. */
+static bool grazes(const cv_bvh_tri *tri, const cv_ray *ray, float slack) {
+    const float *d = ray->dir, *e1 = tri->e1, *e2 = tri->e2;
+    float p[3] = { d[1] * e2[2] - d[2] * e2[1], d[2] * e2[0] - d[0] * e2[2], d[0] * e2[1] - d[1] * e2[0] };
+    float det = e1[0] * p[0] + e1[1] * p[1] + e1[2] * p[2];
+    if (fabsf(det) < 1e-30f)
+        return false;
+    float s[3] = { ray->origin[0] - tri->v0[0], ray->origin[1] - tri->v0[1], ray->origin[2] - tri->v0[2] };
+    float u = (s[0] * p[0] + s[1] * p[1] + s[2] * p[2]) / det;
+    float q[3] = { s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0] };
+    float v = (d[0] * q[0] + d[1] * q[1] + d[2] * q[2]) / det;
+    float t = (e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) / det;
+    bool inside = u >= -slack && v >= -slack && u + v <= 1.0f + slack;
+    bool near_edge = fabsf(u) <= slack || fabsf(v) <= slack || fabsf(u + v - 1.0f) <= slack;
+    return inside && near_edge && t >= ray->tmin * (1.0f - 1e-4f) && t <= ray->tmax * (1.0f + 1e-4f);
+}
+
+/* Whether any triangle of the scene grazes the ray (brute force; mismatches are rare). */
+static bool any_graze(const cv_bvh *bvh, const cv_ray *ray) {
+    for (uint32_t i = 0; i < bvh->tri_count; i++)
+        if (grazes(&bvh->tris[i], ray, 1e-5f))
+            return true;
+    return false;
+}
+
+/* Hits agree within the tolerance (see the top of this file). */
+static bool within_tolerance(const cv_hit *g, const cv_hit *c, uint32_t flags) {
+    bool g_miss = g->triangle == CV_BVH_INVALID, c_miss = c->triangle == CV_BVH_INVALID;
+    if (g_miss || c_miss || (flags & CV_TRACE_ANY_HIT))
+        return g_miss == c_miss;
+    return g->triangle == c->triangle && g->instance == c->instance && fabsf(g->t - c->t) <= 1e-4f * fabsf(c->t);
+}
+
+/* Traces on the device and on the CPU; returns the number of hits that differ
+ * beyond what this adapter is allowed (bits on lavapipe, tolerance elsewhere). */
 static uint32_t compare(tracer *t, const cv_ray_set *set, uint32_t flags, cv_hit *gpu_hits) {
     uint32_t n = set->count;
     cv_buffer rays = vkt_buffer(t->ctx, t->dev, RAYS_OFFSET + (uint64_t)n * sizeof(cv_ray), 0, "rays");
@@ -43,14 +87,24 @@ static uint32_t compare(tracer *t, const cv_ray_set *set, uint32_t flags, cv_hit
     cv_hit *cpu_hits = malloc((size_t)n * sizeof(cv_hit));
     cv_trace_target target = { .flat = t->bvh, .layout = CV_BVH_LAYOUT_NODE2 };
     CHECK_OK(cv_trace_batch(&target, set->rays, n, flags, 0, cpu_hits));
-    uint32_t differ = 0, hit_count = 0;
+    uint32_t bits = 0, beyond = 0, grazing = 0, hit_count = 0;
     for (uint32_t i = 0; i < n; i++) {
-        differ += memcmp(&gpu_hits[i], &cpu_hits[i], sizeof(cv_hit)) != 0;
         hit_count += cpu_hits[i].triangle != CV_BVH_INVALID;
+        if (memcmp(&gpu_hits[i], &cpu_hits[i], sizeof(cv_hit)) == 0)
+            continue;
+        bits++;
+        if (within_tolerance(&gpu_hits[i], &cpu_hits[i], flags))
+            continue;
+        if (any_graze(t->bvh, &set->rays[i]))
+            grazing++;
+        else
+            beyond++;
     }
-    printf("%-10s flags %u: %u rays, %u hits, %u differ\n", cv_ray_kind_name(set->kind), flags, n, hit_count,
-           differ);
+    printf("%-10s flags %u: %u rays, %u hits, %u differ in bits, %u grazing, %u beyond tolerance\n",
+           cv_ray_kind_name(set->kind), flags, n, hit_count, bits, grazing, beyond);
     CHECK(hit_count > 0);
+    CHECK(grazing * 1000u <= n);
+    uint32_t differ = vkt_is_lavapipe() ? bits : beyond;
     free(cpu_hits);
     CHECK_OK(cv_cmdlist_destroy(t->ctx, list));
     CHECK_OK(cv_buffer_destroy(t->ctx, rays));
@@ -65,7 +119,7 @@ int main(void) {
     CHECK_OK(cv_scene_make_room(7, &scene));
     CHECK_OK(cv_bvh_build_flat(scene, &(cv_bvh_build_options){ .thread_count = 2 }, &bvh));
     CHECK_OK(cv_context_create(NULL, &t.ctx));
-    CHECK_OK(vkt_device(t.ctx, NULL, "trace", &t.dev));
+    CHECK_OK(vkt_device(t.ctx, vkt_adapter(), "trace", &t.dev));
     if (!t.dev || !bvh)
         return check_report("vk_trace");
     t.bvh = bvh;

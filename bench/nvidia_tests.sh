@@ -1,0 +1,17 @@
+# Runs the Vulkan test binaries, the conformance suite and the renderer test on
+# the NVIDIA machine (validation layer on), logging to $OUT/tests.log.
+. bench/nvidia_env.sh
+cd /tmp/corvid/b/bin
+{
+  nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
+  corvid-render --list-adapters
+  pass=0; fail=0
+  for t in vk_* "conformance vulkan" renderer_frames; do
+    echo "== $t"
+    unset CORVID_VIRTUAL_GPUS
+    [ "$t" = vk_virtual_gpu ] && export CORVID_VIRTUAL_GPUS=3
+    if timeout 120 ./$t; then pass=$((pass+1)); else fail=$((fail+1)); fi
+  done
+  echo "binaries: $pass passed, $fail failed"
+} > "$OUT/tests.log" 2>&1
+grep -E "passed|failed|==|NVIDIA" "$OUT/tests.log" | tail -40
