@@ -1,12 +1,14 @@
 // render.composite: shades the G-buffer with the filtered visibility into linear
-// HDR radiance: Lambertian sun light (with soft shadow visibility) plus sky light
+// HDR radiance: Lambertian sun light (with soft shadow visibility), the scene's
+// point lights (Lambertian, inverse-square, unshadowed, scaled by AO), sky light
 // scaled by ambient occlusion, plus emission; the sky color where there is no
 // geometry. Also writes the albedo AOV.
 // Push: { vec4 sun (xyz = unit direction the light travels, w = irradiance);
 //         vec4 sun_color; vec4 sky (rgb radiance); uint width; uint height; uint material_count; uint pad; }.
 // i0: positions, i1: normals (w = material), i2: visibility (RGBA16F),
 // b3: Material { vec4 base_color_roughness; vec4 emission_metalness; }[],
-// i4: radiance out (RGBA32F), i5: albedo out (RGBA32F).
+// i4: radiance out (RGBA32F), i5: albedo out (RGBA32F),
+// b6: PointLight { vec3 position; float intensity; vec3 color; float pad; }[light_count].
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -22,7 +24,7 @@ layout(push_constant, std430) uniform Push {
     uint width;
     uint height;
     uint material_count;
-    uint pad;
+    uint light_count;
 } pc;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
@@ -31,6 +33,14 @@ layout(set = 0, binding = 2, rgba16f) uniform readonly image2D visibility;
 layout(set = 0, binding = 3, std430) readonly buffer Materials { Material materials[]; };
 layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D radiance;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D albedo_out;
+
+struct PointLight {
+    vec3 position;
+    float intensity;
+    vec3 color;
+    float pad;
+};
+layout(set = 0, binding = 6, std430) readonly buffer Lights { PointLight lights[]; };
 
 const float PI = 3.14159265358979;
 
@@ -52,7 +62,14 @@ void main() {
     float n_dot_l = max(dot(nm.xyz, -pc.sun.xyz), 0.0);
     vec3 direct = pc.sun_color.rgb * pc.sun.w * n_dot_l * vis.x / PI;
     vec3 ambient = pc.sky.rgb * vis.y;
-    vec3 color = albedo * (direct + ambient) + m.emission_metalness.rgb;
+    vec3 local = vec3(0.0);
+    for (uint i = 0u; i < pc.light_count; i++) {
+        vec3 to_light = lights[i].position - pos.xyz;
+        float d2 = max(dot(to_light, to_light), 1e-4);
+        float n_dot = max(dot(nm.xyz, to_light * inversesqrt(d2)), 0.0);
+        local += lights[i].color * lights[i].intensity * n_dot / (d2 * PI);
+    }
+    vec3 color = albedo * (direct + ambient + local * vis.y) + m.emission_metalness.rgb;
     imageStore(radiance, p, vec4(color, 1.0));
     imageStore(albedo_out, p, vec4(albedo, 1.0));
 }

@@ -40,7 +40,7 @@ struct cv_renderer {
     uint32_t count;
     const cv_scene *scene;
     render_scene_data data;
-    cv_buffer vertices, materials;
+    cv_buffer vertices, materials, lights;
     cv_accel accel;
     cv_pipeline pipelines[PIPE_COUNT];
     cv_cmdlist lists[CV_RENDER_MAX_DEVICES];
@@ -108,6 +108,9 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
     if (res == CV_OK)
         res = upload_buffer(r, r->data.materials, r->data.material_count * sizeof(render_material), "materials",
                             &r->materials);
+    if (res == CV_OK)
+        res = upload_buffer(r, r->data.lights, (r->data.light_count + 1) * sizeof(render_light), "point lights",
+                            &r->lights);
     /* Immutable scene data goes to every device once (the multicast rule). */
     if (res == CV_OK)
         res = cv_accel_create(r->ctx, &(cv_accel_desc){ .triangle_count = bvh->tri_count,
@@ -159,6 +162,7 @@ void cv_renderer_destroy(cv_renderer *r) {
     destroy_targets(r);
     destroy_handle(r, r->vertices.id);
     destroy_handle(r, r->materials.id);
+    destroy_handle(r, r->lights.id);
     destroy_handle(r, r->accel.id);
     for (int p = 0; p < PIPE_COUNT; p++)
         destroy_handle(r, r->pipelines[p].id);
@@ -314,17 +318,18 @@ static void record_filter_composite(cv_renderer *r, uint32_t iterations, cv_comm
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
     struct {
         float sun[4], sun_color[4], sky[4];
-        uint32_t width, height, material_count, pad;
+        uint32_t width, height, material_count, light_count;
     } push = { { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2], r->data.sun_irradiance },
                { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
-               { 0.35f, 0.45f, 0.6f, 0.0f },
-               r->width, r->height, r->data.material_count, 0 };
-    cv_binding b[6] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
+               { 0.12f, 0.15f, 0.2f, 0.0f },
+               r->width, r->height, r->data.material_count, r->data.light_count };
+    cv_binding b[7] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
                         bind_texture(r->textures[filtered_texture(iterations)]), bind_buffer(r->materials),
-                        bind_texture(r->textures[TEX_RADIANCE]), bind_texture(r->textures[TEX_ALBEDO]) };
+                        bind_texture(r->textures[TEX_RADIANCE]), bind_texture(r->textures[TEX_ALBEDO]),
+                        bind_buffer(r->lights) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "composite" });
     cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
-        .pipeline = r->pipelines[PIPE_COMPOSITE], .bindings = b, .bindings_count = 6, .push = &push,
+        .pipeline = r->pipelines[PIPE_COMPOSITE], .bindings = b, .bindings_count = 7, .push = &push,
         .push_size = sizeof(push), .groups_x = groups(r->width, 8), .groups_y = groups(r->height, 8), .groups_z = 1 });
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }

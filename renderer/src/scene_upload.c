@@ -70,13 +70,24 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
     }
     /* The sun: the scene's first directional light, else a default one. */
     float dir[3] = { -0.3f, -1.0f, -0.2f }, color[3] = { 1.0f, 0.95f, 0.85f }, irradiance = 3.0f;
+    bool have_sun = false;
+    out->lights = calloc(cv_scene_light_count(scene) + 1, sizeof(render_light));
+    if (!out->lights) {
+        render_scene_data_free(out);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: lights");
+    }
     for (uint32_t l = 0; l < cv_scene_light_count(scene); l++) {
         const cv_light *light = cv_scene_light(scene, l);
-        if (light->type == CV_LIGHT_DIRECTIONAL) {
+        if (light->type == CV_LIGHT_DIRECTIONAL && !have_sun) {
             memcpy(dir, light->direction, sizeof(dir));
             memcpy(color, light->color, sizeof(color));
             irradiance = light->intensity;
-            break;
+            have_sun = true;
+        } else if (light->type == CV_LIGHT_POINT) {
+            render_light *rl = &out->lights[out->light_count++];
+            memcpy(rl->position, light->position, sizeof(rl->position));
+            memcpy(rl->color, light->color, sizeof(rl->color));
+            rl->intensity = light->intensity;
         }
     }
     float len = sqrtf(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
@@ -96,5 +107,6 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
 void render_scene_data_free(render_scene_data *d) {
     free(d->vertices);
     free(d->materials);
+    free(d->lights);
     memset(d, 0, sizeof(*d));
 }

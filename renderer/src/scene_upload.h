@@ -20,11 +20,21 @@ typedef struct render_material {
     float emission_metalness[4];
 } render_material;
 
+/* Matches render_composite.comp's PointLight (32 bytes, std430). */
+typedef struct render_light {
+    float position[3];
+    float intensity;
+    float color[3];
+    float pad;
+} render_light;
+
 typedef struct render_scene_data {
     render_vertex *vertices;
     uint64_t vertex_count;
     render_material *materials;
     uint32_t material_count;
+    render_light *lights;       /* point lights; at least one entry (intensity 0 if none) */
+    uint32_t light_count;       /* real point lights */
     float sun_direction[3];     /* unit, the way light travels */
     float sun_color[3];
     float sun_irradiance;
