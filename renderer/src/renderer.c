@@ -470,6 +470,11 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
             submit_ms[d] = now_ms();
             if (res == CV_OK) res = run_list(r->devices[d], r->lists[d], &tickets[d]);
         }
+        /* Isolated to isolated: each secondary's visibility columns go back to the
+         * primary as soon as that secondary finishes, while the others still trace. */
+        cv_mgpu_copy_plan plan = { 0 };
+        if (res == CV_OK)
+            res = cv_mgpu_plan_copies(&part, 0, CV_MGPU_ALL_DEVICES, CV_MGPU_ISOLATED_TO_ISOLATED, &plan);
         double ms[CV_PARTITION_MAX_DEVICES] = { 0 };
         for (uint32_t d = 0; d < r->count && res == CV_OK; d++) {
             if (!tickets[d])
@@ -482,18 +487,16 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
             st.devices[d] = (cv_render_device_stats){ .columns = part.ranges[d], .rays = rays, .trace_ms = ms[d],
                                                       .ms_per_column = ms[d] / part.ranges[d].width };
             st.rays_total += rays;
-        }
-        /* Isolated to isolated: each secondary's visibility columns back to the primary. */
-        cv_mgpu_copy_plan plan;
-        if (res == CV_OK)
-            res = cv_mgpu_plan_copies(&part, 0, CV_MGPU_ALL_DEVICES, CV_MGPU_ISOLATED_TO_ISOLATED, &plan);
-        for (uint32_t c = 0; c < plan.count && res == CV_OK; c++) {
-            const cv_mgpu_copy *cp = &plan.copies[c];
-            cv_rect cols = { cp->columns.x, 0, cp->columns.width, r->height };
-            res = cv_transfer_texture(r->devices[cp->src_device], r->textures[TEX_VISIBILITY], cols,
-                                      r->devices[cp->dst_device], r->textures[TEX_VISIBILITY], cols.x, 0, &ts);
-            st.transfer_bytes += ts.bytes;
-            st.transfer_ms += ts.total_ms;
+            for (uint32_t c = 0; c < plan.count && res == CV_OK; c++) {
+                const cv_mgpu_copy *cp = &plan.copies[c];
+                if (cp->src_device != d)
+                    continue;
+                cv_rect cols = { cp->columns.x, 0, cp->columns.width, r->height };
+                res = cv_transfer_texture(r->devices[d], r->textures[TEX_VISIBILITY], cols,
+                                          r->devices[cp->dst_device], r->textures[TEX_VISIBILITY], cols.x, 0, &ts);
+                st.transfer_bytes += ts.bytes;
+                st.transfer_ms += ts.total_ms;
+            }
         }
         if (res == CV_OK) res = begin(r, 0, &l);
         if (res == CV_OK) {

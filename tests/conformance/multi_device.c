@@ -1,6 +1,7 @@
 /* Several devices of one backend in one context: cross-device transfers, and
  * parallel recording and submission from several threads. */
 #include <pthread.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "check.h"
@@ -62,6 +63,41 @@ void conformance_transfers(const fixture *fx) {
     CHECK_RESULT(cv_transfer_texture(a, tex, (cv_rect){ 0, 0, 8, 8 }, b, tex_f, 0, 0, NULL), CV_ERROR_FORMAT_MISMATCH);
     CHECK_RESULT(cv_transfer_texture(a, tex, (cv_rect){ 28, 0, 8, 8 }, b, tex, 0, 0, NULL), CV_ERROR_OUT_OF_RANGE);
     CHECK_RESULT(cv_transfer_buffer(a, buf, 4000, b, buf, 0, 200, NULL), CV_ERROR_OUT_OF_RANGE);
+    /* Transfers larger than one staging chunk (4 MiB) are pipelined in pieces. */
+    const uint64_t big = 9u << 20;
+    cv_buffer large;
+    cv_texture tall;
+    CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = big, .label = "large" }, &large));
+    CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = 1024, .height = 1100, .format = CV_FORMAT_RGBA32F,
+                                                       .label = "tall" }, &tall));
+    CHECK_OK(cv_device_load(a, cv_any(large)));
+    CHECK_OK(cv_device_load(b, cv_any(large)));
+    CHECK_OK(cv_device_load(a, cv_any(tall)));
+    CHECK_OK(cv_device_load(b, cv_any(tall)));
+    uint32_t *words = malloc(big), *back_words = calloc(1, big);
+    for (uint64_t i = 0; words && i < big / 4; i++)
+        words[i] = (uint32_t)(i * 2654435761u);
+    if (words && back_words) {
+        CHECK_OK(cv_device_write_buffer(a, large, 0, big, words));
+        CHECK_OK(cv_device_write_buffer(b, large, 0, big, back_words));
+        CHECK_OK(cv_transfer_buffer(a, large, 4, b, large, 0, big - 8, &st));
+        CHECK_EQ_INT(st.bytes, big - 8);
+        CHECK_OK(cv_device_read_buffer(b, large, 0, big, back_words));
+        CHECK(memcmp(back_words, words + 1, big - 8) == 0);
+        CHECK(back_words[big / 4 - 1] == 0 && back_words[big / 4 - 2] == 0);
+        /* 1024 x 1100 float4 texels = 18 MB: 5 row bands; copy rows 3..1099 to rows 0..1096. */
+        CHECK_OK(cv_device_write_texture(a, tall, (cv_rect){ 0, 0, 1024, 256 }, words));
+        CHECK_OK(cv_device_write_texture(a, tall, (cv_rect){ 0, 256, 1024, 144 }, words));
+        CHECK_OK(cv_transfer_texture(a, tall, (cv_rect){ 0, 3, 1024, 1097 }, b, tall, 0, 0, &st));
+        CHECK_EQ_INT(st.bytes, 1024ull * 1097 * 16);
+        CHECK(st.read_ms >= 0 && st.write_ms >= 0 && st.total_ms >= 0);
+        CHECK_OK(cv_device_read_texture(b, tall, (cv_rect){ 0, 0, 1024, 2 }, back_words));
+        CHECK(memcmp(back_words, words + 3 * 1024 * 4, 2 * 1024 * 16) == 0);
+        CHECK_OK(cv_device_read_texture(b, tall, (cv_rect){ 0, 253, 1024, 1 }, back_words));
+        CHECK(memcmp(back_words, words, 1024 * 16) == 0);   /* source row 256 = words row 0 */
+    }
+    free(words);
+    free(back_words);
     /* Unloading on one device leaves the other's representation alone. */
     CHECK_OK(cv_device_unload(a, cv_any(buf)));
     CHECK(cv_device_has(b, cv_any(buf)));
