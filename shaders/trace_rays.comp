@@ -6,48 +6,36 @@
 // `precise` so no multiply-add is fused and the arithmetic rounds as C's does.
 // Malformed links (an interior child not after its parent, a leaf beyond the
 // triangles) are treated as empty rather than followed.
-// Push constants: { uint count; uint flags; uint node_count; uint triangle_count; }
-// Bindings: 0 nodes, 1 triangles, 2 rays (read), 3 hits (written).
+//
+// Nodes and triangles are read as 64-bit words (a node is two u64vec4, a
+// triangle three u64vec2) and unpacked: the same bits, in half the loads. On
+// lavapipe every per-lane load is a gather, and a gather of 64-bit words moves
+// twice the data of a 32-bit one for about the same cost (docs/trace-performance.md).
+// Needs shaderInt64.
+// Push constants: buffer addresses of the nodes, triangles, rays (read) and
+// hits (written), then { uint count; uint flags; uint node_count; uint triangle_count; }.
 // Dispatch: 64 rays per group, groups laid out as x + y * num_groups_x.
 #version 460
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#include "trace_layout.glsl"
 layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
 
-struct Node2 {
-    vec3 a_min; uint a_link;
-    vec3 a_max; uint a_count;
-    vec3 b_min; uint b_link;
-    vec3 b_max; uint b_count;
-};
-struct Tri {
-    vec3 v0; uint prim;
-    vec3 e1; uint instance;
-    vec3 e2; uint pad;
-};
-struct Ray {
-    vec3 origin; float tmin;
-    vec3 dir; float tmax;
-};
-struct Hit {
-    float t; float u; float v;
-    uint triangle; uint instance;
-};
-
-layout(set = 0, binding = 0, std430) readonly buffer Nodes { Node2 nodes[]; };
-layout(set = 0, binding = 1, std430) readonly buffer Tris { Tri tris[]; };
-layout(set = 0, binding = 2, std430) readonly buffer Rays { Ray rays[]; };
-layout(set = 0, binding = 3, std430) writeonly buffer Hits { Hit hits[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer NodeWords { u64vec4 q[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer TriWords { u64vec2 q[]; };
 
 layout(push_constant, std430) uniform Push {
+    NodeWords nodes;
+    TriWords tris;
+    RayArray rays;
+    HitArray hits;
     uint count;
     uint flags;
     uint node_count;
     uint triangle_count;
 } pc;
 
-const uint ANY_HIT = 1u;
-const uint CULL_BACK_FACES = 2u;
 const uint LEAF_BIT = 0x80000000u;
-const uint INVALID = 0xFFFFFFFFu;
 const float DET_EPSILON = 1e-24;
 const float MIN_DIR = 1e-20;
 const float TFAR_SCALE = 1.00000036;
@@ -58,6 +46,23 @@ float tmin, tmax;
 bool cull, any_hit;
 uint best_tri;
 float best_t, best_u, best_v;
+
+// The two 32-bit halves of a little-endian word: its first and second member.
+float lo(uint64_t w) { return uintBitsToFloat(uint(w)); }
+float hi(uint64_t w) { return uintBitsToFloat(uint(w >> 32)); }
+uint hi_u(uint64_t w) { return uint(w >> 32); }
+
+Node2 load_node(uint i) {
+    u64vec4 q0 = pc.nodes.q[2u * i], q1 = pc.nodes.q[2u * i + 1u];
+    return Node2(vec3(lo(q0.x), hi(q0.x), lo(q0.y)), hi_u(q0.y), vec3(lo(q0.z), hi(q0.z), lo(q0.w)), hi_u(q0.w),
+                 vec3(lo(q1.x), hi(q1.x), lo(q1.y)), hi_u(q1.y), vec3(lo(q1.z), hi(q1.z), lo(q1.w)), hi_u(q1.w));
+}
+
+Tri load_triangle(uint i) {
+    u64vec2 w0 = pc.tris.q[3u * i], w1 = pc.tris.q[3u * i + 1u], w2 = pc.tris.q[3u * i + 2u];
+    return Tri(vec3(lo(w0.x), hi(w0.x), lo(w0.y)), hi_u(w0.y), vec3(lo(w1.x), hi(w1.x), lo(w1.y)), hi_u(w1.y),
+               vec3(lo(w2.x), hi(w2.x), lo(w2.y)), hi_u(w2.y));
+}
 
 // C's `a < b ? a : b` and `a > b ? a : b` (GLSL min/max differ on NaN).
 float fmin_(float a, float b) { return a < b ? a : b; }
@@ -75,7 +80,8 @@ bool box_hit(vec3 bmin, vec3 bmax, out float tnear) {
 }
 
 bool tri_hit(uint k, out float t_out, out float u_out, out float v_out) {
-    vec3 v0 = tris[k].v0, e1 = tris[k].e1, e2 = tris[k].e2;
+    Tri tri = load_triangle(k);
+    vec3 v0 = tri.v0, e1 = tri.e1, e2 = tri.e2;
     precise vec3 p = vec3(d.y * e2.z - d.z * e2.y, d.z * e2.x - d.x * e2.z, d.x * e2.y - d.y * e2.x);
     precise float det = e1.x * p.x + e1.y * p.y + e1.z * p.z;
     t_out = 0.0;
@@ -129,7 +135,7 @@ void traverse() {
     float stack_tnear[STACK_SIZE];
     uint top = 0u, node = 0u;
     for (;;) {
-        Node2 n = nodes[node];
+        Node2 n = load_node(node);
         float ta, tb;
         bool ha = box_hit(n.a_min, n.a_max, ta);
         bool hb = box_hit(n.b_min, n.b_max, tb);
@@ -175,7 +181,7 @@ void main() {
              gl_LocalInvocationID.x;
     if (i >= pc.count)
         return;
-    Ray ray = rays[i];
+    Ray ray = pc.rays.rays[i];
     o = ray.origin;
     d = ray.dir;
     for (int k = 0; k < 3; k++) {
@@ -186,24 +192,15 @@ void main() {
     }
     tmin = ray.tmin;
     tmax = ray.tmax;
-    cull = (pc.flags & CULL_BACK_FACES) != 0u;
-    any_hit = (pc.flags & ANY_HIT) != 0u;
-    best_tri = INVALID;
+    cull = (pc.flags & TRACE_CULL_BACK_FACES) != 0u;
+    any_hit = (pc.flags & TRACE_ANY_HIT) != 0u;
+    best_tri = TRACE_INVALID;
     if (pc.node_count > 0u)
         traverse();
-    Hit h;
-    if (best_tri == INVALID) {
-        h.t = uintBitsToFloat(0x7F800000u);
-        h.u = 0.0;
-        h.v = 0.0;
-        h.triangle = INVALID;
-        h.instance = INVALID;
-    } else {
-        h.t = best_t;
-        h.u = best_u;
-        h.v = best_v;
-        h.triangle = tris[best_tri].prim;
-        h.instance = tris[best_tri].instance;
+    Hit h = trace_miss();
+    if (best_tri != TRACE_INVALID) {
+        Tri tri = load_triangle(best_tri);
+        h = Hit(best_t, best_u, best_v, tri.prim, tri.instance);
     }
-    hits[i] = h;
+    pc.hits.hits[i] = h;
 }

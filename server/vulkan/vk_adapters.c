@@ -106,6 +106,8 @@ static void describe(vk_adapter *a, uint32_t index) {
         missing = "synchronization2";
     else if (!f12.timelineSemaphore)
         missing = "timelineSemaphore";
+    else if (!f12.bufferDeviceAddress)
+        missing = "bufferDeviceAddress";
     else if (a->graphics_family == VK_NO_FAMILY)
         missing = "a graphics+compute queue family";
     info->usable = missing == NULL;

@@ -26,7 +26,7 @@ typedef struct compiler {
     const vk_pipeline *pushed_for[2];      /* pipeline whose bindings were pushed last */
     cv_binding pushed[2][CV_MAX_BINDINGS];
     bool in_render_pass;
-    const vk_pipeline *trace;              /* built before recording when the list traces rays */
+    cv_vulkan_trace_path trace_path;       /* chosen before recording when the list traces rays */
 } compiler;
 
 /* ---- lookups (the list was validated: every handle is loaded and typed) --------- */
@@ -148,50 +148,17 @@ static void record_dispatch_indirect(compiler *c, const cv_dispatch_indirect_cmd
     vkCmdDispatchIndirect(c->cmd, args->buffer, d->args_offset);
 }
 
-/* The accel's triangle buffer is tracked under a key no handle can have (type
- * bits 0x80 and up), derived from the accel's handle; its node buffer under the
- * handle itself. */
-static uint64_t triangles_key(uint64_t accel) { return accel | (0x80ull << 56); }
-
 static void record_trace_rays(compiler *c, const cv_trace_rays_cmd *d) {
-    const vk_accel *a = object_of(c, d->accel.id);
-    const vk_buffer *rays = object_of(c, d->rays.id), *hits = object_of(c, d->hits.id);
-    vk_tracker_use(&c->tracker, &(vk_use){ .id = d->accel.id, .buffer = a->nodes->buffer,
-                                           .stages = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                                           .reads = VK_ACCESS_2_SHADER_STORAGE_READ_BIT });
-    vk_tracker_use(&c->tracker, &(vk_use){ .id = triangles_key(d->accel.id), .buffer = a->triangles->buffer,
-                                           .stages = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                                           .reads = VK_ACCESS_2_SHADER_STORAGE_READ_BIT });
-    use_buffer(c, d->rays.id, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT, 0);
-    use_buffer(c, d->hits.id, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, 0, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-    vk_tracker_apply(&c->tracker, c->cmd);
-
-    const vk_pipeline *p = c->trace;
-    if (c->bound[0] != p) {
-        vkCmdBindPipeline(c->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p->pipeline);
-        c->bound[0] = p;
-    }
-    VkDescriptorBufferInfo buffers[4] = {
-        { a->nodes->buffer, 0, VK_WHOLE_SIZE },
-        { a->triangles->buffer, 0, VK_WHOLE_SIZE },
-        { rays->buffer, d->rays_offset, (VkDeviceSize)d->count * CV_RAY_BYTES },
-        { hits->buffer, d->hits_offset, (VkDeviceSize)d->count * CV_HIT_BYTES },
+    vk_trace_job job = {
+        .accel = object_of(c, d->accel.id), .accel_key = d->accel.id,
+        .rays = object_of(c, d->rays.id), .rays_key = d->rays.id, .rays_offset = d->rays_offset,
+        .hits = object_of(c, d->hits.id), .hits_key = d->hits.id, .hits_offset = d->hits_offset,
+        .count = d->count, .flags = d->flags,
     };
-    VkWriteDescriptorSet writes[4];
-    for (uint32_t i = 0; i < 4; i++)
-        writes[i] = (VkWriteDescriptorSet){ .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstBinding = i,
-                                            .descriptorCount = 1,
-                                            .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                                            .pBufferInfo = &buffers[i] };
-    c->bd->cmd_push_descriptor_set(c->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p->layout, 0, 4, writes);
-    c->pushed_for[0] = NULL;   /* these bindings are not a command's: the next dispatch pushes its own */
-    vk_trace_push push = { d->count, d->flags, a->node_count, a->triangle_count };
-    vkCmdPushConstants(c->cmd, p->layout, p->stages, 0, sizeof(push), &push);
-    /* Group counts beyond the x limit spill into y; the kernel linearises them. */
-    uint32_t groups = (d->count + VK_TRACE_GROUP_SIZE - 1) / VK_TRACE_GROUP_SIZE;
-    uint32_t max_x = c->bd->limits.maxComputeWorkGroupCount[0];
-    uint32_t x = groups < max_x ? groups : max_x;
-    vkCmdDispatch(c->cmd, x, (groups + x - 1) / x, 1);
+    vk_trace_record(c->bd, c->trace_path, &c->tracker, c->cmd, &job);
+    /* It bound a pipeline of its own: the next dispatch binds and pushes again. */
+    c->bound[0] = NULL;
+    c->pushed_for[0] = NULL;
 }
 
 static void use_attachment(compiler *c, uint64_t id, bool depth, bool clear) {
@@ -597,6 +564,26 @@ static cv_result compile(compiler *c, const uint8_t *slots) {
     return r;
 }
 
+/* A list that traces rays is recorded for one trace path, chosen and made
+ * ready (pipeline, accel structures) before recording. */
+static cv_result prepare_traces(compiler *c) {
+    uint32_t count = 0;
+    for (uint32_t i = 0; i < c->list->count; i++)
+        count += c->list->commands[i].type == CV_CMD_TRACE_RAYS;
+    if (count == 0)
+        return CV_OK;
+    vk_accel **accels = malloc(count * sizeof(*accels));
+    if (!accels)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: %u traced accels", count);
+    count = 0;
+    for (uint32_t i = 0; i < c->list->count; i++)
+        if (c->list->commands[i].type == CV_CMD_TRACE_RAYS)
+            accels[count++] = object_of(c, c->list->commands[i].u.trace_rays.accel.id);
+    cv_result r = vk_trace_prepare(c->bd, accels, count, &c->trace_path);
+    free(accels);
+    return r;
+}
+
 cv_result vk_compile_list(cv_backend_device *bd, cv_device *dev, const cv_command_list *list, vk_compiled **out) {
     vk_compiled *compiled = calloc(1, sizeof(*compiled));
     if (!compiled)
@@ -604,10 +591,7 @@ cv_result vk_compile_list(cv_backend_device *bd, cv_device *dev, const cv_comman
     compiler c = { .bd = bd, .dev = dev, .list = list, .out = compiled };
     vk_tracker_init(&c.tracker);
     uint8_t *slots = NULL;
-    cv_result r = CV_OK;
-    for (uint32_t i = 0; i < list->count && r == CV_OK && !c.trace; i++)
-        if (list->commands[i].type == CV_CMD_TRACE_RAYS)
-            r = vk_trace_pipeline(bd, &c.trace);
+    cv_result r = prepare_traces(&c);
     if (r == CV_OK)
         r = plan_slots(&c, &slots);
     if (r == CV_OK)

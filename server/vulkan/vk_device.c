@@ -8,6 +8,7 @@
 #include "vk_device.h"
 #include "vk_immediate.h"
 #include "vk_trace.h"
+#include "vk_trace_rt.h"
 
 static cv_result pick_adapter(vk_instance *inst, const char *spec, vk_adapter *out) {
     vk_adapter *adapters;
@@ -45,8 +46,20 @@ static cv_result create_vk_device(cv_backend_device *bd) {
     VkPhysicalDeviceFeatures2 have = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &have12 };
     vkGetPhysicalDeviceFeatures2(a->physical, &have);
 
+    /* The driver's ray-tracing path, where offered (vk_trace_rt.h). */
+    bd->ray_tracing = vk_rt_offered(a->physical);
+    VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt_pipeline = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR,
+        .rayTracingPipeline = VK_TRUE,
+    };
+    VkPhysicalDeviceAccelerationStructureFeaturesKHR rt_accel = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR,
+        .pNext = &rt_pipeline,
+        .accelerationStructure = VK_TRUE,
+    };
     VkPhysicalDeviceVulkan13Features f13 = {
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES,
+        .pNext = bd->ray_tracing ? &rt_accel : NULL,
         .dynamicRendering = VK_TRUE,
         .synchronization2 = VK_TRUE,
         .maintenance4 = have13.maintenance4,
@@ -55,6 +68,7 @@ static cv_result create_vk_device(cv_backend_device *bd) {
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES,
         .pNext = &f13,
         .timelineSemaphore = VK_TRUE,
+        .bufferDeviceAddress = VK_TRUE,
         .scalarBlockLayout = have12.scalarBlockLayout,
     };
     VkPhysicalDeviceFeatures2 features = {
@@ -68,13 +82,16 @@ static cv_result create_vk_device(cv_backend_device *bd) {
             .fragmentStoresAndAtomics = have.features.fragmentStoresAndAtomics,
         },
     };
-    const char *extensions[] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
+    const char *extensions[1 + VK_RT_EXTENSION_COUNT] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
+    uint32_t extension_count = 1;
+    for (uint32_t i = 0; bd->ray_tracing && i < VK_RT_EXTENSION_COUNT; i++)
+        extensions[extension_count++] = vk_rt_extensions[i];
     VkDeviceCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
         .pNext = &features,
         .queueCreateInfoCount = queue_count,
         .pQueueCreateInfos = queue_infos,
-        .enabledExtensionCount = 1,
+        .enabledExtensionCount = extension_count,
         .ppEnabledExtensionNames = extensions,
     };
     VkResult vr = vkCreateDevice(a->physical, &info, NULL, &bd->device);
@@ -134,7 +151,8 @@ static void fill_info(const cv_backend_device *bd, cv_device_info *info) {
     info->device_id = a->device_id;
     info->separate_compute_queue = bd->queues[VK_SLOT_COMPUTE].present;
     info->separate_copy_queue = bd->queues[VK_SLOT_COPY].present;
-    info->ray_tracing_pipeline = a->ray_tracing_pipeline;
+    info->ray_tracing_pipeline = bd->ray_tracing;
+    snprintf(info->trace_path, sizeof(info->trace_path), "%s", cv_vulkan_trace_path_name(vk_trace_path_now(bd)));
     info->gpu_timestamps = bd->queues[VK_SLOT_GRAPHICS].timestamp_mask != 0 && bd->timestamp_period_ns > 0;
     info->max_storage_buffer_range = bd->limits.maxStorageBufferRange;
     for (int i = 0; i < 3; i++)
@@ -164,12 +182,15 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     }
     if (r == CV_OK) {
         vk_memory_init(&bd->memory, bd->device, bd->adapter.physical);
+        bd->memory.device_address = true;
         r = vk_device_create_timeline(bd, &bd->ticket, "ticket");
     }
     if (r == CV_OK)
         r = vk_device_create_timeline(bd, &bd->chain, "segment chain");
     if (r == CV_OK)
         r = vk_immediate_init(bd);
+    if (r == CV_OK)
+        r = vk_trace_init(bd);
     if (r != CV_OK) {
         vk_device_destroy(bd);
         return r;

@@ -16,6 +16,7 @@
 
 typedef struct vk_texture vk_texture;
 typedef struct vk_pipeline vk_pipeline;
+typedef struct vk_tracer vk_tracer;
 
 /* Hardware queues a device may use; command queue types map onto these. */
 typedef enum vk_queue_slot {
@@ -56,7 +57,8 @@ struct cv_backend_device {
     uint32_t pending_count, pending_capacity;
 
     vk_memory memory;
-    vk_pipeline *trace_pipeline;     /* built on the first trace_rays (vk_trace.h) */
+    bool ray_tracing;                /* VK_KHR_ray_tracing_pipeline and acceleration structures enabled */
+    vk_tracer *tracer;               /* the trace paths and the choice between them (vk_trace.h) */
     PFN_vkCmdPushDescriptorSetKHR cmd_push_descriptor_set;
     double timestamp_period_ns;
     char label[CV_LABEL_MAX];

@@ -87,13 +87,17 @@ static uint32_t choose_type(const vk_memory *m, uint32_t allowed, VkMemoryProper
     return best;
 }
 
-static cv_result block_create(vk_memory *m, uint32_t type, VkDeviceSize size, bool dedicated, const char *what,
-                              vk_block **out) {
+static cv_result block_create(vk_memory *m, uint32_t type, vk_memory_kind kind, VkDeviceSize size, bool dedicated,
+                              const char *what, vk_block **out) {
     vk_block *b = calloc(1, sizeof(*b));
     if (!b)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: memory block for %s", what);
-    VkMemoryAllocateInfo info = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO, .allocationSize = size,
-                                  .memoryTypeIndex = type };
+    /* Buffers in linear blocks may be read through device addresses (trace kernels, acceleration structures). */
+    VkMemoryAllocateFlagsInfo flags = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO,
+                                        .flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT };
+    VkMemoryAllocateInfo info = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
+                                  .pNext = m->device_address && kind == VK_MEMORY_LINEAR ? &flags : NULL,
+                                  .allocationSize = size, .memoryTypeIndex = type };
     VkResult vr = vkAllocateMemory(m->device, &info, NULL, &b->memory);
     if (vr != VK_SUCCESS) {
         free(b);
@@ -215,7 +219,7 @@ cv_result vk_memory_alloc(vk_memory *m, const VkMemoryRequirements *req, VkMemor
                 break;
     cv_result r = CV_OK;
     if (!block) {
-        r = block_create(m, type, dedicated ? req->size : m->block_size, dedicated, what, &block);
+        r = block_create(m, type, kind, dedicated ? req->size : m->block_size, dedicated, what, &block);
         if (r == CV_OK && !block_take(block, req->size, alignment, &offset)) {
             block_destroy(m, block);
             r = cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: %llu bytes for %s", (unsigned long long)req->size, what);

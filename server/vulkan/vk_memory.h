@@ -27,6 +27,8 @@ typedef struct vk_memory {
     VkPhysicalDeviceMemoryProperties properties;
     VkDeviceSize block_size;
     VkDeviceSize atom;         /* nonCoherentAtomSize */
+    bool device_address;       /* linear blocks allocated with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT
+                                  (set when the device enables bufferDeviceAddress) */
     pthread_mutex_t lock;
     vk_block *blocks[VK_MAX_MEMORY_TYPES][2];   /* per type and kind, linked */
     uint32_t block_count, allocation_count;

@@ -26,7 +26,7 @@ VkFormat vk_format_of(cv_format f) {
 static VkBufferUsageFlags buffer_usage(uint32_t usage) {
     VkBufferUsageFlags u = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     if (usage & CV_BUFFER_USAGE_STORAGE)
-        u |= VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+        u |= VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
     if (usage & CV_BUFFER_USAGE_UNIFORM)
         u |= VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT;
     if (usage & CV_BUFFER_USAGE_INDEX)
@@ -74,6 +74,10 @@ cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk
         return r;
     }
     b->size = desc->size;
+    if (info.usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) {
+        VkBufferDeviceAddressInfo where = { .sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO, .buffer = b->buffer };
+        b->address = vkGetBufferDeviceAddress(bd->device, &where);
+    }
     vk_device_name(bd, VK_OBJECT_TYPE_BUFFER, (uint64_t)b->buffer, desc->label);
     atomic_fetch_add(&bd->buffers, 1u);
     *out = b;

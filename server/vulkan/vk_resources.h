@@ -8,6 +8,7 @@ typedef struct vk_buffer {
     VkBuffer buffer;
     vk_allocation memory;
     VkDeviceSize size;
+    VkDeviceAddress address;     /* storage buffers: where kernels find it (trace_rays); else 0 */
 } vk_buffer;
 
 struct vk_texture {

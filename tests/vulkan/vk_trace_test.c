@@ -123,6 +123,8 @@ int main(void) {
     if (!t.dev || !bvh)
         return check_report("vk_trace");
     t.bvh = bvh;
+    /* This test is about Corvid's own kernel; tests/trace covers both paths. */
+    CHECK_OK(cv_vulkan_set_trace_path(t.dev, CV_VULKAN_TRACE_COMPUTE));
     cv_accel_desc desc = { .triangle_count = bvh->tri_count, .node_count = bvh->node2_count, .label = "room" };
     CHECK_OK(cv_accel_create(t.ctx, &desc, &t.accel));
     CHECK_OK(cv_device_load(t.dev, cv_any(t.accel)));

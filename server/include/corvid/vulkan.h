@@ -14,7 +14,7 @@
  * (cv_vulkan_gpu_args) or the environment variable CORVID_VIRTUAL_GPUS.
  *
  * Requirements on an adapter: Vulkan 1.3 (dynamic rendering, synchronization2,
- * timeline semaphores) and VK_KHR_push_descriptor. */
+ * timeline semaphores, buffer device addresses) and VK_KHR_push_descriptor. */
 #ifndef CORVID_VULKAN_H
 #define CORVID_VULKAN_H
 
@@ -92,6 +92,47 @@ typedef struct cv_vulkan_memory_stats {
 cv_result cv_vulkan_get_memory_stats(cv_device *dev, cv_vulkan_memory_stats *out);
 /* VkDeviceMemory objects alive in the process, over all Vulkan devices. */
 uint32_t cv_vulkan_live_memory_blocks(void);
+
+/* ---- trace paths ------------------------------------------------------------ */
+
+/* The trace_rays command runs on one of two paths, which report the same hits
+ * (tests/trace checks both against the CPU reference):
+ *   COMPUTE   Corvid's own BVH traversal in a compute shader (every device);
+ *   PIPELINE  the driver's VK_KHR_ray_tracing_pipeline on acceleration
+ *             structures it builds from the same triangles (where the adapter
+ *             offers it: NVIDIA, Mesa 25 lavapipe).
+ * In AUTO mode (the default) the first accel write on an adapter measures both
+ * paths on rays between that accel's own triangles and keeps the faster; every
+ * device of the adapter in this process then uses that choice, so virtual GPUs
+ * of one adapter always agree. CORVID_TRACE_PATH=compute|pipeline|auto at device
+ * creation, or cv_vulkan_set_trace_path, overrides it. A list traces on the path
+ * in use when it is compiled (a later accel write recompiles it).
+ * cv_device_info.trace_path is the path at device creation ("compute" in AUTO
+ * mode until measured); cv_vulkan_get_trace_status gives the current one. */
+typedef enum cv_vulkan_trace_path {
+    CV_VULKAN_TRACE_AUTO = 0,
+    CV_VULKAN_TRACE_COMPUTE = 1,
+    CV_VULKAN_TRACE_PIPELINE = 2,
+} cv_vulkan_trace_path;
+
+/* "auto", "compute", "pipeline" ("unknown" out of range). */
+const char *cv_vulkan_trace_path_name(cv_vulkan_trace_path path);
+
+typedef struct cv_vulkan_trace_status {
+    cv_vulkan_trace_path mode;          /* what was asked: AUTO, COMPUTE or PIPELINE */
+    cv_vulkan_trace_path path;          /* what lists compiled now use: COMPUTE or PIPELINE */
+    bool pipeline_offered;              /* the adapter has the ray-tracing pipeline */
+    bool measured;                      /* AUTO: the adapter's paths were measured */
+    uint32_t measured_rays;             /* rays per measurement (each path, closest and any hit) */
+    double compute_mrays, pipeline_mrays;   /* measured million rays per second */
+} cv_vulkan_trace_status;
+
+/* CV_ERROR_INVALID_ARGUMENT for NULL or another backend's device. */
+cv_result cv_vulkan_get_trace_status(cv_device *dev, cv_vulkan_trace_status *out);
+/* Sets the mode for lists compiled from now on. PIPELINE on a device without
+ * the ray-tracing pipeline fails with CV_ERROR_UNSUPPORTED and changes nothing.
+ * AUTO uses the adapter's measurement, or measures at the next accel write. */
+cv_result cv_vulkan_set_trace_path(cv_device *dev, cv_vulkan_trace_path mode);
 
 /* ---- virtual GPU table ---------------------------------------------------- */
 
