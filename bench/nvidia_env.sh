@@ -10,3 +10,7 @@ export XDG_RUNTIME_DIR=/tmp CORVID_TEST_ADAPTER=NVIDIA
 mkdir -p /tmp/corvid && tar -C /tmp/corvid -xzf .carry/b.tar.gz
 export LD_LIBRARY_PATH=/tmp/corvid/b/lib
 export PATH=/tmp/corvid/b/bin:$PATH
+# The assimp test models the trace test and benchmark read (Debian's assimp-testmodels paths).
+mkdir -p /usr/share/assimp/models/OBJ /usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary
+cp /tmp/corvid/b/models/spider.obj /usr/share/assimp/models/OBJ/
+cp /tmp/corvid/b/models/2CylinderEngine.glb /usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/
