@@ -6,7 +6,7 @@ cd /tmp/corvid/b/bin
   nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
   corvid-render --list-adapters
   pass=0; fail=0
-  for t in vk_* "conformance vulkan" renderer_frames; do
+  for t in vk_* "conformance vulkan" renderer_frames trace_paths; do
     echo "== $t"
     unset CORVID_VIRTUAL_GPUS
     [ "$t" = vk_virtual_gpu ] && export CORVID_VIRTUAL_GPUS=3
