@@ -34,7 +34,6 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
         [CV_HANDLE_SAMPLER] = d.max_samplers ? d.max_samplers : 4096,
         [CV_HANDLE_PIPELINE] = d.max_pipelines ? d.max_pipelines : 4096,
         [CV_HANDLE_CMDLIST] = d.max_cmdlists ? d.max_cmdlists : 4096,
-        [CV_HANDLE_FENCE] = 4096,
         [CV_HANDLE_ACCEL] = d.max_accels ? d.max_accels : 4096,
     };
     cv_context *ctx = calloc(1, sizeof(*ctx));

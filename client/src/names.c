@@ -9,7 +9,7 @@ const char *cv_handle_type_name(cv_handle_type type) {
         [CV_HANDLE_NONE] = "none",         [CV_HANDLE_BUFFER] = "buffer",
         [CV_HANDLE_TEXTURE] = "texture",   [CV_HANDLE_SAMPLER] = "sampler",
         [CV_HANDLE_PIPELINE] = "pipeline", [CV_HANDLE_CMDLIST] = "command list",
-        [CV_HANDLE_FENCE] = "fence",       [CV_HANDLE_ACCEL] = "acceleration structure",
+        [CV_HANDLE_ACCEL] = "acceleration structure",
     };
     return (unsigned)type < CV_HANDLE_TYPE_COUNT ? names[type] : "invalid";
 }

@@ -14,7 +14,10 @@
  * give distinct errors. Lookup is an array index plus a compare (O(1)).
  *
  * One handle, many representations: every cv_device keeps its own object for a
- * handle, loaded and unloaded independently (see device.h). */
+ * handle, loaded and unloaded independently (see device.h).
+ *
+ * There is no fence handle: a submission is identified by its ticket, the
+ * value it signals on its device's timeline (cv_device_submit/cv_device_wait). */
 #ifndef CORVID_HANDLE_H
 #define CORVID_HANDLE_H
 
@@ -28,8 +31,7 @@ typedef enum cv_handle_type {
     CV_HANDLE_SAMPLER = 3,
     CV_HANDLE_PIPELINE = 4,
     CV_HANDLE_CMDLIST = 5,
-    CV_HANDLE_FENCE = 6,
-    CV_HANDLE_ACCEL = 7,
+    CV_HANDLE_ACCEL = 6,
     CV_HANDLE_TYPE_COUNT
 } cv_handle_type;
 
@@ -39,7 +41,6 @@ typedef struct cv_texture { uint64_t id; } cv_texture;
 typedef struct cv_sampler { uint64_t id; } cv_sampler;
 typedef struct cv_pipeline { uint64_t id; } cv_pipeline;
 typedef struct cv_cmdlist { uint64_t id; } cv_cmdlist;
-typedef struct cv_fence { uint64_t id; } cv_fence;
 typedef struct cv_accel { uint64_t id; } cv_accel;       /* acceleration structure for tracing rays */
 
 #define CV_HANDLE_INDEX_BITS 32u
@@ -60,7 +61,7 @@ static inline uint32_t cv_handle_index(uint64_t id) { return (uint32_t)id; }
     cv_handle: (h),                                                 \
     cv_buffer: (cv_handle){ (h).id }, cv_texture: (cv_handle){ (h).id }, \
     cv_sampler: (cv_handle){ (h).id }, cv_pipeline: (cv_handle){ (h).id }, \
-    cv_cmdlist: (cv_handle){ (h).id }, cv_fence: (cv_handle){ (h).id }, \
+    cv_cmdlist: (cv_handle){ (h).id }, \
     cv_accel: (cv_handle){ (h).id })
 
 /* "buffer", "texture", ... ("none" for 0, "invalid" for an unknown tag). */
