@@ -84,10 +84,21 @@ static int parse_args(int argc, char **argv, options *o) {
         } else if (!strcmp(a, "--list-adapters")) {
             o->list_adapters = true;
             continue;
-        } else if (!v) {
+        }
+        static const char *const with_value[] = { "--scene", "--out", "--seed", "--size", "--frames",
+                                                  "--ao-samples", "--ao-radius", "--exposure" };
+        bool known = false;
+        for (size_t k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
+            known |= !strcmp(a, with_value[k]);
+        if (!known) {
+            fprintf(stderr, "corvid-render: unknown option '%s' (see --help)\n", a);
+            return 2;
+        }
+        if (!v) {
             fprintf(stderr, "corvid-render: %s needs a value (see --help)\n", a);
             return 2;
-        } else if (!strcmp(a, "--scene")) {
+        }
+        if (!strcmp(a, "--scene")) {
             o->scene = v;
         } else if (!strcmp(a, "--out")) {
             o->out = v;
@@ -108,9 +119,6 @@ static int parse_args(int argc, char **argv, options *o) {
             ok = parse_float(v, &o->settings.ao_radius) && o->settings.ao_radius > 0;
         } else if (!strcmp(a, "--exposure")) {
             ok = parse_float(v, &o->exposure);
-        } else {
-            fprintf(stderr, "corvid-render: unknown option '%s' (see --help)\n", a);
-            return 2;
         }
         if (!ok) {
             fprintf(stderr, "corvid-render: bad value '%s' for %s (see --help)\n", v, a);
@@ -295,11 +303,13 @@ int main(int argc, char **argv) {
         r = cv_renderer_create(devices, table.count, scene, bvh, &renderer);
     if (r == CV_OK)
         r = cv_renderer_render(renderer, &o.settings, &image, &stats, progress, &o.quiet);
-    cv_render_settings s = cv_render_settings_resolve(&o.settings, scene ? scene : NULL);
+    cv_render_settings s = { 0 };
     cv_camera camera = { 0 };
-    if (r == CV_OK)
+    if (r == CV_OK) {
+        s = cv_render_settings_resolve(&o.settings, scene);
         camera = s.camera < cv_scene_camera_count(scene) ? *cv_scene_camera(scene, s.camera)
                                                          : cv_scene_framing_camera(scene);
+    }
     if (r == CV_OK)
         r = write_images(&o, &image, &camera);
     if (r == CV_OK && !o.quiet) {
