@@ -12,11 +12,39 @@
 #include <time.h>
 
 #define CHUNK_BYTES (4u << 20)   /* NOTES-STACK: 1-4 MiB pieces move fastest */
+_Static_assert((uint64_t)CV_MAX_TEXTURE_DIM * 16 <= CHUNK_BYTES, "a texture row fits one staging slot");
 
 static double now_ms(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
+/* Staging slots are kept between transfers (a few, process-wide): freeing
+ * them let glibc hand the pages back to the kernel, and faulting them in again
+ * made every other multi-chunk transfer 4-5x slower (bench_transfer). */
+#define CACHED_SLOTS 4
+static pthread_mutex_t slot_lock = PTHREAD_MUTEX_INITIALIZER;
+static void *slot_cache[CACHED_SLOTS];
+static uint32_t slot_cached;
+
+static void *slot_take(void) {
+    pthread_mutex_lock(&slot_lock);
+    void *slot = slot_cached ? slot_cache[--slot_cached] : NULL;
+    pthread_mutex_unlock(&slot_lock);
+    return slot ? slot : malloc(CHUNK_BYTES);
+}
+
+static void slot_give(void *slot) {
+    if (!slot)
+        return;
+    pthread_mutex_lock(&slot_lock);
+    if (slot_cached < CACHED_SLOTS) {
+        slot_cache[slot_cached++] = slot;
+        slot = NULL;
+    }
+    pthread_mutex_unlock(&slot_lock);
+    free(slot);
 }
 
 /* Moves `chunks` pieces through two staging slots: io(job, i, slot, read). */
@@ -65,15 +93,16 @@ static void *reader(void *arg) {
     return NULL;
 }
 
-static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, size_t slot_bytes, cv_transfer_stats *st) {
+/* Each chunk is at most CHUNK_BYTES, the size of a staging slot. */
+static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transfer_stats *st) {
     pipeline p = { .io = io, .job = job, .chunks = chunks };
     double t0 = now_ms(), write_ms = 0.0;
-    p.slots[0] = malloc(slot_bytes);
-    p.slots[1] = chunks > 1 ? malloc(slot_bytes) : NULL;
+    p.slots[0] = slot_take();
+    p.slots[1] = chunks > 1 ? slot_take() : NULL;
     if (!p.slots[0] || (chunks > 1 && !p.slots[1])) {
-        free(p.slots[0]);
-        free(p.slots[1]);
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "transfer: staging of %zu bytes", slot_bytes);
+        slot_give(p.slots[0]);
+        slot_give(p.slots[1]);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "transfer: staging of %u bytes", CHUNK_BYTES);
     }
     cv_result r = CV_OK;
     if (chunks == 1) {   /* nothing to overlap */
@@ -114,8 +143,8 @@ static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, size_t sl
         pthread_cond_destroy(&p.changed);
         pthread_mutex_destroy(&p.lock);
     }
-    free(p.slots[0]);
-    free(p.slots[1]);
+    slot_give(p.slots[0]);
+    slot_give(p.slots[1]);
     if (r == CV_OK && st) {
         st->read_ms = p.read_ms;
         st->write_ms = write_ms;
@@ -178,7 +207,7 @@ cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_
     buffer_job job = { src, dst, src_buffer, dst_buffer, src_offset, dst_offset, size };
     uint64_t chunks = (size + CHUNK_BYTES - 1) / CHUNK_BYTES;
     cv_transfer_stats st = { .bytes = size };
-    r = run_pipeline(buffer_chunk, &job, chunks, size < CHUNK_BYTES ? (size_t)size : CHUNK_BYTES, &st);
+    r = run_pipeline(buffer_chunk, &job, chunks, &st);
     if (r == CV_OK && stats)
         *stats = st;
     return r;
@@ -211,13 +240,14 @@ cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect sr
                         sd.texture.width, sd.texture.height, src_rect.x, src_rect.y, dd.texture.label,
                         dd.texture.width, dd.texture.height, dst_x, dst_y);
     uint64_t row = (uint64_t)src_rect.width * cv_format_bytes(sd.texture.format);
-    uint32_t rows_per_chunk = row >= CHUNK_BYTES ? 1 : (uint32_t)(CHUNK_BYTES / row);
+    /* A row is at most CV_MAX_TEXTURE_DIM * 16 bytes = 256 KiB, well under a chunk. */
+    uint32_t rows_per_chunk = (uint32_t)(CHUNK_BYTES / row);
     if (rows_per_chunk > src_rect.height)
         rows_per_chunk = src_rect.height;
     texture_job job = { src, dst, src_texture, dst_texture, src_rect, dst_x, dst_y, rows_per_chunk };
     uint64_t chunks = (src_rect.height + rows_per_chunk - 1) / rows_per_chunk;
     cv_transfer_stats st = { .bytes = row * src_rect.height };
-    cv_result res = run_pipeline(texture_chunk, &job, chunks, (size_t)(row * rows_per_chunk), &st);
+    cv_result res = run_pipeline(texture_chunk, &job, chunks, &st);
     if (res == CV_OK && stats)
         *stats = st;
     return res;
