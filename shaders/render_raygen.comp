@@ -1,4 +1,5 @@
-// render.raygen: rays for one column partition [x0, x0 + width) of the G-buffer.
+// render.raygen: rays for one band of one column partition of the G-buffer:
+// columns [x0, x0 + width), rows [y0, y0 + height).
 // Per pixel, 1 + ao_samples rays, pixel-major: a shadow ray toward the sun,
 // jittered inside the sun's cone (soft shadows), then cosine-distributed AO rays
 // of length ao_radius. Sample points are a Halton (2, 3) sequence indexed by
@@ -6,7 +7,7 @@
 // Real-Time Ray Tracing"). Pixels without geometry get empty rays (tmax = 0).
 // Push: { uint x0; uint width; uint height; uint ao_samples; vec4 sun (xyz = unit
 //         direction the light travels, w = cone half angle, radians);
-//         uint frame; float ao_radius; float bias; uint pad; }.
+//         uint frame; float ao_radius; float bias; uint y0; }.
 // i0: G-buffer positions (RGBA32F), i1: G-buffer normals (RGBA32F), b2: cv_ray[].
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -27,7 +28,7 @@ layout(push_constant, std430) uniform Push {
     uint frame;
     float ao_radius;
     float bias;
-    uint pad;
+    uint y0;
 } pc;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
@@ -74,7 +75,7 @@ void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
     if (local.x >= pc.width || local.y >= pc.height)
         return;
-    uvec2 pixel = uvec2(local.x + pc.x0, local.y);
+    uvec2 pixel = uvec2(local.x + pc.x0, local.y + pc.y0);
     uint first = (local.y * pc.width + local.x) * (pc.ao_samples + 1u);
     vec4 p = imageLoad(gbuffer_position, ivec2(pixel));
     if (p.w == 0.0) {

@@ -1,7 +1,7 @@
 // render.resolve: turns any-hit results of render.raygen's rays into visibility
-// for the partition's pixels: r = sun visibility (0 or 1), g = unoccluded
-// fraction of the AO rays. Written at the pixel's full-image position.
-// Push: { uint x0; uint width; uint height; uint ao_samples; }.
+// for one band of the partition's pixels: r = sun visibility (0 or 1), g =
+// unoccluded fraction of the AO rays. Written at the pixel's full-image position.
+// Push: { uint x0; uint width; uint height; uint ao_samples; uint y0; uint pad[3]; }.
 // b0: cv_hit[] (20 bytes: t, u, v, triangle, instance), i1: visibility (RGBA16F).
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -19,6 +19,10 @@ layout(push_constant, std430) uniform Push {
     uint width;
     uint height;
     uint ao_samples;
+    uint y0;
+    uint pad0;
+    uint pad1;
+    uint pad2;
 } pc;
 
 layout(set = 0, binding = 0, std430) readonly buffer Hits { Hit hits[]; };
@@ -34,5 +38,5 @@ void main() {
     for (uint k = 0u; k < pc.ao_samples; k++)
         open += hits[first + 1u + k].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
     float ao = pc.ao_samples > 0u ? open / float(pc.ao_samples) : 1.0;
-    imageStore(visibility, ivec2(local.x + pc.x0, local.y), vec4(sun, ao, 0.0, 1.0));
+    imageStore(visibility, ivec2(local.x + pc.x0, local.y + pc.y0), vec4(sun, ao, 0.0, 1.0));
 }

@@ -254,37 +254,58 @@ static cv_result record_gbuffer(cv_renderer *r, const cv_camera *camera, cv_comm
     return cv_cmd_end_marker(l, CV_QUEUE_GRAPHICS, &(cv_end_marker_args){ 0 });
 }
 
-/* Any device: rays for its columns, trace, resolve into visibility. */
+/* Rays traced per band: the ray and hit buffers hold one band, so a partition
+ * of any size fits the device's storage buffer range. */
+static uint64_t band_rays(const cv_renderer *r, uint32_t d, const cv_render_settings *s) {
+    uint64_t limit = cv_device_get_info(r->devices[d])->max_storage_buffer_range / CV_RAY_BYTES;
+    return limit < s->band_rays ? limit : s->band_rays;
+}
+
+/* Rows per band for a partition `width` columns wide. */
+static uint32_t band_rows(const cv_renderer *r, uint32_t d, const cv_render_settings *s, uint32_t width) {
+    uint64_t rows = band_rays(r, d, s) / ((uint64_t)width * (1 + s->ao_samples));
+    if (rows == 0)
+        rows = 1;
+    return rows < r->height ? (uint32_t)rows : r->height;
+}
+
+/* Any device: for each band of rows of its columns, ray generation, trace,
+ * resolve into visibility. */
 static cv_result record_trace(cv_renderer *r, uint32_t d, cv_column_range cols, const cv_render_settings *s,
                               uint32_t frame, cv_command_list *l) {
     uint32_t per_pixel = 1 + s->ao_samples;
-    uint64_t count = (uint64_t)cols.width * r->height * per_pixel;
-    struct {
-        uint32_t x0, width, height, ao_samples;
-        float sun[4];
-        uint32_t frame;
-        float ao_radius, bias;
-        uint32_t pad;
-    } raygen = { cols.x, cols.width, r->height, s->ao_samples,
-                 { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
-                   s->sun_cone_degrees * 3.14159265f / 180.0f },
-                 frame, s->ao_radius, r->data.diagonal * 2e-5f, 0 };
-    struct { uint32_t x0, width, height, ao_samples; } resolve = { cols.x, cols.width, r->height, s->ao_samples };
+    uint32_t rows = band_rows(r, d, s, cols.width);
     cv_binding gen[3] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
                           bind_buffer(r->rays[d]) };
     cv_binding res_b[2] = { bind_buffer(r->hits[d]), bind_texture(r->textures[TEX_VISIBILITY]) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "trace" });
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
-        .pipeline = r->pipelines[PIPE_RAYGEN], .bindings = gen, .bindings_count = 3, .push = &raygen,
-        .push_size = sizeof(raygen), .groups_x = groups(cols.width, 8), .groups_y = groups(r->height, 8),
-        .groups_z = 1 });
-    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = r->accel, .rays = r->rays[d],
-                                                                .hits = r->hits[d], .count = (uint32_t)count,
-                                                                .flags = CV_TRACE_ANY_HIT });
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
-        .pipeline = r->pipelines[PIPE_RESOLVE], .bindings = res_b, .bindings_count = 2, .push = &resolve,
-        .push_size = sizeof(resolve), .groups_x = groups(cols.width, 8), .groups_y = groups(r->height, 8),
-        .groups_z = 1 });
+    for (uint32_t y0 = 0; y0 < r->height; y0 += rows) {
+        uint32_t h = r->height - y0 < rows ? r->height - y0 : rows;
+        uint64_t count = (uint64_t)cols.width * h * per_pixel;
+        struct {
+            uint32_t x0, width, height, ao_samples;
+            float sun[4];
+            uint32_t frame;
+            float ao_radius, bias;
+            uint32_t y0;
+        } raygen = { cols.x, cols.width, h, s->ao_samples,
+                     { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
+                       s->sun_cone_degrees * 3.14159265f / 180.0f },
+                     frame, s->ao_radius, r->data.diagonal * 2e-5f, y0 };
+        struct { uint32_t x0, width, height, ao_samples, y0, pad[3]; } resolve = { cols.x, cols.width, h,
+                                                                                  s->ao_samples, y0, { 0 } };
+        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
+            .pipeline = r->pipelines[PIPE_RAYGEN], .bindings = gen, .bindings_count = 3, .push = &raygen,
+            .push_size = sizeof(raygen), .groups_x = groups(cols.width, 8), .groups_y = groups(h, 8),
+            .groups_z = 1 });
+        cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = r->accel, .rays = r->rays[d],
+                                                                    .hits = r->hits[d], .count = (uint32_t)count,
+                                                                    .flags = CV_TRACE_ANY_HIT });
+        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
+            .pipeline = r->pipelines[PIPE_RESOLVE], .bindings = res_b, .bindings_count = 2, .push = &resolve,
+            .push_size = sizeof(resolve), .groups_x = groups(cols.width, 8), .groups_y = groups(h, 8),
+            .groups_z = 1 });
+    }
     return cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }
 
@@ -363,6 +384,7 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
     if (!s.tile) s.tile = 8;
     if (s.filter_iterations == 0) s.filter_iterations = 3;
     if (s.filter_iterations < 0) s.filter_iterations = 0;
+    if (!s.band_rays) s.band_rays = CV_RENDER_BAND_RAYS;
     return s;
 }
 
@@ -464,7 +486,8 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
             cv_column_range cols = part.ranges[d];
             if (cols.width == 0)
                 continue;
-            res = ensure_ray_buffers(r, d, (uint64_t)cols.width * r->height * (1 + s.ao_samples));
+            uint32_t rows = band_rows(r, d, &s, cols.width);
+            res = ensure_ray_buffers(r, d, (uint64_t)cols.width * rows * (1 + s.ao_samples));
             if (res == CV_OK) res = begin(r, d, &l);
             if (res == CV_OK) res = record_trace(r, d, cols, &s, f, l);
             submit_ms[d] = now_ms();

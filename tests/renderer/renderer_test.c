@@ -1,6 +1,6 @@
 /* The hybrid renderer on lavapipe, validation on:
- *  - the same frame on 1, 2 and 3 virtual GPUs is bit-identical (the column
- *    partitions and the transfers change nothing);
+ *  - the same frame on 1, 2 and 3 virtual GPUs, and traced in bands of rows,
+ *    is bit-identical (partitions, bands and transfers change nothing);
  *  - the rasterized G-buffer is the visible surface: a CPU ray from the camera
  *    toward each G-buffer position hits the scene at that position;
  *  - hard-shadow visibility equals CPU any-hit traversal from the G-buffer;
@@ -127,7 +127,15 @@ int main(void) {
     CHECK_EQ_INT(stats.devices[0].columns.width + stats.devices[1].columns.width, W);
     CHECK(stats.transfer_bytes > 0);
     CHECK_OK(render_on(3, scene, bvh, &s, &three, &stats));
+    /* Tracing in bands of rows (here ~1000 rays each) changes nothing either. */
+    cv_render_settings banded = s;
+    banded.band_rays = 1000;
+    cv_render_output bands = { 0 };
+    CHECK_OK(render_on(2, scene, bvh, &banded, &bands, &stats));
     size_t bytes = (size_t)W * H * 4 * sizeof(float);
+    if (one.radiance && bands.radiance)
+        CHECK(memcmp(one.radiance, bands.radiance, bytes) == 0);
+    cv_render_output_free(&bands);
     if (one.radiance && two.radiance && three.radiance) {
         CHECK(memcmp(one.radiance, two.radiance, bytes) == 0);
         CHECK(memcmp(one.radiance, three.radiance, bytes) == 0);

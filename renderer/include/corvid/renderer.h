@@ -21,6 +21,9 @@
 #include "corvid/scene.h"
 
 #define CV_RENDER_MAX_DEVICES 16
+/* Rays per trace_rays command: a partition is traced in bands of rows so its
+ * ray and hit buffers stay bounded (128 MiB of rays) whatever the image size. */
+#define CV_RENDER_BAND_RAYS (1u << 22)
 
 typedef struct cv_render_settings {
     uint32_t width, height;     /* [640x360] pixels */
@@ -31,6 +34,7 @@ typedef struct cv_render_settings {
     uint32_t camera;            /* [0] scene camera index; a framing camera if the scene has none */
     uint32_t tile;              /* [8] partition tile width, pixels */
     int32_t filter_iterations;  /* [3] a-trous iterations (steps 1, 2, 4, ...); -1 = none */
+    uint32_t band_rays;         /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
