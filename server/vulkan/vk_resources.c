@@ -36,18 +36,19 @@ static VkBufferUsageFlags buffer_usage(uint32_t usage) {
     return u;
 }
 
-cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk_buffer **out) {
+cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBufferUsageFlags usage,
+                               VkDeviceSize alignment, const char *label, vk_buffer **out) {
     vk_buffer *b = calloc(1, sizeof(*b));
     if (!b)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: buffer '%s'", desc->label);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: buffer '%s'", label);
     VkSharingMode sharing;
     uint32_t family_count;
     const uint32_t *families;
     vk_device_sharing(bd, &sharing, &family_count, &families);
     VkBufferCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
-        .size = desc->size,
-        .usage = buffer_usage(desc->usage),
+        .size = size,
+        .usage = usage,
         .sharingMode = sharing,
         .queueFamilyIndexCount = family_count,
         .pQueueFamilyIndices = families,
@@ -55,17 +56,19 @@ cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk
     VkResult vr = vkCreateBuffer(bd->device, &info, NULL, &b->buffer);
     if (vr != VK_SUCCESS) {
         free(b);
-        return vk_fail(vr, "vkCreateBuffer '%s' (%llu bytes)", desc->label, (unsigned long long)desc->size);
+        return vk_fail(vr, "vkCreateBuffer '%s' (%llu bytes)", label, (unsigned long long)size);
     }
     VkMemoryRequirements req;
     vkGetBufferMemoryRequirements(bd->device, b->buffer, &req);
+    if (req.alignment < alignment)
+        req.alignment = alignment;
     cv_result r = vk_memory_alloc(&bd->memory, &req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, VK_MEMORY_LINEAR,
-                                  desc->label[0] ? desc->label : "buffer", &b->memory);
+                                  label[0] ? label : "buffer", &b->memory);
     if (r == CV_OK) {
         vr = vkBindBufferMemory(bd->device, b->buffer, b->memory.memory, b->memory.offset);
         if (vr != VK_SUCCESS) {
             vk_memory_free(&bd->memory, &b->memory);
-            r = vk_fail(vr, "vkBindBufferMemory '%s'", desc->label);
+            r = vk_fail(vr, "vkBindBufferMemory '%s'", label);
         }
     }
     if (r != CV_OK) {
@@ -73,15 +76,19 @@ cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk
         free(b);
         return r;
     }
-    b->size = desc->size;
-    if (info.usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) {
+    b->size = size;
+    if (usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) {
         VkBufferDeviceAddressInfo where = { .sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO, .buffer = b->buffer };
         b->address = vkGetBufferDeviceAddress(bd->device, &where);
     }
-    vk_device_name(bd, VK_OBJECT_TYPE_BUFFER, (uint64_t)b->buffer, desc->label);
+    vk_device_name(bd, VK_OBJECT_TYPE_BUFFER, (uint64_t)b->buffer, label);
     atomic_fetch_add(&bd->buffers, 1u);
     *out = b;
     return CV_OK;
+}
+
+cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk_buffer **out) {
+    return vk_buffer_create_raw(bd, desc->size, buffer_usage(desc->usage), 0, desc->label, out);
 }
 
 void vk_buffer_destroy(cv_backend_device *bd, vk_buffer *b) {

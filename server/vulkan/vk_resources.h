@@ -29,6 +29,11 @@ typedef struct vk_sampler {
 VkFormat vk_format_of(cv_format f);
 
 cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk_buffer **out);
+/* A device-local buffer with Vulkan usage flags of the caller's choosing and a
+ * minimum memory alignment (0 = the driver's); gets a device address when the
+ * usage asks for one. For the backend's internal buffers. */
+cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBufferUsageFlags usage,
+                               VkDeviceSize alignment, const char *label, vk_buffer **out);
 void vk_buffer_destroy(cv_backend_device *bd, vk_buffer *b);
 /* CV_ERROR_UNSUPPORTED if the adapter's format lacks a feature a usage needs. */
 cv_result vk_texture_create(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture **out);

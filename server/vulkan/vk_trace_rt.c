@@ -148,51 +148,7 @@ void vk_rt_destroy(cv_backend_device *bd, vk_rt *rt) {
  * with a device address aligned to `alignment`. */
 static cv_result rt_buffer(cv_backend_device *bd, VkDeviceSize size, VkBufferUsageFlags usage, VkDeviceSize alignment,
                            const char *label, vk_buffer **out) {
-    vk_buffer *b = calloc(1, sizeof(*b));
-    if (!b)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: buffer '%s'", label);
-    VkSharingMode sharing;
-    uint32_t family_count;
-    const uint32_t *families;
-    vk_device_sharing(bd, &sharing, &family_count, &families);
-    VkBufferCreateInfo info = {
-        .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
-        .size = size,
-        .usage = usage | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT,
-        .sharingMode = sharing,
-        .queueFamilyIndexCount = family_count,
-        .pQueueFamilyIndices = families,
-    };
-    VkResult vr = vkCreateBuffer(bd->device, &info, NULL, &b->buffer);
-    if (vr != VK_SUCCESS) {
-        free(b);
-        return vk_fail(vr, "vkCreateBuffer '%s' (%llu bytes)", label, (unsigned long long)size);
-    }
-    VkMemoryRequirements req;
-    vkGetBufferMemoryRequirements(bd->device, b->buffer, &req);
-    if (req.alignment < alignment)
-        req.alignment = alignment;
-    cv_result r = vk_memory_alloc(&bd->memory, &req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, VK_MEMORY_LINEAR, label,
-                                  &b->memory);
-    if (r == CV_OK) {
-        vr = vkBindBufferMemory(bd->device, b->buffer, b->memory.memory, b->memory.offset);
-        if (vr != VK_SUCCESS) {
-            vk_memory_free(&bd->memory, &b->memory);
-            r = vk_fail(vr, "vkBindBufferMemory '%s'", label);
-        }
-    }
-    if (r != CV_OK) {
-        vkDestroyBuffer(bd->device, b->buffer, NULL);
-        free(b);
-        return r;
-    }
-    b->size = size;
-    VkBufferDeviceAddressInfo where = { .sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO, .buffer = b->buffer };
-    b->address = vkGetBufferDeviceAddress(bd->device, &where);
-    vk_device_name(bd, VK_OBJECT_TYPE_BUFFER, (uint64_t)b->buffer, label);
-    atomic_fetch_add(&bd->buffers, 1u);
-    *out = b;
-    return CV_OK;
+    return vk_buffer_create_raw(bd, size, usage | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT, alignment, label, out);
 }
 
 /* ---- pipeline and shader binding table ----------------------------------------- */
