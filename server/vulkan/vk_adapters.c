@@ -269,32 +269,28 @@ cv_result cv_vulkan_adapters(cv_vulkan_adapter_info *out, uint32_t capacity, uin
     return CV_OK;
 }
 
-cv_result cv_vulkan_choose_adapter(cv_vulkan_purpose purpose, uint32_t *index) {
-    if (!index)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_vulkan_choose_adapter: NULL index");
+/* One adapter picked from a fresh enumeration: by purpose (spec NULL) or by spec. */
+static cv_result pick_adapter(cv_vulkan_purpose purpose, const char *spec, bool by_spec, uint32_t *index) {
     vk_instance *inst;
     vk_adapter *adapters;
     uint32_t n;
     cv_result r = with_adapters(&inst, &adapters, &n);
     if (r != CV_OK)
         return r;
-    r = vk_adapters_choose(adapters, n, purpose, index);
+    r = by_spec ? vk_adapters_resolve(adapters, n, spec, index) : vk_adapters_choose(adapters, n, purpose, index);
     free(adapters);
     vk_instance_release(inst);
     return r;
 }
 
+cv_result cv_vulkan_choose_adapter(cv_vulkan_purpose purpose, uint32_t *index) {
+    if (!index)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_vulkan_choose_adapter: NULL index");
+    return pick_adapter(purpose, NULL, false, index);
+}
+
 cv_result cv_vulkan_find_adapter(const char *spec, uint32_t *index) {
     if (!index)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_vulkan_find_adapter: NULL index");
-    vk_instance *inst;
-    vk_adapter *adapters;
-    uint32_t n;
-    cv_result r = with_adapters(&inst, &adapters, &n);
-    if (r != CV_OK)
-        return r;
-    r = vk_adapters_resolve(adapters, n, spec, index);
-    free(adapters);
-    vk_instance_release(inst);
-    return r;
+    return pick_adapter(CV_VULKAN_PURPOSE_RENDER, spec, true, index);
 }
