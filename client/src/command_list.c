@@ -340,3 +340,45 @@ void cv_command_visit_handles(const cv_command_list *list, const cv_command *c, 
     }
     (void)list;
 }
+
+static void map_bindings(cv_command_list *list, cv_span s, cv_handle_mapper fn, void *user) {
+    cv_binding *b = s.size ? list->bindings + s.offset : NULL;
+    for (uint32_t i = 0; i < s.size; i++) {
+        if (b[i].resource.id)
+            b[i].resource.id = fn(b[i].resource.id, user);
+        if (b[i].sampler.id)
+            b[i].sampler.id = fn(b[i].sampler.id, user);
+    }
+}
+
+#define CV_MAP_NONE(n)
+#define CV_MAP_ID(n) if (cmd->n.id) cmd->n.id = fn(cmd->n.id, user);
+#define CV_MAP_U32(n) CV_MAP_NONE(n)
+#define CV_MAP_U64(n) CV_MAP_NONE(n)
+#define CV_MAP_I32(n) CV_MAP_NONE(n)
+#define CV_MAP_F32(n) CV_MAP_NONE(n)
+#define CV_MAP_BYTES(n) CV_MAP_NONE(n)
+#define CV_MAP_STRING(n) CV_MAP_NONE(n)
+#define CV_MAP_BUFFER(n) CV_MAP_ID(n)
+#define CV_MAP_TEXTURE(n) CV_MAP_ID(n)
+#define CV_MAP_PIPELINE(n) CV_MAP_ID(n)
+#define CV_MAP_ACCEL(n) CV_MAP_ID(n)
+#define CV_MAP_ANY(n) CV_MAP_ID(n)
+#define CV_MAP_BINDINGS(n) map_bindings(list, cmd->n, fn, user);
+#define CV_MAP_FIELD(num, TYPE, name) CV_MAP_##TYPE(name)
+
+void cv_command_map_handles(cv_command_list *list, cv_command *c, cv_handle_mapper fn, void *user) {
+    switch (c->type) {
+#define CV_CMD_MAP(id, UPPER, lower, Camel, queues)            \
+    case CV_CMD_##UPPER: {                                     \
+        cv_##lower##_cmd *cmd = &c->u.lower;                   \
+        CV_FIELDS_##lower(CV_MAP_FIELD)                        \
+        (void)cmd;                                             \
+        break;                                                 \
+    }
+        CV_COMMAND_TABLE(CV_CMD_MAP)
+#undef CV_CMD_MAP
+    default:
+        break;
+    }
+}

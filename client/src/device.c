@@ -283,6 +283,8 @@ uint32_t cv_device_loaded_count(cv_device *dev) {
 
 /* Waits until no submitted work uses the resource (lock held). */
 static cv_result wait_for_resource(cv_device *dev, cv_device_resource *s) {
+    if (dev->backend->orders_host_access)
+        return CV_OK;
     if (s->last_use > dev->backend->completed(dev->bd))
         return dev->backend->wait(dev->bd, s->last_use, UINT64_MAX);
     return CV_OK;

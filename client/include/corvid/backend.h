@@ -15,7 +15,10 @@
  * - submit must give the submission the ticket it is passed; tickets increase
  *   by one per submit; completed() returns the highest finished ticket.
  * - buffer/texture read and write are synchronous and are called only when no
- *   submitted work uses the resource.
+ *   submitted work uses the resource, unless the backend sets
+ *   orders_host_access: then they are called at once, and the backend itself
+ *   runs them after the work submitted before them (a remote node, which
+ *   processes requests in order, saves a round trip per read or write).
  * - device_destroy is called after every object was destroyed; it waits idle.
  * - accel_write builds the device's acceleration structure from a flat BVH
  *   (types.h, cv_accel_desc); it is synchronous like the other writes. A
@@ -29,6 +32,7 @@ typedef struct cv_backend_device cv_backend_device;   /* each backend's own */
 
 struct cv_backend {
     const char *name;
+    bool orders_host_access;   /* reads/writes are ordered after earlier submissions by the backend */
     cv_result (*device_create)(const cv_device_desc *desc, cv_device_info *info,
                                cv_backend_device **out);
     void (*device_destroy)(cv_backend_device *bd);

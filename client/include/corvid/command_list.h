@@ -132,4 +132,12 @@ typedef void (*cv_handle_visitor)(uint64_t id, void *user);
 void cv_command_visit_handles(const cv_command_list *list, const cv_command *cmd, cv_handle_visitor fn,
                               void *user);
 
+/* Replaces every non-zero handle a stored command references (the same ones,
+ * in the same order, as cv_command_visit_handles) with fn's answer. Used to
+ * translate a list recorded against one context's handles into another's (a
+ * node's session). fn returns the new id; what it does with an id it cannot
+ * translate (return 0 and note the failure) is up to the caller. */
+typedef uint64_t (*cv_handle_mapper)(uint64_t id, void *user);
+void cv_command_map_handles(cv_command_list *list, cv_command *cmd, cv_handle_mapper fn, void *user);
+
 #endif

@@ -1,0 +1,272 @@
+/* corvid-node: the render-proxy server. Serves this machine's devices (real
+ * GPUs, virtual GPUs, lavapipe, or mock devices) to remote clients over gRPC;
+ * see server/node/node.h and proto/node.proto.
+ *
+ *   corvid-node --listen 0.0.0.0:7700 --adapters H100 --gpus 2
+ *   corvid-node --listen 127.0.0.1:0 --backend mock      (prints the port it got)
+ *
+ * SIGTERM or SIGINT drains: new sessions are refused, health says NOT_SERVING,
+ * running sessions get --drain-timeout seconds to finish, then the node exits 0. */
+#include <errno.h>
+#include <inttypes.h>
+#include <limits.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "corvid/vulkan.h"
+#include "node.h"
+
+typedef struct options {
+    const char *listen;
+    const char *backend;
+    const char *cache_dir;
+    const char *name;
+    const char *port_file;
+    uint64_t cache_bytes;
+    uint32_t idle_timeout_s;
+    uint32_t drain_timeout_s;
+    uint32_t max_sessions;
+    uint32_t mock_devices;
+    bool validation;
+    bool quiet;
+} options;
+
+static void usage(FILE *f) {
+    fprintf(f,
+            "usage: corvid-node [options]\n"
+            "Serves this machine's devices to Corvid clients (the proxy backend) over gRPC.\n\n"
+            "  --listen HOST:PORT     address to listen on [127.0.0.1:7700]; port 0 picks a free one\n"
+            "  --backend vulkan|mock  what the devices are [vulkan]\n"
+            "  --adapters LIST        Vulkan adapters (index or name substring, comma-separated)\n"
+            "  --gpus N               devices in all, round-robin over the adapters\n"
+            "  --virtual-gpus N       device instances per adapter (also CORVID_VIRTUAL_GPUS)\n"
+            "  --mock-devices N       devices of the mock backend [1] (1..64)\n"
+            "  --cache-dir DIR        content-addressed upload cache [$XDG_CACHE_HOME/corvid-node, or\n"
+            "                         ~/.cache/corvid-node]\n"
+            "  --cache-size BYTES     cache size limit, with an optional K, M or G suffix [4G]\n"
+            "  --idle-timeout SEC     end sessions silent for this long [300] (1..86400)\n"
+            "  --drain-timeout SEC    on SIGTERM, how long running sessions may go on [30] (0..3600)\n"
+            "  --max-sessions N       concurrent sessions [256] (1..65536)\n"
+            "  --name NAME            the name clients see [the host name]\n"
+            "  --port-file FILE       write the bound port to FILE once listening\n"
+            "  --validation           Vulkan validation layer on session devices\n"
+            "  --quiet                no per-session log lines\n"
+            "  --help                 this text\n");
+}
+
+static int parse_u32(const char *opt, const char *text, uint32_t lo, uint32_t hi, uint32_t *out) {
+    char *end = NULL;
+    errno = 0;
+    unsigned long long v = text && *text && *text != '-' ? strtoull(text, &end, 10) : 0;
+    if (!text || !*text || *text == '-' || *end || errno || v < lo || v > hi) {
+        fprintf(stderr, "corvid-node: %s: '%s' is not a number in %u..%u\n", opt, text ? text : "", lo, hi);
+        return 2;
+    }
+    *out = (uint32_t)v;
+    return 0;
+}
+
+static int parse_size(const char *opt, const char *text, uint64_t *out) {
+    char *end = NULL;
+    errno = 0;
+    unsigned long long v = text && *text && *text != '-' ? strtoull(text, &end, 10) : 0;
+    uint64_t scale = 1;
+    if (end && *end) {
+        switch (*end) {
+        case 'K': case 'k': scale = 1ull << 10; break;
+        case 'M': case 'm': scale = 1ull << 20; break;
+        case 'G': case 'g': scale = 1ull << 30; break;
+        default: scale = 0; break;
+        }
+        if (end[1])
+            scale = 0;
+    }
+    if (!text || !*text || *text == '-' || errno || scale == 0 || v == 0 || v > UINT64_MAX / scale) {
+        fprintf(stderr, "corvid-node: %s: '%s' is not a size (bytes, or a number with K, M or G)\n", opt,
+                text ? text : "");
+        return 2;
+    }
+    *out = v * scale;
+    return 0;
+}
+
+/* Returns 0 to run, 1 after --help, 2 on a bad option (nothing started). */
+static int parse_args(int argc, char **argv, options *o) {
+    *o = (options){ .listen = "127.0.0.1:7700", .backend = "vulkan", .cache_bytes = 4ull << 30,
+                    .idle_timeout_s = 300, .drain_timeout_s = 30, .max_sessions = 256, .mock_devices = 1 };
+    for (int i = 1; i < argc; i++) {
+        char *arg = argv[i];
+        char *eq = strncmp(arg, "--", 2) == 0 ? strchr(arg, '=') : NULL;
+        char name[64];
+        snprintf(name, sizeof(name), "%.*s", eq ? (int)(eq - arg) : (int)strlen(arg), arg);
+        bool flag = !strcmp(name, "--help") || !strcmp(name, "-h") || !strcmp(name, "--validation") ||
+                    !strcmp(name, "--quiet");
+        const char *value = NULL;
+        if (!flag) {
+            value = eq ? eq + 1 : (i + 1 < argc ? argv[++i] : NULL);
+            if (!value) {
+                fprintf(stderr, "corvid-node: %s needs a value (see --help)\n", name);
+                return 2;
+            }
+        } else if (eq) {
+            fprintf(stderr, "corvid-node: %s takes no value\n", name);
+            return 2;
+        }
+        int bad = 0;
+        if (!strcmp(name, "--help") || !strcmp(name, "-h")) {
+            usage(stdout);
+            return 1;
+        } else if (!strcmp(name, "--validation")) {
+            o->validation = true;
+        } else if (!strcmp(name, "--quiet")) {
+            o->quiet = true;
+        } else if (!strcmp(name, "--listen")) {
+            o->listen = value;
+        } else if (!strcmp(name, "--backend")) {
+            if (strcmp(value, "vulkan") && strcmp(value, "mock")) {
+                fprintf(stderr, "corvid-node: --backend: '%s' is not vulkan or mock\n", value);
+                return 2;
+            }
+            o->backend = value;
+        } else if (!strcmp(name, "--mock-devices")) {
+            bad = parse_u32(name, value, 1, 64, &o->mock_devices);
+        } else if (!strcmp(name, "--cache-dir")) {
+            o->cache_dir = value;
+        } else if (!strcmp(name, "--cache-size")) {
+            bad = parse_size(name, value, &o->cache_bytes);
+        } else if (!strcmp(name, "--idle-timeout")) {
+            bad = parse_u32(name, value, 1, 86400, &o->idle_timeout_s);
+        } else if (!strcmp(name, "--drain-timeout")) {
+            bad = parse_u32(name, value, 0, 3600, &o->drain_timeout_s);
+        } else if (!strcmp(name, "--max-sessions")) {
+            bad = parse_u32(name, value, 1, 65536, &o->max_sessions);
+        } else if (!strcmp(name, "--name")) {
+            o->name = value;
+        } else if (!strcmp(name, "--port-file")) {
+            o->port_file = value;
+        } else {
+            fprintf(stderr, "corvid-node: unknown option '%s' (see --help)\n", arg);
+            return 2;
+        }
+        if (bad)
+            return bad;
+    }
+    if (!o->listen[0] || !strchr(o->listen, ':')) {
+        fprintf(stderr, "corvid-node: --listen: '%s' is not HOST:PORT\n", o->listen);
+        return 2;
+    }
+    return 0;
+}
+
+/* The default cache directory, following the XDG base directory convention. */
+static int default_cache_dir(char *out, size_t cap) {
+    const char *xdg = getenv("XDG_CACHE_HOME");
+    const char *home = getenv("HOME");
+    int n = xdg && *xdg ? snprintf(out, cap, "%s/corvid-node", xdg)
+            : home && *home ? snprintf(out, cap, "%s/.cache/corvid-node", home)
+                            : snprintf(out, cap, "/var/tmp/corvid-node-cache");
+    return n > 0 && (size_t)n < cap ? 0 : -1;
+}
+
+/* Node devices from the Vulkan GPU table (or N mock devices). */
+static cv_result make_devices(const options *o, const cv_vulkan_gpu_config *gpus, cv_node_device_spec *out,
+                              uint32_t *count) {
+    if (!strcmp(o->backend, "mock")) {
+        for (uint32_t i = 0; i < o->mock_devices; i++) {
+            out[i] = (cv_node_device_spec){ .backend = cv_mock_backend() };
+            snprintf(out[i].label, sizeof(out[i].label), "mock%u", i);
+        }
+        *count = o->mock_devices;
+        return CV_OK;
+    }
+    cv_vulkan_gpu_table table;
+    cv_result r = cv_vulkan_gpu_table_build(gpus, &table);
+    if (r != CV_OK)
+        return r;
+    for (uint32_t i = 0; i < table.count; i++) {
+        out[i] = (cv_node_device_spec){ .backend = cv_vulkan_backend() };
+        snprintf(out[i].adapter, sizeof(out[i].adapter), "%u", table.gpus[i].adapter);
+        snprintf(out[i].label, sizeof(out[i].label), "gpu%u", i);
+    }
+    *count = table.count;
+    return CV_OK;
+}
+
+int main(int argc, char **argv) {
+    cv_vulkan_gpu_config gpus = { 0 };
+    if (cv_vulkan_gpu_args(&argc, argv, &gpus) != CV_OK) {
+        fprintf(stderr, "corvid-node: %s (see --help)\n", cv_last_error());
+        return 2;
+    }
+    options o;
+    int parsed = parse_args(argc, argv, &o);
+    if (parsed)
+        return parsed == 1 ? 0 : 2;
+    char cache_dir[PATH_MAX];
+    if (!o.cache_dir && default_cache_dir(cache_dir, sizeof(cache_dir)) != 0) {
+        fprintf(stderr, "corvid-node: no cache directory: give --cache-dir\n");
+        return 2;
+    }
+    cv_node_device_spec devices[CV_VULKAN_MAX_GPUS];
+    uint32_t device_count = 0;
+    cv_result r = make_devices(&o, &gpus, devices, &device_count);
+    if (r != CV_OK) {
+        fprintf(stderr, "corvid-node: %s\n", cv_last_error());
+        return 1;
+    }
+
+    /* Signals are taken by sigwait below, so every thread (gRPC's too) blocks them. */
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGTERM);
+    sigaddset(&signals, SIGINT);
+    pthread_sigmask(SIG_BLOCK, &signals, NULL);
+    signal(SIGPIPE, SIG_IGN);
+
+    cv_node_config config = {
+        .listen = o.listen,
+        .name = o.name,
+        .devices = devices,
+        .device_count = device_count,
+        .validation = o.validation,
+        .cache_dir = o.cache_dir ? o.cache_dir : cache_dir,
+        .cache_bytes = o.cache_bytes,
+        .idle_timeout_ms = o.idle_timeout_s * 1000u,
+        .max_sessions = o.max_sessions,
+        .log_sessions = !o.quiet,
+    };
+    cv_node *node;
+    r = cv_node_start(&config, &node);
+    if (r != CV_OK) {
+        fprintf(stderr, "corvid-node: %s\n", cv_last_error());
+        return 1;
+    }
+    int port = cv_node_port(node);
+    if (o.port_file) {
+        FILE *f = fopen(o.port_file, "w");
+        if (!f || fprintf(f, "%d\n", port) < 0 || fclose(f) != 0) {
+            fprintf(stderr, "corvid-node: --port-file %s: %s\n", o.port_file, strerror(errno));
+            cv_node_stop(node, 0);
+            return 1;
+        }
+    }
+    const char *colon = strrchr(o.listen, ':');
+    printf("corvid-node: listening on %.*s:%d with %u device%s (%s), cache %s\n", (int)(colon - o.listen), o.listen,
+           port, device_count, device_count == 1 ? "" : "s", o.backend, config.cache_dir);
+    fflush(stdout);
+
+    int sig = 0;
+    sigwait(&signals, &sig);
+    fprintf(stderr, "corvid-node: %s: draining (new sessions refused, %u s for running ones)\n",
+            sig == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_timeout_s);
+    cv_node_drain(node);
+    cv_node_stats stats = cv_node_get_stats(node);
+    cv_node_stop(node, o.drain_timeout_s * 1000u);
+    fprintf(stderr, "corvid-node: stopped after %" PRIu64 " sessions, %" PRIu64 " submissions, %" PRIu64
+            " bytes in, %" PRIu64 " bytes out\n", stats.sessions_started, stats.submissions, stats.bytes_in,
+            stats.bytes_out);
+    return 0;
+}

@@ -1,0 +1,81 @@
+/* The node protocol's constants and the conversions both sides share.
+ *
+ * proto/node.proto defines the messages of a session between a client (the
+ * proxy backend, client/src/proxy/) and corvid-node (server/node/). This header
+ * holds what both ends must agree on beyond the schema: the protocol version,
+ * the method paths (protoc-c generates no gRPC stubs), the sizes of chunks and
+ * messages, and the conversions between Corvid's C structs and their messages.
+ * Conversions from messages never trust their input: every field is checked and
+ * a bad one is named in the error (CV_ERROR_MALFORMED), so the node can answer a
+ * hostile client with a clear message.
+ *
+ *     Corvid__CreateResource msg;
+ *     cv_node_desc_storage storage;
+ *     cv_node_desc_to_msg(&desc, id, &msg, &storage);   // client
+ *     ...
+ *     cv_resource_desc desc;
+ *     if (cv_node_desc_from_msg(msg, &desc) != CV_OK) ...  // node */
+#ifndef CORVID_NODE_PROTOCOL_H
+#define CORVID_NODE_PROTOCOL_H
+
+#include "corvid/context.h"
+#include "corvid/device.h"
+#include "node.pb-c.h"
+
+/* Version 1: the messages of node.proto as first published. A node serves only
+ * its own version; the first exchange (Hello) says which one each side speaks. */
+#define CV_NODE_PROTOCOL_VERSION 1u
+
+#define CV_NODE_METHOD_SESSION "/corvid.Node/Session"
+#define CV_NODE_METHOD_INFO "/corvid.Node/Info"
+#define CV_HEALTH_METHOD_CHECK "/grpc.health.v1.Health/Check"
+#define CV_HEALTH_METHOD_WATCH "/grpc.health.v1.Health/Watch"
+
+/* Bulk data moves in pieces of this size: blob chunks, inline writes and read
+ * results (256 KiB to 1 MiB messages move fastest through gRPC). */
+#define CV_NODE_CHUNK_BYTES (1u << 20)
+/* The largest message either side accepts: a chunk plus its envelope, with room. */
+#define CV_NODE_MAX_MESSAGE_BYTES (4u << 20)
+/* Buffer writes of at least this many bytes are content-addressed (hashed,
+ * sent once per node cache); smaller ones travel inline. */
+#define CV_NODE_BLOB_MIN_BYTES (256u << 10)
+/* Node device count a client can address. */
+#define CV_NODE_MAX_DEVICES 64u
+#define CV_SHA256_BYTES 32u
+
+/* Storage the pointers of a filled Corvid__CreateResource refer to. */
+typedef struct cv_node_desc_storage {
+    char label[CV_LABEL_MAX];
+    char pipeline[CV_LABEL_MAX];
+    Corvid__BufferDesc buffer;
+    Corvid__TextureDesc texture;
+    Corvid__SamplerDesc sampler;
+    Corvid__PipelineDesc pipeline_desc;
+    Corvid__AccelDesc accel;
+} cv_node_desc_storage;
+
+/* Fills msg (initialised here) for handle `id` described by desc (NULL desc: a
+ * command list). */
+void cv_node_desc_to_msg(uint64_t id, const cv_resource_desc *desc, Corvid__CreateResource *msg,
+                         cv_node_desc_storage *storage);
+/* The description in msg, checked for form (type present and matching the
+ * handle's type tag, label and name fit). Values are checked again by the
+ * context's create calls. CV_ERROR_MALFORMED names the field. */
+cv_result cv_node_desc_from_msg(const Corvid__CreateResource *msg, cv_resource_desc *out);
+
+/* Device info both ways. The message's strings point into `info`. */
+typedef struct cv_node_info_storage {
+    uint32_t max_dispatch[3];
+} cv_node_info_storage;
+void cv_node_info_to_msg(const cv_device_info *info, const char *label, Corvid__DeviceInfo *msg,
+                         cv_node_info_storage *storage);
+void cv_node_info_from_msg(const Corvid__DeviceInfo *msg, cv_device_info *out);
+
+/* A bytes field that must hold exactly one SHA-256. */
+cv_result cv_node_check_sha(ProtobufCBinaryData b, const char *field);
+
+/* Packs a message into a malloc'd buffer (caller frees). */
+cv_result cv_node_pack_client(const Corvid__ClientMessage *m, uint8_t **out, size_t *size);
+cv_result cv_node_pack_node(const Corvid__NodeMessage *m, uint8_t **out, size_t *size);
+
+#endif

@@ -1,0 +1,54 @@
+/* The proxy backend: devices of a remote corvid-node, used like local ones.
+ *
+ * A proxy device is one device of a node (proto/node.proto), reached over one
+ * gRPC stream, its session. It joins the application's context like any other
+ * device: the application records command lists locally against its own
+ * handles, and the proxy sends what the node needs to run them: resource
+ * descriptions, encoded lists, data. Nothing costs a round trip per recorded
+ * command; submit returns a ticket at once and the node reports finished work
+ * by itself, so frame N+1 can be submitted before frame N's results arrive.
+ * Writes travel without waiting; reads wait for their data (one round trip).
+ * Large buffer writes and acceleration structures are content-addressed: they
+ * are hashed (SHA-256) and only sent if the node's cache lacks them, so a scene
+ * the node has already seen, in any session, costs no upload.
+ *
+ *     cv_device_desc desc = { .endpoint = "gpubox:7700", .adapter = "1" };   // the node's device 1
+ *     cv_device *dev;
+ *     if (cv_device_create(ctx, cv_proxy_backend(), &desc, &dev) != CV_OK)
+ *         fprintf(stderr, "%s\n", cv_last_error());   // says which node and why
+ *
+ * desc.adapter is the index of the node's device ("" = 0). A node that cannot
+ * be reached, speaks another protocol version, or dies mid-session makes calls
+ * fail with CV_ERROR_CONNECTION (within the keepalive time, never a hang);
+ * a request the node refuses fails with the node's code and message. */
+#ifndef CORVID_PROXY_H
+#define CORVID_PROXY_H
+
+#include "corvid/device.h"
+
+const cv_backend *cv_proxy_backend(void);
+
+/* Traffic of one proxy device's session. */
+typedef struct cv_proxy_stats {
+    uint64_t messages_sent, bytes_sent, bytes_received;
+    uint64_t upload_bytes_sent;      /* content-addressed data actually sent */
+    uint64_t upload_bytes_skipped;   /* ... that the node had already */
+    uint64_t round_trips;            /* requests that waited for an answer */
+} cv_proxy_stats;
+
+/* CV_ERROR_INVALID_ARGUMENT if dev is not a proxy device. */
+cv_result cv_proxy_get_stats(cv_device *dev, cv_proxy_stats *out);
+
+/* What a node serves, without opening a session. */
+typedef struct cv_proxy_node_info {
+    char name[256];
+    uint32_t protocol_version;
+    uint32_t device_count;
+    uint32_t sessions;
+    cv_device_info devices[64];
+    char labels[64][CV_LABEL_MAX];
+} cv_proxy_node_info;
+
+cv_result cv_proxy_query_node(const char *endpoint, uint32_t timeout_ms, cv_proxy_node_info *out);
+
+#endif

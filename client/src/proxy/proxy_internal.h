@@ -1,0 +1,102 @@
+/* The proxy backend's session with a node (proxy_session.c) and what the
+ * backend table (proxy_backend.c) uses of it.
+ *
+ * One proxy device = one gRPC stream to one node device. The device's calls
+ * come under the core's device lock, so at most one request waits for an answer
+ * at a time (the `pending` slot); a receiver thread reads every node message,
+ * fills the pending request's answer, records finished tickets and wakes
+ * whoever waits. Requests that need no answer (writes, destroy, compile, submit)
+ * are sent and forgotten; if the node refuses one anyway, its error is kept
+ * (`async_error`) and returned by every later call: the client's picture of the
+ * device no longer matches the node's. */
+#ifndef CORVID_PROXY_INTERNAL_H
+#define CORVID_PROXY_INTERNAL_H
+
+#include <pthread.h>
+#include <stdatomic.h>
+
+#include "corvid/backend.h"
+#include "corvid/node_protocol.h"
+#include "corvid/proxy.h"
+#include "corvid/rpc.h"
+
+#define PROXY_MAX_TIMINGS 32u
+#define PROXY_INFLIGHT 1024u
+
+/* A list as compiled for the node: the node holds the list, this is its name. */
+typedef struct proxy_list {
+    uint64_t id;
+    cv_pass_timing timings[PROXY_MAX_TIMINGS];
+    uint32_t timing_count;
+} proxy_list;
+
+/* The answer a waiting request gets. */
+typedef struct proxy_pending {
+    uint64_t seq;                   /* 0: no request waits */
+    bool done;
+    cv_result result;
+    char message[1024];
+    Corvid__DeviceInfo *hello;      /* hello: the node's device (copied into info) */
+    cv_device_info *hello_info;
+    uint64_t session_id;
+    uint8_t *read_into;             /* reads: destination and its size */
+    uint64_t read_size, read_received;
+    bool *present;                  /* blob queries: one flag per hash */
+    size_t present_count;
+} proxy_pending;
+
+typedef struct proxy_inflight {
+    uint64_t ticket;
+    proxy_list *list;
+} proxy_inflight;
+
+typedef struct proxy_known_list {
+    uint64_t id;
+    uint32_t refs;                  /* compiled forms alive; the node's list goes at 0 */
+} proxy_known_list;
+
+struct cv_backend_device {
+    char endpoint[256];
+    uint32_t remote_device;
+    uint32_t timeout_ms;            /* for one answer */
+    cv_rpc_client *client;
+    cv_rpc_stream *stream;
+    pthread_t receiver;
+    bool receiver_started;
+
+    pthread_mutex_t lock;           /* everything below */
+    pthread_cond_t cond;
+    atomic_uint_fast64_t next_seq;
+    proxy_pending pending;
+    uint64_t completed;             /* highest ticket the node finished */
+    proxy_inflight inflight[PROXY_INFLIGHT];   /* submitted, not completed: ring by ticket */
+    cv_result dead;                 /* CV_OK while the stream lives */
+    char dead_message[512];
+    cv_result async_error;          /* first refused fire-and-forget request */
+    char async_message[512];
+
+    /* Blobs the node is known to have (answered present, or uploaded). */
+    uint8_t (*known)[CV_SHA256_BYTES];
+    uint32_t known_count, known_capacity;
+    proxy_known_list *lists;        /* lists that exist on the node */
+    uint32_t list_count, list_capacity;
+
+    cv_proxy_stats stats;           /* under lock */
+};
+
+typedef struct cv_backend_device proxy_device;
+
+/* Connects, says hello, fills *info. */
+cv_result proxy_session_open(proxy_device *p, cv_device_info *info);
+/* Closes the stream (waiting a little for the node to finish what was sent). */
+void proxy_session_close(proxy_device *p);
+
+/* Sends a message; fails if the session is dead or an earlier request was refused. */
+cv_result proxy_send(proxy_device *p, Corvid__ClientMessage *m);
+/* Sends a request and waits for its answer. `pending` (seq is set here) says
+ * where the answer goes. */
+cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending);
+/* The error every call returns once the session is unusable, or CV_OK. */
+cv_result proxy_health(proxy_device *p);
+
+#endif

@@ -1,0 +1,286 @@
+/* A proxy device's session with its node: connect and hello, sending,
+ * request/answer, and the receiver thread (proxy_internal.h). */
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "proxy_internal.h"
+
+/* Marks the session unusable (lock held) and wakes every waiter. */
+static void set_dead(proxy_device *p, cv_result code, const char *why) {
+    if (p->dead == CV_OK) {
+        p->dead = code;
+        snprintf(p->dead_message, sizeof(p->dead_message), "%s", why);
+    }
+    pthread_cond_broadcast(&p->cond);
+}
+
+cv_result proxy_health(proxy_device *p) {
+    pthread_mutex_lock(&p->lock);
+    cv_result r = CV_OK;
+    if (p->dead != CV_OK)
+        r = cv_error(p->dead, "node '%s': %s", p->endpoint, p->dead_message);
+    else if (p->async_error != CV_OK)
+        r = cv_error(p->async_error, "node '%s' refused an earlier request: %s", p->endpoint, p->async_message);
+    pthread_mutex_unlock(&p->lock);
+    return r;
+}
+
+cv_result proxy_send(proxy_device *p, Corvid__ClientMessage *m) {
+    cv_result r = proxy_health(p);
+    if (r != CV_OK)
+        return r;
+    if (!m->seq)
+        m->seq = atomic_fetch_add(&p->next_seq, 1) + 1;
+    uint8_t *buf;
+    size_t size;
+    r = cv_node_pack_client(m, &buf, &size);
+    if (r != CV_OK)
+        return r;
+    r = cv_rpc_stream_send(p->stream, buf, size);
+    free(buf);
+    pthread_mutex_lock(&p->lock);
+    if (r == CV_OK) {
+        p->stats.messages_sent++;
+        p->stats.bytes_sent += size;
+    } else {
+        set_dead(p, CV_ERROR_CONNECTION, cv_last_error());
+    }
+    pthread_mutex_unlock(&p->lock);
+    return r == CV_OK ? CV_OK : cv_error(CV_ERROR_CONNECTION, "node '%s': %s", p->endpoint, p->dead_message);
+}
+
+static void deadline_after(struct timespec *ts, uint32_t ms) {
+    clock_gettime(CLOCK_REALTIME, ts);
+    ts->tv_sec += ms / 1000;
+    ts->tv_nsec += (long)(ms % 1000) * 1000000L;
+    if (ts->tv_nsec >= 1000000000L) {
+        ts->tv_sec++;
+        ts->tv_nsec -= 1000000000L;
+    }
+}
+
+cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending) {
+    m->seq = atomic_fetch_add(&p->next_seq, 1) + 1;
+    pthread_mutex_lock(&p->lock);
+    pending->seq = m->seq;
+    pending->done = false;
+    pending->result = CV_OK;
+    pending->message[0] = '\0';
+    p->pending = *pending;
+    p->stats.round_trips++;
+    pthread_mutex_unlock(&p->lock);
+    cv_result r = proxy_send(p, m);
+    pthread_mutex_lock(&p->lock);
+    if (r == CV_OK) {
+        struct timespec deadline;
+        deadline_after(&deadline, p->timeout_ms);
+        while (!p->pending.done && p->dead == CV_OK)
+            if (pthread_cond_timedwait(&p->cond, &p->lock, &deadline) != 0)
+                break;
+        if (p->pending.done)
+            r = p->pending.result == CV_OK ? CV_OK
+                                           : cv_error(p->pending.result, "node '%s': %s", p->endpoint,
+                                                      p->pending.message);
+        else if (p->dead != CV_OK)
+            r = cv_error(p->dead, "node '%s': %s", p->endpoint, p->dead_message);
+        else {
+            /* No answer in time: the session cannot be trusted to match any more. */
+            set_dead(p, CV_ERROR_TIMEOUT, "no answer within the request timeout");
+            r = cv_error(CV_ERROR_TIMEOUT, "node '%s': no answer to request %" PRIu64 " within %u ms", p->endpoint,
+                         m->seq, p->timeout_ms);
+        }
+    }
+    *pending = p->pending;
+    p->pending = (proxy_pending){ 0 };
+    pthread_mutex_unlock(&p->lock);
+    return r;
+}
+
+/* ---- receiving ------------------------------------------------------------- */
+
+static void on_reply(proxy_device *p, uint64_t seq, const Corvid__Reply *reply) {
+    if (p->pending.seq == seq) {
+        p->pending.result = (cv_result)reply->result;
+        snprintf(p->pending.message, sizeof(p->pending.message), "%s", reply->message ? reply->message : "");
+        p->pending.done = true;
+    } else if (reply->result != CV_OK && p->async_error == CV_OK) {
+        p->async_error = (cv_result)reply->result;
+        snprintf(p->async_message, sizeof(p->async_message), "request %" PRIu64 ": %s", seq,
+                 reply->message ? reply->message : "");
+    }
+}
+
+static void on_read_data(proxy_device *p, uint64_t seq, const Corvid__ReadData *d) {
+    proxy_pending *w = &p->pending;
+    if (w->seq != seq || !w->read_into) {
+        set_dead(p, CV_ERROR_MALFORMED, "read data for no read in flight");
+        return;
+    }
+    if (d->offset != w->read_received || d->data.len > w->read_size - w->read_received) {
+        set_dead(p, CV_ERROR_MALFORMED, "read data out of order or past the end");
+        return;
+    }
+    memcpy(w->read_into + d->offset, d->data.data, d->data.len);
+    w->read_received += d->data.len;
+    if (d->last) {
+        w->result = w->read_received == w->read_size ? CV_OK : CV_ERROR_MALFORMED;
+        if (w->result != CV_OK)
+            snprintf(w->message, sizeof(w->message), "read ended after %" PRIu64 " of %" PRIu64 " bytes",
+                     w->read_received, w->read_size);
+        w->done = true;
+    }
+}
+
+static void on_completed(proxy_device *p, const Corvid__Completed *c) {
+    if (c->ticket <= p->completed) {
+        set_dead(p, CV_ERROR_MALFORMED, "a ticket completed twice or out of order");
+        return;
+    }
+    proxy_inflight *slot = &p->inflight[c->ticket % PROXY_INFLIGHT];
+    if (slot->ticket == c->ticket && slot->list && c->result == CV_OK) {
+        proxy_list *l = slot->list;
+        l->timing_count = 0;
+        for (size_t i = 0; i < c->n_timings && i < PROXY_MAX_TIMINGS; i++) {
+            cv_pass_timing *t = &l->timings[l->timing_count++];
+            snprintf(t->label, sizeof(t->label), "%s", c->timings[i]->label ? c->timings[i]->label : "");
+            t->start_ms = c->timings[i]->start_ms;
+            t->duration_ms = c->timings[i]->duration_ms;
+        }
+    }
+    slot->ticket = 0;
+    slot->list = NULL;
+    if (c->result != CV_OK && p->async_error == CV_OK) {
+        p->async_error = (cv_result)c->result;
+        snprintf(p->async_message, sizeof(p->async_message), "submission %" PRIu64 ": %s", c->ticket,
+                 c->message ? c->message : "");
+    }
+    p->completed = c->ticket;
+}
+
+static void on_message(proxy_device *p, const Corvid__NodeMessage *m) {
+    switch (m->msg_case) {
+    case CORVID__NODE_MESSAGE__MSG_HELLO:
+        if (p->pending.seq == m->seq && p->pending.hello_info && m->hello->device) {
+            cv_node_info_from_msg(m->hello->device, p->pending.hello_info);
+            p->pending.session_id = m->hello->session_id;
+            p->pending.done = true;
+        }
+        break;
+    case CORVID__NODE_MESSAGE__MSG_REPLY:
+        on_reply(p, m->seq, m->reply);
+        break;
+    case CORVID__NODE_MESSAGE__MSG_BLOB_STATUS:
+        if (p->pending.seq == m->seq && p->pending.present) {
+            if (m->blob_status->n_present != p->pending.present_count) {
+                set_dead(p, CV_ERROR_MALFORMED, "blob status of the wrong length");
+                break;
+            }
+            for (size_t i = 0; i < m->blob_status->n_present; i++)
+                p->pending.present[i] = m->blob_status->present[i];
+            p->pending.done = true;
+        }
+        break;
+    case CORVID__NODE_MESSAGE__MSG_READ_DATA:
+        on_read_data(p, m->seq, m->read_data);
+        break;
+    case CORVID__NODE_MESSAGE__MSG_COMPLETED:
+        on_completed(p, m->completed);
+        break;
+    default:
+        set_dead(p, CV_ERROR_MALFORMED, "an unknown message from the node");
+        break;
+    }
+    pthread_cond_broadcast(&p->cond);
+}
+
+static void *receiver_main(void *arg) {
+    proxy_device *p = arg;
+    for (;;) {
+        uint8_t *data = NULL;
+        size_t size = 0;
+        cv_result r = cv_rpc_stream_recv(p->stream, UINT32_MAX, &data, &size);
+        if (r != CV_OK || !data) {
+            char status[400];
+            int code = cv_rpc_stream_status(p->stream, status, sizeof(status));
+            char why[512];
+            if (r != CV_OK)
+                snprintf(why, sizeof(why), "connection lost: %s", cv_last_error());
+            else
+                snprintf(why, sizeof(why), "the node ended the session (status %d%s%s)", code, status[0] ? ": " : "",
+                         status);
+            pthread_mutex_lock(&p->lock);
+            set_dead(p, CV_ERROR_CONNECTION, why);
+            pthread_mutex_unlock(&p->lock);
+            return NULL;
+        }
+        Corvid__NodeMessage *m = corvid__node_message__unpack(NULL, size, data);
+        free(data);
+        pthread_mutex_lock(&p->lock);
+        p->stats.bytes_received += size;
+        if (m)
+            on_message(p, m);
+        else
+            set_dead(p, CV_ERROR_MALFORMED, "a message from the node is not a corvid.NodeMessage");
+        pthread_mutex_unlock(&p->lock);
+        if (m)
+            corvid__node_message__free_unpacked(m, NULL);
+    }
+}
+
+/* ---- open / close ----------------------------------------------------------- */
+
+cv_result proxy_session_open(proxy_device *p, cv_device_info *info) {
+    cv_rpc_client_config cc = { .max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES };
+    cv_result r = cv_rpc_client_create(p->endpoint, &cc, &p->client);
+    if (r == CV_OK)
+        r = cv_rpc_client_open(p->client, CV_NODE_METHOD_SESSION, NULL, 0, &p->stream);
+    if (r == CV_OK) {
+        if (pthread_create(&p->receiver, NULL, receiver_main, p) == 0)
+            p->receiver_started = true;
+        else
+            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "proxy: cannot start the receiver thread");
+    }
+    if (r != CV_OK)
+        return cv_error(CV_ERROR_CONNECTION, "node '%s': %s", p->endpoint, cv_last_error());
+    Corvid__Hello hello = CORVID__HELLO__INIT;
+    hello.protocol_version = CV_NODE_PROTOCOL_VERSION;
+    hello.client_name = "corvid proxy";
+    hello.device = p->remote_device;
+    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
+    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_HELLO;
+    m.hello = &hello;
+    proxy_pending pending = { .hello_info = info };
+    r = proxy_request(p, &m, &pending);
+    if (r != CV_OK)
+        return r;
+    snprintf(info->backend, sizeof(info->backend), "proxy");
+    info->adapter_index = p->remote_device;
+    return CV_OK;
+}
+
+void proxy_session_close(proxy_device *p) {
+    if (p->stream) {
+        /* Half-close: the node finishes what it was sent, then ends the stream. */
+        cv_rpc_stream_close_send(p->stream);
+        if (p->receiver_started) {
+            pthread_mutex_lock(&p->lock);
+            struct timespec deadline;
+            deadline_after(&deadline, p->timeout_ms);
+            while (p->dead == CV_OK)
+                if (pthread_cond_timedwait(&p->cond, &p->lock, &deadline) != 0)
+                    break;
+            pthread_mutex_unlock(&p->lock);
+        }
+        cv_rpc_stream_cancel(p->stream);
+        if (p->receiver_started)
+            pthread_join(p->receiver, NULL);
+        cv_rpc_stream_destroy(p->stream);
+        p->stream = NULL;
+    }
+    if (p->client)
+        cv_rpc_client_destroy(p->client);
+    p->client = NULL;
+}

@@ -1,0 +1,205 @@
+/* corvid-node's server (node.h): devices probed at start, the content store,
+ * the gRPC service (sessions, Info, grpc.health.v1), drain and stop. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "health.pb-c.h"
+#include "node_internal.h"
+
+enum { STATUS_OK = 0, STATUS_INVALID_ARGUMENT = 3, STATUS_NOT_FOUND = 5, STATUS_INTERNAL = 13 };
+
+static const char *const stream_methods[] = { CV_NODE_METHOD_SESSION, NULL };
+static const char *const unary_methods[] = { CV_NODE_METHOD_INFO, CV_HEALTH_METHOD_CHECK, NULL };
+
+static void on_stream(cv_rpc_stream *stream, const char *method, void *user) {
+    (void)method;   /* the only stream method */
+    cv_node_session_run(user, stream);
+}
+
+static int answer_info(cv_node *node, void **response, size_t *size, char *message, size_t cap) {
+    Corvid__DeviceInfo *items = calloc(node->config.device_count, sizeof(*items));
+    Corvid__DeviceInfo **ptrs = calloc(node->config.device_count, sizeof(*ptrs));
+    cv_node_info_storage *storage = calloc(node->config.device_count, sizeof(*storage));
+    int status = STATUS_OK;
+    if (!items || !ptrs || !storage) {
+        snprintf(message, cap, "node out of memory");
+        status = STATUS_INTERNAL;
+    } else {
+        for (uint32_t i = 0; i < node->config.device_count; i++) {
+            cv_node_info_to_msg(&node->device_info[i], node->devices[i].label, &items[i], &storage[i]);
+            ptrs[i] = &items[i];
+        }
+        Corvid__NodeInfo info = CORVID__NODE_INFO__INIT;
+        info.protocol_version = CV_NODE_PROTOCOL_VERSION;
+        info.node_name = node->name;
+        info.n_devices = node->config.device_count;
+        info.devices = ptrs;
+        info.sessions = (uint32_t)atomic_load(&node->sessions_active);
+        *size = corvid__node_info__get_packed_size(&info);
+        *response = malloc(*size ? *size : 1);
+        if (*response)
+            corvid__node_info__pack(&info, *response);
+        else {
+            snprintf(message, cap, "node out of memory");
+            status = STATUS_INTERNAL;
+        }
+    }
+    free(items);
+    free(ptrs);
+    free(storage);
+    return status;
+}
+
+static int answer_health(cv_node *node, const void *request, size_t request_size, void **response, size_t *size,
+                         char *message, size_t cap) {
+    Grpc__Health__V1__HealthCheckRequest *req =
+        grpc__health__v1__health_check_request__unpack(NULL, request_size, request);
+    if (!req) {
+        snprintf(message, cap, "not a grpc.health.v1.HealthCheckRequest");
+        return STATUS_INVALID_ARGUMENT;
+    }
+    /* "" is the server as a whole; "corvid.Node" is its one service. */
+    bool known = !req->service[0] || strcmp(req->service, "corvid.Node") == 0;
+    if (!known)
+        snprintf(message, cap, "unknown service '%.200s' (this node serves \"\" and \"corvid.Node\")", req->service);
+    grpc__health__v1__health_check_request__free_unpacked(req, NULL);
+    if (!known)
+        return STATUS_NOT_FOUND;
+    Grpc__Health__V1__HealthCheckResponse resp = GRPC__HEALTH__V1__HEALTH_CHECK_RESPONSE__INIT;
+    resp.status = atomic_load(&node->draining) ? GRPC__HEALTH__V1__HEALTH_CHECK_RESPONSE__SERVING_STATUS__NOT_SERVING
+                                               : GRPC__HEALTH__V1__HEALTH_CHECK_RESPONSE__SERVING_STATUS__SERVING;
+    *size = grpc__health__v1__health_check_response__get_packed_size(&resp);
+    *response = malloc(*size ? *size : 1);
+    if (!*response) {
+        snprintf(message, cap, "node out of memory");
+        return STATUS_INTERNAL;
+    }
+    grpc__health__v1__health_check_response__pack(&resp, *response);
+    return STATUS_OK;
+}
+
+static int on_unary(const char *method, const void *request, size_t size, void **response, size_t *response_size,
+                    char *message, size_t message_cap, void *user) {
+    cv_node *node = user;
+    if (strcmp(method, CV_HEALTH_METHOD_CHECK) == 0)
+        return answer_health(node, request, size, response, response_size, message, message_cap);
+    return answer_info(node, response, response_size, message, message_cap);
+}
+
+static void free_node(cv_node *node) {
+    if (node->store)
+        cv_content_store_close(node->store);
+    free(node->devices);
+    free(node->device_info);
+    free(node);
+}
+
+/* Opens each device once, to report what it is before any session asks. */
+static cv_result probe_devices(cv_node *node) {
+    cv_context *ctx;
+    cv_result r = cv_context_create(NULL, &ctx);
+    for (uint32_t i = 0; r == CV_OK && i < node->config.device_count; i++) {
+        cv_device_desc desc = { .adapter = node->devices[i].adapter, .validation = node->config.validation };
+        snprintf(desc.label, sizeof(desc.label), "%s", node->devices[i].label);
+        cv_device *dev;
+        r = cv_device_create(ctx, node->devices[i].backend, &desc, &dev);
+        if (r != CV_OK)
+            return cv_error(r, "node device %u ('%s'): %s", i, node->devices[i].label, cv_last_error());
+        node->device_info[i] = *cv_device_get_info(dev);
+        cv_device_destroy(dev);
+    }
+    if (ctx)
+        cv_context_destroy(ctx);
+    return r;
+}
+
+cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
+    if (!config || !out || !config->devices || !config->listen || !config->cache_dir)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_node_start: NULL config, devices, listen or cache_dir");
+    if (config->device_count == 0 || config->device_count > CV_NODE_MAX_DEVICES)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "node: %u devices (1..%u)", config->device_count, CV_NODE_MAX_DEVICES);
+    cv_node *node = calloc(1, sizeof(*node));
+    if (!node)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
+    node->config = *config;
+    node->devices = calloc(config->device_count, sizeof(*node->devices));
+    node->device_info = calloc(config->device_count, sizeof(*node->device_info));
+    if (!node->devices || !node->device_info) {
+        free_node(node);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
+    }
+    memcpy(node->devices, config->devices, config->device_count * sizeof(*node->devices));
+    node->config.devices = node->devices;
+    for (uint32_t i = 0; i < config->device_count; i++) {
+        node->devices[i].adapter[sizeof(node->devices[i].adapter) - 1] = '\0';
+        node->devices[i].label[sizeof(node->devices[i].label) - 1] = '\0';
+        if (!node->devices[i].label[0])
+            snprintf(node->devices[i].label, sizeof(node->devices[i].label), "gpu%u", i);
+    }
+    if (config->name)
+        snprintf(node->name, sizeof(node->name), "%s", config->name);
+    else if (gethostname(node->name, sizeof(node->name) - 1) != 0)
+        snprintf(node->name, sizeof(node->name), "corvid-node");
+    node->config.name = node->name;
+    node->config.listen = NULL;
+    node->config.cache_dir = NULL;   /* used only here, below */
+
+    cv_result r = probe_devices(node);
+    if (r == CV_OK)
+        r = cv_content_store_open(config->cache_dir, config->cache_bytes ? config->cache_bytes : 4ull << 30,
+                                  &node->store);
+    if (r != CV_OK) {
+        free_node(node);
+        return r;
+    }
+    cv_rpc_server_config rc = {
+        .listen = config->listen,
+        .max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES,
+        .max_streams = config->max_sessions ? config->max_sessions : 256,
+        .on_stream = on_stream,
+        .on_unary = on_unary,
+        .stream_methods = stream_methods,
+        .unary_methods = unary_methods,
+        .user = node,
+    };
+    r = cv_rpc_server_start(&rc, &node->server);
+    if (r != CV_OK) {
+        free_node(node);
+        return r;
+    }
+    *out = node;
+    return CV_OK;
+}
+
+int cv_node_port(const cv_node *node) { return cv_rpc_server_port(node->server); }
+
+void cv_node_drain(cv_node *node) {
+    atomic_store(&node->draining, true);
+    cv_rpc_server_drain(node->server);
+}
+
+void cv_node_stop(cv_node *node, uint32_t timeout_ms) {
+    if (!node)
+        return;
+    atomic_store(&node->draining, true);
+    cv_rpc_server_destroy(node->server, timeout_ms);
+    free_node(node);
+}
+
+cv_node_stats cv_node_get_stats(cv_node *node) {
+    cv_content_stats cs = cv_content_store_stats(node->store);
+    return (cv_node_stats){
+        .sessions_started = atomic_load(&node->sessions_started),
+        .sessions_active = atomic_load(&node->sessions_active),
+        .messages_in = atomic_load(&node->messages_in),
+        .bytes_in = atomic_load(&node->bytes_in),
+        .bytes_out = atomic_load(&node->bytes_out),
+        .submissions = atomic_load(&node->submissions),
+        .errors = atomic_load(&node->errors),
+        .cache_hits = cs.hits,
+        .cache_misses = cs.misses,
+        .cache_bytes = cs.bytes,
+    };
+}

@@ -1,0 +1,67 @@
+/* corvid-node: serves a machine's devices to remote clients over gRPC.
+ *
+ * A node owns a list of devices (real GPUs, virtual GPUs, or mock devices), a
+ * content-addressed cache of uploaded data shared by every session, and a gRPC
+ * server (through the thin layer of corvid/rpc.h). Each client session is one
+ * bidirectional stream (proto/node.proto): it gets its own context, handle table
+ * and device instance, so nothing of one session is reachable from another, and
+ * everything it held is freed when the stream ends, however it ends. The node
+ * checks every message and every command list itself; a bad one is answered
+ * with a clear error and the node goes on serving.
+ *
+ *     cv_node_device_spec dev = { .backend = cv_mock_backend(), .label = "mock0" };
+ *     cv_node_config config = { .listen = "127.0.0.1:0", .devices = &dev, .device_count = 1,
+ *                               .cache_dir = "/tmp/cache" };
+ *     cv_node *node;
+ *     if (cv_node_start(&config, &node) == CV_OK) {
+ *         printf("port %d\n", cv_node_port(node));
+ *         ...
+ *         cv_node_drain(node);          // SIGTERM: refuse new sessions
+ *         cv_node_stop(node, 30000);    // let running sessions finish, then stop
+ *     }
+ *
+ * Thread-safe: sessions run on their own threads; the calls above may come from
+ * any thread. */
+#ifndef CORVID_NODE_H
+#define CORVID_NODE_H
+
+#include "corvid/device.h"
+
+typedef struct cv_node cv_node;
+
+/* One device the node serves: a backend and the adapter to open on it. */
+typedef struct cv_node_device_spec {
+    const cv_backend *backend;
+    char adapter[64];             /* as cv_device_desc.adapter ("" = backend default) */
+    char label[CV_LABEL_MAX];     /* the node's name for it ("gpu0") */
+} cv_node_device_spec;
+
+typedef struct cv_node_config {
+    const char *listen;               /* "host:port"; port 0 picks a free one */
+    const char *name;                 /* reported to clients; NULL = the host name */
+    const cv_node_device_spec *devices;
+    uint32_t device_count;            /* 1..CV_NODE_MAX_DEVICES */
+    bool validation;                  /* API validation on session devices */
+    const char *cache_dir;            /* content store directory (created) */
+    uint64_t cache_bytes;             /* content store size limit; 0 = 4 GiB */
+    uint32_t idle_timeout_ms;         /* a session with no message for this long ends; 0 = 300 s */
+    uint32_t max_sessions;            /* concurrent sessions; 0 = 256 */
+    bool log_sessions;                /* one line per session start/end and per error on stderr */
+} cv_node_config;
+
+typedef struct cv_node_stats {
+    uint64_t sessions_started, sessions_active;
+    uint64_t messages_in, bytes_in, bytes_out;
+    uint64_t submissions, errors;
+    uint64_t cache_hits, cache_misses, cache_bytes;
+} cv_node_stats;
+
+cv_result cv_node_start(const cv_node_config *config, cv_node **out);
+int cv_node_port(const cv_node *node);
+/* Refuses new sessions (health answers NOT_SERVING); running ones go on. */
+void cv_node_drain(cv_node *node);
+/* Waits up to timeout_ms for sessions to end, cancels what is left, frees everything. */
+void cv_node_stop(cv_node *node, uint32_t timeout_ms);
+cv_node_stats cv_node_get_stats(cv_node *node);
+
+#endif

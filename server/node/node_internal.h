@@ -1,0 +1,29 @@
+/* What node.c (the server, Info, health) shares with session.c (one client's
+ * stream). */
+#ifndef CORVID_NODE_INTERNAL_H
+#define CORVID_NODE_INTERNAL_H
+
+#include <stdatomic.h>
+
+#include "content_store.h"
+#include "corvid/node_protocol.h"
+#include "corvid/rpc.h"
+#include "node.h"
+
+struct cv_node {
+    cv_node_config config;            /* pointers below are the node's own copies */
+    char name[256];
+    cv_node_device_spec *devices;
+    cv_device_info *device_info;      /* probed at start */
+    cv_content_store *store;
+    cv_rpc_server *server;
+    atomic_bool draining;
+    atomic_uint_fast64_t next_session_id;
+    atomic_uint_fast64_t sessions_started, sessions_active;
+    atomic_uint_fast64_t messages_in, bytes_in, bytes_out, submissions, errors;
+};
+
+/* Runs one session on the calling thread until its stream ends. */
+void cv_node_session_run(cv_node *node, cv_rpc_stream *stream);
+
+#endif

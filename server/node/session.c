@@ -1,0 +1,785 @@
+/* One client session of corvid-node: a bidirectional stream of node.proto
+ * messages, processed strictly in order on the stream's thread.
+ *
+ * The session owns a context, one device instance of the node device the client
+ * chose in Hello, and the map from the client's handle ids to its own. Every
+ * message is unpacked into a size-limited arena and checked before anything
+ * runs; a malformed message or a protocol violation ends the session with
+ * INVALID_ARGUMENT, a wrong request is answered with its cv_result and message,
+ * and either way nothing of the node or of other sessions changes.
+ *
+ * A second thread, the completion watcher, waits for the device to finish each
+ * submission in ticket order and sends Completed (with pass timings) to the
+ * client, so the client learns of finished work without asking. */
+#include <inttypes.h>
+#include <stdatomic.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "handle_map.h"
+#include "node_internal.h"
+#include "proto_arena.h"
+
+/* grpc status codes used here (grpc/status.h; the session does not include gRPC). */
+enum {
+    STATUS_OK = 0,
+    STATUS_INVALID_ARGUMENT = 3,
+    STATUS_DEADLINE_EXCEEDED = 4,
+    STATUS_RESOURCE_EXHAUSTED = 8,
+    STATUS_FAILED_PRECONDITION = 9,
+    STATUS_INTERNAL = 13,
+};
+
+/* What one unpack may allocate: every legitimate message fits well inside. */
+#define UNPACK_BUDGET(bytes) (2u * (size_t)(bytes) + 64u * 1024u)
+#define MAX_BLOB_QUERY 4096u
+#define MAX_PENDING_SUBMITS 1024u
+
+typedef struct pending_submit {
+    uint64_t client_ticket;
+    uint64_t node_ticket;    /* 0: the submit failed; result/message say why */
+    cv_result result;
+    char message[256];
+} pending_submit;
+
+typedef struct session {
+    cv_node *node;
+    cv_rpc_stream *stream;
+    uint64_t id;
+    char peer[128];
+    cv_context *ctx;
+    cv_device *dev;
+    uint32_t device_index;
+    cv_handle_map map;
+    proto_arena arena;
+
+    /* The blob being received, if any. */
+    cv_content_upload *upload;
+    uint8_t upload_sha[CV_SHA256_BYTES];
+    bool upload_skipping;             /* the store had it already: chunks are dropped */
+    uint64_t upload_size;
+
+    uint64_t last_client_ticket;
+
+    /* Submissions handed to the watcher, oldest first (a ring). */
+    pthread_mutex_t lock;
+    pthread_cond_t cond;
+    pending_submit *pending;
+    uint32_t pending_head, pending_count;
+    bool stopping;                    /* report what is pending, then stop */
+    atomic_bool abandon;              /* the client is gone: report nothing more */
+    bool watcher_started;
+    pthread_t watcher;
+} session;
+
+static void log_line(session *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void log_line(session *s, const char *fmt, ...) {
+    if (!s->node->config.log_sessions)
+        return;
+    char text[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof(text), fmt, ap);
+    va_end(ap);
+    fprintf(stderr, "corvid-node: session %" PRIu64 " (%s): %s\n", s->id, s->peer, text);
+}
+
+/* ---- sending --------------------------------------------------------------- */
+
+static cv_result send_node_message(session *s, const Corvid__NodeMessage *m) {
+    uint8_t *buf;
+    size_t size;
+    cv_result r = cv_node_pack_node(m, &buf, &size);
+    if (r != CV_OK)
+        return r;
+    r = cv_rpc_stream_send(s->stream, buf, size);
+    free(buf);
+    if (r == CV_OK)
+        atomic_fetch_add(&s->node->bytes_out, size);
+    return r;
+}
+
+static void send_reply(session *s, uint64_t seq, cv_result result, const char *message) {
+    Corvid__Reply reply = CORVID__REPLY__INIT;
+    reply.result = result;
+    reply.message = (char *)(message ? message : "");
+    Corvid__NodeMessage m = CORVID__NODE_MESSAGE__INIT;
+    m.seq = seq;
+    m.msg_case = CORVID__NODE_MESSAGE__MSG_REPLY;
+    m.reply = &reply;
+    if (result != CV_OK) {
+        atomic_fetch_add(&s->node->errors, 1);
+        log_line(s, "request %" PRIu64 ": %s: %s", seq, cv_result_name(result), message);
+    }
+    send_node_message(s, &m);
+}
+
+/* Answers a request that failed with the thread's last error. */
+static void reply_error(session *s, uint64_t seq, cv_result r) { send_reply(s, seq, r, cv_last_error()); }
+
+/* ---- the completion watcher ------------------------------------------------ */
+
+static void send_completed(session *s, const pending_submit *p) {
+    Corvid__Completed done = CORVID__COMPLETED__INIT;
+    done.ticket = p->client_ticket;
+    done.result = p->result;
+    done.message = (char *)p->message;
+    cv_pass_timing timings[32];
+    Corvid__PassTiming items[32];
+    Corvid__PassTiming *ptrs[32];
+    uint32_t n = 0;
+    if (p->node_ticket && p->result == CV_OK &&
+        cv_device_timings(s->dev, p->node_ticket, timings, 32, &n) == CV_OK) {
+        for (uint32_t i = 0; i < n && i < 32; i++) {
+            corvid__pass_timing__init(&items[i]);
+            items[i].label = timings[i].label;
+            items[i].start_ms = timings[i].start_ms;
+            items[i].duration_ms = timings[i].duration_ms;
+            ptrs[i] = &items[i];
+        }
+        done.n_timings = n < 32 ? n : 32;
+        done.timings = ptrs;
+    }
+    Corvid__NodeMessage m = CORVID__NODE_MESSAGE__INIT;
+    m.msg_case = CORVID__NODE_MESSAGE__MSG_COMPLETED;
+    m.completed = &done;
+    send_node_message(s, &m);
+}
+
+static void *watcher_main(void *arg) {
+    session *s = arg;
+    pthread_mutex_lock(&s->lock);
+    for (;;) {
+        while (!s->pending_count && !s->stopping)
+            pthread_cond_wait(&s->cond, &s->lock);
+        if (!s->pending_count || s->abandon)
+            break;   /* stopping with nothing left to report, or nobody to report to */
+        pending_submit p = s->pending[s->pending_head];
+        pthread_mutex_unlock(&s->lock);
+        if (p.node_ticket) {
+            /* Bounded waits so a session that ends is not held by a long frame forever. */
+            cv_result r;
+            do {
+                r = cv_device_wait(s->dev, p.node_ticket, 100ull * 1000 * 1000);
+            } while (r == CV_ERROR_TIMEOUT && !s->abandon);
+            if (r == CV_ERROR_TIMEOUT)
+                return NULL;   /* abandoned (the lock is not held here) */
+            if (r != CV_OK) {
+                p.result = r;
+                snprintf(p.message, sizeof(p.message), "%s", cv_last_error());
+            }
+        }
+        send_completed(s, &p);
+        pthread_mutex_lock(&s->lock);
+        s->pending_head = (s->pending_head + 1) % MAX_PENDING_SUBMITS;
+        s->pending_count--;
+        pthread_cond_broadcast(&s->cond);
+    }
+    pthread_mutex_unlock(&s->lock);
+    return NULL;
+}
+
+static void queue_completion(session *s, const pending_submit *p) {
+    pthread_mutex_lock(&s->lock);
+    /* The client keeps few submissions in flight; a flood waits here, which
+     * stops reading from the stream and so pushes back on the client. */
+    while (s->pending_count == MAX_PENDING_SUBMITS && !s->abandon)
+        pthread_cond_wait(&s->cond, &s->lock);
+    s->pending[(s->pending_head + s->pending_count) % MAX_PENDING_SUBMITS] = *p;
+    s->pending_count++;
+    pthread_cond_broadcast(&s->cond);
+    pthread_mutex_unlock(&s->lock);
+}
+
+/* ---- handles ----------------------------------------------------------------- */
+
+/* The node handle for a client id of an expected type (CV_HANDLE_NONE: any). */
+static cv_result translate(session *s, uint64_t client_id, cv_handle_type type, const char *what, uint64_t *out) {
+    if (client_id == 0)
+        return cv_error(CV_ERROR_INVALID_HANDLE, "%s: null handle", what);
+    if (type != CV_HANDLE_NONE && cv_handle_type_of(client_id) != type)
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "%s: needs a %s handle, got a %s handle (0x%016" PRIx64 ")",
+                        what, cv_handle_type_name(type), cv_handle_type_name(cv_handle_type_of(client_id)), client_id);
+    uint64_t id = cv_handle_map_get(&s->map, client_id);
+    if (!id)
+        return cv_error(CV_ERROR_INVALID_HANDLE, "%s: %s handle 0x%016" PRIx64 " is unknown in this session "
+                        "(never created here, or destroyed)", what, cv_handle_type_name(cv_handle_type_of(client_id)),
+                        client_id);
+    *out = id;
+    return CV_OK;
+}
+
+typedef struct map_state {
+    session *s;
+    cv_result result;
+    uint32_t command;
+    char message[512];
+} map_state;
+
+static uint64_t map_list_handle(uint64_t client_id, void *user) {
+    map_state *st = user;
+    uint64_t id = cv_handle_map_get(&st->s->map, client_id);
+    if (!id && st->result == CV_OK) {
+        st->result = CV_ERROR_INVALID_HANDLE;
+        snprintf(st->message, sizeof(st->message), "command %u: %s handle 0x%016" PRIx64 " is unknown in this "
+                 "session", st->command, cv_handle_type_name(cv_handle_type_of(client_id)), client_id);
+    }
+    return id ? id : client_id;
+}
+
+/* ---- requests ------------------------------------------------------------------ */
+
+static cv_result do_create(session *s, const Corvid__CreateResource *m) {
+    cv_resource_desc desc;
+    cv_result r = cv_node_desc_from_msg(m, &desc);
+    if (r != CV_OK)
+        return r;
+    if (cv_handle_map_get(&s->map, m->id))
+        return cv_error(CV_ERROR_ALREADY_LOADED, "create: handle 0x%016" PRIx64 " already exists in this session",
+                        m->id);
+    cv_handle h = { 0 };
+    switch (desc.type) {
+    case CV_HANDLE_BUFFER: r = cv_buffer_create(s->ctx, &desc.buffer, (cv_buffer *)&h); break;
+    case CV_HANDLE_TEXTURE: r = cv_texture_create(s->ctx, &desc.texture, (cv_texture *)&h); break;
+    case CV_HANDLE_SAMPLER: r = cv_sampler_create(s->ctx, &desc.sampler, (cv_sampler *)&h); break;
+    case CV_HANDLE_PIPELINE: r = cv_pipeline_create(s->ctx, desc.pipeline.name, (cv_pipeline *)&h); break;
+    case CV_HANDLE_ACCEL: r = cv_accel_create(s->ctx, &desc.accel, (cv_accel *)&h); break;
+    case CV_HANDLE_CMDLIST: r = cv_cmdlist_create(s->ctx, (cv_cmdlist *)&h); break;
+    default: r = cv_error(CV_ERROR_MALFORMED, "create: unknown resource type"); break;
+    }
+    if (r != CV_OK)
+        return r;
+    if (desc.type != CV_HANDLE_CMDLIST)
+        r = cv_device_load(s->dev, h);
+    if (r == CV_OK)
+        r = cv_handle_map_put(&s->map, m->id, h.id);
+    if (r != CV_OK) {
+        char why[512];
+        snprintf(why, sizeof(why), "%s", cv_last_error());
+        cv_destroy(s->ctx, h);
+        return cv_error(r, "%s", why);
+    }
+    return CV_OK;
+}
+
+static cv_result do_destroy(session *s, const Corvid__DestroyResource *m) {
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_NONE, "destroy", &id);
+    if (r == CV_OK)
+        r = cv_destroy(s->ctx, (cv_handle){ id });
+    if (r == CV_OK)
+        cv_handle_map_remove(&s->map, m->id);
+    return r;
+}
+
+static void end_upload(session *s) {
+    if (s->upload)
+        cv_content_upload_abort(s->upload);
+    s->upload = NULL;
+    s->upload_skipping = false;
+    s->upload_size = 0;
+}
+
+static cv_result do_blob_query(session *s, uint64_t seq, const Corvid__BlobQuery *m) {
+    if (m->n_sha256 > MAX_BLOB_QUERY)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "blob_query: %zu hashes, at most %u", m->n_sha256, MAX_BLOB_QUERY);
+    for (size_t i = 0; i < m->n_sha256; i++) {
+        cv_result r = cv_node_check_sha(m->sha256[i], "blob_query.sha256");
+        if (r != CV_OK)
+            return r;
+    }
+    protobuf_c_boolean *present = calloc(m->n_sha256 ? m->n_sha256 : 1, sizeof(*present));
+    if (!present)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "blob_query");
+    for (size_t i = 0; i < m->n_sha256; i++)
+        present[i] = cv_content_store_has(s->node->store, m->sha256[i].data);
+    Corvid__BlobStatus status = CORVID__BLOB_STATUS__INIT;
+    status.n_present = m->n_sha256;
+    status.present = present;
+    Corvid__NodeMessage out = CORVID__NODE_MESSAGE__INIT;
+    out.seq = seq;
+    out.msg_case = CORVID__NODE_MESSAGE__MSG_BLOB_STATUS;
+    out.blob_status = &status;
+    send_node_message(s, &out);
+    free(present);
+    return CV_OK;
+}
+
+static cv_result do_blob_chunk(session *s, const Corvid__BlobChunk *m) {
+    cv_result r = cv_node_check_sha(m->sha256, "blob_chunk.sha256");
+    if (r != CV_OK)
+        return r;
+    bool current = (s->upload || s->upload_skipping) && memcmp(s->upload_sha, m->sha256.data, CV_SHA256_BYTES) == 0;
+    if (!current) {
+        /* A new blob: an unfinished one before it was abandoned half way. */
+        bool abandoned = s->upload != NULL;
+        end_upload(s);
+        if (m->offset != 0)
+            return cv_error(CV_ERROR_OUT_OF_RANGE, "blob_chunk: first chunk of a blob at offset %" PRIu64
+                            " (must be 0)%s", m->offset, abandoned ? "; the previous upload was abandoned" : "");
+        r = cv_content_upload_begin(s->node->store, m->sha256.data, m->size, &s->upload);
+        if (r == CV_ERROR_ALREADY_EXISTS) {
+            s->upload = NULL;
+            s->upload_skipping = true;
+        } else if (r != CV_OK) {
+            s->upload = NULL;
+            return r;
+        }
+        memcpy(s->upload_sha, m->sha256.data, CV_SHA256_BYTES);
+        s->upload_size = m->size;
+    }
+    if (m->size != s->upload_size)
+        return cv_error(CV_ERROR_MALFORMED, "blob_chunk: size %" PRIu64 " differs from the blob's first chunk (%"
+                        PRIu64 ")", m->size, s->upload_size);
+    if (s->upload_skipping) {
+        if (m->offset + m->data.len >= s->upload_size)
+            end_upload(s);
+        return CV_OK;
+    }
+    r = cv_content_upload_write(s->upload, m->offset, m->data.data, m->data.len);
+    if (r != CV_OK)
+        return r;
+    if (cv_content_upload_received(s->upload) == s->upload_size) {
+        cv_content_upload *u = s->upload;
+        s->upload = NULL;
+        s->upload_size = 0;
+        return cv_content_upload_finish(u);
+    }
+    return CV_OK;
+}
+
+static cv_result get_blob(session *s, ProtobufCBinaryData sha, const char *field, cv_content_blob **out) {
+    cv_result r = cv_node_check_sha(sha, field);
+    if (r != CV_OK)
+        return r;
+    r = cv_content_store_get(s->node->store, sha.data, out);
+    if (r != CV_OK) {
+        char hex[65];
+        cv_sha256_hex(sha.data, hex);
+        return cv_error(r, "%s: blob %s is not in the node's cache (upload it first)", field, hex);
+    }
+    return CV_OK;
+}
+
+static cv_result do_write_buffer(session *s, const Corvid__WriteBuffer *m) {
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_BUFFER, "write_buffer", &id);
+    if (r != CV_OK)
+        return r;
+    if (m->source_case == CORVID__WRITE_BUFFER__SOURCE_DATA)
+        return cv_device_write_buffer(s->dev, (cv_buffer){ id }, m->offset, m->data.len, m->data.data);
+    if (m->source_case != CORVID__WRITE_BUFFER__SOURCE_BLOB)
+        return cv_error(CV_ERROR_MALFORMED, "write_buffer: no data and no blob");
+    cv_content_blob *blob;
+    r = get_blob(s, m->blob, "write_buffer.blob", &blob);
+    if (r != CV_OK)
+        return r;
+    r = cv_device_write_buffer(s->dev, (cv_buffer){ id }, m->offset, cv_content_blob_size(blob),
+                               cv_content_blob_data(blob));
+    cv_content_blob_release(blob);
+    return r;
+}
+
+static cv_result do_write_texture(session *s, const Corvid__WriteTexture *m) {
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_TEXTURE, "write_texture", &id);
+    cv_resource_desc desc;
+    if (r == CV_OK)
+        r = cv_context_describe(s->ctx, (cv_handle){ id }, &desc);
+    if (r != CV_OK)
+        return r;
+    uint64_t want = (uint64_t)m->width * m->height * cv_format_bytes(desc.texture.format);
+    if (m->data.len != want)
+        return cv_error(CV_ERROR_MALFORMED, "write_texture: %zu bytes of data for %ux%u texels of %s (%" PRIu64
+                        " bytes)", m->data.len, m->width, m->height, cv_format_name(desc.texture.format), want);
+    return cv_device_write_texture(s->dev, (cv_texture){ id }, (cv_rect){ m->x, m->y, m->width, m->height },
+                                   m->data.data);
+}
+
+static cv_result do_write_accel(session *s, const Corvid__WriteAccel *m) {
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_ACCEL, "write_accel", &id);
+    cv_resource_desc desc;
+    if (r == CV_OK)
+        r = cv_context_describe(s->ctx, (cv_handle){ id }, &desc);
+    if (r != CV_OK)
+        return r;
+    cv_content_blob *nodes = NULL, *tris = NULL;
+    r = get_blob(s, m->nodes_blob, "write_accel.nodes_blob", &nodes);
+    if (r == CV_OK)
+        r = get_blob(s, m->triangles_blob, "write_accel.triangles_blob", &tris);
+    if (r == CV_OK && (cv_content_blob_size(nodes) != (uint64_t)desc.accel.node_count * CV_ACCEL_NODE_BYTES ||
+                       cv_content_blob_size(tris) != (uint64_t)desc.accel.triangle_count * CV_ACCEL_TRIANGLE_BYTES))
+        r = cv_error(CV_ERROR_OUT_OF_RANGE, "write_accel: blobs of %" PRIu64 " and %" PRIu64 " bytes for %u nodes "
+                     "and %u triangles (%u and %u bytes each)", cv_content_blob_size(nodes),
+                     cv_content_blob_size(tris), desc.accel.node_count, desc.accel.triangle_count,
+                     CV_ACCEL_NODE_BYTES, CV_ACCEL_TRIANGLE_BYTES);
+    if (r == CV_OK)
+        r = cv_device_write_accel(s->dev, (cv_accel){ id }, cv_content_blob_data(nodes), cv_content_blob_data(tris));
+    if (nodes)
+        cv_content_blob_release(nodes);
+    if (tris)
+        cv_content_blob_release(tris);
+    return r;
+}
+
+static cv_result send_read_piece(session *s, uint64_t seq, uint64_t offset, const void *data, size_t size, bool last) {
+    Corvid__ReadData piece = CORVID__READ_DATA__INIT;
+    piece.offset = offset;
+    piece.data.data = (uint8_t *)data;
+    piece.data.len = size;
+    piece.last = last;
+    Corvid__NodeMessage m = CORVID__NODE_MESSAGE__INIT;
+    m.seq = seq;
+    m.msg_case = CORVID__NODE_MESSAGE__MSG_READ_DATA;
+    m.read_data = &piece;
+    return send_node_message(s, &m);
+}
+
+/* Reads go out in pieces of CV_NODE_CHUNK_BYTES, each read from the device as
+ * it is sent, so memory stays bounded whatever the resource's size. */
+static cv_result do_read_buffer(session *s, uint64_t seq, const Corvid__ReadBuffer *m) {
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_BUFFER, "read_buffer", &id);
+    if (r != CV_OK)
+        return r;
+    if (m->size == 0)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "read_buffer: size is 0");
+    uint8_t *piece = malloc(CV_NODE_CHUNK_BYTES);
+    if (!piece)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "read_buffer");
+    /* Check the whole range first, so a failure sends no data at all. */
+    cv_resource_desc desc;
+    r = cv_context_describe(s->ctx, (cv_handle){ id }, &desc);
+    if (r == CV_OK && (m->offset > desc.buffer.size || m->size > desc.buffer.size - m->offset))
+        r = cv_error(CV_ERROR_OUT_OF_RANGE, "read_buffer: %" PRIu64 " bytes at offset %" PRIu64 " of buffer '%s' (%"
+                     PRIu64 " bytes)", m->size, m->offset, desc.buffer.label, desc.buffer.size);
+    for (uint64_t done = 0; r == CV_OK && done < m->size;) {
+        uint64_t n = m->size - done < CV_NODE_CHUNK_BYTES ? m->size - done : CV_NODE_CHUNK_BYTES;
+        r = cv_device_read_buffer(s->dev, (cv_buffer){ id }, m->offset + done, n, piece);
+        if (r == CV_OK)
+            r = send_read_piece(s, seq, done, piece, n, done + n == m->size);
+        done += n;
+    }
+    free(piece);
+    return r;
+}
+
+static cv_result do_read_texture(session *s, uint64_t seq, const Corvid__ReadTexture *m) {
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_TEXTURE, "read_texture", &id);
+    cv_resource_desc desc;
+    if (r == CV_OK)
+        r = cv_context_describe(s->ctx, (cv_handle){ id }, &desc);
+    if (r != CV_OK)
+        return r;
+    const cv_texture_desc *d = &desc.texture;
+    if (m->width == 0 || m->height == 0 || m->x > d->width || m->width > d->width - m->x || m->y > d->height ||
+        m->height > d->height - m->y)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "read_texture: %ux%u at (%u,%u) of texture '%s' (%ux%u)", m->width,
+                        m->height, m->x, m->y, d->label, d->width, d->height);
+    uint64_t row = (uint64_t)m->width * cv_format_bytes(d->format);
+    uint32_t rows_per_piece = row >= CV_NODE_CHUNK_BYTES ? 1 : (uint32_t)(CV_NODE_CHUNK_BYTES / row);
+    uint8_t *piece = malloc(row * (rows_per_piece < m->height ? rows_per_piece : m->height));
+    if (!piece)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "read_texture: %" PRIu64 " bytes", row * rows_per_piece);
+    for (uint32_t y = 0; r == CV_OK && y < m->height;) {
+        uint32_t h = m->height - y < rows_per_piece ? m->height - y : rows_per_piece;
+        r = cv_device_read_texture(s->dev, (cv_texture){ id }, (cv_rect){ m->x, m->y + y, m->width, h }, piece);
+        if (r == CV_OK)
+            r = send_read_piece(s, seq, (uint64_t)y * row, piece, (size_t)(row * h), y + h == m->height);
+        y += h;
+    }
+    free(piece);
+    return r;
+}
+
+static cv_result do_compile(session *s, const Corvid__CompileList *m) {
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_CMDLIST, "compile", &id);
+    if (r != CV_OK)
+        return r;
+    cv_content_blob *blob = NULL;
+    const uint8_t *data;
+    size_t size;
+    if (m->source_case == CORVID__COMPILE_LIST__SOURCE_BLOB) {
+        r = get_blob(s, m->blob, "compile.blob", &blob);
+        if (r != CV_OK)
+            return r;
+        data = cv_content_blob_data(blob);
+        size = (size_t)cv_content_blob_size(blob);
+    } else {
+        data = m->encoded.data;
+        size = m->encoded.len;
+    }
+    /* Decode into a scratch list, translate its handles, and only then replace
+     * the session's list, so a bad list leaves the old one in place. */
+    cv_command_list scratch;
+    cv_command_list_init(&scratch);
+    r = cv_command_list_decode(data, size, &scratch);
+    if (blob)
+        cv_content_blob_release(blob);
+    map_state st = { .s = s, .result = CV_OK };
+    for (uint32_t i = 0; r == CV_OK && i < scratch.count && st.result == CV_OK; i++) {
+        st.command = i;
+        cv_command_map_handles(&scratch, &scratch.commands[i], map_list_handle, &st);
+    }
+    if (r == CV_OK && st.result != CV_OK)
+        r = cv_error(st.result, "compile: %s", st.message);
+    uint8_t *encoded = NULL;
+    size_t encoded_size = 0;
+    if (r == CV_OK)
+        r = cv_command_list_encode(&scratch, &encoded, &encoded_size);
+    cv_command_list *list;
+    if (r == CV_OK)
+        r = cv_cmdlist_get(s->ctx, (cv_cmdlist){ id }, &list);
+    if (r == CV_OK)
+        r = cv_command_list_decode(encoded, encoded_size, list);
+    free(encoded);
+    cv_command_list_finish(&scratch);
+    if (r == CV_OK)
+        r = cv_device_compile(s->dev, (cv_cmdlist){ id });
+    return r;
+}
+
+static cv_result do_submit(session *s, const Corvid__SubmitList *m) {
+    if (m->ticket != s->last_client_ticket + 1)
+        return cv_error(CV_ERROR_MALFORMED, "submit: ticket %" PRIu64 " after %" PRIu64 " (tickets increase by one)",
+                        m->ticket, s->last_client_ticket);
+    s->last_client_ticket = m->ticket;
+    pending_submit p = { .client_ticket = m->ticket };
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_CMDLIST, "submit", &id);
+    if (r == CV_OK)
+        r = cv_device_submit(s->dev, (cv_cmdlist){ id }, &p.node_ticket);
+    if (r != CV_OK) {
+        /* Completed in order with its error, so the client's wait ends. */
+        p.node_ticket = 0;
+        p.result = r;
+        snprintf(p.message, sizeof(p.message), "%s", cv_last_error());
+        atomic_fetch_add(&s->node->errors, 1);
+        log_line(s, "submit of ticket %" PRIu64 ": %s", m->ticket, p.message);
+    }
+    atomic_fetch_add(&s->node->submissions, 1);
+    queue_completion(s, &p);
+    return CV_OK;
+}
+
+/* ---- the session ------------------------------------------------------------------ */
+
+static cv_result do_hello(session *s, uint64_t seq, const Corvid__Hello *m, int *status) {
+    cv_node *node = s->node;
+    if (m->protocol_version != CV_NODE_PROTOCOL_VERSION) {
+        *status = STATUS_FAILED_PRECONDITION;
+        return cv_error(CV_ERROR_UNSUPPORTED, "protocol version %u is not served here: this node speaks version %u",
+                        m->protocol_version, CV_NODE_PROTOCOL_VERSION);
+    }
+    if (m->device >= node->config.device_count) {
+        *status = STATUS_FAILED_PRECONDITION;
+        return cv_error(CV_ERROR_NOT_FOUND, "hello: device %u does not exist (this node has %u: 0..%u)", m->device,
+                        node->config.device_count, node->config.device_count - 1);
+    }
+    const cv_node_device_spec *spec = &node->devices[m->device];
+    cv_result r = cv_context_create(NULL, &s->ctx);
+    cv_device_desc desc = { .adapter = spec->adapter, .validation = node->config.validation };
+    snprintf(desc.label, sizeof(desc.label), "%s/s%" PRIu64, spec->label, s->id);
+    if (r == CV_OK)
+        r = cv_device_create(s->ctx, spec->backend, &desc, &s->dev);
+    if (r == CV_OK && pthread_create(&s->watcher, NULL, watcher_main, s) != 0)
+        r = cv_error(CV_ERROR_OUT_OF_MEMORY, "session: cannot start the completion thread");
+    if (r != CV_OK) {
+        *status = STATUS_RESOURCE_EXHAUSTED;
+        return r;
+    }
+    s->watcher_started = true;
+    s->device_index = m->device;
+    char client[64];
+    snprintf(client, sizeof(client), "%.60s", m->client_name ? m->client_name : "");
+    log_line(s, "client '%s' on device %u (%s)", client, m->device, spec->label);
+
+    Corvid__DeviceInfo info;
+    cv_node_info_storage storage;
+    cv_node_info_to_msg(cv_device_get_info(s->dev), spec->label, &info, &storage);
+    Corvid__HelloReply reply = CORVID__HELLO_REPLY__INIT;
+    reply.protocol_version = CV_NODE_PROTOCOL_VERSION;
+    reply.node_name = node->name;
+    reply.device = &info;
+    reply.session_id = s->id;
+    reply.max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES;
+    Corvid__NodeMessage out = CORVID__NODE_MESSAGE__INIT;
+    out.seq = seq;
+    out.msg_case = CORVID__NODE_MESSAGE__MSG_HELLO;
+    out.hello = &reply;
+    return send_node_message(s, &out);
+}
+
+/* Handles one request. Returns false when the session must end; *status and
+ * the thread's last error then say why. */
+static bool handle(session *s, const Corvid__ClientMessage *m, int *status) {
+    cv_result r = CV_OK;
+    uint64_t seq = m->seq;
+    if (m->msg_case == CORVID__CLIENT_MESSAGE__MSG__NOT_SET) {
+        *status = STATUS_INVALID_ARGUMENT;
+        cv_error(CV_ERROR_MALFORMED, "message %" PRIu64 ": no request in it", seq);
+        return false;
+    }
+    if ((m->msg_case == CORVID__CLIENT_MESSAGE__MSG_HELLO) != (s->dev == NULL)) {
+        *status = STATUS_INVALID_ARGUMENT;
+        cv_error(CV_ERROR_BAD_STATE, s->dev ? "message %" PRIu64 ": a second hello" :
+                 "message %" PRIu64 ": the first message of a session must be hello", seq);
+        return false;
+    }
+    switch (m->msg_case) {
+    case CORVID__CLIENT_MESSAGE__MSG_HELLO:
+        return do_hello(s, seq, m->hello, status) == CV_OK;
+    case CORVID__CLIENT_MESSAGE__MSG_CREATE:
+        r = do_create(s, m->create);
+        send_reply(s, seq, r, r == CV_OK ? "" : cv_last_error());
+        return true;
+    case CORVID__CLIENT_MESSAGE__MSG_DESTROY:
+        r = do_destroy(s, m->destroy);
+        break;
+    case CORVID__CLIENT_MESSAGE__MSG_BLOB_QUERY:
+        r = do_blob_query(s, seq, m->blob_query);
+        break;
+    case CORVID__CLIENT_MESSAGE__MSG_BLOB_CHUNK:
+        r = do_blob_chunk(s, m->blob_chunk);
+        break;
+    case CORVID__CLIENT_MESSAGE__MSG_WRITE_BUFFER:
+        r = do_write_buffer(s, m->write_buffer);
+        if (m->write_buffer->source_case == CORVID__WRITE_BUFFER__SOURCE_BLOB) {
+            send_reply(s, seq, r, r == CV_OK ? "" : cv_last_error());
+            return true;
+        }
+        break;
+    case CORVID__CLIENT_MESSAGE__MSG_WRITE_TEXTURE:
+        r = do_write_texture(s, m->write_texture);
+        break;
+    case CORVID__CLIENT_MESSAGE__MSG_WRITE_ACCEL:
+        r = do_write_accel(s, m->write_accel);
+        send_reply(s, seq, r, r == CV_OK ? "" : cv_last_error());
+        return true;
+    case CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER:
+        r = do_read_buffer(s, seq, m->read_buffer);
+        break;
+    case CORVID__CLIENT_MESSAGE__MSG_READ_TEXTURE:
+        r = do_read_texture(s, seq, m->read_texture);
+        break;
+    case CORVID__CLIENT_MESSAGE__MSG_COMPILE:
+        r = do_compile(s, m->compile);
+        break;
+    case CORVID__CLIENT_MESSAGE__MSG_SUBMIT:
+        r = do_submit(s, m->submit);
+        if (r != CV_OK) {   /* a ticket out of sequence: the client is broken */
+            *status = STATUS_INVALID_ARGUMENT;
+            return false;
+        }
+        break;
+    default:
+        *status = STATUS_INVALID_ARGUMENT;
+        cv_error(CV_ERROR_MALFORMED, "message %" PRIu64 ": unknown request %d", seq, (int)m->msg_case);
+        return false;
+    }
+    if (r != CV_OK)
+        reply_error(s, seq, r);
+    return true;
+}
+
+/* Stops the completion watcher: after reporting every pending submission, or
+ * at once when nobody is left to report to. */
+static void stop_watcher(session *s, bool abandon) {
+    if (!s->watcher_started)
+        return;
+    pthread_mutex_lock(&s->lock);
+    s->stopping = true;
+    s->abandon = abandon;
+    pthread_cond_broadcast(&s->cond);
+    pthread_mutex_unlock(&s->lock);
+    pthread_join(s->watcher, NULL);
+    s->watcher_started = false;
+}
+
+static void session_finish(session *s) {
+    end_upload(s);
+    stop_watcher(s, true);
+    if (s->ctx)
+        cv_context_destroy(s->ctx);   /* waits for the device, frees every resource */
+    cv_handle_map_finish(&s->map);
+    proto_arena_finish(&s->arena);
+    free(s->pending);
+    pthread_cond_destroy(&s->cond);
+    pthread_mutex_destroy(&s->lock);
+}
+
+void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
+    session *s = calloc(1, sizeof(*s));
+    pending_submit *pending = calloc(MAX_PENDING_SUBMITS, sizeof(*pending));
+    if (!s || !pending) {
+        free(s);
+        free(pending);
+        cv_rpc_stream_finish(stream, STATUS_RESOURCE_EXHAUSTED, "node out of memory for a new session");
+        return;
+    }
+    s->node = node;
+    s->stream = stream;
+    s->pending = pending;
+    s->id = atomic_fetch_add(&node->next_session_id, 1) + 1;
+    snprintf(s->peer, sizeof(s->peer), "%s", cv_rpc_stream_peer(stream) ? cv_rpc_stream_peer(stream) : "?");
+    pthread_mutex_init(&s->lock, NULL);
+    pthread_cond_init(&s->cond, NULL);
+    cv_handle_map_init(&s->map);
+    proto_arena_init(&s->arena);
+    atomic_fetch_add(&node->sessions_started, 1);
+    atomic_fetch_add(&node->sessions_active, 1);
+
+    uint32_t idle = node->config.idle_timeout_ms ? node->config.idle_timeout_ms : 300000;
+    int status = STATUS_OK;
+    char why[1024] = "";
+    for (;;) {
+        uint8_t *data = NULL;
+        size_t size = 0;
+        cv_result r = cv_rpc_stream_recv(stream, idle, &data, &size);
+        if (r == CV_ERROR_TIMEOUT) {
+            status = STATUS_DEADLINE_EXCEEDED;
+            snprintf(why, sizeof(why), "session idle for %u ms: closed", idle);
+            break;
+        }
+        if (r != CV_OK) {   /* the client is gone: nobody to tell */
+            snprintf(why, sizeof(why), "connection lost: %s", cv_last_error());
+            status = -1;
+            break;
+        }
+        if (!data)
+            break;   /* the client closed its side: a clean end */
+        atomic_fetch_add(&node->messages_in, 1);
+        atomic_fetch_add(&node->bytes_in, size);
+        proto_arena_reset(&s->arena, UNPACK_BUDGET(size));
+        Corvid__ClientMessage *m = corvid__client_message__unpack(&s->arena.allocator, size, data);
+        free(data);
+        if (!m) {
+            status = STATUS_INVALID_ARGUMENT;
+            snprintf(why, sizeof(why), "message of %zu bytes is not a corvid.ClientMessage%s", size,
+                     s->arena.over_limit ? " (it unpacks to more than its size allows)" : "");
+            break;
+        }
+        if (!handle(s, m, &status)) {
+            snprintf(why, sizeof(why), "%s", cv_last_error());
+            break;
+        }
+    }
+    stop_watcher(s, status != STATUS_OK);
+    if (status > 0) {
+        atomic_fetch_add(&node->errors, 1);
+        log_line(s, "ended with status %d: %s", status, why);
+        cv_rpc_stream_finish(stream, status, why);
+    } else {
+        log_line(s, "ended: %s", status < 0 ? why : "client closed the session");
+        if (status == 0)
+            cv_rpc_stream_finish(stream, STATUS_OK, "");
+    }
+    session_finish(s);
+    free(s);
+    atomic_fetch_sub(&node->sessions_active, 1);
+}
