@@ -26,6 +26,7 @@ int main(int argc, char **argv) {
     world_finish(&w);
     conformance_transfers(fx);
     conformance_parallel(fx);
+    fixture_shutdown(fx);
     if (fx->validation_messages)
         CHECK_EQ_INT(fx->validation_messages(), 0);
     char label[64];

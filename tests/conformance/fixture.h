@@ -16,10 +16,15 @@ typedef struct fixture {
     uint32_t (*validation_messages)(void);
     /* Whether dispatches and draws really execute (the mock only validates them). */
     bool executes_shaders;
+    /* Proxy fixtures: the backend a node started in this process serves
+     * (devices then reach it over gRPC on loopback). NULL for local fixtures. */
+    const cv_backend *(*node_backend)(void);
 } fixture;
 
 /* The fixture named on the command line (NULL if unknown). */
 const fixture *fixture_find(const char *name);
 cv_result fixture_device(const fixture *f, cv_context *ctx, uint32_t index, cv_device **out);
+/* Stops what the fixture started (a proxy fixture's node); checks it ended clean. */
+void fixture_shutdown(const fixture *f);
 
 #endif

@@ -1,0 +1,167 @@
+/* The renderer, untouched, on remote devices: nodes started in this process on
+ * loopback serve lavapipe devices; the client reaches them through the proxy
+ * backend.
+ *  - 1 node x 1 device, and 2 nodes x 2 virtual GPUs, render bit-identically to
+ *    the local render on one lavapipe device;
+ *  - a second render against the same node sends no scene bytes (they come
+ *    from the node's content cache) and says how many it skipped;
+ *  - a node that dies mid-session makes the client's calls fail with
+ *    CV_ERROR_CONNECTION, promptly, and everything is still freed. */
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "check.h"
+#include "corvid/proxy.h"
+#include "corvid/renderer.h"
+#include "corvid/scene_procedural.h"
+#include "corvid/vulkan.h"
+#include "scratch_node.h"
+
+#define W 128
+#define H 72
+
+static cv_render_settings settings(void) {
+    return (cv_render_settings){ .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = 1.0f,
+                                 .filter_iterations = 2 };
+}
+
+static const char *test_adapter(void) {
+    const char *env = getenv("CORVID_TEST_ADAPTER");
+    return env && env[0] ? env : "llvmpipe";
+}
+
+static cv_result render(cv_device **devices, uint32_t count, const cv_scene *scene, const cv_bvh *bvh,
+                        cv_render_output *out) {
+    cv_renderer *r = NULL;
+    cv_render_settings s = settings();
+    cv_render_stats stats;
+    cv_result res = cv_renderer_create(devices, count, scene, bvh, &r);
+    if (res == CV_OK)
+        res = cv_renderer_render(r, &s, out, &stats, NULL, NULL);
+    cv_renderer_destroy(r);
+    return res;
+}
+
+static cv_result render_local(const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out) {
+    cv_context *ctx;
+    cv_device *dev = NULL;
+    cv_result res = cv_context_create(NULL, &ctx);
+    if (res == CV_OK)
+        res = cv_device_create(ctx, cv_vulkan_backend(), &(cv_device_desc){ .adapter = test_adapter(),
+                                                                              .validation = true }, &dev);
+    if (res == CV_OK)
+        res = render(&dev, 1, scene, bvh, out);
+    if (ctx)
+        cv_context_destroy(ctx);
+    return res;
+}
+
+/* Renders on `per_node` devices of each node; stats of device 0's session. */
+static cv_result render_remote(scratch_node *nodes, uint32_t node_count, uint32_t per_node, const cv_scene *scene,
+                               const cv_bvh *bvh, cv_render_output *out, cv_proxy_stats *stats) {
+    cv_context *ctx;
+    cv_device *devices[8] = { 0 };
+    uint32_t count = 0;
+    cv_result res = cv_context_create(NULL, &ctx);
+    for (uint32_t n = 0; res == CV_OK && n < node_count; n++)
+        for (uint32_t d = 0; res == CV_OK && d < per_node; d++) {
+            char adapter[8];
+            snprintf(adapter, sizeof(adapter), "%u", d);
+            cv_device_desc desc = { .endpoint = nodes[n].endpoint, .adapter = adapter };
+            snprintf(desc.label, sizeof(desc.label), "node%u.gpu%u", n, d);
+            res = cv_device_create(ctx, cv_proxy_backend(), &desc, &devices[count]);
+            if (res == CV_OK)
+                count++;
+        }
+    if (res == CV_OK)
+        res = render(devices, count, scene, bvh, out);
+    if (res == CV_OK && stats)
+        res = cv_proxy_get_stats(devices[0], stats);
+    if (ctx)
+        cv_context_destroy(ctx);
+    return res;
+}
+
+static bool same_image(const cv_render_output *a, const cv_render_output *b) {
+    size_t bytes = (size_t)W * H * 4 * sizeof(float);
+    return a->radiance && b->radiance && memcmp(a->radiance, b->radiance, bytes) == 0 &&
+           memcmp(a->visibility, b->visibility, bytes) == 0 && memcmp(a->normal, b->normal, bytes) == 0;
+}
+
+static double now_s(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* The node goes away under a live session. */
+static void node_death(void) {
+    scratch_node n;
+    CHECK_OK(scratch_node_start(&n, cv_mock_backend(), 1, false));
+    cv_context *ctx;
+    cv_device *dev;
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = n.endpoint }, &dev));
+    cv_buffer b;
+    CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 64 }, &b));
+    CHECK_OK(cv_device_load(dev, cv_any(b)));
+    scratch_node_stop_keep(&n, false);   /* cancels the session: the client sees the stream end */
+    uint8_t out[64];
+    double t0 = now_s();
+    CHECK_RESULT(cv_device_read_buffer(dev, b, 0, 64, out), CV_ERROR_CONNECTION);
+    CHECK(now_s() - t0 < 10.0);
+    CHECK(strstr(cv_last_error(), n.endpoint) != NULL);
+    cv_context_destroy(ctx);
+    /* Nothing listens there now: a new device fails with CONNECTION, naming the node. */
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    t0 = now_s();
+    CHECK_RESULT(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = n.endpoint }, &dev),
+                 CV_ERROR_CONNECTION);
+    CHECK(now_s() - t0 < 15.0);
+    cv_context_destroy(ctx);
+}
+
+int main(void) {
+    cv_scene *scene = NULL;
+    cv_bvh *bvh = NULL;
+    CHECK_OK(cv_scene_make_room(1, &scene));
+    CHECK_OK(cv_bvh_build_flat(scene, NULL, &bvh));
+    if (!scene || !bvh)
+        return check_report("node_remote_render");
+
+    cv_render_output local = { 0 }, one = { 0 }, again = { 0 }, four = { 0 };
+    CHECK_OK(render_local(scene, bvh, &local));
+
+    scratch_node nodes[2];
+    CHECK_OK(scratch_node_start(&nodes[0], cv_vulkan_backend(), 2, true));
+    CHECK_OK(scratch_node_start(&nodes[1], cv_vulkan_backend(), 2, true));
+
+    cv_proxy_stats first, second;
+    CHECK_OK(render_remote(nodes, 1, 1, scene, bvh, &one, &first));
+    CHECK(same_image(&local, &one));
+    CHECK(first.upload_bytes_sent > 0);
+
+    /* The same scene again, in a new session: every byte comes from the cache. */
+    CHECK_OK(render_remote(nodes, 1, 1, scene, bvh, &again, &second));
+    CHECK(same_image(&local, &again));
+    CHECK_EQ_INT(second.upload_bytes_sent, 0);
+    CHECK(second.upload_bytes_skipped >= first.upload_bytes_sent);
+
+    CHECK_OK(render_remote(nodes, 2, 2, scene, bvh, &four, NULL));
+    CHECK(same_image(&local, &four));
+
+    for (int i = 0; i < 2; i++) {
+        CHECK_EQ_INT(scratch_node_wait_sessions(&nodes[i], 5000), 0);
+        scratch_node_stop(&nodes[i]);
+    }
+    node_death();
+    CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);
+    cv_render_output_free(&local);
+    cv_render_output_free(&one);
+    cv_render_output_free(&again);
+    cv_render_output_free(&four);
+    cv_bvh_destroy(bvh);
+    cv_scene_destroy(scene);
+    return check_report("node_remote_render");
+}

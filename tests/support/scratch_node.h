@@ -1,0 +1,27 @@
+/* A corvid-node started inside a test process, on a free loopback port, with
+ * its content cache in a fresh temporary directory that stopping removes. */
+#ifndef CORVID_TEST_SCRATCH_NODE_H
+#define CORVID_TEST_SCRATCH_NODE_H
+
+#include "node.h"
+
+typedef struct scratch_node {
+    cv_node *node;
+    char endpoint[64];          /* "127.0.0.1:<port>" */
+    char cache_dir[256];
+    cv_node_config config;
+    cv_node_device_spec devices[8];
+} scratch_node;
+
+/* `count` devices of `backend` (Vulkan: the lavapipe adapter, or
+ * CORVID_TEST_ADAPTER). idle_timeout_ms 0 = the node's default. */
+cv_result scratch_node_start_with(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation,
+                                  uint32_t idle_timeout_ms, const char *cache_dir);
+cv_result scratch_node_start(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation);
+/* Waits up to timeout_ms for the node's sessions to end; returns how many are left. */
+uint64_t scratch_node_wait_sessions(scratch_node *n, uint32_t timeout_ms);
+/* Stops the node; removes the cache directory unless `keep_cache`. */
+void scratch_node_stop_keep(scratch_node *n, bool keep_cache);
+void scratch_node_stop(scratch_node *n);
+
+#endif
