@@ -18,6 +18,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "corvid/command_codec.h"
+#include "corvid/sha256.h"
 #include "handle_map.h"
 #include "node_internal.h"
 #include "proto_arena.h"
@@ -584,7 +586,8 @@ static cv_result do_hello(session *s, uint64_t seq, const Corvid__Hello *m, int 
     const cv_node_device_spec *spec = &node->devices[m->device];
     cv_result r = cv_context_create(NULL, &s->ctx);
     cv_device_desc desc = { .adapter = spec->adapter, .validation = node->config.validation };
-    snprintf(desc.label, sizeof(desc.label), "%s/s%" PRIu64, spec->label, s->id);
+    /* "<device>/s<session>", the device label cut to leave room for the session number. */
+    snprintf(desc.label, sizeof(desc.label), "%.24s/s%" PRIu64, spec->label, s->id % UINT64_C(1000000000000));
     if (r == CV_OK)
         r = cv_device_create(s->ctx, spec->backend, &desc, &s->dev);
     if (r == CV_OK && pthread_create(&s->watcher, NULL, watcher_main, s) != 0)

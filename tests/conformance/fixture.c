@@ -48,22 +48,28 @@ const fixture *fixture_find(const char *name) {
 static scratch_node node;
 #endif
 
-cv_result fixture_device(const fixture *f, cv_context *ctx, uint32_t index, cv_device **out) {
-    cv_device_desc desc = { .validation = true };
-    snprintf(desc.label, sizeof(desc.label), "%s%u", f->name, index);
+const char *fixture_endpoint(const fixture *f) {
 #ifdef CORVID_HAVE_NODE
-    char adapter[16];
     if (f->node_backend) {
-        if (!node.node) {
-            cv_result r = scratch_node_start(&node, f->node_backend(), f->max_devices, true);
-            if (r != CV_OK)
-                return r;
+        if (!node.node && scratch_node_start(&node, f->node_backend(), f->max_devices, true) != CV_OK) {
+            fprintf(stderr, "fixture %s: cannot start its node: %s\n", f->name, cv_last_error());
+            return NULL;
         }
-        snprintf(adapter, sizeof(adapter), "%u", index % f->max_devices);
-        desc.endpoint = node.endpoint;
-        desc.adapter = adapter;
+        return node.endpoint;
     }
 #endif
+    (void)f;
+    return NULL;
+}
+
+cv_result fixture_device(const fixture *f, cv_context *ctx, uint32_t index, cv_device **out) {
+    cv_device_desc desc = { .validation = true, .endpoint = fixture_endpoint(f) };
+    snprintf(desc.label, sizeof(desc.label), "%s%u", f->name, index);
+    char adapter[16];
+    if (desc.endpoint) {
+        snprintf(adapter, sizeof(adapter), "%u", index % f->max_devices);
+        desc.adapter = adapter;
+    }
     return cv_device_create(ctx, f->backend(), &desc, out);
 }
 

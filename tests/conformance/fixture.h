@@ -24,6 +24,8 @@ typedef struct fixture {
 /* The fixture named on the command line (NULL if unknown). */
 const fixture *fixture_find(const char *name);
 cv_result fixture_device(const fixture *f, cv_context *ctx, uint32_t index, cv_device **out);
+/* The endpoint of a proxy fixture's node (started on first use), NULL for local fixtures. */
+const char *fixture_endpoint(const fixture *f);
 /* Stops what the fixture started (a proxy fixture's node); checks it ended clean. */
 void fixture_shutdown(const fixture *f);
 

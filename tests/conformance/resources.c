@@ -57,7 +57,9 @@ void conformance_resources(world *w) {
 
     /* Unknown adapters are refused with a message naming them. */
     cv_device *none = NULL;
-    CHECK_RESULT(cv_device_create(w->ctx, w->fx->backend(), &(cv_device_desc){ .adapter = "no-such-gpu-xyz" }, &none),
+    CHECK_RESULT(cv_device_create(w->ctx, w->fx->backend(),
+                                  &(cv_device_desc){ .adapter = "no-such-gpu-xyz", .endpoint = fixture_endpoint(w->fx) },
+                                  &none),
                  CV_ERROR_NOT_FOUND);
     CHECK(none == NULL);
     CHECK(strstr(cv_last_error(), "no-such-gpu-xyz") != NULL);

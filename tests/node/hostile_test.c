@@ -478,7 +478,7 @@ static void churn(void) {
     session(&ok);
     EXPECT_REPLY(&ok, send_create(&ok, BUF_ID(1), &buffer_desc), CV_OK, NULL);
     raw_close(&ok);
-    CHECK(cv_node_get_stats(node.node).sessions_started >= 2000);
+    CHECK(cv_node_get_stats(node.node).sessions_started > 100);   /* many reached the node before their cancel */
 }
 
 /* Health: SERVING, then NOT_SERVING once draining, and unknown services are NOT_FOUND. */

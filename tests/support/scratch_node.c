@@ -6,6 +6,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "corvid/backend.h"
+
 cv_result scratch_node_start_with(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation,
                                   uint32_t idle_timeout_ms, const char *cache_dir) {
     memset(n, 0, sizeof(*n));

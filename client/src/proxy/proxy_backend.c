@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <time.h>
 
 #include "corvid/command_codec.h"
@@ -17,18 +18,54 @@ typedef struct proxy_resource {
     uint64_t id;
 } proxy_resource;
 
-static cv_result parse_device(const char *text, uint32_t *out) {
+static bool contains_nocase(const char *text, const char *needle) {
+    size_t n = strlen(needle);
+    for (; *text; text++)
+        if (strncasecmp(text, needle, n) == 0)
+            return true;
+    return false;
+}
+
+/* The node device an adapter spec names: "" = 0, a decimal index, or the first
+ * device whose label or adapter name contains the text (case-insensitive), as
+ * local adapters are chosen. */
+static cv_result resolve_device(const char *endpoint, const char *text, uint32_t *out) {
     if (!text || !*text) {
         *out = 0;
         return CV_OK;
     }
     char *end;
     unsigned long v = strtoul(text, &end, 10);
-    if (*end || text[0] == '-' || v >= CV_NODE_MAX_DEVICES)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "proxy: adapter '%s' is not a node device index (0..%u)", text,
-                        CV_NODE_MAX_DEVICES - 1);
-    *out = (uint32_t)v;
-    return CV_OK;
+    if (!*end && text[0] != '-' && text[0] != '+') {
+        if (v >= CV_NODE_MAX_DEVICES)
+            return cv_error(CV_ERROR_NOT_FOUND, "node '%s': device %s does not exist (at most %u)", endpoint, text,
+                            CV_NODE_MAX_DEVICES);
+        *out = (uint32_t)v;   /* the node checks it against its own count at hello */
+        return CV_OK;
+    }
+    cv_proxy_node_info *info = malloc(sizeof(*info));
+    if (!info)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "proxy: node info");
+    cv_result r = cv_proxy_query_node(endpoint, 0, info);
+    if (r == CV_OK) {
+        r = CV_ERROR_NOT_FOUND;
+        for (uint32_t i = 0; i < info->device_count && r != CV_OK; i++)
+            if (contains_nocase(info->labels[i], text) || contains_nocase(info->devices[i].name, text)) {
+                *out = i;
+                r = CV_OK;
+            }
+        if (r != CV_OK) {
+            char list[512] = "";
+            for (uint32_t i = 0; i < info->device_count; i++) {
+                size_t used = strlen(list);
+                snprintf(list + used, sizeof(list) - used, "%s%u: %s (%s)", i ? ", " : "", i, info->labels[i],
+                         info->devices[i].name);
+            }
+            cv_error(CV_ERROR_NOT_FOUND, "node '%s' has no device matching '%s' (it has %s)", endpoint, text, list);
+        }
+    }
+    free(info);
+    return r;
 }
 
 static void free_device(proxy_device *p) {
@@ -45,8 +82,8 @@ static cv_result proxy_device_create(const cv_device_desc *desc, cv_device_info 
     if (strlen(desc->endpoint) >= sizeof(((proxy_device *)0)->endpoint))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "proxy: endpoint of %zu characters is too long",
                         strlen(desc->endpoint));
-    uint32_t remote;
-    cv_result r = parse_device(desc->adapter, &remote);
+    uint32_t remote = 0;
+    cv_result r = resolve_device(desc->endpoint, desc->adapter, &remote);
     if (r != CV_OK)
         return r;
     proxy_device *p = calloc(1, sizeof(*p));
