@@ -28,8 +28,10 @@
  * A blob file appears only by rename() of a complete, hash-checked temporary,
  * so a blob is either absent or whole. Files are not fsync()ed: after a crash
  * a blob file may hold the wrong bytes, and the check on first use (below)
- * drops it. Each blob file's mtime is its last use; a restart rebuilds the LRU
- * order from those times.
+ * drops it. Each blob file's mtime is its last use (stamped at most once a
+ * second while the store runs, exactly at close); a restart rebuilds the LRU
+ * order from those times, exactly after a clean close, to about a second
+ * after a crash.
  *
  * Trust in the files on disk: a blob whose file does not have the size the
  * store indexed is dropped whenever it is used. The first time a blob is used
@@ -117,9 +119,11 @@ cv_result cv_content_upload_finish(cv_content_upload *u);
 void cv_content_upload_abort(cv_content_upload *u);
 uint64_t cv_content_upload_received(const cv_content_upload *u);
 
-/* Pins a stored blob and maps it for reading; while pinned it is neither
- * evicted nor deleted. Makes it the most recently used. CV_ERROR_NOT_FOUND if
- * absent, still being uploaded, or found damaged (then dropped). */
+/* Pins a stored blob and makes its bytes readable: blobs up to 4 MiB are read
+ * into memory, larger ones mmap()ed (unmapping a small mapping cost more than
+ * reading it). While pinned it is neither evicted nor deleted. Makes it the
+ * most recently used. CV_ERROR_NOT_FOUND if absent, still being uploaded, or
+ * found damaged (then dropped); CV_ERROR_IO if its file could not be read. */
 cv_result cv_content_store_get(cv_content_store *s, const uint8_t sha[32], cv_content_blob **out);
 const void *cv_content_blob_data(const cv_content_blob *b);
 uint64_t cv_content_blob_size(const cv_content_blob *b);
