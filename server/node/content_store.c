@@ -287,7 +287,7 @@ static read_outcome read_fd(int fd, uint64_t size, const char *hex, void **out) 
         return READ_OK;
     }
     if (is_mapped(size)) {
-        void *map = mmap(NULL, (size_t)size, PROT_READ, MAP_SHARED, fd, 0);
+        void *map = mmap(NULL, (size_t)size, PROT_READ, MAP_SHARED | MAP_POPULATE, fd, 0);
         if (map == MAP_FAILED) {
             cv_error(CV_ERROR_IO, "content store: blob %s: mmap of %" PRIu64 " bytes: %s", hex, size,
                      strerror(errno));
