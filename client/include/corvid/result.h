@@ -38,7 +38,9 @@
     X(CV_ERROR_MALFORMED, -21, "malformed message or file")                                  \
     X(CV_ERROR_IO, -22, "input/output error")                                                \
     X(CV_ERROR_NOT_FOUND, -23, "not found")                                                  \
-    X(CV_ERROR_CONNECTION, -24, "connection failed or dropped")
+    X(CV_ERROR_CONNECTION, -24, "connection failed or dropped")                              \
+    X(CV_ERROR_ALREADY_EXISTS, -25, "already exists")                                        \
+    X(CV_ERROR_HASH_MISMATCH, -26, "content does not match its hash")
 
 typedef enum cv_result {
 #define CV_RESULT_ENUM(name, value, text) name = value,

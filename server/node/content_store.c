@@ -1,0 +1,899 @@
+/* The content-addressed upload cache (see content_store.h).
+ *
+ * Index: every blob stored or being uploaded has an entry, found by its hash
+ * in an open-addressing table (linear probing, backward-shift deletion, keyed
+ * by a per-store random seed so that clients choosing hashes cannot pile them
+ * onto one probe run). Stored entries are also on a doubly linked LRU list,
+ * newest first. An entry leaves the table when its blob is evicted, dropped
+ * or its upload ends without storing it; a dropped entry that is still pinned
+ * lives on, outside the table, until its last pin is released. */
+#include "content_store.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <limits.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <sys/mman.h>
+#include <sys/random.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "corvid/sha256.h"
+
+#define OBJECT_NAME_SIZE (3 + CV_SHA256_HEX_SIZE)        /* "xx/" + 64 digits + NUL */
+#define TEMP_NAME_SIZE (CV_SHA256_HEX_SIZE + 24)         /* 64 digits + ".<n>" + NUL */
+
+typedef enum entry_state {
+    ENTRY_UPLOADING,   /* in the table, not on the LRU list, its size reserved */
+    ENTRY_STORED,      /* in the table and on the LRU list, its size in bytes */
+    ENTRY_DROPPED,     /* found damaged while pinned: in neither, freed at the last unpin */
+} entry_state;
+
+typedef struct entry {
+    uint8_t sha[32];
+    uint64_t size;
+    struct timespec used;          /* last use */
+    struct timespec used_on_disk;  /* the blob file's mtime: `used`, or up to a second older */
+    uint32_t pins;
+    entry_state state;
+    bool verified;                 /* content hashed since the store was opened */
+    struct entry *newer, *older;   /* LRU list */
+} entry;
+
+struct cv_content_store {
+    pthread_mutex_t lock;
+    int dir_fd, objects_fd, tmp_fd, lock_fd;
+    uint64_t max_bytes;
+    uint64_t reserved;             /* sizes of uploads in progress */
+    uint64_t seed;
+    entry **table;                 /* table_capacity slots, a power of two */
+    size_t table_capacity, table_count;
+    entry *newest, *oldest;
+    struct timespec last_stamp;    /* uses get strictly increasing times */
+    uint64_t temp_counter;
+    uint32_t live_uploads, live_blobs;
+    cv_content_stats stats;
+};
+
+struct cv_content_upload {
+    cv_content_store *store;
+    entry *entry;
+    uint64_t received;
+    int fd;
+    cv_sha256_ctx sha;
+    char temp_name[TEMP_NAME_SIZE];
+};
+
+struct cv_content_blob {
+    cv_content_store *store;
+    entry *entry;
+    const void *data;
+    uint64_t size;
+};
+
+/* ---- names ---- */
+
+static void object_name(const uint8_t sha[32], char out[OBJECT_NAME_SIZE]) {
+    char hex[CV_SHA256_HEX_SIZE];
+    cv_sha256_hex(sha, hex);
+    snprintf(out, OBJECT_NAME_SIZE, "%.2s/%s", hex, hex);
+}
+
+static bool is_lower_hex(const char *s, size_t n) {
+    for (size_t i = 0; i < n; i++) {
+        if (!((s[i] >= '0' && s[i] <= '9') || (s[i] >= 'a' && s[i] <= 'f')))
+            return false;
+    }
+    return s[n] == '\0';
+}
+
+/* ---- hash table ---- */
+
+static size_t home_slot(const cv_content_store *s, const uint8_t sha[32]) {
+    uint64_t k;
+    memcpy(&k, sha, sizeof k);
+    k ^= s->seed;
+    k *= UINT64_C(0x9e3779b97f4a7c15);
+    k ^= k >> 29;
+    return (size_t)k & (s->table_capacity - 1);
+}
+
+static entry *table_find(const cv_content_store *s, const uint8_t sha[32]) {
+    size_t mask = s->table_capacity - 1;
+    for (size_t i = home_slot(s, sha); s->table[i]; i = (i + 1) & mask) {
+        if (memcmp(s->table[i]->sha, sha, 32) == 0)
+            return s->table[i];
+    }
+    return NULL;
+}
+
+static void table_place(cv_content_store *s, entry *e) {
+    size_t mask = s->table_capacity - 1, i = home_slot(s, e->sha);
+    while (s->table[i])
+        i = (i + 1) & mask;
+    s->table[i] = e;
+}
+
+/* Keeps the load at most one half. False when out of memory (nothing changed). */
+static bool table_insert(cv_content_store *s, entry *e) {
+    if ((s->table_count + 1) * 2 > s->table_capacity) {
+        size_t old_capacity = s->table_capacity;
+        entry **old = s->table, **grown = calloc(old_capacity * 2, sizeof *grown);
+        if (grown == NULL)
+            return false;
+        s->table = grown;
+        s->table_capacity = old_capacity * 2;
+        for (size_t i = 0; i < old_capacity; i++) {
+            if (old[i])
+                table_place(s, old[i]);
+        }
+        free(old);
+    }
+    table_place(s, e);
+    s->table_count++;
+    return true;
+}
+
+/* Backward-shift deletion: later members of the probe run move up so that
+ * every entry stays reachable from its home slot without tombstones. */
+static void table_remove(cv_content_store *s, const entry *e) {
+    size_t mask = s->table_capacity - 1, hole = home_slot(s, e->sha);
+    while (s->table[hole] != e)
+        hole = (hole + 1) & mask;
+    s->table[hole] = NULL;
+    for (size_t j = (hole + 1) & mask; s->table[j]; j = (j + 1) & mask) {
+        size_t home = home_slot(s, s->table[j]->sha);
+        /* Leave the entry if its home lies cyclically in (hole, j]. */
+        bool stays = hole < j ? (home > hole && home <= j) : (home > hole || home <= j);
+        if (!stays) {
+            s->table[hole] = s->table[j];
+            s->table[j] = NULL;
+            hole = j;
+        }
+    }
+    s->table_count--;
+}
+
+/* ---- LRU list and use times ---- */
+
+static void lru_unlink(cv_content_store *s, entry *e) {
+    *(e->newer ? &e->newer->older : &s->newest) = e->older;
+    *(e->older ? &e->older->newer : &s->oldest) = e->newer;
+    e->newer = e->older = NULL;
+}
+
+static void lru_push_newest(cv_content_store *s, entry *e) {
+    e->newer = NULL;
+    e->older = s->newest;
+    *(s->newest ? &s->newest->newer : &s->oldest) = e;
+    s->newest = e;
+}
+
+static struct timespec next_stamp(cv_content_store *s) {
+    struct timespec now;
+    clock_gettime(CLOCK_REALTIME, &now);
+    struct timespec last = s->last_stamp;
+    if (now.tv_sec < last.tv_sec || (now.tv_sec == last.tv_sec && now.tv_nsec <= last.tv_nsec)) {
+        now = last;
+        if (++now.tv_nsec == 1000000000) {
+            now.tv_sec++;
+            now.tv_nsec = 0;
+        }
+    }
+    s->last_stamp = now;
+    return now;
+}
+
+static void stamp_file(cv_content_store *s, entry *e) {
+    char name[OBJECT_NAME_SIZE];
+    object_name(e->sha, name);
+    struct timespec times[2] = { e->used, e->used };
+    if (utimensat(s->objects_fd, name, times, 0) == 0)
+        e->used_on_disk = e->used;
+}
+
+/* Records a use, in memory and, for the order after a restart, as the file's
+ * mtime. Setting the mtime is a metadata write (tens of microseconds in the
+ * test VM), so a file is stamped at most once a second while the store runs
+ * and brought up to date at close: a clean restart keeps the exact order, a
+ * crash loses the order of uses less than a second apart. The newest blob is
+ * already the newest: nothing to record. */
+static void touch(cv_content_store *s, entry *e) {
+    if (s->newest == e)
+        return;
+    lru_unlink(s, e);
+    lru_push_newest(s, e);
+    e->used = next_stamp(s);
+    if (e->used.tv_sec > e->used_on_disk.tv_sec + 1 ||
+        (e->used.tv_sec == e->used_on_disk.tv_sec + 1 && e->used.tv_nsec >= e->used_on_disk.tv_nsec))
+        stamp_file(s, e);
+}
+
+/* ---- removal ---- */
+
+static void remove_stored(cv_content_store *s, entry *e) {
+    char name[OBJECT_NAME_SIZE];
+    object_name(e->sha, name);
+    unlinkat(s->objects_fd, name, 0);
+    lru_unlink(s, e);
+    table_remove(s, e);
+    s->stats.bytes -= e->size;
+    s->stats.entries--;
+}
+
+/* A damaged blob: gone from disk and index at once, the entry itself freed
+ * by the last unpin. */
+static void drop(cv_content_store *s, entry *e) {
+    if (e->state != ENTRY_STORED)
+        return;
+    remove_stored(s, e);
+    e->state = ENTRY_DROPPED;
+    s->stats.dropped++;
+}
+
+static void unpin(entry *e) {
+    if (--e->pins == 0 && e->state == ENTRY_DROPPED)
+        free(e);
+}
+
+/* Evicts least recently used unpinned blobs until `need` more bytes fit.
+ * False (after evicting what it could) if pinned blobs and reservations leave
+ * no room. */
+static bool make_room(cv_content_store *s, uint64_t need) {
+    entry *e = s->oldest;
+    while (s->stats.bytes + s->reserved + need > s->max_bytes) {
+        while (e && e->pins)
+            e = e->newer;
+        if (e == NULL)
+            return false;
+        entry *victim = e;
+        e = e->newer;
+        remove_stored(s, victim);
+        s->stats.evictions++;
+        free(victim);
+    }
+    return true;
+}
+
+/* ---- reading blob files ---- */
+
+typedef enum read_outcome { READ_OK, READ_DAMAGED, READ_FAILED } read_outcome;
+
+/* Blobs up to this size are read into memory, larger ones mapped: unmapping
+ * costs a TLB flush (an inter-processor interrupt per CPU the process ran on,
+ * dear in a VM) and a page fault per page, which made get() of a 64 KiB blob
+ * twenty times slower than read() on the test machine (bench_content_store). */
+#define READ_INTO_MEMORY_MAX (UINT64_C(4) << 20)
+
+static bool is_mapped(uint64_t size) { return size > READ_INTO_MEMORY_MAX; }
+
+static void unload_blob(const void *data, uint64_t size) {
+    if (is_mapped(size))
+        munmap((void *)data, (size_t)size);
+    else
+        free((void *)data);
+}
+
+static read_outcome read_fd(int fd, uint64_t size, const char *hex, void **out) {
+    if (size == 0) {
+        *out = NULL;
+        return READ_OK;
+    }
+    if (is_mapped(size)) {
+        void *map = mmap(NULL, (size_t)size, PROT_READ, MAP_SHARED | MAP_POPULATE, fd, 0);
+        if (map == MAP_FAILED) {
+            cv_error(CV_ERROR_IO, "content store: blob %s: mmap of %" PRIu64 " bytes: %s", hex, size,
+                     strerror(errno));
+            return READ_FAILED;
+        }
+        *out = map;
+        return READ_OK;
+    }
+    uint8_t *buffer = malloc((size_t)size);
+    if (buffer == NULL) {
+        cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: blob %s: buffer of %" PRIu64 " bytes", hex, size);
+        return READ_FAILED;
+    }
+    for (uint64_t done = 0; done < size;) {
+        ssize_t n = pread(fd, buffer + done, (size_t)(size - done), (off_t)done);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            free(buffer);
+            if (n == 0) {
+                cv_error(CV_ERROR_NOT_FOUND, "content store: blob %s: file ends at %" PRIu64 " of %" PRIu64
+                         " bytes; dropped", hex, done, size);
+                return READ_DAMAGED;
+            }
+            cv_error(CV_ERROR_IO, "content store: blob %s: read: %s", hex, strerror(errno));
+            return READ_FAILED;
+        }
+        done += (uint64_t)n;
+    }
+    *out = buffer;
+    return READ_OK;
+}
+
+/* Loads a pinned entry's file (outside the lock), checking its size and, if
+ * `verify`, its hash. *data is NULL for an empty blob; unload_blob frees it. */
+static read_outcome load_blob(cv_content_store *s, const entry *e, bool verify, const void **data) {
+    char name[OBJECT_NAME_SIZE], hex[CV_SHA256_HEX_SIZE];
+    object_name(e->sha, name);
+    cv_sha256_hex(e->sha, hex);
+    *data = NULL;
+    int fd = openat(s->objects_fd, name, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) {
+        if (errno == ENOENT) {
+            cv_error(CV_ERROR_NOT_FOUND, "content store: blob %s: its file is gone", hex);
+            return READ_DAMAGED;
+        }
+        cv_error(CV_ERROR_IO, "content store: blob %s: open: %s", hex, strerror(errno));
+        return READ_FAILED;
+    }
+    struct stat st;
+    if (fstat(fd, &st) != 0) {
+        cv_error(CV_ERROR_IO, "content store: blob %s: fstat: %s", hex, strerror(errno));
+        close(fd);
+        return READ_FAILED;
+    }
+    if ((uint64_t)st.st_size != e->size) {
+        cv_error(CV_ERROR_NOT_FOUND, "content store: blob %s: file has %" PRIu64 " bytes, indexed with %" PRIu64
+                 "; dropped", hex, (uint64_t)st.st_size, e->size);
+        close(fd);
+        return READ_DAMAGED;
+    }
+    void *bytes;
+    read_outcome m = read_fd(fd, e->size, hex, &bytes);
+    close(fd);
+    if (m != READ_OK)
+        return m;
+    if (verify) {
+        uint8_t actual[32];
+        m = cv_sha256(bytes, (size_t)e->size, actual) == CV_OK ? READ_OK : READ_FAILED;
+        if (m == READ_OK && memcmp(actual, e->sha, 32) != 0) {
+            char actual_hex[CV_SHA256_HEX_SIZE];
+            cv_sha256_hex(actual, actual_hex);
+            cv_error(CV_ERROR_NOT_FOUND, "content store: blob %s: file content hashes to %s; dropped", hex,
+                     actual_hex);
+            m = READ_DAMAGED;
+        }
+        if (m != READ_OK) {
+            unload_blob(bytes, e->size);
+            return m;
+        }
+    }
+    *data = bytes;
+    return READ_OK;
+}
+
+/* ---- open and close ---- */
+
+typedef struct found_blob {
+    uint8_t sha[32];
+    uint64_t size;
+    struct timespec mtime;
+} found_blob;
+
+static int older_first(const void *a, const void *b) {
+    const found_blob *x = a, *y = b;
+    if (x->mtime.tv_sec != y->mtime.tv_sec)
+        return x->mtime.tv_sec < y->mtime.tv_sec ? -1 : 1;
+    if (x->mtime.tv_nsec != y->mtime.tv_nsec)
+        return x->mtime.tv_nsec < y->mtime.tv_nsec ? -1 : 1;
+    return memcmp(x->sha, y->sha, 32);
+}
+
+static cv_result open_subdir(int parent, const char *dir, const char *name, int *out) {
+    if (mkdirat(parent, name, 0755) != 0 && errno != EEXIST)
+        return cv_error(CV_ERROR_IO, "content store '%s': mkdir %s: %s", dir, name, strerror(errno));
+    *out = openat(parent, name, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (*out < 0)
+        return cv_error(CV_ERROR_IO, "content store '%s': open %s: %s", dir, name, strerror(errno));
+    return CV_OK;
+}
+
+/* Removes a file or an empty folder; a folder with something in it stays. */
+static void remove_stray(int parent, const char *name) {
+    if (unlinkat(parent, name, 0) != 0 && (errno == EISDIR || errno == EPERM))
+        unlinkat(parent, name, AT_REMOVEDIR);
+}
+
+/* Leftover temporaries: uploads that a previous run never finished. */
+static cv_result clean_temporaries(cv_content_store *s, const char *dir) {
+    int fd = dup(s->tmp_fd);
+    DIR *d = fd < 0 ? NULL : fdopendir(fd);
+    if (d == NULL) {
+        if (fd >= 0)
+            close(fd);
+        return cv_error(CV_ERROR_IO, "content store '%s': reading tmp/: %s", dir, strerror(errno));
+    }
+    for (struct dirent *de = readdir(d); de; de = readdir(d)) {
+        if (strcmp(de->d_name, ".") != 0 && strcmp(de->d_name, "..") != 0)
+            remove_stray(s->tmp_fd, de->d_name);
+    }
+    closedir(d);
+    return CV_OK;
+}
+
+static bool push_found(found_blob **list, size_t *count, size_t *capacity, const found_blob *b) {
+    if (*count == *capacity) {
+        size_t grown_capacity = *capacity ? *capacity * 2 : 256;
+        found_blob *grown = realloc(*list, grown_capacity * sizeof *grown);
+        if (grown == NULL)
+            return false;
+        *list = grown;
+        *capacity = grown_capacity;
+    }
+    (*list)[(*count)++] = *b;
+    return true;
+}
+
+/* Lists objects/<xx>/<hash> files, removing whatever else is there. */
+static cv_result scan_objects(cv_content_store *s, const char *dir, found_blob **list, size_t *count) {
+    size_t capacity = 0;
+    int fd = dup(s->objects_fd);
+    DIR *top = fd < 0 ? NULL : fdopendir(fd);
+    if (top == NULL) {
+        if (fd >= 0)
+            close(fd);
+        return cv_error(CV_ERROR_IO, "content store '%s': reading objects/: %s", dir, strerror(errno));
+    }
+    cv_result r = CV_OK;
+    for (struct dirent *de = readdir(top); de && r == CV_OK; de = readdir(top)) {
+        const char *prefix = de->d_name;
+        if (strcmp(prefix, ".") == 0 || strcmp(prefix, "..") == 0)
+            continue;
+        int sub_fd = is_lower_hex(prefix, 2) ? openat(s->objects_fd, prefix, O_RDONLY | O_DIRECTORY | O_CLOEXEC)
+                                             : -1;
+        DIR *sub = sub_fd < 0 ? NULL : fdopendir(sub_fd);
+        if (sub == NULL) {
+            if (sub_fd >= 0)
+                close(sub_fd);
+            remove_stray(s->objects_fd, prefix);
+            continue;
+        }
+        for (struct dirent *fe = readdir(sub); fe; fe = readdir(sub)) {
+            const char *name = fe->d_name;
+            if (strcmp(name, ".") == 0 || strcmp(name, "..") == 0)
+                continue;
+            found_blob b;
+            struct stat st;
+            bool valid = is_lower_hex(name, 64) && memcmp(name, prefix, 2) == 0 &&
+                         cv_sha256_parse_hex(name, b.sha) &&
+                         fstatat(sub_fd, name, &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISREG(st.st_mode);
+            if (!valid) {
+                remove_stray(sub_fd, name);
+                continue;
+            }
+            b.size = (uint64_t)st.st_size;
+            b.mtime = st.st_mtim;
+            if (!push_found(list, count, &capacity, &b)) {
+                r = cv_error(CV_ERROR_OUT_OF_MEMORY, "content store '%s': index of %zu blobs", dir, *count);
+                break;
+            }
+        }
+        closedir(sub);
+    }
+    closedir(top);
+    return r;
+}
+
+static cv_result index_objects(cv_content_store *s, const char *dir) {
+    found_blob *found = NULL;
+    size_t count = 0;
+    cv_result r = scan_objects(s, dir, &found, &count);
+    if (r == CV_OK && count > 0)
+        qsort(found, count, sizeof *found, older_first);
+    for (size_t i = 0; i < count && r == CV_OK; i++) {
+        entry *e = calloc(1, sizeof *e);
+        if (e) {
+            memcpy(e->sha, found[i].sha, 32);
+            e->size = found[i].size;
+            e->used = e->used_on_disk = found[i].mtime;
+            e->state = ENTRY_STORED;
+        }
+        if (e == NULL || !table_insert(s, e)) {
+            free(e);
+            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "content store '%s': index of %zu blobs", dir, count);
+            break;
+        }
+        lru_push_newest(s, e);
+        s->stats.bytes += e->size;
+        s->stats.entries++;
+        s->last_stamp = e->used;
+    }
+    free(found);
+    return r;
+}
+
+static void free_store(cv_content_store *s) {
+    for (size_t i = 0; s->table && i < s->table_capacity; i++)
+        free(s->table[i]);
+    free(s->table);
+    int fds[] = { s->tmp_fd, s->objects_fd, s->dir_fd, s->lock_fd };   /* closing lock_fd unlocks */
+    for (size_t i = 0; i < sizeof fds / sizeof fds[0]; i++) {
+        if (fds[i] >= 0)
+            close(fds[i]);
+    }
+    pthread_mutex_destroy(&s->lock);
+    free(s);
+}
+
+static cv_result open_dirs(cv_content_store *s, const char *dir) {
+    if (mkdir(dir, 0755) != 0 && errno != EEXIST)
+        return cv_error(CV_ERROR_IO, "content store '%s': mkdir: %s", dir, strerror(errno));
+    s->dir_fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (s->dir_fd < 0)
+        return cv_error(CV_ERROR_IO, "content store '%s': open: %s", dir, strerror(errno));
+    s->lock_fd = openat(s->dir_fd, "lock", O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (s->lock_fd < 0)
+        return cv_error(CV_ERROR_IO, "content store '%s': open lock: %s", dir, strerror(errno));
+    if (flock(s->lock_fd, LOCK_EX | LOCK_NB) != 0) {
+        if (errno == EWOULDBLOCK)
+            return cv_error(CV_ERROR_BAD_STATE, "content store '%s': already open (by this or another process)",
+                            dir);
+        return cv_error(CV_ERROR_IO, "content store '%s': flock: %s", dir, strerror(errno));
+    }
+    cv_result r = open_subdir(s->dir_fd, dir, "objects", &s->objects_fd);
+    if (r == CV_OK)
+        r = open_subdir(s->dir_fd, dir, "tmp", &s->tmp_fd);
+    for (unsigned i = 0; i < 256 && r == CV_OK; i++) {
+        char name[3];
+        snprintf(name, sizeof name, "%02x", i);
+        if (mkdirat(s->objects_fd, name, 0755) != 0 && errno != EEXIST)
+            r = cv_error(CV_ERROR_IO, "content store '%s': mkdir objects/%s: %s", dir, name, strerror(errno));
+    }
+    return r;
+}
+
+cv_result cv_content_store_open(const char *dir, uint64_t max_bytes, cv_content_store **out) {
+    if (dir == NULL || dir[0] == '\0' || out == NULL)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: open needs a directory and an out pointer");
+    cv_content_store *s = calloc(1, sizeof *s);
+    entry **table = calloc(64, sizeof *table);
+    if (s == NULL || table == NULL) {
+        free(s);
+        free(table);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "content store '%s'", dir);
+    }
+    pthread_mutex_init(&s->lock, NULL);
+    s->table = table;
+    s->table_capacity = 64;
+    s->dir_fd = s->objects_fd = s->tmp_fd = s->lock_fd = -1;
+    s->max_bytes = max_bytes ? max_bytes : CV_CONTENT_STORE_DEFAULT_MAX_BYTES;
+    s->stats.max_bytes = s->max_bytes;
+    if (getrandom(&s->seed, sizeof s->seed, GRND_NONBLOCK) != (ssize_t)sizeof s->seed) {
+        struct timespec now;
+        clock_gettime(CLOCK_MONOTONIC, &now);
+        s->seed = (uint64_t)now.tv_nsec * UINT64_C(0x2545f4914f6cdd1d) ^ (uint64_t)(uintptr_t)s;
+    }
+
+    /* Steps: folders and the lock; discard unfinished uploads; index the blobs
+     * (oldest use first); shrink to the limit; start use times after the newest. */
+    cv_result r = open_dirs(s, dir);
+    if (r == CV_OK)
+        r = clean_temporaries(s, dir);
+    if (r == CV_OK)
+        r = index_objects(s, dir);
+    if (r != CV_OK) {
+        free_store(s);
+        return r;
+    }
+    make_room(s, 0);
+    next_stamp(s);
+    *out = s;
+    return CV_OK;
+}
+
+void cv_content_store_close(cv_content_store *s) {
+    if (s == NULL)
+        return;
+    if (s->live_uploads || s->live_blobs)
+        fprintf(stderr, "corvid: content store closed with %u uploads and %u pinned blobs still open\n",
+                s->live_uploads, s->live_blobs);
+    for (entry *e = s->newest; e; e = e->older) {
+        if (e->used.tv_sec != e->used_on_disk.tv_sec || e->used.tv_nsec != e->used_on_disk.tv_nsec)
+            stamp_file(s, e);
+    }
+    free_store(s);
+}
+
+/* ---- queries ---- */
+
+bool cv_content_store_has(cv_content_store *s, const uint8_t sha[32]) {
+    pthread_mutex_lock(&s->lock);
+    entry *e = table_find(s, sha);
+    if (e == NULL || e->state != ENTRY_STORED) {
+        s->stats.misses++;
+        pthread_mutex_unlock(&s->lock);
+        return false;
+    }
+    if (e->verified) {
+        touch(s, e);
+        s->stats.hits++;
+        pthread_mutex_unlock(&s->lock);
+        return true;
+    }
+    e->pins++;
+    pthread_mutex_unlock(&s->lock);
+
+    const void *data;
+    read_outcome m = load_blob(s, e, true, &data);
+    if (m == READ_OK)
+        unload_blob(data, e->size);
+
+    pthread_mutex_lock(&s->lock);
+    /* A check that could not run (no memory, no descriptors) proves nothing
+     * either way: the blob counts as present and get() checks it again. */
+    bool present = m != READ_DAMAGED && e->state == ENTRY_STORED;
+    if (m == READ_OK)
+        e->verified = true;
+    else if (m == READ_DAMAGED)
+        drop(s, e);
+    if (present) {
+        touch(s, e);
+        s->stats.hits++;
+    } else {
+        s->stats.misses++;
+    }
+    unpin(e);
+    pthread_mutex_unlock(&s->lock);
+    return present;
+}
+
+cv_result cv_content_store_get(cv_content_store *s, const uint8_t sha[32], cv_content_blob **out) {
+    if (s == NULL || sha == NULL || out == NULL)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: get needs a store, a hash and an out pointer");
+    cv_content_blob *b = malloc(sizeof *b);
+    if (b == NULL)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: blob handle");
+    char hex[CV_SHA256_HEX_SIZE];
+    pthread_mutex_lock(&s->lock);
+    entry *e = table_find(s, sha);
+    if (e == NULL || e->state != ENTRY_STORED) {
+        bool uploading = e != NULL;
+        pthread_mutex_unlock(&s->lock);
+        free(b);
+        cv_sha256_hex(sha, hex);
+        return cv_error(CV_ERROR_NOT_FOUND, "content store: blob %s %s", hex,
+                        uploading ? "is still being uploaded" : "is not stored");
+    }
+    e->pins++;
+    touch(s, e);
+    bool verify = !e->verified;
+    pthread_mutex_unlock(&s->lock);
+
+    const void *data;
+    read_outcome m = load_blob(s, e, verify, &data);
+
+    pthread_mutex_lock(&s->lock);
+    if (m == READ_OK) {
+        e->verified = true;
+        s->live_blobs++;
+    } else {
+        if (m == READ_DAMAGED)
+            drop(s, e);
+        unpin(e);
+    }
+    pthread_mutex_unlock(&s->lock);
+    if (m != READ_OK) {
+        free(b);
+        return m == READ_DAMAGED ? CV_ERROR_NOT_FOUND : CV_ERROR_IO;   /* map_blob set the message */
+    }
+    *b = (cv_content_blob){ .store = s, .entry = e, .data = data ? data : "", .size = e->size };
+    *out = b;
+    return CV_OK;
+}
+
+const void *cv_content_blob_data(const cv_content_blob *b) { return b->data; }
+
+uint64_t cv_content_blob_size(const cv_content_blob *b) { return b->size; }
+
+void cv_content_blob_release(cv_content_blob *b) {
+    if (b == NULL)
+        return;
+    if (b->size > 0)
+        unload_blob(b->data, b->size);
+    cv_content_store *s = b->store;
+    pthread_mutex_lock(&s->lock);
+    unpin(b->entry);
+    s->live_blobs--;
+    pthread_mutex_unlock(&s->lock);
+    free(b);
+}
+
+cv_content_stats cv_content_store_stats(cv_content_store *s) {
+    pthread_mutex_lock(&s->lock);
+    cv_content_stats stats = s->stats;
+    pthread_mutex_unlock(&s->lock);
+    return stats;
+}
+
+/* ---- uploads ---- */
+
+cv_result cv_content_upload_begin(cv_content_store *s, const uint8_t sha[32], uint64_t size,
+                                  cv_content_upload **out) {
+    if (s == NULL || sha == NULL || out == NULL)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: upload_begin needs a store, a hash and an out pointer");
+    char hex[CV_SHA256_HEX_SIZE];
+    cv_sha256_hex(sha, hex);
+    if (size > s->max_bytes) {
+        pthread_mutex_lock(&s->lock);
+        s->stats.rejected++;
+        pthread_mutex_unlock(&s->lock);
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "content store: blob %s of %" PRIu64
+                        " bytes is larger than the store's limit of %" PRIu64 " bytes", hex, size, s->max_bytes);
+    }
+    cv_content_upload *u = calloc(1, sizeof *u);
+    entry *e = calloc(1, sizeof *e);
+    if (u == NULL || e == NULL) {
+        free(u);
+        free(e);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: upload of %s", hex);
+    }
+    memcpy(e->sha, sha, 32);
+    e->size = size;
+    e->state = ENTRY_UPLOADING;
+
+    pthread_mutex_lock(&s->lock);
+    entry *existing = table_find(s, sha);
+    cv_result r = CV_OK;
+    if (existing && existing->state == ENTRY_STORED) {
+        touch(s, existing);
+        r = cv_error(CV_ERROR_ALREADY_EXISTS, "content store: blob %s is already stored", hex);
+    } else if (existing) {
+        r = cv_error(CV_ERROR_BAD_STATE, "content store: blob %s is being uploaded by another session", hex);
+    } else if (!make_room(s, size)) {
+        s->stats.rejected++;
+        r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "content store: no room for blob %s of %" PRIu64 " bytes: %" PRIu64
+                     " of the limit of %" PRIu64 " bytes are pinned or reserved by other uploads",
+                     hex, size, s->stats.bytes + s->reserved, s->max_bytes);
+    } else if (!table_insert(s, e)) {
+        r = cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: index entry for %s", hex);
+    } else {
+        s->reserved += size;
+        s->live_uploads++;
+        snprintf(u->temp_name, sizeof u->temp_name, "%s.%" PRIu64, hex, ++s->temp_counter);
+    }
+    pthread_mutex_unlock(&s->lock);
+    if (r != CV_OK) {
+        free(u);
+        free(e);
+        return r;
+    }
+
+    u->store = s;
+    u->entry = e;
+    u->fd = openat(s->tmp_fd, u->temp_name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (u->fd < 0)
+        r = cv_error(CV_ERROR_IO, "content store: creating tmp/%s: %s", u->temp_name, strerror(errno));
+    else
+        r = cv_sha256_init(&u->sha);
+    if (r != CV_OK) {
+        if (u->fd >= 0) {
+            close(u->fd);
+            unlinkat(s->tmp_fd, u->temp_name, 0);
+        }
+        pthread_mutex_lock(&s->lock);
+        table_remove(s, e);
+        s->reserved -= size;
+        s->live_uploads--;
+        pthread_mutex_unlock(&s->lock);
+        free(u);
+        free(e);
+        return r;
+    }
+    *out = u;
+    return CV_OK;
+}
+
+cv_result cv_content_upload_write(cv_content_upload *u, uint64_t offset, const void *data, size_t len) {
+    if (u == NULL || (data == NULL && len > 0))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: upload_write needs an upload and data");
+    const char *name = u->temp_name;   /* "<hash>.<n>" */
+    if (offset != u->received)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: upload of %.64s: chunk at offset %" PRIu64
+                        ", expected the next at %" PRIu64 " (chunks go in order)", name, offset, u->received);
+    if (len > u->entry->size - u->received)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "content store: upload of %.64s: chunk of %zu bytes at %" PRIu64
+                        " runs past the blob's %" PRIu64 " bytes", name, len, offset, u->entry->size);
+    /* pwrite at the chunk's own offset: if it fails part way, a retry of the
+     * same chunk overwrites whatever got written. */
+    const uint8_t *p = data;
+    for (size_t done = 0; done < len;) {
+        ssize_t n = pwrite(u->fd, p + done, len - done, (off_t)(offset + done));
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0)
+            return cv_error(CV_ERROR_IO, "content store: upload of %.64s: writing %zu bytes at %" PRIu64 ": %s",
+                            name, len, offset, n < 0 ? strerror(errno) : "no progress");
+        done += (size_t)n;
+    }
+    cv_sha256_update(&u->sha, data, len);
+    u->received += len;
+    return CV_OK;
+}
+
+uint64_t cv_content_upload_received(const cv_content_upload *u) { return u->received; }
+
+/* Ends an upload that stores nothing. */
+static void discard_upload(cv_content_upload *u, bool rejected) {
+    cv_content_store *s = u->store;
+    if (u->fd >= 0)
+        close(u->fd);
+    unlinkat(s->tmp_fd, u->temp_name, 0);
+    cv_sha256_discard(&u->sha);
+    pthread_mutex_lock(&s->lock);
+    table_remove(s, u->entry);
+    s->reserved -= u->entry->size;
+    s->live_uploads--;
+    if (rejected)
+        s->stats.rejected++;
+    pthread_mutex_unlock(&s->lock);
+    free(u->entry);
+    free(u);
+}
+
+void cv_content_upload_abort(cv_content_upload *u) {
+    if (u)
+        discard_upload(u, false);
+}
+
+cv_result cv_content_upload_finish(cv_content_upload *u) {
+    if (u == NULL)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: upload_finish needs an upload");
+    cv_content_store *s = u->store;
+    entry *e = u->entry;
+    char key_hex[CV_SHA256_HEX_SIZE];
+    cv_sha256_hex(e->sha, key_hex);
+    if (u->received != e->size) {
+        cv_result r = cv_error(CV_ERROR_BAD_STATE, "content store: upload of %s finished after %" PRIu64 " of its %"
+                               PRIu64 " bytes; nothing stored", key_hex, u->received, e->size);
+        discard_upload(u, true);
+        return r;
+    }
+    uint8_t actual[32];
+    cv_result r = cv_sha256_final(&u->sha, actual);
+    if (r == CV_OK && memcmp(actual, e->sha, 32) != 0) {
+        char actual_hex[CV_SHA256_HEX_SIZE];
+        cv_sha256_hex(actual, actual_hex);
+        r = cv_error(CV_ERROR_HASH_MISMATCH, "content store: upload keyed %s has content hashing to %s; nothing stored",
+                     key_hex, actual_hex);
+    }
+    if (r == CV_OK && close(u->fd) != 0)
+        r = cv_error(CV_ERROR_IO, "content store: upload of %s: close: %s", key_hex, strerror(errno));
+    if (r != CV_OK) {
+        discard_upload(u, true);
+        return r;
+    }
+    u->fd = -1;
+    char name[OBJECT_NAME_SIZE];
+    object_name(e->sha, name);
+    if (renameat(s->tmp_fd, u->temp_name, s->objects_fd, name) != 0) {
+        r = cv_error(CV_ERROR_IO, "content store: upload of %s: rename into objects/: %s", key_hex, strerror(errno));
+        discard_upload(u, true);
+        return r;
+    }
+
+    pthread_mutex_lock(&s->lock);
+    e->state = ENTRY_STORED;
+    e->verified = true;
+    e->used = next_stamp(s);
+    stamp_file(s, e);
+    lru_push_newest(s, e);
+    s->reserved -= e->size;
+    s->stats.bytes += e->size;
+    s->stats.entries++;
+    s->stats.uploads++;
+    s->live_uploads--;
+    pthread_mutex_unlock(&s->lock);
+    free(u);
+    return CV_OK;
+}
