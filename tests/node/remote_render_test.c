@@ -66,7 +66,7 @@ static cv_result render_remote(scratch_node *nodes, uint32_t node_count, uint32_
     cv_result res = cv_context_create(NULL, &ctx);
     for (uint32_t n = 0; res == CV_OK && n < node_count; n++)
         for (uint32_t d = 0; res == CV_OK && d < per_node; d++) {
-            char adapter[8];
+            char adapter[16];
             snprintf(adapter, sizeof(adapter), "%u", d);
             cv_device_desc desc = { .endpoint = nodes[n].endpoint, .adapter = adapter };
             snprintf(desc.label, sizeof(desc.label), "node%u.gpu%u", n, d);
