@@ -8,8 +8,10 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "corvid/image_exr.h"
+#include "corvid/image_files.h"
 #include "corvid/image_png.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_import.h"
@@ -149,24 +151,98 @@ static void progress(uint32_t frame, uint32_t frames, void *user) {
         fputc('\n', stderr);
 }
 
-/* Creates the folders of PREFIX if missing (one level is enough for out/frame). */
-static cv_result make_parent(const char *prefix) {
-    char dir[1024];
-    snprintf(dir, sizeof(dir), "%s", prefix);
-    char *slash = strrchr(dir, '/');
-    if (!slash || slash == dir)
-        return CV_OK;
-    *slash = '\0';
-    for (char *p = dir + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-            return cv_error(CV_ERROR_IO, "%s: cannot create folder: %s", dir, strerror(errno));
-        *p = '/';
+/* Where the frame goes: PREFIX.exr and PREFIX.png, reserved as temporaries
+ * in their directory before anything is rendered, so that a destination that
+ * cannot take them fails at once rather than after the whole render. */
+typedef struct outputs {
+    char *exr, *png;             /* final names */
+    const char *exr_temp, *png_temp;
+    cv_file_set *set;
+    char *made;                  /* the folders this run created, to remove on failure; NULL if none */
+    size_t made_top;             /* length of the top-most folder created */
+} outputs;
+
+/* A copy of `a` followed by `b`, or NULL without memory. */
+static char *concat(const char *a, const char *b) {
+    size_t na = strlen(a), nb = strlen(b);
+    char *s = malloc(na + nb + 1);
+    if (s) {
+        memcpy(s, a, na);
+        memcpy(s + na, b, nb + 1);
     }
-    if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-        return cv_error(CV_ERROR_IO, "%s: cannot create folder: %s", dir, strerror(errno));
+    return s;
+}
+
+/* Creates the missing folders of PREFIX (like mkdir -p), remembering the
+ * ones it made. */
+static cv_result make_parent(const char *prefix, outputs *out) {
+    char *dir = strdup(prefix);
+    if (!dir)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "--out: no memory");
+    char *slash = strrchr(dir, '/');
+    if (!slash || slash == dir) {
+        free(dir);
+        return CV_OK;
+    }
+    *slash = '\0';
+    size_t len = strlen(dir);
+    for (char *p = dir + 1; p <= dir + len; p++) {
+        if (*p != '/' && *p != '\0')
+            continue;
+        char c = *p;
+        *p = '\0';
+        if (mkdir(dir, 0777) == 0) {
+            if (!out->made)
+                out->made_top = strlen(dir);
+            out->made = dir;
+        } else if (errno != EEXIST) {
+            cv_result r = cv_error(CV_ERROR_IO, "cannot create folder '%s': %s", dir, strerror(errno));
+            *p = c;
+            if (out->made != dir)
+                free(dir);
+            return r;
+        }
+        *p = c;
+    }
+    if (out->made != dir)
+        free(dir);
+    return CV_OK;
+}
+
+/* Removes what outputs_reserve made: temporaries, then created folders. */
+static void outputs_discard(outputs *out) {
+    cv_file_set_destroy(out->set);
+    out->set = NULL;
+    for (char *dir = out->made; dir && strlen(dir) >= out->made_top;) {
+        rmdir(dir);
+        char *slash = strrchr(dir, '/');
+        if (!slash)
+            break;
+        *slash = '\0';
+    }
+}
+
+static void outputs_free(outputs *out) {
+    cv_file_set_destroy(out->set);
+    free(out->made);
+    free(out->exr);
+    free(out->png);
+}
+
+static cv_result outputs_reserve(const char *prefix, outputs *out) {
+    out->exr = concat(prefix, ".exr");
+    out->png = concat(prefix, ".png");
+    if (!out->exr || !out->png)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "--out: no memory");
+    cv_result r = make_parent(prefix, out);
+    if (r == CV_OK)
+        r = cv_file_set_create(&out->set);
+    if (r == CV_OK)
+        r = cv_file_set_add(out->set, out->exr, &out->exr_temp);
+    if (r == CV_OK)
+        r = cv_file_set_add(out->set, out->png, &out->png_temp);
+    if (r != CV_OK)
+        return cv_error(r, "--out: %s", cv_last_error());
     return CV_OK;
 }
 
@@ -178,11 +254,12 @@ static float *plane(const float *rgba, size_t pixels, int c) {
     return p;
 }
 
-static cv_result write_images(const options *o, const cv_render_output *img, const cv_camera *camera) {
+/* Writes both files to their temporaries and renames them into place only
+ * when both were written. */
+static cv_result write_images(const options *o, outputs *out, const cv_render_output *img,
+                              const cv_camera *camera) {
     size_t n = (size_t)img->width * img->height;
-    cv_result r = make_parent(o->out);
-    if (r != CV_OK)
-        return r;
+    cv_result r = CV_OK;
     float *depth = malloc(n * sizeof(float));
     float *planes[8] = { plane(img->albedo, n, 0), plane(img->albedo, n, 1), plane(img->albedo, n, 2),
                          plane(img->normal, n, 0), plane(img->normal, n, 1), plane(img->normal, n, 2),
@@ -197,7 +274,6 @@ static cv_result write_images(const options *o, const cv_render_output *img, con
         float dx = p[0] - camera->position[0], dy = p[1] - camera->position[1], dz = p[2] - camera->position[2];
         depth[i] = p[3] != 0.0f ? sqrtf(dx * dx + dy * dy + dz * dz) : INFINITY;
     }
-    char path[1100];
     if (r == CV_OK) {
         cv_exr_layer layers[] = {
             { .channel_count = 4, .channels = { "R", "G", "B", "A" }, .type = CV_EXR_FLOAT,
@@ -210,8 +286,7 @@ static cv_result write_images(const options *o, const cv_render_output *img, con
             { .name = "shadow", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { planes[6] } },
             { .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { planes[7] } },
         };
-        snprintf(path, sizeof(path), "%s.exr", o->out);
-        r = cv_exr_write(path, &(cv_exr_desc){ .width = img->width, .height = img->height, .compression = CV_EXR_ZIP,
+        r = cv_exr_write(out->exr_temp, &(cv_exr_desc){ .width = img->width, .height = img->height, .compression = CV_EXR_ZIP,
                                                .layer_count = 6, .layers = layers });
     }
     uint8_t *rgb = r == CV_OK ? malloc(n * 3) : NULL;
@@ -220,10 +295,10 @@ static cv_result write_images(const options *o, const cv_render_output *img, con
     if (r == CV_OK)
         r = cv_tonemap_to_srgb8(&(cv_tonemap_desc){ .exposure = o->exposure, .curve = CV_TONEMAP_ACES },
                                 img->radiance, 4, img->width, img->height, rgb, 3);
-    if (r == CV_OK) {
-        snprintf(path, sizeof(path), "%s.png", o->out);
-        r = cv_png_write(path, img->width, img->height, 3, rgb);
-    }
+    if (r == CV_OK)
+        r = cv_png_write(out->png_temp, img->width, img->height, 3, rgb);
+    if (r == CV_OK)
+        r = cv_file_set_commit(out->set);
     free(rgb);
     free(depth);
     for (int i = 0; i < 8; i++)
@@ -274,7 +349,10 @@ int main(int argc, char **argv) {
     cv_vulkan_gpu_table table = { 0 };
     cv_render_output image = { 0 };
     cv_render_stats stats = { 0 };
-    cv_result r = load_scene(&o, &scene);
+    outputs out = { 0 };
+    cv_result r = outputs_reserve(o.out, &out);
+    if (r == CV_OK)
+        r = load_scene(&o, &scene);
     if (r == CV_OK && !o.quiet)
         fprintf(stderr, "scene '%s': %llu triangles, %u instances, %u materials\n", o.scene,
                 (unsigned long long)cv_scene_world_triangle_count(scene), cv_scene_instance_count(scene),
@@ -311,9 +389,9 @@ int main(int argc, char **argv) {
                                                          : cv_scene_framing_camera(scene);
     }
     if (r == CV_OK)
-        r = write_images(&o, &image, &camera);
+        r = write_images(&o, &out, &image, &camera);
     if (r == CV_OK && !o.quiet) {
-        printf("wrote %s.exr and %s.png (%ux%u, %u frames, %u AO rays/pixel/frame)\n", o.out, o.out, image.width,
+        printf("wrote %s and %s (%ux%u, %u frames, %u AO rays/pixel/frame)\n", out.exr, out.png, image.width,
                image.height, stats.frames, s.ao_samples);
         printf("bvh build %.1f ms; upload to %u devices %.1f ms; %.1f ms per frame; %.2f Mrays/s overall\n", t_bvh,
                stats.device_count, stats.upload_ms, stats.frame_ms,
@@ -330,6 +408,9 @@ int main(int argc, char **argv) {
     if (r == CV_OK && o.validation && cv_vulkan_validation_message_count())
         r = cv_error(CV_ERROR_BACKEND, "the validation layer reported %u messages",
                      cv_vulkan_validation_message_count());
+    if (r != CV_OK)
+        outputs_discard(&out);
+    outputs_free(&out);
     cv_render_output_free(&image);
     cv_renderer_destroy(renderer);
     cv_context_destroy(ctx);
