@@ -13,7 +13,8 @@ check() {  # check "what" command...
   if "$@"; then pass=$((pass + 1)); else fail=$((fail + 1)); echo "FAILED: $what" >&2; fi
 }
 
-"$render" --gpus 2 --adapters llvmpipe --size 96x54 --frames 2 --ao-samples 2 --out "$tmp/a/frame" > "$tmp/out.txt" 2> "$tmp/err.txt"
+# "--option=value" and "--option value" alike, for every option.
+"$render" --gpus=2 --adapters llvmpipe --size=96x54 --frames 2 --ao-samples=2 --out="$tmp/a/frame" > "$tmp/out.txt" 2> "$tmp/err.txt"
 check "render exits 0" test $? -eq 0
 check "EXR written" test -s "$tmp/a/frame.exr"
 check "PNG written" test -s "$tmp/a/frame.png"
@@ -67,9 +68,57 @@ check "bad size explained" grep -q -- "--size" "$tmp/err.txt"
 "$render" --no-such-flag 2> "$tmp/err.txt"
 check "unknown flag exits 2" test $? -eq 2
 check "unknown flag named" grep -q "no-such-flag" "$tmp/err.txt"
+# Values that were silently coerced are refused with the option, the value
+# and the accepted range (exit 2, nothing rendered).
+refused() {  # refused "what" "expected message" option...
+  local what=$1 msg=$2; shift 2
+  "$render" "$@" --out "$tmp/r/frame" > /dev/null 2> "$tmp/err.txt"
+  check "$what exits 2" test $? -eq 2
+  check "$what explained" grep -qF -- "$msg" "$tmp/err.txt"
+}
+refused "size over 2^32" "--size: '4294967297x2' is not WxH with each side in 1..16384" --size 4294967297x2
+refused "size with a sign" "--size: '-8x8' is not WxH" --size=-8x8
+refused "size 0" "--size: '0x10' is not WxH" --size 0x10
+refused "AO samples 0" "--ao-samples: '0' is not a whole number in 1..32" --ao-samples 0
+refused "AO samples 33" "--ao-samples: '33' is not a whole number in 1..32" --ao-samples=33
+refused "frames over the limit" "--frames: '5000' is not a whole number in 1..4096" --frames 5000
+refused "negative seed" "--seed: '-1' is not a whole number in 0..4294967295" --seed -1
+refused "seed over 32 bits" "--seed: '4294967296' is not a whole number in 0..4294967295" --seed 4294967296
+refused "negative stress" "--scene: 'stress:-5' is not stress:N" --scene stress:-5
+refused "overflowing stress" "--scene: 'stress:18446744073709551616' is not stress:N" --scene stress:18446744073709551616
+refused "flag with a value" "--quiet takes no value" --quiet=1
+refused "AO radius 0" "--ao-radius: '0' is not a finite length > 0" --ao-radius 0
+check "nothing rendered for refused values" test ! -e "$tmp/r"
+"$render" --scene stress:-5 2> "$tmp/err.txt"
+check "negative number not echoed as 2^64-5" not grep -q 18446744073709551611 "$tmp/err.txt"
+"$render" --out "" 2> "$tmp/err.txt"
+check "empty --out exits 2" test $? -eq 2
+check "empty --out explained" grep -qF -- "--out: '' is not a path ending in a file name" "$tmp/err.txt"
+mkdir -p "$tmp/o"
+"$render" --out "$tmp/o/" 2> "$tmp/err.txt"
+check "--out ending in / exits 2" test $? -eq 2
+check "--out ending in / explained" grep -qF -- "--out: '$tmp/o/' is not a path ending in a file name" "$tmp/err.txt"
+check "no hidden .exr or .png" test -z "$(ls -A "$tmp/o")"
+"$render" --adapters ",,," --out "$tmp/r/frame" 2> "$tmp/err.txt"
+check "empty adapter entries exit 1" test $? -eq 1
+check "empty adapter entries explained" grep -qF -- "--adapters: ',,,': entry 1 is empty" "$tmp/err.txt"
+"$render" --adapters "llvmpipe," --out "$tmp/r/frame" 2> "$tmp/err.txt"
+check "trailing comma in adapters explained" grep -qF -- "--adapters: 'llvmpipe,': entry 2 is empty" "$tmp/err.txt"
+"$render" --gpus 0 2> "$tmp/err.txt"
+check "--gpus 0 exits 2" test $? -eq 2
+check "--gpus 0 states the range" grep -qF -- "--gpus: '0' is not a count in 1..64" "$tmp/err.txt"
+# An explicit --gpus wins over CORVID_VIRTUAL_GPUS, which is checked only when used.
+CORVID_VIRTUAL_GPUS=bogus "$render" --gpus 1 --size 8x8 --frames 1 --quiet --out "$tmp/e/frame" 2> "$tmp/err.txt"
+check "--gpus overrides a bad CORVID_VIRTUAL_GPUS" test $? -eq 0
+check "--gpus with CORVID_VIRTUAL_GPUS writes the PNG" test -s "$tmp/e/frame.png"
+CORVID_VIRTUAL_GPUS=bogus "$render" --size 8x8 --frames 1 --quiet --out "$tmp/e/frame" 2> "$tmp/err.txt"
+check "a used, bad CORVID_VIRTUAL_GPUS exits 1" test $? -eq 1
+check "a used, bad CORVID_VIRTUAL_GPUS is named" grep -qF "CORVID_VIRTUAL_GPUS: 'bogus' is not a count in 1..64" "$tmp/err.txt"
+
 "$render" --help > "$tmp/help.txt"
 check "help exits 0" test $? -eq 0
 check "help lists --gpus" grep -q -- "--gpus" "$tmp/help.txt"
+check "help says what --ao-samples 0 does" grep -q "0 is refused" "$tmp/help.txt"
 
 echo "render_cli: $pass passed, $fail failed"
 test "$fail" -eq 0
