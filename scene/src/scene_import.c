@@ -311,8 +311,8 @@ static cv_result convert(importer *im)
     return CV_OK;
 }
 
-/* Missing, unreadable and empty files get their own codes before assimp
- * sees them (assimp reports all three alike). */
+/* Missing, unreadable, empty and non-regular files get their own codes
+ * before assimp sees them (assimp reports them alike, or hangs on a FIFO). */
 static cv_result check_file(const char *path)
 {
     struct stat st;
@@ -322,6 +322,9 @@ static cv_result check_file(const char *path)
                    : cv_error(CV_ERROR_IO, "%s: cannot read: %s", path, strerror(errno));
     if (S_ISDIR(st.st_mode))
         return cv_error(CV_ERROR_IO, "%s: is a directory, not a scene file", path);
+    /* Opening a FIFO blocks until a writer appears, and devices never end. */
+    if (!S_ISREG(st.st_mode))
+        return cv_error(CV_ERROR_IO, "%s: is not a regular file (a FIFO, socket or device), not a scene file", path);
     FILE *f = fopen(path, "rb");
     if (!f)
         return cv_error(CV_ERROR_IO, "%s: cannot open: %s", path, strerror(errno));

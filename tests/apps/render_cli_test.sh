@@ -32,6 +32,10 @@ check "missing scene exits 1" test $? -eq 1
 check "missing scene names the file" grep -q "missing.glb" "$tmp/err.txt"
 check "nothing written for a missing scene" test ! -e "$tmp/b/frame.exr"
 check "no folder left for a failed render" test ! -e "$tmp/b"
+mkfifo "$tmp/fifo.obj"
+timeout 20 "$render" --scene "$tmp/fifo.obj" --out "$tmp/b/frame" > /dev/null 2> "$tmp/err.txt"
+check "FIFO scene exits 1 (no hang)" test $? -eq 1
+check "FIFO scene explained" grep -q "fifo.obj: is not a regular file" "$tmp/err.txt"
 
 # Output paths of any length up to the system's limit: a prefix of 1099
 # characters once lost ".exr"/".png" to a fixed buffer (the PNG overwrote the EXR).

@@ -14,7 +14,8 @@
  *
  * Failures name the file and the problem:
  *   CV_ERROR_NOT_FOUND  the file does not exist;
- *   CV_ERROR_IO         it cannot be opened or read (a directory, no permission);
+ *   CV_ERROR_IO         it cannot be opened or read (a directory, a FIFO or
+ *                       other non-regular file, no permission);
  *   CV_ERROR_MALFORMED  assimp rejects it (its message is included), or it is
  *                       empty, has no triangles, or has non-finite positions. */
 #ifndef CORVID_SCENE_IMPORT_H
