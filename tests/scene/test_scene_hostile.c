@@ -22,6 +22,15 @@ static const char *path_of(const char *name) {
     return path[slot];
 }
 
+static void write_file(const char *path, const void *data, size_t size) {
+    FILE *f = fopen(path, "wb");
+    CHECK(f != NULL);
+    if (!f)
+        return;
+    CHECK(fwrite(data, 1, size, f) == size);
+    fclose(f);
+}
+
 static double now_s(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -51,9 +60,86 @@ static void test_non_regular(void) {
     expect_rejected("/dev/null", CV_ERROR_IO, "not a regular file");
 }
 
+static void put32(unsigned char *p, uint32_t v) {
+    for (int i = 0; i < 4; i++)
+        p[i] = (unsigned char)(v >> (8 * i));
+}
+
+/* A GLB whose JSON chunk claims 0xFFFFFFF0 bytes made assimp allocate them
+ * (36 s, 4.2 GB for 588 bytes); a GLB whose header claims more than the file
+ * holds is a truncated file, not one "no reader" takes. */
+static void test_glb_lengths(void) {
+    static const char json[] = "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[]}]}    ";
+    unsigned char glb[588] = { 0 };
+    size_t json_size = sizeof json - 1;
+    memcpy(glb, "glTF", 4);
+    put32(glb + 4, 2);
+    put32(glb + 8, sizeof glb);
+    put32(glb + 12, 0xFFFFFFF0u);
+    memcpy(glb + 16, "JSON", 4);
+    memcpy(glb + 20, json, json_size);
+    const char *path = path_of("huge_chunk.glb");
+    write_file(path, glb, sizeof glb);
+    expect_rejected(path, CV_ERROR_MALFORMED, "chunk 0 claims 4294967280 bytes, only 568 follow");
+    unlink(path);
+
+    put32(glb + 12, (uint32_t)json_size);
+    path = path_of("cut.glb");
+    write_file(path, glb, 300);
+    expect_rejected(path, CV_ERROR_MALFORMED, "truncated GLB: its header says 588 bytes, the file has 300");
+    unlink(path);
+    write_file(path, glb, 7);
+    expect_rejected(path, CV_ERROR_MALFORMED, "truncated GLB");
+    unlink(path);
+}
+
+/* Writes a glTF of `levels` + 1 nodes, node i listing node i + 1 twice as
+ * its child: 2^(levels + 1) - 1 instances once expanded. */
+static void write_dag(const char *path, int levels, bool cycle) {
+    char json[8192];
+    int n = snprintf(json, sizeof json, "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,"
+                     "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[");
+    for (int i = 0; i <= levels; i++) {
+        if (i < levels)
+            n += snprintf(json + n, sizeof json - n, "{\"children\":[%d,%d]},", i + 1, i + 1);
+        else
+            n += snprintf(json + n, sizeof json - n, cycle ? "{\"children\":[0]}" : "{}");
+    }
+    n += snprintf(json + n, sizeof json - n, "]}");
+    write_file(path, json, (size_t)n);
+}
+
+/* A 1.2 KB glTF of 30 levels, each node referencing the next twice, cost
+ * assimp over 12 GB: its node graph expands to 2^31 - 1 instances. */
+static void test_node_graph(void) {
+    const char *path = path_of("dag.gltf");
+    write_dag(path, 30, false);
+    expect_rejected(path, CV_ERROR_LIMIT_EXCEEDED, "expands to more than 1000000 node instances");
+    write_dag(path, 3, true);
+    expect_rejected(path, CV_ERROR_MALFORMED, "cycle through node 0");
+    const char bad_child[] = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"children\":[7]}]}";
+    write_file(path, bad_child, sizeof bad_child - 1);
+    expect_rejected(path, CV_ERROR_MALFORMED, "node 0 has a child that is not a node index in 0..0");
+    unlink(path);
+}
+
+/* Truncated JSON is called truncated (assimp said "No suitable reader found"). */
+static void test_truncated_json(void) {
+    const char json[] = "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"uri\":\"data:application/octet-stream;base64,AAAA";
+    const char *path = path_of("cut.gltf");
+    write_file(path, json, sizeof json - 1);
+    expect_rejected(path, CV_ERROR_MALFORMED, "truncated glTF");
+    write_file(path, "{\"asset\":}", 11);
+    expect_rejected(path, CV_ERROR_MALFORMED, "invalid glTF: its JSON does not parse at byte 9");
+    unlink(path);
+}
+
 int main(void) {
     CHECK(mkdtemp(dir) != NULL);
     test_non_regular();
+    test_glb_lengths();
+    test_node_graph();
+    test_truncated_json();
     CHECK(rmdir(dir) == 0);
     return check_report("test_scene_hostile");
 }
