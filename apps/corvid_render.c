@@ -466,6 +466,13 @@ int main(int argc, char **argv) {
         fprintf(stderr, "scene '%s': %llu triangles, %u instances, %u materials\n", o.scene,
                 (unsigned long long)cv_scene_world_triangle_count(scene), cv_scene_instance_count(scene),
                 cv_scene_material_count(scene));
+    /* A scene without a camera of its own is shown by the framing camera,
+     * which cannot show every scene: say so rather than render an empty sky. */
+    if (r == CV_OK && cv_scene_camera_count(scene) == 0) {
+        r = cv_scene_check_framing(scene);
+        if (r != CV_OK)
+            r = cv_error(r, "--scene %s: %s", o.scene, cv_last_error());
+    }
     double t_bvh = now_ms();
     if (r == CV_OK)
         r = cv_bvh_build_flat(scene, NULL, &bvh);

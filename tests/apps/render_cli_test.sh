@@ -51,6 +51,21 @@ check "1099-character prefix: only the two files" test "$(ls -A "$(dirname "$lon
 check "file name too long exits 1" test $? -eq 1
 check "file name too long explained" grep -q "File name too long" "$tmp/err.txt"
 
+# Scenes at extreme scales: tiny ones are framed, ones the renderer's float
+# arithmetic cannot show are refused (they rendered an empty sky, exit 0).
+cube() {  # cube FILE SIDE
+  awk -v s="$2" 'BEGIN { for (v = 0; v < 8; v++) printf "v %.9g %.9g %.9g\n", s * (v % 2), s * (int(v / 2) % 2), s * int(v / 4);
+    print "f 1 2 4 3\nf 5 6 8 7\nf 1 2 6 5\nf 3 4 8 7\nf 1 3 7 5\nf 2 4 8 6" }' > "$1"
+}
+cube "$tmp/tiny.obj" 1e-5
+"$render" --scene "$tmp/tiny.obj" --size 8x8 --frames 1 --quiet --out "$tmp/t/frame" 2> "$tmp/err.txt"
+check "1e-5 scene renders" test $? -eq 0
+cube "$tmp/huge.obj" 1e20
+"$render" --scene "$tmp/huge.obj" --size 8x8 --frames 1 --quiet --out "$tmp/h/frame" 2> "$tmp/err.txt"
+check "1e20 scene exits 1" test $? -eq 1
+check "1e20 scene explained" grep -q "huge.obj: scene extent 1e+20" "$tmp/err.txt"
+check "nothing written for a 1e20 scene" test ! -e "$tmp/h"
+
 # Destinations that cannot take the files fail before the render starts (no
 # scene line), and leave existing files and the folder as they were.
 echo plain > "$tmp/plain"

@@ -2,6 +2,7 @@
  * memory or fail silently: non-regular files, glTF/GLB files whose lengths or
  * node graphs are lies, truncated ones, and scenes too small or too large to
  * frame. Each must fail fast with a message naming the file and the problem. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -134,12 +135,68 @@ static void test_truncated_json(void) {
     unlink(path);
 }
 
+/* An OBJ cube of side `side` with its corner at `at` on every axis. */
+static const char *write_cube(const char *name, double at, double side) {
+    const char *path = path_of(name);
+    FILE *f = fopen(path, "w");
+    CHECK(f != NULL);
+    if (!f)
+        return path;
+    for (int v = 0; v < 8; v++)
+        fprintf(f, "v %.9g %.9g %.9g\n", at + side * (v & 1), at + side * (v >> 1 & 1), at + side * (v >> 2 & 1));
+    fprintf(f, "f 1 2 4 3\nf 5 6 8 7\nf 1 2 6 5\nf 3 4 8 7\nf 1 3 7 5\nf 2 4 8 6\n");
+    fclose(f);
+    return path;
+}
+
+/* Scenes at extreme scales: the framing camera must see those it can (its
+ * target at the centre, its position finite and away from it), and the
+ * others are refused with figures rather than rendered as an empty sky. */
+static void test_extreme_scales(void) {
+    static const struct {
+        double at, side;
+        bool frameable;
+    } cases[] = {
+        { 0.0, 1.0, true },      { 0.0, 1e-5, true },  { 1e-3, 1e-7, true },  { 0.0, 1e17, true },
+        { 0.0, 1e-25, false },   { 1e3, 1e-5, false }, { 0.0, 1e20, false },  { 0.0, 3e38, false },
+        { 3e38, 1e30, false },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const char *path = write_cube("cube.obj", cases[i].at, cases[i].side);
+        cv_scene *s = NULL;
+        cv_result r = cv_scene_import(path, &s);
+        if (r != CV_OK) {
+            /* Coordinates past float's range are refused by the import itself. */
+            CHECK(!cases[i].frameable);
+            CHECK_RESULT(r, CV_ERROR_MALFORMED);
+            continue;
+        }
+        if (cases[i].frameable) {
+            CHECK_OK(cv_scene_check_framing(s));
+            cv_camera c = cv_scene_framing_camera(s);
+            double center = cases[i].at + 0.5 * cases[i].side;
+            for (int k = 0; k < 3; k++) {
+                CHECK(isfinite(c.position[k]));
+                CHECK(fabs(c.target[k] - center) <= 1e-3 * cases[i].side + 1e-6 * fabs(center));
+                /* 2.2 radii along the diagonal: 2.2 * sqrt(3) / 2 / sqrt(3) sides per axis. */
+                CHECK(fabs((c.position[k] - c.target[k]) / cases[i].side - 1.1) < 1e-3);
+            }
+        } else {
+            CHECK_RESULT(cv_scene_check_framing(s), CV_ERROR_OUT_OF_RANGE);
+            CHECK(strncmp(cv_last_error(), "scene ", 6) == 0);
+        }
+        cv_scene_destroy(s);
+    }
+    unlink(path_of("cube.obj"));
+}
+
 int main(void) {
     CHECK(mkdtemp(dir) != NULL);
     test_non_regular();
     test_glb_lengths();
     test_node_graph();
     test_truncated_json();
+    test_extreme_scales();
     CHECK(rmdir(dir) == 0);
     return check_report("test_scene_hostile");
 }
