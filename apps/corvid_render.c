@@ -8,8 +8,10 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "corvid/image_exr.h"
+#include "corvid/image_files.h"
 #include "corvid/image_png.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_import.h"
@@ -17,114 +19,217 @@
 #include "corvid/tonemap.h"
 #include "corvid/vulkan.h"
 
+/* The renderer's limits (cv_renderer_render refuses more). */
+#define MAX_FRAMES 4096
+#define MAX_AO_SAMPLES 32
+
 static void usage(FILE *f) {
     fprintf(f,
-            "usage: corvid-render [options]\n"
+            "usage: corvid-render [options]   (--option VALUE or --option=VALUE)\n"
             "Renders a scene (G-buffer raster, ray-traced soft shadows and AO split into column\n"
             "partitions across devices, filtering) and writes PREFIX.exr and PREFIX.png.\n\n"
             "  --scene S          room (default), stress:N (N triangles), or a model file (glTF, OBJ, ...)\n"
-            "  --seed N           seed of procedural scenes (default 1)\n"
-            "  --size WxH         image size (default 640x360)\n"
-            "  --frames N         frames accumulated (default 4)\n"
-            "  --ao-samples N     ambient occlusion rays per pixel per frame (default 4)\n"
-            "  --ao-radius M      AO ray length in scene units (default 2%% of the scene diagonal)\n"
+            "  --seed N           seed of procedural scenes, 0..4294967295 (default 1)\n"
+            "  --size WxH         image size, each side 1..%u (default 640x360)\n"
+            "  --frames N         frames accumulated, 1..%u (default 4)\n"
+            "  --ao-samples N     ambient occlusion rays per pixel per frame, 1..%u (default 4;\n"
+            "                     AO cannot be turned off, so 0 is refused)\n"
+            "  --ao-radius M      AO ray length in scene units, > 0 (default 2%% of the scene diagonal)\n"
             "  --exposure EV      exposure of the PNG in stops (default 0)\n"
-            "  --out PREFIX       output path without extension (default out/frame)\n"
-            "  --gpus N           total devices (virtual GPUs are added to reach N)\n"
+            "  --out PREFIX       output path without extension, ending in a file name (default out/frame)\n"
+            "  --gpus N           total devices (virtual GPUs are added to reach N); overrides\n"
+            "                     --virtual-gpus and CORVID_VIRTUAL_GPUS\n"
             "  --virtual-gpus N   device instances per adapter (or CORVID_VIRTUAL_GPUS=N)\n"
             "  --adapters LIST    comma-separated adapter names or indices (e.g. llvmpipe, H100, 0)\n"
             "  --validation       enable VK_LAYER_KHRONOS_validation\n"
             "  --list-adapters    print the Vulkan adapters and exit\n"
             "  --quiet            print only errors\n"
-            "  --help             this text\n");
+            "  --help             this text\n",
+            CV_MAX_TEXTURE_DIM, MAX_FRAMES, MAX_AO_SAMPLES);
 }
 
 typedef struct options {
     const char *scene, *out;
+    uint64_t stress_triangles;   /* > 0 for --scene stress:N */
     uint32_t seed;
     cv_render_settings settings;
     float exposure;
-    bool validation, quiet, list_adapters;
+    bool validation, quiet, list_adapters, help;
 } options;
 
-static bool parse_u32(const char *s, uint32_t *out) {
+/* A whole number in min..max written as plain decimal digits: strtoull alone
+ * would take "-5" as 2^64 - 5 and skip leading blanks. */
+static bool parse_uint(const char *s, uint64_t min, uint64_t max, uint64_t *out) {
+    if (s[0] < '0' || s[0] > '9')
+        return false;
     char *end;
     errno = 0;
-    unsigned long v = strtoul(s, &end, 10);
-    if (errno || end == s || *end || v > UINT32_MAX)
-        return false;
-    *out = (uint32_t)v;
-    return true;
-}
-
-static bool parse_float(const char *s, float *out) {
-    char *end;
-    float v = strtof(s, &end);
-    if (end == s || *end || !isfinite(v))
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno || *end || v < min || v > max)
         return false;
     *out = v;
     return true;
 }
 
-/* 0 = ok, 1 = exit successfully (help), 2 = bad usage. */
+static bool parse_float(const char *s, float *out) {
+    char *end;
+    errno = 0;
+    float v = strtof(s, &end);
+    if (errno || end == s || *end || !isfinite(v))
+        return false;
+    *out = v;
+    return true;
+}
+
+/* Option handlers: each parses its value into *o, or says why it refuses it
+ * (naming the option, the value and the accepted range) and returns false. */
+typedef bool (*option_fn)(options *o, const char *name, const char *value);
+
+static bool refuse(const char *name, const char *value, const char *expected) {
+    fprintf(stderr, "corvid-render: %s: '%s' is not %s (see --help)\n", name, value, expected);
+    return false;
+}
+
+static bool set_u32(const char *name, const char *value, uint32_t min, uint32_t max, uint32_t *out) {
+    uint64_t v;
+    if (!parse_uint(value, min, max, &v)) {
+        char expected[64];
+        snprintf(expected, sizeof expected, "a whole number in %u..%u", min, max);
+        return refuse(name, value, expected);
+    }
+    *out = (uint32_t)v;
+    return true;
+}
+
+static bool opt_scene(options *o, const char *name, const char *value) {
+    if (!value[0])
+        return refuse(name, value, "a scene (room, stress:N or a file)");
+    if (!strncmp(value, "stress:", 7) && !parse_uint(value + 7, 1, UINT64_MAX, &o->stress_triangles))
+        return refuse(name, value, "stress:N with N a whole number of triangles, at least 1");
+    o->scene = value;
+    return true;
+}
+
+static bool opt_seed(options *o, const char *name, const char *value) {
+    return set_u32(name, value, 0, UINT32_MAX, &o->seed);
+}
+
+static bool opt_size(options *o, const char *name, const char *value) {
+    char expected[64];
+    snprintf(expected, sizeof expected, "WxH with each side in 1..%u", CV_MAX_TEXTURE_DIM);
+    const char *x = strchr(value, 'x');
+    uint64_t w, h;
+    char width[24];
+    if (!x || (size_t)(x - value) >= sizeof width)
+        return refuse(name, value, expected);
+    snprintf(width, sizeof width, "%.*s", (int)(x - value), value);
+    if (!parse_uint(width, 1, CV_MAX_TEXTURE_DIM, &w) || !parse_uint(x + 1, 1, CV_MAX_TEXTURE_DIM, &h))
+        return refuse(name, value, expected);
+    o->settings.width = (uint32_t)w;
+    o->settings.height = (uint32_t)h;
+    return true;
+}
+
+static bool opt_frames(options *o, const char *name, const char *value) {
+    return set_u32(name, value, 1, MAX_FRAMES, &o->settings.frames);
+}
+
+static bool opt_ao_samples(options *o, const char *name, const char *value) {
+    return set_u32(name, value, 1, MAX_AO_SAMPLES, &o->settings.ao_samples);
+}
+
+static bool opt_ao_radius(options *o, const char *name, const char *value) {
+    if (!parse_float(value, &o->settings.ao_radius) || !(o->settings.ao_radius > 0.0f))
+        return refuse(name, value, "a finite length > 0");
+    return true;
+}
+
+static bool opt_exposure(options *o, const char *name, const char *value) {
+    if (!parse_float(value, &o->exposure))
+        return refuse(name, value, "a finite number of stops");
+    return true;
+}
+
+/* The prefix must end in a file name: "" or "dir/" would write the hidden
+ * files ".exr" and ".png". */
+static bool opt_out(options *o, const char *name, const char *value) {
+    const char *slash = strrchr(value, '/');
+    const char *file = slash ? slash + 1 : value;
+    if (!file[0] || !strcmp(file, ".") || !strcmp(file, ".."))
+        return refuse(name, value, "a path ending in a file name (such as out/frame)");
+    o->out = value;
+    return true;
+}
+
+static bool opt_validation(options *o, const char *name, const char *value) {
+    (void)name, (void)value;
+    return o->validation = true;
+}
+
+static bool opt_quiet(options *o, const char *name, const char *value) {
+    (void)name, (void)value;
+    return o->quiet = true;
+}
+
+static bool opt_list_adapters(options *o, const char *name, const char *value) {
+    (void)name, (void)value;
+    return o->list_adapters = true;
+}
+
+static bool opt_help(options *o, const char *name, const char *value) {
+    (void)name, (void)value;
+    return o->help = true;
+}
+
+/* Every option of corvid-render but those cv_vulkan_gpu_args takes (--gpus,
+ * --virtual-gpus, --adapters), which it removes from argv first. */
+static const struct option_def {
+    const char *name;
+    bool takes_value;
+    option_fn set;
+} option_table[] = {
+    { "--scene", true, opt_scene },
+    { "--seed", true, opt_seed },
+    { "--size", true, opt_size },
+    { "--frames", true, opt_frames },
+    { "--ao-samples", true, opt_ao_samples },
+    { "--ao-radius", true, opt_ao_radius },
+    { "--exposure", true, opt_exposure },
+    { "--out", true, opt_out },
+    { "--validation", false, opt_validation },
+    { "--quiet", false, opt_quiet },
+    { "--list-adapters", false, opt_list_adapters },
+    { "--help", false, opt_help },
+    { "-h", false, opt_help },
+};
+
+/* Takes "--name value" and "--name=value" alike. 0 = ok, 2 = bad usage. */
 static int parse_args(int argc, char **argv, options *o) {
     *o = (options){ .scene = "room", .out = "out/frame", .seed = 1 };
     for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        bool ok = true;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 1;
-        } else if (!strcmp(a, "--validation")) {
-            o->validation = true;
-            continue;
-        } else if (!strcmp(a, "--quiet")) {
-            o->quiet = true;
-            continue;
-        } else if (!strcmp(a, "--list-adapters")) {
-            o->list_adapters = true;
-            continue;
-        }
-        static const char *const with_value[] = { "--scene", "--out", "--seed", "--size", "--frames",
-                                                  "--ao-samples", "--ao-radius", "--exposure" };
-        bool known = false;
-        for (size_t k = 0; k < sizeof(with_value) / sizeof(with_value[0]); k++)
-            known |= !strcmp(a, with_value[k]);
-        if (!known) {
-            fprintf(stderr, "corvid-render: unknown option '%s' (see --help)\n", a);
+        const char *arg = argv[i], *eq = strchr(arg, '=');
+        size_t len = eq ? (size_t)(eq - arg) : strlen(arg);
+        const struct option_def *def = NULL;
+        for (size_t k = 0; k < sizeof option_table / sizeof option_table[0]; k++)
+            if (strlen(option_table[k].name) == len && !strncmp(arg, option_table[k].name, len))
+                def = &option_table[k];
+        if (!def) {
+            fprintf(stderr, "corvid-render: unknown option '%.*s' (see --help)\n", (int)len, arg);
             return 2;
         }
-        if (!v) {
-            fprintf(stderr, "corvid-render: %s needs a value (see --help)\n", a);
+        const char *value = eq ? eq + 1 : NULL;
+        if (def->takes_value && !value) {
+            if (i + 1 == argc) {
+                fprintf(stderr, "corvid-render: %s needs a value (see --help)\n", def->name);
+                return 2;
+            }
+            value = argv[++i];
+        } else if (!def->takes_value && value) {
+            fprintf(stderr, "corvid-render: %s takes no value (see --help)\n", def->name);
             return 2;
         }
-        if (!strcmp(a, "--scene")) {
-            o->scene = v;
-        } else if (!strcmp(a, "--out")) {
-            o->out = v;
-        } else if (!strcmp(a, "--seed")) {
-            ok = parse_u32(v, &o->seed);
-        } else if (!strcmp(a, "--size")) {
-            unsigned w, h;
-            char tail;
-            ok = sscanf(v, "%ux%u%c", &w, &h, &tail) == 2 && w > 0 && h > 0 && w <= CV_MAX_TEXTURE_DIM &&
-                 h <= CV_MAX_TEXTURE_DIM;
-            o->settings.width = w;
-            o->settings.height = h;
-        } else if (!strcmp(a, "--frames")) {
-            ok = parse_u32(v, &o->settings.frames) && o->settings.frames > 0;
-        } else if (!strcmp(a, "--ao-samples")) {
-            ok = parse_u32(v, &o->settings.ao_samples) && o->settings.ao_samples <= 32;
-        } else if (!strcmp(a, "--ao-radius")) {
-            ok = parse_float(v, &o->settings.ao_radius) && o->settings.ao_radius > 0;
-        } else if (!strcmp(a, "--exposure")) {
-            ok = parse_float(v, &o->exposure);
-        }
-        if (!ok) {
-            fprintf(stderr, "corvid-render: bad value '%s' for %s (see --help)\n", v, a);
+        if (!def->set(o, def->name, value))
             return 2;
-        }
-        i++;
     }
     return 0;
 }
@@ -132,13 +237,8 @@ static int parse_args(int argc, char **argv, options *o) {
 static cv_result load_scene(const options *o, cv_scene **out) {
     if (!strcmp(o->scene, "room"))
         return cv_scene_make_room(o->seed, out);
-    if (!strncmp(o->scene, "stress:", 7)) {
-        char *end;
-        unsigned long long n = strtoull(o->scene + 7, &end, 10);
-        if (end == o->scene + 7 || *end || n == 0)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "--scene %s: expected stress:N with N > 0 triangles", o->scene);
-        return cv_scene_make_stress(o->seed, n, out);
-    }
+    if (o->stress_triangles)
+        return cv_scene_make_stress(o->seed, o->stress_triangles, out);
     return cv_scene_import(o->scene, out);
 }
 
@@ -149,24 +249,98 @@ static void progress(uint32_t frame, uint32_t frames, void *user) {
         fputc('\n', stderr);
 }
 
-/* Creates the folders of PREFIX if missing (one level is enough for out/frame). */
-static cv_result make_parent(const char *prefix) {
-    char dir[1024];
-    snprintf(dir, sizeof(dir), "%s", prefix);
-    char *slash = strrchr(dir, '/');
-    if (!slash || slash == dir)
-        return CV_OK;
-    *slash = '\0';
-    for (char *p = dir + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-            return cv_error(CV_ERROR_IO, "%s: cannot create folder: %s", dir, strerror(errno));
-        *p = '/';
+/* Where the frame goes: PREFIX.exr and PREFIX.png, reserved as temporaries
+ * in their directory before anything is rendered, so that a destination that
+ * cannot take them fails at once rather than after the whole render. */
+typedef struct outputs {
+    char *exr, *png;             /* final names */
+    const char *exr_temp, *png_temp;
+    cv_file_set *set;
+    char *made;                  /* the folders this run created, to remove on failure; NULL if none */
+    size_t made_top;             /* length of the top-most folder created */
+} outputs;
+
+/* A copy of `a` followed by `b`, or NULL without memory. */
+static char *concat(const char *a, const char *b) {
+    size_t na = strlen(a), nb = strlen(b);
+    char *s = malloc(na + nb + 1);
+    if (s) {
+        memcpy(s, a, na);
+        memcpy(s + na, b, nb + 1);
     }
-    if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-        return cv_error(CV_ERROR_IO, "%s: cannot create folder: %s", dir, strerror(errno));
+    return s;
+}
+
+/* Creates the missing folders of PREFIX (like mkdir -p), remembering the
+ * ones it made. */
+static cv_result make_parent(const char *prefix, outputs *out) {
+    char *dir = strdup(prefix);
+    if (!dir)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "--out: no memory");
+    char *slash = strrchr(dir, '/');
+    if (!slash || slash == dir) {
+        free(dir);
+        return CV_OK;
+    }
+    *slash = '\0';
+    size_t len = strlen(dir);
+    for (char *p = dir + 1; p <= dir + len; p++) {
+        if (*p != '/' && *p != '\0')
+            continue;
+        char c = *p;
+        *p = '\0';
+        if (mkdir(dir, 0777) == 0) {
+            if (!out->made)
+                out->made_top = strlen(dir);
+            out->made = dir;
+        } else if (errno != EEXIST) {
+            cv_result r = cv_error(CV_ERROR_IO, "cannot create folder '%s': %s", dir, strerror(errno));
+            *p = c;
+            if (out->made != dir)
+                free(dir);
+            return r;
+        }
+        *p = c;
+    }
+    if (out->made != dir)
+        free(dir);
+    return CV_OK;
+}
+
+/* Removes what outputs_reserve made: temporaries, then created folders. */
+static void outputs_discard(outputs *out) {
+    cv_file_set_destroy(out->set);
+    out->set = NULL;
+    for (char *dir = out->made; dir && strlen(dir) >= out->made_top;) {
+        rmdir(dir);
+        char *slash = strrchr(dir, '/');
+        if (!slash)
+            break;
+        *slash = '\0';
+    }
+}
+
+static void outputs_free(outputs *out) {
+    cv_file_set_destroy(out->set);
+    free(out->made);
+    free(out->exr);
+    free(out->png);
+}
+
+static cv_result outputs_reserve(const char *prefix, outputs *out) {
+    out->exr = concat(prefix, ".exr");
+    out->png = concat(prefix, ".png");
+    if (!out->exr || !out->png)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "--out: no memory");
+    cv_result r = make_parent(prefix, out);
+    if (r == CV_OK)
+        r = cv_file_set_create(&out->set);
+    if (r == CV_OK)
+        r = cv_file_set_add(out->set, out->exr, &out->exr_temp);
+    if (r == CV_OK)
+        r = cv_file_set_add(out->set, out->png, &out->png_temp);
+    if (r != CV_OK)
+        return cv_error(r, "--out: %s", cv_last_error());
     return CV_OK;
 }
 
@@ -178,11 +352,12 @@ static float *plane(const float *rgba, size_t pixels, int c) {
     return p;
 }
 
-static cv_result write_images(const options *o, const cv_render_output *img, const cv_camera *camera) {
+/* Writes both files to their temporaries and renames them into place only
+ * when both were written. */
+static cv_result write_images(const options *o, outputs *out, const cv_render_output *img,
+                              const cv_camera *camera) {
     size_t n = (size_t)img->width * img->height;
-    cv_result r = make_parent(o->out);
-    if (r != CV_OK)
-        return r;
+    cv_result r = CV_OK;
     float *depth = malloc(n * sizeof(float));
     float *planes[8] = { plane(img->albedo, n, 0), plane(img->albedo, n, 1), plane(img->albedo, n, 2),
                          plane(img->normal, n, 0), plane(img->normal, n, 1), plane(img->normal, n, 2),
@@ -197,7 +372,6 @@ static cv_result write_images(const options *o, const cv_render_output *img, con
         float dx = p[0] - camera->position[0], dy = p[1] - camera->position[1], dz = p[2] - camera->position[2];
         depth[i] = p[3] != 0.0f ? sqrtf(dx * dx + dy * dy + dz * dz) : INFINITY;
     }
-    char path[1100];
     if (r == CV_OK) {
         cv_exr_layer layers[] = {
             { .channel_count = 4, .channels = { "R", "G", "B", "A" }, .type = CV_EXR_FLOAT,
@@ -210,8 +384,7 @@ static cv_result write_images(const options *o, const cv_render_output *img, con
             { .name = "shadow", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { planes[6] } },
             { .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { planes[7] } },
         };
-        snprintf(path, sizeof(path), "%s.exr", o->out);
-        r = cv_exr_write(path, &(cv_exr_desc){ .width = img->width, .height = img->height, .compression = CV_EXR_ZIP,
+        r = cv_exr_write(out->exr_temp, &(cv_exr_desc){ .width = img->width, .height = img->height, .compression = CV_EXR_ZIP,
                                                .layer_count = 6, .layers = layers });
     }
     uint8_t *rgb = r == CV_OK ? malloc(n * 3) : NULL;
@@ -220,10 +393,10 @@ static cv_result write_images(const options *o, const cv_render_output *img, con
     if (r == CV_OK)
         r = cv_tonemap_to_srgb8(&(cv_tonemap_desc){ .exposure = o->exposure, .curve = CV_TONEMAP_ACES },
                                 img->radiance, 4, img->width, img->height, rgb, 3);
-    if (r == CV_OK) {
-        snprintf(path, sizeof(path), "%s.png", o->out);
-        r = cv_png_write(path, img->width, img->height, 3, rgb);
-    }
+    if (r == CV_OK)
+        r = cv_png_write(out->png_temp, img->width, img->height, 3, rgb);
+    if (r == CV_OK)
+        r = cv_file_set_commit(out->set);
     free(rgb);
     free(depth);
     for (int i = 0; i < 8; i++)
@@ -259,9 +432,20 @@ int main(int argc, char **argv) {
         return 2;
     }
     options o;
-    int parsed = parse_args(argc, argv, &o);
-    if (parsed)
-        return parsed == 1 ? 0 : 2;
+    if (parse_args(argc, argv, &o))
+        return 2;
+    if (o.help) {
+        usage(stdout);
+        return 0;
+    }
+    if (gpu_config.adapters && !gpu_config.adapters[0]) {
+        fprintf(stderr, "corvid-render: --adapters: the list is empty (see --help)\n");
+        return 2;
+    }
+    /* An explicit device count wins: the per-adapter count is then unused, so
+     * CORVID_VIRTUAL_GPUS must not be read (and refused) for it. */
+    if (gpu_config.total && !gpu_config.virtual_per_adapter)
+        gpu_config.virtual_per_adapter = 1;
     if (o.list_adapters)
         return list_adapters();
 
@@ -274,11 +458,21 @@ int main(int argc, char **argv) {
     cv_vulkan_gpu_table table = { 0 };
     cv_render_output image = { 0 };
     cv_render_stats stats = { 0 };
-    cv_result r = load_scene(&o, &scene);
+    outputs out = { 0 };
+    cv_result r = outputs_reserve(o.out, &out);
+    if (r == CV_OK)
+        r = load_scene(&o, &scene);
     if (r == CV_OK && !o.quiet)
         fprintf(stderr, "scene '%s': %llu triangles, %u instances, %u materials\n", o.scene,
                 (unsigned long long)cv_scene_world_triangle_count(scene), cv_scene_instance_count(scene),
                 cv_scene_material_count(scene));
+    /* A scene without a camera of its own is shown by the framing camera,
+     * which cannot show every scene: say so rather than render an empty sky. */
+    if (r == CV_OK && cv_scene_camera_count(scene) == 0) {
+        r = cv_scene_check_framing(scene);
+        if (r != CV_OK)
+            r = cv_error(r, "--scene %s: %s", o.scene, cv_last_error());
+    }
     double t_bvh = now_ms();
     if (r == CV_OK)
         r = cv_bvh_build_flat(scene, NULL, &bvh);
@@ -311,9 +505,9 @@ int main(int argc, char **argv) {
                                                          : cv_scene_framing_camera(scene);
     }
     if (r == CV_OK)
-        r = write_images(&o, &image, &camera);
+        r = write_images(&o, &out, &image, &camera);
     if (r == CV_OK && !o.quiet) {
-        printf("wrote %s.exr and %s.png (%ux%u, %u frames, %u AO rays/pixel/frame)\n", o.out, o.out, image.width,
+        printf("wrote %s and %s (%ux%u, %u frames, %u AO rays/pixel/frame)\n", out.exr, out.png, image.width,
                image.height, stats.frames, s.ao_samples);
         printf("bvh build %.1f ms; upload to %u devices %.1f ms; %.1f ms per frame; %.2f Mrays/s overall\n", t_bvh,
                stats.device_count, stats.upload_ms, stats.frame_ms,
@@ -330,6 +524,9 @@ int main(int argc, char **argv) {
     if (r == CV_OK && o.validation && cv_vulkan_validation_message_count())
         r = cv_error(CV_ERROR_BACKEND, "the validation layer reported %u messages",
                      cv_vulkan_validation_message_count());
+    if (r != CV_OK)
+        outputs_discard(&out);
+    outputs_free(&out);
     cv_render_output_free(&image);
     cv_renderer_destroy(renderer);
     cv_context_destroy(ctx);

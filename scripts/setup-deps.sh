@@ -10,7 +10,7 @@ packages=(
   libvulkan-dev vulkan-validationlayers glslang-tools spirv-tools vulkan-tools
   libgrpc-dev libprotobuf-c-dev protobuf-c-compiler
   libopenexr-dev libpng-dev libzstd-dev libssl-dev
-  libassimp-dev assimp-testmodels libembree-dev
+  libassimp-dev assimp-testmodels libembree-dev libcjson-dev
 )
 backports_packages=(mesa-vulkan-drivers)
 min_mesa_major=25

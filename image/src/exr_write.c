@@ -2,11 +2,14 @@
  * encoder. The description is checked in full before the file is created. */
 #include <stdbool.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "corvid/image_exr.h"
 #include "corvid/types.h"
 #include "exr_errors.h"
+#include "temp_file.h"
 
 /* One channel of the file and where its floats come from. */
 typedef struct exr_source {
@@ -184,22 +187,36 @@ cv_result cv_exr_write(const char *path, const cv_exr_desc *desc) {
     if (r != CV_OK)
         return r;
 
+    /* OpenEXR's own temporary-file mode leaves its file behind when the final
+     * rename fails and reports no reason, so the temporary is ours. */
+    char *temp = NULL;
+    int fd = -1;
+    r = image_temp_create(path, &temp, &fd);
+    if (r != CV_OK)
+        return r;
+    close(fd);
     exr_clear_captured_error();
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_capture_error;
     exr_context_t ctx = NULL;
-    /* The temporary file is renamed over `path` only by a successful finish;
-     * finishing a context whose chunks were not all written deletes it. */
-    exr_result_t rv = exr_start_write(&ctx, path, EXR_INTERMEDIATE_TEMP_FILE, &init);
+    exr_result_t rv = exr_start_write(&ctx, temp, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS)
-        return exr_fail(rv == EXR_ERR_OUT_OF_MEMORY ? CV_ERROR_OUT_OF_MEMORY : CV_ERROR_IO, path,
-                        "cannot create the file", rv);
+        r = exr_fail(rv == EXR_ERR_OUT_OF_MEMORY ? CV_ERROR_OUT_OF_MEMORY : CV_ERROR_IO, path,
+                     "cannot create the file", rv);
     int part = 0;
-    r = define_part(path, ctx, desc, &sources, &part);
+    if (r == CV_OK)
+        r = define_part(path, ctx, desc, &sources, &part);
     if (r == CV_OK)
         r = write_chunks(path, ctx, part, desc->width, &sources);
-    rv = exr_finish(&ctx);
-    if (r == CV_OK && rv != EXR_ERR_SUCCESS)
-        r = exr_fail(CV_ERROR_IO, path, "finishing the file", rv);
+    if (ctx != NULL) {
+        rv = exr_finish(&ctx);
+        if (r == CV_OK && rv != EXR_ERR_SUCCESS)
+            r = exr_fail(CV_ERROR_IO, path, "finishing the file", rv);
+    }
+    if (r == CV_OK)
+        r = image_temp_commit(temp, path);
+    else
+        unlink(temp);
+    free(temp);
     return r;
 }

@@ -2,7 +2,6 @@
  * no setjmp/longjmp: every failure comes back as a return value with a
  * message in png_image.message. */
 #include <errno.h>
-#include <fcntl.h>
 #include <png.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -12,31 +11,7 @@
 
 #include "corvid/image_png.h"
 #include "corvid/types.h"
-
-/* A new file next to `path` (same filesystem, so the final rename is atomic),
- * created exclusively with the usual permissions (umask applies). */
-static FILE *create_temp(const char *path, char *temp, size_t temp_size) {
-    static _Thread_local unsigned counter;
-    for (int attempt = 0; attempt < 100; attempt++) {
-        int n = snprintf(temp, temp_size, "%s.tmp-%ld-%u", path, (long)getpid(), counter++);
-        if (n < 0 || (size_t)n >= temp_size) {
-            errno = ENAMETOOLONG;
-            return NULL;
-        }
-        int fd = open(temp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (fd >= 0) {
-            FILE *f = fdopen(fd, "wb");
-            if (f == NULL) {
-                close(fd);
-                unlink(temp);
-            }
-            return f;
-        }
-        if (errno != EEXIST)
-            return NULL;
-    }
-    return NULL;
-}
+#include "temp_file.h"
 
 cv_result cv_png_write(const char *path, uint32_t width, uint32_t height, uint32_t channels,
                        const uint8_t *pixels) {
@@ -51,28 +26,37 @@ cv_result cv_png_write(const char *path, uint32_t width, uint32_t height, uint32
     if (pixels == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: pixels is NULL", path);
 
-    char temp[4096];
-    FILE *f = create_temp(path, temp, sizeof temp);
-    if (f == NULL)
-        return cv_error(CV_ERROR_IO, "%s: cannot create: %s", path, strerror(errno));
+    char *temp = NULL;
+    int fd = -1;
+    cv_result r = image_temp_create(path, &temp, &fd);
+    if (r != CV_OK)
+        return r;
+    FILE *f = fdopen(fd, "wb");
+    if (f == NULL) {
+        r = cv_error(CV_ERROR_IO, "%s: cannot write: %s", path, strerror(errno));
+        close(fd);
+        unlink(temp);
+        free(temp);
+        return r;
+    }
     png_image image = { .version = PNG_IMAGE_VERSION, .width = width, .height = height,
                         .format = channels == 4 ? PNG_FORMAT_RGBA : PNG_FORMAT_RGB };
     bool encoded = png_image_write_to_stdio(&image, f, 0, pixels, 0, NULL) != 0;
     bool flushed = encoded && fflush(f) == 0 && ferror(f) == 0;
     int write_errno = errno;
     bool closed = fclose(f) == 0;
-    if (!encoded || !flushed || !closed) {
+    if (!closed && flushed)
+        write_errno = errno;
+    if (!encoded)
+        r = cv_error(CV_ERROR_IO, "%s: %s", path, image.message);
+    else if (!flushed || !closed)
+        r = cv_error(CV_ERROR_IO, "%s: cannot write: %s", path, strerror(write_errno));
+    if (r == CV_OK)
+        r = image_temp_commit(temp, path);
+    else
         unlink(temp);
-        if (!encoded)
-            return cv_error(CV_ERROR_IO, "%s: %s", path, image.message);
-        return cv_error(CV_ERROR_IO, "%s: cannot write: %s", path, strerror(write_errno));
-    }
-    if (rename(temp, path) != 0) {
-        cv_result r = cv_error(CV_ERROR_IO, "%s: cannot replace: %s", path, strerror(errno));
-        unlink(temp);
-        return r;
-    }
-    return CV_OK;
+    free(temp);
+    return r;
 }
 
 /* A failing read call is IO; anything else, a short file included, is a

@@ -97,10 +97,11 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
     }
     out->sun_irradiance = irradiance;
     cv_scene_bounds(scene, out->bounds_min, out->bounds_max);
-    float d2 = 0.0f;
+    /* In double: a side of 2e19 squared overflows a float. */
+    double d2 = 0.0;
     for (int k = 0; k < 3; k++)
-        d2 += (out->bounds_max[k] - out->bounds_min[k]) * (out->bounds_max[k] - out->bounds_min[k]);
-    out->diagonal = sqrtf(d2);
+        d2 += ((double)out->bounds_max[k] - out->bounds_min[k]) * ((double)out->bounds_max[k] - out->bounds_min[k]);
+    out->diagonal = (float)sqrt(d2);
     return CV_OK;
 }
 

@@ -370,20 +370,55 @@ void cv_scene_world_triangle(const cv_scene *s, uint32_t instance, uint32_t tria
 
 cv_camera cv_scene_framing_camera(const cv_scene *s)
 {
-    float bmin[3], bmax[3], center[3], diag[3];
+    /* In double: the diagonal of a scene 2e19 wide squared overflows a float,
+     * and one 1e-5 wide far from the origin needs more than float precision
+     * between its centre and the camera. */
+    float bmin[3], bmax[3];
     cv_scene_bounds(s, bmin, bmax);
-    v3_add(center, bmin, bmax);
-    v3_scale(center, center, 0.5f);
-    v3_sub(diag, bmax, bmin);
-    float radius = 0.5f * v3_length(diag);
-    if (!(radius > 0.0f))
-        radius = 1.0f;
+    double center[3], d2 = 0.0;
+    for (int k = 0; k < 3; k++) {
+        center[k] = 0.5 * ((double)bmin[k] + bmax[k]);
+        d2 += ((double)bmax[k] - bmin[k]) * ((double)bmax[k] - bmin[k]);
+    }
+    double radius = 0.5 * sqrt(d2);
+    if (!(radius > 0.0))
+        radius = 1.0;
     /* A sphere of that radius fits a 60 degree cone at distance 2r; 2.2r leaves a margin. */
-    const float dir[3] = {0.57735027f, 0.57735027f, 0.57735027f};
+    const double dir = 0.57735026918962576;
     cv_camera c = {.up = {0.0f, 1.0f, 0.0f}, .vertical_fov = 1.04719755f};
-    v3_madd(c.position, center, dir, 2.2f * radius);
-    v3_copy(c.target, center);
+    for (int k = 0; k < 3; k++) {
+        c.position[k] = (float)(center[k] + dir * 2.2 * radius);
+        c.target[k] = (float)center[k];
+    }
     return c;
+}
+
+cv_result cv_scene_check_framing(const cv_scene *s)
+{
+    float bmin[3], bmax[3];
+    cv_scene_bounds(s, bmin, bmax);
+    double extent = 0.0, offset = 0.0, d2 = 0.0;
+    for (int k = 0; k < 3; k++) {
+        if (!isfinite(bmin[k]) || !isfinite(bmax[k]))
+            return cv_error(CV_ERROR_OUT_OF_RANGE, "scene bounds are not finite: it cannot be framed");
+        extent = fmax(extent, (double)bmax[k] - bmin[k]);
+        offset = fmax(offset, fabs(0.5 * ((double)bmin[k] + bmax[k])));
+        d2 += ((double)bmax[k] - bmin[k]) * ((double)bmax[k] - bmin[k]);
+    }
+    if (!(extent > 0.0))
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "scene is degenerate (all its points are one point): it cannot be "
+                        "framed");
+    if (extent < CV_SCENE_MIN_EXTENT)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "scene extent %g is below %g: too small for float precision in the "
+                        "renderer", extent, CV_SCENE_MIN_EXTENT);
+    if (extent < offset * CV_SCENE_MIN_RELATIVE_EXTENT)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "scene extent %g at %g from the origin is below float precision there "
+                        "(it must be at least %g of its distance)", extent, offset, CV_SCENE_MIN_RELATIVE_EXTENT);
+    if (offset + 4.4 * sqrt(d2) > CV_SCENE_MAX_COORDINATE)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "scene extent %g at %g from the origin: the framing camera and its "
+                        "far plane would pass %g, beyond what float arithmetic in the renderer keeps finite",
+                        extent, offset, CV_SCENE_MAX_COORDINATE);
+    return CV_OK;
 }
 
 void cv_transform_identity(float out[3][4])

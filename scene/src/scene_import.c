@@ -14,10 +14,13 @@
 #include <strings.h>
 #include <sys/stat.h>
 
+#include "gltf_check.h"
 #include "vec3.h"
 
-/* glTF allows deep hierarchies, but a tree deeper than this is a cycle or an attack. */
-#define MAX_NODE_DEPTH 1024
+#define MAX_NODE_DEPTH IMPORT_MAX_NODE_DEPTH
+/* Triangles of all instances together: the BVH builders index them in 32 bits
+ * (as cv_scene_make_stress, 2^31). */
+#define MAX_WORLD_TRIANGLES (1ull << 31)
 
 typedef struct importer {
     const char *path;
@@ -25,6 +28,8 @@ typedef struct importer {
     cv_scene *scene;
     uint32_t *mesh_map;         /* assimp mesh -> scene mesh, UINT32_MAX when it has no triangles */
     uint32_t instances_skipped; /* singular node transforms (zero scale hides an object) */
+    uint64_t node_instances;    /* nodes visited, each path from the root once */
+    uint64_t world_triangles;
 } importer;
 
 /* Re-raises the scene's last error prefixed with the file (and node) name. */
@@ -172,6 +177,10 @@ static cv_result walk_nodes(importer *im, const struct aiNode *node, const float
     if (depth > MAX_NODE_DEPTH)
         return cv_error(CV_ERROR_MALFORMED, "%s: node tree deeper than %d levels (node '%s')", im->path,
                         MAX_NODE_DEPTH, node->mName.data);
+    /* Formats that share nodes between parents expand to one instance per path. */
+    if (++im->node_instances > IMPORT_MAX_NODE_INSTANCES)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: the node tree expands to more than %u node instances (node '%s')",
+                        im->path, IMPORT_MAX_NODE_INSTANCES, node->mName.data);
     float local[3][4], world[3][4], inv[3][4];
     to_transform(&node->mTransformation, local);
     cv_transform_multiply(parent, local, world);
@@ -187,6 +196,10 @@ static cv_result walk_nodes(importer *im, const struct aiNode *node, const float
             im->instances_skipped++;
             continue;
         }
+        im->world_triangles += cv_scene_mesh(im->scene, im->mesh_map[am])->triangle_count;
+        if (im->world_triangles > MAX_WORLD_TRIANGLES)
+            return cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: the instances hold more than %llu triangles (node '%s')",
+                            im->path, MAX_WORLD_TRIANGLES, node->mName.data);
         cv_instance inst = {.mesh = im->mesh_map[am], .material = im->ai->mMeshes[am]->mMaterialIndex};
         memcpy(inst.transform, world, sizeof world);
         cv_result r = cv_scene_add_instance(im->scene, &inst, NULL);
@@ -311,8 +324,8 @@ static cv_result convert(importer *im)
     return CV_OK;
 }
 
-/* Missing, unreadable and empty files get their own codes before assimp
- * sees them (assimp reports all three alike). */
+/* Missing, unreadable, empty and non-regular files get their own codes
+ * before assimp sees them (assimp reports them alike, or hangs on a FIFO). */
 static cv_result check_file(const char *path)
 {
     struct stat st;
@@ -322,6 +335,9 @@ static cv_result check_file(const char *path)
                    : cv_error(CV_ERROR_IO, "%s: cannot read: %s", path, strerror(errno));
     if (S_ISDIR(st.st_mode))
         return cv_error(CV_ERROR_IO, "%s: is a directory, not a scene file", path);
+    /* Opening a FIFO blocks until a writer appears, and devices never end. */
+    if (!S_ISREG(st.st_mode))
+        return cv_error(CV_ERROR_IO, "%s: is not a regular file (a FIFO, socket or device), not a scene file", path);
     FILE *f = fopen(path, "rb");
     if (!f)
         return cv_error(CV_ERROR_IO, "%s: cannot open: %s", path, strerror(errno));
@@ -340,6 +356,8 @@ cv_result cv_scene_import(const char *path, cv_scene **out)
     if (!path || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_import: path or out is NULL");
     cv_result r = check_file(path);
+    if (r == CV_OK && gltf_is_gltf(path))
+        r = gltf_check(path);
     if (r != CV_OK)
         return r;
     const struct aiScene *ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |

@@ -83,14 +83,20 @@ static cv_result table_adapters(const vk_adapter *adapters, uint32_t count, cons
     uint32_t n = 0;
     if (list && *list) {
         char spec[256];
-        for (const char *p = list; *p && n < CV_VULKAN_MAX_GPUS;) {
+        for (const char *p = list; n < CV_VULKAN_MAX_GPUS;) {
             size_t len = strcspn(p, ",");
+            /* An empty entry would match every adapter name: ",,," made three devices. */
+            if (len == 0 || len >= sizeof(spec))
+                return cv_error(CV_ERROR_INVALID_ARGUMENT, "--adapters: '%s': entry %u is %s", list, n + 1,
+                                len ? "longer than 255 characters" : "empty");
             snprintf(spec, sizeof(spec), "%.*s", (int)len, p);
             cv_result r = vk_adapters_resolve(adapters, count, spec, &out[n]);
             if (r != CV_OK)
                 return r;
             n++;
-            p += len + (p[len] == ',');
+            if (p[len] != ',')
+                break;
+            p += len + 1;
         }
     } else {
         uint32_t best;

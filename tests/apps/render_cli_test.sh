@@ -7,12 +7,14 @@ render=$1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 pass=0 fail=0
+not() { ! "$@"; }
 check() {  # check "what" command...
   local what=$1; shift
   if "$@"; then pass=$((pass + 1)); else fail=$((fail + 1)); echo "FAILED: $what" >&2; fi
 }
 
-"$render" --gpus 2 --adapters llvmpipe --size 96x54 --frames 2 --ao-samples 2 --out "$tmp/a/frame" > "$tmp/out.txt" 2> "$tmp/err.txt"
+# "--option=value" and "--option value" alike, for every option.
+"$render" --gpus=2 --adapters llvmpipe --size=96x54 --frames 2 --ao-samples=2 --out="$tmp/a/frame" > "$tmp/out.txt" 2> "$tmp/err.txt"
 check "render exits 0" test $? -eq 0
 check "EXR written" test -s "$tmp/a/frame.exr"
 check "PNG written" test -s "$tmp/a/frame.png"
@@ -29,15 +31,113 @@ check "reports both devices" grep -q "gpu1: columns" "$tmp/out.txt"
 check "missing scene exits 1" test $? -eq 1
 check "missing scene names the file" grep -q "missing.glb" "$tmp/err.txt"
 check "nothing written for a missing scene" test ! -e "$tmp/b/frame.exr"
+check "no folder left for a failed render" test ! -e "$tmp/b"
+mkfifo "$tmp/fifo.obj"
+timeout 20 "$render" --scene "$tmp/fifo.obj" --out "$tmp/b/frame" > /dev/null 2> "$tmp/err.txt"
+check "FIFO scene exits 1 (no hang)" test $? -eq 1
+check "FIFO scene explained" grep -q "fifo.obj: is not a regular file" "$tmp/err.txt"
+
+# Output paths of any length up to the system's limit: a prefix of 1099
+# characters once lost ".exr"/".png" to a fixed buffer (the PNG overwrote the EXR).
+long="$tmp/long"
+while [ ${#long} -lt 900 ]; do long="$long/$(printf 'd%.0s' $(seq 150))"; done
+long="$long/$(printf 'f%.0s' $(seq $((1099 - ${#long} - 1))))"
+"$render" --size 8x8 --frames 1 --out "$long" > "$tmp/out.txt" 2> "$tmp/err.txt"
+check "1099-character prefix exits 0" test $? -eq 0
+check "1099-character prefix: EXR" test "$(head -c 4 "$long.exr" | od -An -tx1 | tr -d ' \n')" = "762f3101"
+check "1099-character prefix: PNG" test "$(head -c 8 "$long.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a"
+check "1099-character prefix: only the two files" test "$(ls -A "$(dirname "$long")" | wc -l)" -eq 2
+"$render" --size 8x8 --frames 1 --out "$tmp/$(printf 'x%.0s' $(seq 300))" > /dev/null 2> "$tmp/err.txt"
+check "file name too long exits 1" test $? -eq 1
+check "file name too long explained" grep -q "File name too long" "$tmp/err.txt"
+
+# Scenes at extreme scales: tiny ones are framed, ones the renderer's float
+# arithmetic cannot show are refused (they rendered an empty sky, exit 0).
+cube() {  # cube FILE SIDE
+  awk -v s="$2" 'BEGIN { for (v = 0; v < 8; v++) printf "v %.9g %.9g %.9g\n", s * (v % 2), s * (int(v / 2) % 2), s * int(v / 4);
+    print "f 1 2 4 3\nf 5 6 8 7\nf 1 2 6 5\nf 3 4 8 7\nf 1 3 7 5\nf 2 4 8 6" }' > "$1"
+}
+cube "$tmp/tiny.obj" 1e-5
+"$render" --scene "$tmp/tiny.obj" --size 8x8 --frames 1 --quiet --out "$tmp/t/frame" 2> "$tmp/err.txt"
+check "1e-5 scene renders" test $? -eq 0
+cube "$tmp/huge.obj" 1e20
+"$render" --scene "$tmp/huge.obj" --size 8x8 --frames 1 --quiet --out "$tmp/h/frame" 2> "$tmp/err.txt"
+check "1e20 scene exits 1" test $? -eq 1
+check "1e20 scene explained" grep -q "huge.obj: scene extent 1e+20" "$tmp/err.txt"
+check "nothing written for a 1e20 scene" test ! -e "$tmp/h"
+
+# Destinations that cannot take the files fail before the render starts (no
+# scene line), and leave existing files and the folder as they were.
+echo plain > "$tmp/plain"
+"$render" --out "$tmp/plain/frame" > /dev/null 2> "$tmp/err.txt"
+check "output under a file exits 1" test $? -eq 1
+check "output under a file explained" grep -q -- "--out: $tmp/plain/frame.exr: Not a directory" "$tmp/err.txt"
+check "output under a file: found before rendering" not grep -q "scene 'room'" "$tmp/err.txt"
+mkdir -p "$tmp/c/frame.png" && echo old > "$tmp/c/frame.exr"
+"$render" --size 8x8 --frames 1 --out "$tmp/c/frame" > /dev/null 2> "$tmp/err.txt"
+check "PNG path is a folder exits 1" test $? -eq 1
+check "PNG path is a folder explained" grep -q "frame.png: is a directory" "$tmp/err.txt"
+check "PNG path is a folder: found before rendering" not grep -q "scene 'room'" "$tmp/err.txt"
+check "PNG path is a folder: old EXR kept" test "$(cat "$tmp/c/frame.exr")" = old
+check "PNG path is a folder: no temporary left" test "$(ls -A "$tmp/c" | wc -l)" -eq 2
+
 "$render" --size 0x10 2> "$tmp/err.txt"
 check "bad size exits 2" test $? -eq 2
 check "bad size explained" grep -q -- "--size" "$tmp/err.txt"
 "$render" --no-such-flag 2> "$tmp/err.txt"
 check "unknown flag exits 2" test $? -eq 2
 check "unknown flag named" grep -q "no-such-flag" "$tmp/err.txt"
+# Values that were silently coerced are refused with the option, the value
+# and the accepted range (exit 2, nothing rendered).
+refused() {  # refused "what" "expected message" option...
+  local what=$1 msg=$2; shift 2
+  "$render" "$@" --out "$tmp/r/frame" > /dev/null 2> "$tmp/err.txt"
+  check "$what exits 2" test $? -eq 2
+  check "$what explained" grep -qF -- "$msg" "$tmp/err.txt"
+}
+refused "size over 2^32" "--size: '4294967297x2' is not WxH with each side in 1..16384" --size 4294967297x2
+refused "size with a sign" "--size: '-8x8' is not WxH" --size=-8x8
+refused "size 0" "--size: '0x10' is not WxH" --size 0x10
+refused "AO samples 0" "--ao-samples: '0' is not a whole number in 1..32" --ao-samples 0
+refused "AO samples 33" "--ao-samples: '33' is not a whole number in 1..32" --ao-samples=33
+refused "frames over the limit" "--frames: '5000' is not a whole number in 1..4096" --frames 5000
+refused "negative seed" "--seed: '-1' is not a whole number in 0..4294967295" --seed -1
+refused "seed over 32 bits" "--seed: '4294967296' is not a whole number in 0..4294967295" --seed 4294967296
+refused "negative stress" "--scene: 'stress:-5' is not stress:N" --scene stress:-5
+refused "overflowing stress" "--scene: 'stress:18446744073709551616' is not stress:N" --scene stress:18446744073709551616
+refused "flag with a value" "--quiet takes no value" --quiet=1
+refused "AO radius 0" "--ao-radius: '0' is not a finite length > 0" --ao-radius 0
+check "nothing rendered for refused values" test ! -e "$tmp/r"
+"$render" --scene stress:-5 2> "$tmp/err.txt"
+check "negative number not echoed as 2^64-5" not grep -q 18446744073709551611 "$tmp/err.txt"
+"$render" --out "" 2> "$tmp/err.txt"
+check "empty --out exits 2" test $? -eq 2
+check "empty --out explained" grep -qF -- "--out: '' is not a path ending in a file name" "$tmp/err.txt"
+mkdir -p "$tmp/o"
+"$render" --out "$tmp/o/" 2> "$tmp/err.txt"
+check "--out ending in / exits 2" test $? -eq 2
+check "--out ending in / explained" grep -qF -- "--out: '$tmp/o/' is not a path ending in a file name" "$tmp/err.txt"
+check "no hidden .exr or .png" test -z "$(ls -A "$tmp/o")"
+"$render" --adapters ",,," --out "$tmp/r/frame" 2> "$tmp/err.txt"
+check "empty adapter entries exit 1" test $? -eq 1
+check "empty adapter entries explained" grep -qF -- "--adapters: ',,,': entry 1 is empty" "$tmp/err.txt"
+"$render" --adapters "llvmpipe," --out "$tmp/r/frame" 2> "$tmp/err.txt"
+check "trailing comma in adapters explained" grep -qF -- "--adapters: 'llvmpipe,': entry 2 is empty" "$tmp/err.txt"
+"$render" --gpus 0 2> "$tmp/err.txt"
+check "--gpus 0 exits 2" test $? -eq 2
+check "--gpus 0 states the range" grep -qF -- "--gpus: '0' is not a count in 1..64" "$tmp/err.txt"
+# An explicit --gpus wins over CORVID_VIRTUAL_GPUS, which is checked only when used.
+CORVID_VIRTUAL_GPUS=bogus "$render" --gpus 1 --size 8x8 --frames 1 --quiet --out "$tmp/e/frame" 2> "$tmp/err.txt"
+check "--gpus overrides a bad CORVID_VIRTUAL_GPUS" test $? -eq 0
+check "--gpus with CORVID_VIRTUAL_GPUS writes the PNG" test -s "$tmp/e/frame.png"
+CORVID_VIRTUAL_GPUS=bogus "$render" --size 8x8 --frames 1 --quiet --out "$tmp/e/frame" 2> "$tmp/err.txt"
+check "a used, bad CORVID_VIRTUAL_GPUS exits 1" test $? -eq 1
+check "a used, bad CORVID_VIRTUAL_GPUS is named" grep -qF "CORVID_VIRTUAL_GPUS: 'bogus' is not a count in 1..64" "$tmp/err.txt"
+
 "$render" --help > "$tmp/help.txt"
 check "help exits 0" test $? -eq 0
 check "help lists --gpus" grep -q -- "--gpus" "$tmp/help.txt"
+check "help says what --ao-samples 0 does" grep -q "0 is refused" "$tmp/help.txt"
 
 echo "render_cli: $pass passed, $fail failed"
 test "$fail" -eq 0

@@ -143,6 +143,16 @@ void cv_scene_world_triangle(const cv_scene *scene, uint32_t instance, uint32_t 
  * vertical field of view), for scenes that bring none. */
 cv_camera cv_scene_framing_camera(const cv_scene *scene);
 
+/* Scenes the framing camera and the renderer's float arithmetic can show:
+ * finite bounds, not a single point, an extent of at least
+ * CV_SCENE_MIN_EXTENT and of at least CV_SCENE_MIN_RELATIVE_EXTENT of its
+ * distance from the origin, and a framing camera and far plane within
+ * CV_SCENE_MAX_COORDINATE. CV_ERROR_OUT_OF_RANGE with the figures otherwise. */
+#define CV_SCENE_MIN_EXTENT 1e-12
+#define CV_SCENE_MIN_RELATIVE_EXTENT 1e-5
+#define CV_SCENE_MAX_COORDINATE 1e18
+cv_result cv_scene_check_framing(const cv_scene *scene);
+
 /* 3x4 affine helpers used by importers and procedural scenes. */
 void cv_transform_identity(float out[3][4]);
 /* out = a * b, both taken as 4x4 matrices with last row (0, 0, 0, 1). */

@@ -14,9 +14,18 @@
  *
  * Failures name the file and the problem:
  *   CV_ERROR_NOT_FOUND  the file does not exist;
- *   CV_ERROR_IO         it cannot be opened or read (a directory, no permission);
+ *   CV_ERROR_IO         it cannot be opened or read (a directory, a FIFO or
+ *                       other non-regular file, no permission);
  *   CV_ERROR_MALFORMED  assimp rejects it (its message is included), or it is
- *                       empty, has no triangles, or has non-finite positions. */
+ *                       empty, has no triangles, or has non-finite positions;
+ *                       a glTF/GLB is checked before assimp reads it: lengths
+ *                       that do not match the file ("truncated GLB"), JSON
+ *                       that ends early ("truncated glTF") or does not parse,
+ *                       bad child indices, a cycle of nodes;
+ *   CV_ERROR_LIMIT_EXCEEDED  the node graph expands to more than 1,000,000 node
+ *                       instances (a node shared by several parents counts once
+ *                       per path) or deeper than 1024 levels, or the instances
+ *                       hold more than 2^31 triangles. */
 #ifndef CORVID_SCENE_IMPORT_H
 #define CORVID_SCENE_IMPORT_H
 
