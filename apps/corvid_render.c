@@ -10,9 +10,11 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "corvid/endpoint.h"
 #include "corvid/image_exr.h"
 #include "corvid/image_files.h"
 #include "corvid/image_png.h"
+#include "corvid/proxy.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_import.h"
 #include "corvid/scene_procedural.h"
@@ -41,6 +43,8 @@ static void usage(FILE *f) {
             "                     --virtual-gpus and CORVID_VIRTUAL_GPUS\n"
             "  --virtual-gpus N   device instances per adapter (or CORVID_VIRTUAL_GPUS=N)\n"
             "  --adapters LIST    comma-separated adapter names or indices (e.g. llvmpipe, H100, 0)\n"
+            "  --nodes LIST       render on the devices of remote corvid-nodes instead, HOST:PORT,...\n"
+            "                     (or CORVID_NODES=LIST); the first node's first device is the primary\n"
             "  --validation       enable VK_LAYER_KHRONOS_validation\n"
             "  --list-adapters    print the Vulkan adapters and exit\n"
             "  --quiet            print only errors\n"
@@ -50,6 +54,7 @@ static void usage(FILE *f) {
 
 typedef struct options {
     const char *scene, *out;
+    const char *nodes;           /* --nodes, or CORVID_NODES; NULL = local devices */
     uint64_t stress_triangles;   /* > 0 for --scene stress:N */
     uint32_t seed;
     cv_render_settings settings;
@@ -161,6 +166,17 @@ static bool opt_out(options *o, const char *name, const char *value) {
     return true;
 }
 
+static bool opt_nodes(options *o, const char *name, const char *value) {
+    cv_endpoint nodes[CV_MAX_NODES];
+    uint32_t count;
+    if (cv_endpoints_parse(value, name, nodes, CV_MAX_NODES, &count) != CV_OK) {
+        fprintf(stderr, "corvid-render: %s (see --help)\n", cv_last_error());
+        return false;
+    }
+    o->nodes = value;
+    return true;
+}
+
 static bool opt_validation(options *o, const char *name, const char *value) {
     (void)name, (void)value;
     return o->validation = true;
@@ -196,6 +212,7 @@ static const struct option_def {
     { "--ao-radius", true, opt_ao_radius },
     { "--exposure", true, opt_exposure },
     { "--out", true, opt_out },
+    { "--nodes", true, opt_nodes },
     { "--validation", false, opt_validation },
     { "--quiet", false, opt_quiet },
     { "--list-adapters", false, opt_list_adapters },
@@ -419,6 +436,41 @@ static int list_adapters(void) {
     return 0;
 }
 
+/* One proxy device per device of every node, labelled node<i>.gpu<j>. */
+static cv_result create_node_devices(cv_context *ctx, const char *list, cv_device **devices, uint32_t *count,
+                                     bool quiet) {
+    cv_endpoint nodes[CV_MAX_NODES];
+    uint32_t node_count, n = 0;
+    cv_result r = cv_endpoints_parse(list, "--nodes", nodes, CV_MAX_NODES, &node_count);
+    cv_proxy_node_info *info = malloc(sizeof(*info));
+    if (r == CV_OK && !info)
+        r = cv_error(CV_ERROR_OUT_OF_MEMORY, "node info");
+    for (uint32_t i = 0; r == CV_OK && i < node_count; i++) {
+        r = cv_proxy_query_node(nodes[i].text, 10000, info);
+        for (uint32_t d = 0; r == CV_OK && d < info->device_count; d++) {
+            if (n == CV_RENDER_MAX_DEVICES) {
+                r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "the nodes serve more than %u devices, the renderer's limit",
+                             CV_RENDER_MAX_DEVICES);
+                break;
+            }
+            char adapter[16];
+            snprintf(adapter, sizeof(adapter), "%u", d);
+            cv_device_desc desc = { .endpoint = nodes[i].text, .adapter = adapter };
+            snprintf(desc.label, sizeof(desc.label), "node%u.gpu%u", i, d);
+            r = cv_device_create(ctx, cv_proxy_backend(), &desc, &devices[n]);
+            if (r == CV_OK && !quiet)
+                fprintf(stderr, "%s: %s on node '%s' (%s, its %s)%s\n", desc.label,
+                        cv_device_get_info(devices[n])->name, info->name, nodes[i].text, info->labels[d],
+                        n == 0 ? ", primary" : "");
+            if (r == CV_OK)
+                n++;
+        }
+    }
+    free(info);
+    *count = n;
+    return r;
+}
+
 static double now_ms(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -448,6 +500,16 @@ int main(int argc, char **argv) {
         gpu_config.virtual_per_adapter = 1;
     if (o.list_adapters)
         return list_adapters();
+    bool local_choice = gpu_config.adapters || gpu_config.total || gpu_config.virtual_per_adapter;
+    if (!o.nodes && !local_choice && getenv("CORVID_NODES") && getenv("CORVID_NODES")[0]) {
+        if (!opt_nodes(&o, "CORVID_NODES", getenv("CORVID_NODES")))
+            return 2;
+    }
+    if (o.nodes && local_choice) {
+        fprintf(stderr, "corvid-render: --nodes renders on the devices the nodes serve; --gpus, --virtual-gpus and "
+                        "--adapters choose local ones: give one or the other\n");
+        return 2;
+    }
 
     double t0 = now_ms();
     cv_scene *scene = NULL;
@@ -477,16 +539,21 @@ int main(int argc, char **argv) {
     if (r == CV_OK)
         r = cv_bvh_build_flat(scene, NULL, &bvh);
     t_bvh = now_ms() - t_bvh;
-    if (r == CV_OK)
+    if (r == CV_OK && !o.nodes)
         r = cv_vulkan_gpu_table_build(&gpu_config, &table);
     if (r == CV_OK && table.count > CV_RENDER_MAX_DEVICES)
         r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "%u devices requested; the renderer takes at most %u", table.count,
                      CV_RENDER_MAX_DEVICES);
     if (r == CV_OK)
         r = cv_context_create(NULL, &ctx);
-    if (r == CV_OK)
+    uint32_t device_count = 0;
+    if (r == CV_OK && o.nodes) {
+        r = create_node_devices(ctx, o.nodes, devices, &device_count, o.quiet);
+    } else if (r == CV_OK) {
         r = cv_vulkan_create_devices(ctx, &table, o.validation, devices);
-    if (r == CV_OK && !o.quiet)
+        device_count = r == CV_OK ? table.count : 0;
+    }
+    if (r == CV_OK && !o.quiet && !o.nodes)
         for (uint32_t d = 0; d < table.count; d++) {
             const cv_device_info *info = cv_device_get_info(devices[d]);
             fprintf(stderr, "%s: %s (adapter %u, instance %u)%s, trace path %s\n", cv_device_label(devices[d]),
@@ -494,7 +561,7 @@ int main(int argc, char **argv) {
                     info->trace_path[0] ? info->trace_path : "compute");
         }
     if (r == CV_OK)
-        r = cv_renderer_create(devices, table.count, scene, bvh, &renderer);
+        r = cv_renderer_create(devices, device_count, scene, bvh, &renderer);
     if (r == CV_OK)
         r = cv_renderer_render(renderer, &o.settings, &image, &stats, progress, &o.quiet);
     cv_render_settings s = { 0 };
@@ -520,6 +587,14 @@ int main(int argc, char **argv) {
         }
         printf("transfers between devices: %.1f MB in %.1f ms; total %.1f s\n", stats.transfer_bytes / 1e6,
                stats.transfer_ms, (now_ms() - t0) / 1e3);
+        for (uint32_t d = 0; o.nodes && d < device_count; d++) {
+            cv_proxy_stats ps;
+            if (cv_proxy_get_stats(devices[d], &ps) == CV_OK)
+                printf("  %s: sent %.2f MB, received %.2f MB, %llu round trips; scene data uploaded %.2f MB, "
+                       "already on the node %.2f MB\n", cv_device_label(devices[d]), ps.bytes_sent / 1e6,
+                       ps.bytes_received / 1e6, (unsigned long long)ps.round_trips, ps.upload_bytes_sent / 1e6,
+                       ps.upload_bytes_skipped / 1e6);
+        }
     }
     if (r == CV_OK && o.validation && cv_vulkan_validation_message_count())
         r = cv_error(CV_ERROR_BACKEND, "the validation layer reported %u messages",
