@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# corvid-node and corvid-render --nodes as a user runs them, on loopback:
+# options are checked before anything starts; a node serves 2 lavapipe devices;
+# a render on it writes the same PNG as the local render, and a second render
+# uploads no scene bytes; CORVID_NODES works like --nodes; an unreachable node
+# is a clear error; SIGTERM drains and the node exits 0 with a summary.
+set -u
+node=$1 render=$2
+tmp=$(mktemp -d)
+node_pid=
+cleanup() { [ -n "$node_pid" ] && kill -9 "$node_pid" 2>/dev/null; rm -rf "$tmp"; }
+trap cleanup EXIT
+pass=0 fail=0
+check() {  # check "what" command...
+  local what=$1; shift
+  if "$@"; then pass=$((pass + 1)); else fail=$((fail + 1)); echo "FAILED: $what" >&2; fi
+}
+
+"$node" --help > "$tmp/help.txt"
+check "--help exits 0" test $? -eq 0
+check "--help lists --listen" grep -q -- "--listen HOST:PORT" "$tmp/help.txt"
+for bad in "--idle-timeout 0" "--idle-timeout=-5" "--max-sessions 99999999999" "--backend opengl" "--listen nocolon" \
+           "--cache-size 12Q" "--bogus" "--mock-devices 65"; do
+  # shellcheck disable=SC2086
+  "$node" $bad > /dev/null 2> "$tmp/err.txt"
+  check "'$bad' exits 2" test $? -eq 2
+  check "'$bad' explained" test -s "$tmp/err.txt"
+done
+check "range is stated" grep -q "1..64" "$tmp/err.txt"
+
+# A node on a free loopback port with 2 virtual GPUs on lavapipe.
+"$node" --listen 127.0.0.1:0 --port-file "$tmp/port" --adapters llvmpipe --gpus 2 --cache-dir "$tmp/cache" \
+  > "$tmp/node.out" 2> "$tmp/node.err" &
+node_pid=$!
+for _ in $(seq 100); do [ -s "$tmp/port" ] && break; sleep 0.1; done
+port=$(cat "$tmp/port" 2>/dev/null)
+check "node wrote its port" test -n "$port"
+check "node says where it listens" grep -q "listening on 127.0.0.1:$port with 2 devices" "$tmp/node.out"
+
+args=(--size 96x54 --frames 2 --ao-samples 2)
+"$render" --adapters llvmpipe --gpus 1 "${args[@]}" --out "$tmp/local/frame" > /dev/null 2>&1
+check "local render exits 0" test $? -eq 0
+"$render" --nodes "127.0.0.1:$port" "${args[@]}" --out "$tmp/remote/frame" > "$tmp/remote.txt" 2> "$tmp/remote.err"
+check "remote render exits 0" test $? -eq 0
+check "remote PNG equals the local one" cmp -s "$tmp/local/frame.png" "$tmp/remote/frame.png"
+check "remote EXR equals the local one" cmp -s "$tmp/local/frame.exr" "$tmp/remote/frame.exr"
+check "both node devices used" grep -q "node0.gpu1: columns" "$tmp/remote.txt"
+check "first render uploads the scene" grep -q "node0.gpu0: .*scene data uploaded [1-9]" "$tmp/remote.txt"
+CORVID_NODES="127.0.0.1:$port" "$render" "${args[@]}" --out "$tmp/again/frame" > "$tmp/again.txt" 2>&1
+check "CORVID_NODES render exits 0" test $? -eq 0
+check "CORVID_NODES render equals the local one" cmp -s "$tmp/local/frame.png" "$tmp/again/frame.png"
+check "second render uploads nothing" grep -q "node0.gpu0: .*scene data uploaded 0.00 MB" "$tmp/again.txt"
+
+"$render" --nodes "127.0.0.1:$port" --gpus 2 --out "$tmp/x/frame" > /dev/null 2> "$tmp/err.txt"
+check "--nodes with --gpus exits 2" test $? -eq 2
+check "--nodes with --gpus explained" grep -q "give one or the other" "$tmp/err.txt"
+"$render" --nodes "127.0.0.1:$port,,127.0.0.1:1" --out "$tmp/x/frame" > /dev/null 2> "$tmp/err.txt"
+check "empty node entry exits 2" test $? -eq 2
+check "empty node entry explained" grep -q "entry 2 of" "$tmp/err.txt"
+"$render" --nodes "127.0.0.1:99999" --out "$tmp/x/frame" > /dev/null 2> "$tmp/err.txt"
+check "bad port exits 2" test $? -eq 2
+check "bad port explained" grep -q "1..65535" "$tmp/err.txt"
+# A port nothing listens on (the node's own port + nothing: take a fresh closed one).
+closed=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1]); s.close()')
+timeout 60 "$render" --nodes "127.0.0.1:$closed" "${args[@]}" --out "$tmp/x/frame" > /dev/null 2> "$tmp/err.txt"
+check "unreachable node exits 1" test $? -eq 1
+check "unreachable node named" grep -q "127.0.0.1:$closed" "$tmp/err.txt"
+check "nothing written for an unreachable node" test ! -e "$tmp/x/frame.png"
+
+kill -TERM "$node_pid"
+wait "$node_pid"
+status=$?
+node_pid=
+check "SIGTERM: node exits 0" test "$status" -eq 0
+check "SIGTERM: node drained" grep -q "draining" "$tmp/node.err"
+check "SIGTERM: node summary (2 renders x 2 devices)" grep -q "stopped after 4 sessions" "$tmp/node.err"
+
+echo "node_cli: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]
