@@ -6,6 +6,7 @@
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdbool.h>
@@ -511,6 +512,107 @@ static void test_recv_timeout(void) {
     finish_server(server);
 }
 
+/* A TCP proxy that can freeze: it stops moving bytes but keeps both sockets open, as a peer behind a dead
+ * network path would look. Only keepalive can notice that. */
+typedef struct proxy {
+    int listen_fd, listen_port, port;
+    atomic_bool frozen, stop;
+    pthread_t thread;
+} proxy;
+
+static void *proxy_main(void *arg) {
+    proxy *p = arg;
+    struct pollfd lp = {.fd = p->listen_fd, .events = POLLIN};
+    int client = -1;
+    while (!atomic_load(&p->stop) && client < 0)
+        if (poll(&lp, 1, 50) > 0)
+            client = accept(p->listen_fd, NULL, NULL);
+    if (client < 0)
+        return NULL;
+    int server = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    a.sin_port = htons((uint16_t)p->port);
+    if (connect(server, (struct sockaddr *)&a, sizeof a) != 0) {
+        close(client);
+        close(server);
+        return NULL;
+    }
+    char buf[65536];
+    while (!atomic_load(&p->stop)) {
+        if (atomic_load(&p->frozen)) {
+            usleep(10000);
+            continue;
+        }
+        struct pollfd fds[2] = {{.fd = client, .events = POLLIN}, {.fd = server, .events = POLLIN}};
+        if (poll(fds, 2, 50) <= 0)
+            continue;
+        for (int i = 0; i < 2; i++) {
+            if (!(fds[i].revents & (POLLIN | POLLHUP | POLLERR)))
+                continue;
+            ssize_t n = read(fds[i].fd, buf, sizeof buf);
+            if (n <= 0)
+                goto done;
+            for (ssize_t at = 0; at < n;) {
+                ssize_t w = write(fds[1 - i].fd, buf + at, (size_t)(n - at));
+                if (w <= 0)
+                    goto done;
+                at += w;
+            }
+        }
+    }
+done:
+    close(client);
+    close(server);
+    return NULL;
+}
+
+static void proxy_start(proxy *p, int server_port) {
+    p->port = server_port;
+    p->listen_fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    socklen_t len = sizeof a;
+    bind(p->listen_fd, (struct sockaddr *)&a, sizeof a);
+    listen(p->listen_fd, 4);
+    getsockname(p->listen_fd, (struct sockaddr *)&a, &len);
+    p->listen_port = ntohs(a.sin_port);
+    pthread_create(&p->thread, NULL, proxy_main, p);
+}
+
+static void proxy_stop(proxy *p) {
+    atomic_store(&p->stop, true);
+    pthread_join(p->thread, NULL);
+    close(p->listen_fd);
+}
+
+static void test_silent_peer(void) {
+    echo_state st = {0};
+    cv_rpc_server *server = start_echo(&st, 0, 0);
+    proxy p = {0};
+    proxy_start(&p, cv_rpc_server_port(server));
+    char target[64];
+    snprintf(target, sizeof target, "127.0.0.1:%d", p.listen_port);
+    cv_rpc_client_config cfg = {.keepalive_ms = 500, .keepalive_timeout_ms = 500};
+    cv_rpc_client *c = NULL;
+    CHECK_OK(cv_rpc_client_create(target, &cfg, &c));
+    cv_rpc_stream *s = NULL;
+    CHECK_OK(cv_rpc_client_open(c, ECHO, NULL, 0, &s));
+    round_trip(s, "through the proxy");
+    atomic_store(&p.frozen, true);
+    double t0 = now_s();
+    uint8_t *m = NULL;
+    size_t n;
+    CHECK_RESULT(cv_rpc_stream_recv(s, 10000, &m, &n), CV_ERROR_CONNECTION);
+    double dt = now_s() - t0;
+    if (dt > 3.0)
+        fprintf(stderr, "silent peer noticed after %.2f s\n", dt);
+    CHECK(dt < 3.0);   /* keepalive 0.5 s + timeout 0.5 s, with slack */
+    CHECK_RESULT(cv_rpc_stream_send(s, "x", 1), CV_ERROR_CONNECTION);
+    cv_rpc_stream_destroy(s);
+    cv_rpc_client_destroy(c);
+    proxy_stop(&p);   /* closes the server's side: its stream is cancelled */
+    finish_server(server);
+}
+
 static const struct {
     const char *name;
     void (*fn)(void);
@@ -521,7 +623,7 @@ static const struct {
     {"open_and_drop", test_open_and_drop},     {"server_killed", test_server_killed},
     {"nothing_listens", test_nothing_listens}, {"drain", test_drain},
     {"max_streams", test_max_streams},         {"unary", test_unary},
-    {"recv_timeout", test_recv_timeout},
+    {"recv_timeout", test_recv_timeout},       {"silent_peer", test_silent_peer},
 };
 
 int main(int argc, char **argv) {

@@ -126,7 +126,9 @@ typedef struct cv_rpc_server_config {
     uint32_t max_message_bytes;       /* receive and send limit; 0 = 16 MiB */
     uint32_t max_streams;             /* concurrent streams; more are refused with RESOURCE_EXHAUSTED; 0 = 1024 */
     /* A stream of a registered streaming method: called on a new thread owned by the layer; the stream is
-       valid until the handler returns (the layer then finishes the call with OK if the handler did not). */
+       valid until the handler returns (the layer then finishes the call with OK if the handler did not; sends
+       still queued go out first, so a client that stops reading holds the stream until it is cancelled, its
+       connection dies or the server is destroyed). */
     void (*on_stream)(cv_rpc_stream *s, const char *method, void *user);
     /* A unary call of a registered unary method: request in, response out (malloc'd; the layer frees it;
        may stay NULL for an empty response) and 0, or a non-zero gRPC status with a message written to
@@ -186,7 +188,8 @@ void cv_rpc_stream_cancel(cv_rpc_stream *s);
  * (Server streams belong to the layer and are freed after the handler returns.) */
 void cv_rpc_stream_destroy(cv_rpc_stream *s);
 
-/* "ipv4:127.0.0.1:53412": the other end, as gRPC names it; valid for the stream's life. */
+/* Server: "ipv4:127.0.0.1:53412", the client as gRPC names it. Client: the target it was created with.
+ * Valid for the stream's life. */
 const char *cv_rpc_stream_peer(cv_rpc_stream *s);
 
 /* Server: the initial metadata value the client sent under `key`, NULL if absent (and on a client stream). */
