@@ -36,16 +36,18 @@ static cv_result fail(const validator *v, cv_result code, const char *fmt, ...) 
                     cv_command_name(v->cmd->type), detail);
 }
 
+/* *out is always written (NULL on failure): callers chain `if (r == CV_OK) r = need(...)`
+ * and the compiler cannot prove that a failure code is never CV_OK. */
 static cv_result need(const validator *v, uint64_t id, cv_handle_type type, const char *field,
                       const cv_device_resource **out) {
     cv_device_resource *s = NULL;
     cv_result code = cv_device_require(v->dev, id, type, field, &s);
+    *out = code == CV_OK ? s : NULL;
     if (code != CV_OK) {
         char why[400];
         snprintf(why, sizeof(why), "%s", cv_last_error());
         return fail(v, code, "%s", why);
     }
-    *out = s;
     return CV_OK;
 }
 
@@ -76,6 +78,7 @@ static cv_result texture_rect(const validator *v, const cv_device_resource *t, c
 /* Pipeline of a dispatch/draw: right kind, bindings and push constants as the registry says. */
 static cv_result check_pipeline_use(validator *v, cv_pipeline p, cv_pipeline_kind kind, cv_span bindings,
                                     cv_span push, const cv_device_resource **out) {
+    *out = NULL;
     const cv_device_resource *pr;
     cv_result r = need(v, p.id, CV_HANDLE_PIPELINE, "pipeline", &pr);
     if (r != CV_OK)
