@@ -10,12 +10,50 @@
 
 struct cv_context {
     pthread_mutex_t lock;
+    uint32_t tag;                                    /* in every handle it makes (handle.h) */
     cv_handle_pool pools[CV_HANDLE_TYPE_COUNT];
     cv_resource_desc *descs[CV_HANDLE_TYPE_COUNT];   /* by slot, for described types */
     cv_command_list *lists;                          /* by cmdlist slot */
     cv_device **devices;
     uint32_t device_count, device_capacity;
 };
+
+/* Context tags are process-wide state because their one purpose is to tell
+ * apart the contexts that live in one process (a node holds one per client
+ * session): each handle carries its context's tag and every lookup compares it.
+ * A set of the tags in use, not a bare counter, so two live contexts never
+ * share one; the cursor moves on, so a destroyed context's tag comes back as
+ * late as possible and its old handles read as foreign meanwhile. 0 is never a
+ * tag, so a handle with no tag is recognisably malformed. */
+static pthread_mutex_t tags_lock = PTHREAD_MUTEX_INITIALIZER;
+static bool tag_used[CV_HANDLE_TAG_MAX + 1];
+static uint32_t tag_cursor;
+
+static cv_result tag_acquire(uint32_t *out) {
+    pthread_mutex_lock(&tags_lock);
+    uint32_t tag = 0;
+    for (uint32_t i = 0; i < CV_HANDLE_TAG_MAX && !tag; i++) {
+        uint32_t candidate = (tag_cursor + i) % CV_HANDLE_TAG_MAX + 1;
+        if (!tag_used[candidate])
+            tag = candidate;
+    }
+    if (tag) {
+        tag_used[tag] = true;
+        tag_cursor = tag;
+    }
+    pthread_mutex_unlock(&tags_lock);
+    if (!tag)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "cv_context_create: %u contexts are alive, the most one process "
+                        "can hold (CV_MAX_CONTEXTS)", CV_MAX_CONTEXTS);
+    *out = tag;
+    return CV_OK;
+}
+
+static void tag_release(uint32_t tag) {
+    pthread_mutex_lock(&tags_lock);
+    tag_used[tag] = false;
+    pthread_mutex_unlock(&tags_lock);
+}
 
 static bool is_described(cv_handle_type t) {
     return t == CV_HANDLE_BUFFER || t == CV_HANDLE_TEXTURE || t == CV_HANDLE_SAMPLER ||
@@ -39,10 +77,14 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
     cv_context *ctx = calloc(1, sizeof(*ctx));
     if (!ctx)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: context");
+    cv_result r = tag_acquire(&ctx->tag);
+    if (r != CV_OK) {
+        free(ctx);
+        return r;
+    }
     pthread_mutex_init(&ctx->lock, NULL);
-    cv_result r = CV_OK;
     for (int t = CV_HANDLE_BUFFER; t < CV_HANDLE_TYPE_COUNT && r == CV_OK; t++) {
-        r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, caps[t]);
+        r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, ctx->tag, caps[t]);
         if (r == CV_OK && is_described((cv_handle_type)t)) {
             ctx->descs[t] = calloc(caps[t], sizeof(cv_resource_desc));
             if (!ctx->descs[t])
@@ -86,6 +128,7 @@ void cv_context_destroy(cv_context *ctx) {
     }
     free(ctx->devices);
     pthread_mutex_destroy(&ctx->lock);
+    tag_release(ctx->tag);
     free(ctx);
 }
 

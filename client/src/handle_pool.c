@@ -3,11 +3,13 @@
 
 #include <stdlib.h>
 
-cv_result cv_handle_pool_init(cv_handle_pool *pool, cv_handle_type type, uint32_t capacity) {
-    if (type == CV_HANDLE_NONE || type >= CV_HANDLE_TYPE_COUNT || capacity == 0)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "handle pool: bad type %d or capacity %u", (int)type,
-                        capacity);
+cv_result cv_handle_pool_init(cv_handle_pool *pool, cv_handle_type type, uint32_t tag, uint32_t capacity) {
+    if (type == CV_HANDLE_NONE || type >= CV_HANDLE_TYPE_COUNT || tag == 0 || tag > CV_HANDLE_TAG_MAX ||
+        capacity == 0 || capacity > CV_HANDLE_INDEX_MAX + 1)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "handle pool: bad type %d, context tag %u or capacity %u "
+                        "(1..%u)", (int)type, tag, capacity, CV_HANDLE_INDEX_MAX + 1);
     pool->type = type;
+    pool->tag = tag;
     pool->capacity = capacity;
     pool->live = 0;
     pool->generation = calloc(capacity, sizeof(uint32_t));
@@ -44,7 +46,7 @@ cv_result cv_handle_pool_alloc(cv_handle_pool *pool, uint64_t *out_id) {
     uint32_t index = pool->free_slots[--pool->free_count];
     pool->in_use[index] = 1;
     pool->live++;
-    *out_id = cv_handle_pack(pool->type, pool->generation[index], index);
+    *out_id = cv_handle_pack(pool->type, pool->tag, pool->generation[index], index);
     return CV_OK;
 }
 
@@ -55,6 +57,13 @@ cv_result cv_handle_pool_check(const cv_handle_pool *pool, uint64_t id) {
         return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "handle 0x%016llx is a %s handle, a %s handle is needed",
                         (unsigned long long)id, cv_handle_type_name(cv_handle_type_of(id)),
                         cv_handle_type_name(pool->type));
+    if (cv_handle_tag(id) == 0)
+        return cv_error(CV_ERROR_INVALID_HANDLE, "%s handle 0x%016llx carries no context tag",
+                        cv_handle_type_name(pool->type), (unsigned long long)id);
+    if (cv_handle_tag(id) != pool->tag)
+        return cv_error(CV_ERROR_FOREIGN_HANDLE, "%s handle 0x%016llx belongs to another context (its tag is %u, "
+                        "this context's is %u)", cv_handle_type_name(pool->type), (unsigned long long)id,
+                        cv_handle_tag(id), pool->tag);
     uint32_t index = cv_handle_index(id);
     if (index >= pool->capacity || cv_handle_generation(id) == 0)
         return cv_error(CV_ERROR_INVALID_HANDLE, "%s handle 0x%016llx: slot %u is out of range (%u slots)",

@@ -7,16 +7,20 @@
 #include "corvid/handle_pool.h"
 
 static void test_packing(void) {
-    uint64_t id = cv_handle_pack(CV_HANDLE_TEXTURE, 0xABCDEF, 0x12345678);
+    uint64_t id = cv_handle_pack(CV_HANDLE_TEXTURE, 0x9C, 0xABCDEF, 0x345678);
     CHECK_EQ_INT(cv_handle_type_of(id), CV_HANDLE_TEXTURE);
+    CHECK_EQ_INT(cv_handle_tag(id), 0x9C);
     CHECK_EQ_INT(cv_handle_generation(id), 0xABCDEF);
-    CHECK_EQ_INT(cv_handle_index(id), 0x12345678);
-    CHECK(id == 0x02ABCDEF12345678ull);
+    CHECK_EQ_INT(cv_handle_index(id), 0x345678);
+    CHECK(id == 0x029CABCDEF345678ull);
+    /* Fields never spill into each other. */
+    uint64_t full = cv_handle_pack(CV_HANDLE_ACCEL, UINT32_MAX, UINT32_MAX, UINT32_MAX);
+    CHECK(full == 0x06FFFFFFFFFFFFFFull);
 }
 
 static void test_pool_generations(void) {
     cv_handle_pool pool;
-    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_BUFFER, 4));
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_BUFFER, 7, 4));
     uint64_t a, b;
     CHECK_OK(cv_handle_pool_alloc(&pool, &a));
     CHECK(a != 0);
@@ -40,7 +44,7 @@ static void test_pool_generations(void) {
 
 static void test_pool_exhaustion_and_bad_ids(void) {
     cv_handle_pool pool;
-    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_SAMPLER, 3));
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_SAMPLER, 7, 3));
     uint64_t ids[3], extra = 0;
     for (int i = 0; i < 3; i++)
         CHECK_OK(cv_handle_pool_alloc(&pool, &ids[i]));
@@ -52,16 +56,21 @@ static void test_pool_exhaustion_and_bad_ids(void) {
     CHECK_OK(cv_handle_pool_alloc(&pool, &extra));
     CHECK_EQ_INT(cv_handle_index(extra), 1);
     CHECK_RESULT(cv_handle_pool_check(&pool, 0), CV_ERROR_INVALID_HANDLE);
-    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_BUFFER, 1, 0)), CV_ERROR_WRONG_HANDLE_TYPE);
-    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_SAMPLER, 1, 99)), CV_ERROR_INVALID_HANDLE);
-    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_SAMPLER, 0, 0)), CV_ERROR_INVALID_HANDLE);
-    CHECK_RESULT(cv_handle_pool_init(&(cv_handle_pool){ 0 }, CV_HANDLE_NONE, 4), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_BUFFER, 7, 1, 0)), CV_ERROR_WRONG_HANDLE_TYPE);
+    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_SAMPLER, 7, 1, 99)), CV_ERROR_INVALID_HANDLE);
+    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_SAMPLER, 7, 0, 0)), CV_ERROR_INVALID_HANDLE);
+    CHECK_RESULT(cv_handle_pool_check(&pool, cv_handle_pack(CV_HANDLE_SAMPLER, 0, 1, 0)), CV_ERROR_INVALID_HANDLE);
+    CHECK(strstr(cv_last_error(), "no context tag") != NULL);
+    CHECK_RESULT(cv_handle_pool_check(&pool, ids[0] ^ (1ull << 48)), CV_ERROR_FOREIGN_HANDLE);
+    CHECK(strstr(cv_last_error(), "belongs to another context") != NULL);
+    CHECK_RESULT(cv_handle_pool_init(&(cv_handle_pool){ 0 }, CV_HANDLE_NONE, 7, 4), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_handle_pool_init(&(cv_handle_pool){ 0 }, CV_HANDLE_BUFFER, 0, 4), CV_ERROR_INVALID_ARGUMENT);
     cv_handle_pool_finish(&pool);
 }
 
 static void test_generation_wraps_past_zero(void) {
     cv_handle_pool pool;
-    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_TEXTURE, 1));
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_TEXTURE, 7, 1));
     pool.generation[0] = CV_HANDLE_GENERATION_MAX;
     uint64_t id;
     CHECK_OK(cv_handle_pool_alloc(&pool, &id));
@@ -95,10 +104,11 @@ static void test_context_handles(void) {
     CHECK_RESULT(cv_context_check(ctx, cv_any(a)), CV_ERROR_STALE_HANDLE);
 
     /* A raw u64 from the wire with another type's tag is caught at run time. */
-    cv_handle forged = { cv_handle_pack(CV_HANDLE_TEXTURE, cv_handle_generation(b.id), cv_handle_index(b.id)) };
+    cv_handle forged = { cv_handle_pack(CV_HANDLE_TEXTURE, cv_handle_tag(b.id), cv_handle_generation(b.id),
+                                        cv_handle_index(b.id)) };
     CHECK_RESULT(cv_context_check(ctx, forged), CV_ERROR_STALE_HANDLE);
     CHECK_RESULT(cv_destroy(ctx, (cv_handle){ 0 }), CV_ERROR_INVALID_HANDLE);
-    CHECK_RESULT(cv_destroy(ctx, (cv_handle){ 0xFF00000100000000ull }), CV_ERROR_INVALID_HANDLE);
+    CHECK_RESULT(cv_destroy(ctx, (cv_handle){ 0xFF01000001000000ull }), CV_ERROR_INVALID_HANDLE);
 
     cv_texture t;
     CHECK_RESULT(cv_texture_create(ctx, &(cv_texture_desc){ .width = 0, .height = 4, .format = CV_FORMAT_R32F }, &t),

@@ -19,6 +19,10 @@
 
 typedef struct cv_context cv_context;
 
+/* Contexts alive at once in one process: each has its own context tag, which
+ * every handle carries (handle.h), and the tag has 8 bits (0 is no tag). */
+#define CV_MAX_CONTEXTS 255u
+
 typedef struct cv_context_desc {
     /* Pool sizes per resource type; 0 = default (buffers and textures 65536, others 4096). */
     uint32_t max_buffers, max_textures, max_samplers, max_pipelines, max_cmdlists, max_accels;
@@ -36,6 +40,7 @@ typedef struct cv_resource_desc {
     };
 } cv_resource_desc;
 
+/* CV_ERROR_LIMIT_EXCEEDED when CV_MAX_CONTEXTS contexts are alive. */
 cv_result cv_context_create(const cv_context_desc *desc, cv_context **out);
 /* Destroys every device still attached, then every resource. */
 void cv_context_destroy(cv_context *ctx);
@@ -57,7 +62,7 @@ cv_result cv_destroy(cv_context *ctx, cv_handle h);
 #define cv_cmdlist_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_cmdlist)(h)))
 #define cv_accel_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_accel)(h)))
 
-/* CV_OK if h is live; otherwise why not (invalid, stale, ...). */
+/* CV_OK if h is live; otherwise why not (invalid, another context's, stale, ...). */
 cv_result cv_context_check(cv_context *ctx, cv_handle h);
 /* Copies the description of a live buffer/texture/sampler/pipeline/accel handle. */
 cv_result cv_context_describe(cv_context *ctx, cv_handle h, cv_resource_desc *out);

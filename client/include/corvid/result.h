@@ -38,7 +38,8 @@
     X(CV_ERROR_MALFORMED, -21, "malformed message or file")                                  \
     X(CV_ERROR_IO, -22, "input/output error")                                                \
     X(CV_ERROR_NOT_FOUND, -23, "not found")                                                  \
-    X(CV_ERROR_CONNECTION, -24, "connection failed or dropped")
+    X(CV_ERROR_CONNECTION, -24, "connection failed or dropped")                              \
+    X(CV_ERROR_FOREIGN_HANDLE, -25, "handle belongs to another context")
 
 typedef enum cv_result {
 #define CV_RESULT_ENUM(name, value, text) name = value,
