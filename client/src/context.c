@@ -11,9 +11,8 @@
 struct cv_context {
     pthread_mutex_t lock;
     uint32_t tag;                                    /* in every handle it makes (handle.h) */
+    /* Slot data: a cv_resource_desc for described types, a cv_command_list for cmdlists. */
     cv_handle_pool pools[CV_HANDLE_TYPE_COUNT];
-    cv_resource_desc *descs[CV_HANDLE_TYPE_COUNT];   /* by slot, for described types */
-    cv_command_list *lists;                          /* by cmdlist slot */
     cv_device **devices;
     uint32_t device_count, device_capacity;
 };
@@ -62,18 +61,32 @@ static bool is_described(cv_handle_type t) {
 
 static bool valid_type(cv_handle_type t) { return t > CV_HANDLE_NONE && t < CV_HANDLE_TYPE_COUNT; }
 
+/* The context's description of slot `index` of a described type. */
+static cv_resource_desc *desc_of(cv_context *ctx, cv_handle_type type, uint32_t index) {
+    return cv_handle_pool_data(&ctx->pools[type], index);
+}
+
+/* The command list behind slot `index` of the cmdlist pool. */
+static cv_command_list *list_of(cv_context *ctx, uint32_t index) {
+    return cv_handle_pool_data(&ctx->pools[CV_HANDLE_CMDLIST], index);
+}
+
 cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
     if (!out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_context_create: out is NULL");
     cv_context_desc d = desc ? *desc : (cv_context_desc){ 0 };
-    uint32_t caps[CV_HANDLE_TYPE_COUNT] = {
-        [CV_HANDLE_BUFFER] = d.max_buffers ? d.max_buffers : 65536,
-        [CV_HANDLE_TEXTURE] = d.max_textures ? d.max_textures : 65536,
-        [CV_HANDLE_SAMPLER] = d.max_samplers ? d.max_samplers : 4096,
-        [CV_HANDLE_PIPELINE] = d.max_pipelines ? d.max_pipelines : 4096,
-        [CV_HANDLE_CMDLIST] = d.max_cmdlists ? d.max_cmdlists : 4096,
-        [CV_HANDLE_ACCEL] = d.max_accels ? d.max_accels : 4096,
+    const struct { const char *field; uint32_t asked, fallback; } sizes[CV_HANDLE_TYPE_COUNT] = {
+        [CV_HANDLE_BUFFER] = { "max_buffers", d.max_buffers, 65536 },
+        [CV_HANDLE_TEXTURE] = { "max_textures", d.max_textures, 65536 },
+        [CV_HANDLE_SAMPLER] = { "max_samplers", d.max_samplers, 4096 },
+        [CV_HANDLE_PIPELINE] = { "max_pipelines", d.max_pipelines, 4096 },
+        [CV_HANDLE_CMDLIST] = { "max_cmdlists", d.max_cmdlists, 4096 },
+        [CV_HANDLE_ACCEL] = { "max_accels", d.max_accels, 4096 },
     };
+    for (int t = CV_HANDLE_BUFFER; t < CV_HANDLE_TYPE_COUNT; t++)
+        if (sizes[t].asked > CV_MAX_POOL_HANDLES)
+            return cv_error(CV_ERROR_LIMIT_EXCEEDED, "cv_context_create: %s = %u exceeds the limit of %u "
+                            "(CV_MAX_POOL_HANDLES)", sizes[t].field, sizes[t].asked, CV_MAX_POOL_HANDLES);
     cv_context *ctx = calloc(1, sizeof(*ctx));
     if (!ctx)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: context");
@@ -84,17 +97,9 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
     }
     pthread_mutex_init(&ctx->lock, NULL);
     for (int t = CV_HANDLE_BUFFER; t < CV_HANDLE_TYPE_COUNT && r == CV_OK; t++) {
-        r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, ctx->tag, caps[t]);
-        if (r == CV_OK && is_described((cv_handle_type)t)) {
-            ctx->descs[t] = calloc(caps[t], sizeof(cv_resource_desc));
-            if (!ctx->descs[t])
-                r = cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: %u descriptions", caps[t]);
-        }
-    }
-    if (r == CV_OK) {
-        ctx->lists = calloc(caps[CV_HANDLE_CMDLIST], sizeof(cv_command_list));
-        if (!ctx->lists)
-            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: command lists");
+        size_t data = t == CV_HANDLE_CMDLIST ? sizeof(cv_command_list) : sizeof(cv_resource_desc);
+        r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, ctx->tag,
+                                sizes[t].asked ? sizes[t].asked : sizes[t].fallback, data);
     }
     if (r != CV_OK) {
         cv_context_destroy(ctx);
@@ -116,16 +121,11 @@ void cv_context_destroy(cv_context *ctx) {
             break;
         cv_device_destroy(dev);
     }
-    if (ctx->lists) {
-        for (uint32_t i = 0; i < ctx->pools[CV_HANDLE_CMDLIST].capacity; i++)
-            cv_command_list_finish(&ctx->lists[i]);
-        free(ctx->lists);
-    }
-    for (int t = 0; t < CV_HANDLE_TYPE_COUNT; t++) {
-        free(ctx->descs[t]);
+    for (uint32_t i = 0; i < ctx->pools[CV_HANDLE_CMDLIST].used; i++)
+        cv_command_list_finish(list_of(ctx, i));
+    for (int t = 0; t < CV_HANDLE_TYPE_COUNT; t++)
         if (ctx->pools[t].capacity)
             cv_handle_pool_finish(&ctx->pools[t]);
-    }
     free(ctx->devices);
     pthread_mutex_destroy(&ctx->lock);
     tag_release(ctx->tag);
@@ -138,7 +138,7 @@ static cv_result create_described(cv_context *ctx, const cv_resource_desc *desc,
     uint64_t id;
     cv_result r = cv_handle_pool_alloc(&ctx->pools[desc->type], &id);
     if (r == CV_OK) {
-        ctx->descs[desc->type][cv_handle_index(id)] = *desc;
+        *desc_of(ctx, desc->type, cv_handle_index(id)) = *desc;
         *out = id;
     }
     pthread_mutex_unlock(&ctx->lock);
@@ -231,7 +231,7 @@ cv_result cv_cmdlist_create(cv_context *ctx, cv_cmdlist *out) {
     uint64_t id;
     cv_result r = cv_handle_pool_alloc(&ctx->pools[CV_HANDLE_CMDLIST], &id);
     if (r == CV_OK) {
-        cv_command_list *list = &ctx->lists[cv_handle_index(id)];
+        cv_command_list *list = list_of(ctx, cv_handle_index(id));
         uint32_t version = list->version;
         cv_command_list_finish(list);
         cv_command_list_init(list);
@@ -270,7 +270,7 @@ cv_result cv_context_describe(cv_context *ctx, cv_handle h, cv_resource_desc *ou
         r = cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "a %s handle has no resource description",
                      cv_handle_type_name(cv_handle_type_of(h.id)));
     if (r == CV_OK)
-        *out = ctx->descs[cv_handle_type_of(h.id)][cv_handle_index(h.id)];
+        *out = *desc_of(ctx, cv_handle_type_of(h.id), cv_handle_index(h.id));
     pthread_mutex_unlock(&ctx->lock);
     return r;
 }
@@ -296,7 +296,7 @@ cv_result cv_destroy(cv_context *ctx, cv_handle h) {
     cv_handle_type t = cv_handle_type_of(h.id);
     cv_handle_pool_free(&ctx->pools[t], h.id);
     if (t == CV_HANDLE_CMDLIST)
-        ctx->lists[cv_handle_index(h.id)].ended_ok = false;
+        list_of(ctx, cv_handle_index(h.id))->ended_ok = false;
     uint32_t n = ctx->device_count;
     cv_device **devices = n ? malloc(n * sizeof(*devices)) : NULL;
     if (devices)
@@ -314,7 +314,7 @@ cv_result cv_cmdlist_begin(cv_context *ctx, cv_cmdlist h, cv_command_list **out)
     pthread_mutex_lock(&ctx->lock);
     cv_result r = cv_handle_pool_check(&ctx->pools[CV_HANDLE_CMDLIST], h.id);
     if (r == CV_OK) {
-        cv_command_list *list = &ctx->lists[cv_handle_index(h.id)];
+        cv_command_list *list = list_of(ctx, cv_handle_index(h.id));
         cv_command_list_begin(list);
         *out = list;
     }
@@ -328,7 +328,7 @@ cv_result cv_cmdlist_get(cv_context *ctx, cv_cmdlist h, cv_command_list **out) {
     pthread_mutex_lock(&ctx->lock);
     cv_result r = cv_handle_pool_check(&ctx->pools[CV_HANDLE_CMDLIST], h.id);
     if (r == CV_OK)
-        *out = &ctx->lists[cv_handle_index(h.id)];
+        *out = list_of(ctx, cv_handle_index(h.id));
     pthread_mutex_unlock(&ctx->lock);
     return r;
 }
@@ -337,7 +337,7 @@ cv_result cv_context_executable_list(cv_context *ctx, uint64_t id, cv_command_li
     pthread_mutex_lock(&ctx->lock);
     cv_result r = cv_handle_pool_check(&ctx->pools[CV_HANDLE_CMDLIST], id);
     if (r == CV_OK) {
-        cv_command_list *list = &ctx->lists[cv_handle_index(id)];
+        cv_command_list *list = list_of(ctx, cv_handle_index(id));
         if (list->recording)
             r = cv_error(CV_ERROR_BAD_STATE, "command list 0x%016llx is still recording", (unsigned long long)id);
         else if (!list->ended_ok)

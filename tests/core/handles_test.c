@@ -1,6 +1,8 @@
 /* Handle pools and context handles: packing, generation bumps, exhaustion,
- * stale use, double destroy, wrong types, generation wrap-around. */
+ * stale use, double destroy, wrong types, generation wrap-around, pool limits. */
 #include <string.h>
+#include <sys/resource.h>
+#include <time.h>
 
 #include "check.h"
 #include "corvid/context.h"
@@ -20,7 +22,7 @@ static void test_packing(void) {
 
 static void test_pool_generations(void) {
     cv_handle_pool pool;
-    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_BUFFER, 7, 4));
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_BUFFER, 7, 4, 0));
     uint64_t a, b;
     CHECK_OK(cv_handle_pool_alloc(&pool, &a));
     CHECK(a != 0);
@@ -44,7 +46,7 @@ static void test_pool_generations(void) {
 
 static void test_pool_exhaustion_and_bad_ids(void) {
     cv_handle_pool pool;
-    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_SAMPLER, 7, 3));
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_SAMPLER, 7, 3, 0));
     uint64_t ids[3], extra = 0;
     for (int i = 0; i < 3; i++)
         CHECK_OK(cv_handle_pool_alloc(&pool, &ids[i]));
@@ -63,16 +65,19 @@ static void test_pool_exhaustion_and_bad_ids(void) {
     CHECK(strstr(cv_last_error(), "no context tag") != NULL);
     CHECK_RESULT(cv_handle_pool_check(&pool, ids[0] ^ (1ull << 48)), CV_ERROR_FOREIGN_HANDLE);
     CHECK(strstr(cv_last_error(), "belongs to another context") != NULL);
-    CHECK_RESULT(cv_handle_pool_init(&(cv_handle_pool){ 0 }, CV_HANDLE_NONE, 7, 4), CV_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(cv_handle_pool_init(&(cv_handle_pool){ 0 }, CV_HANDLE_BUFFER, 0, 4), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_handle_pool_init(&(cv_handle_pool){ 0 }, CV_HANDLE_NONE, 7, 4, 0), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_handle_pool_init(&(cv_handle_pool){ 0 }, CV_HANDLE_BUFFER, 0, 4, 0), CV_ERROR_INVALID_ARGUMENT);
     cv_handle_pool_finish(&pool);
 }
 
 static void test_generation_wraps_past_zero(void) {
     cv_handle_pool pool;
-    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_TEXTURE, 7, 1));
-    pool.generation[0] = CV_HANDLE_GENERATION_MAX;
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_TEXTURE, 7, 1, 0));
     uint64_t id;
+    CHECK_OK(cv_handle_pool_alloc(&pool, &id));
+    CHECK_RESULT(cv_handle_pool_set_generation_for_test(&pool, 0, CV_HANDLE_GENERATION_MAX), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_OK(cv_handle_pool_free(&pool, id));
+    CHECK_OK(cv_handle_pool_set_generation_for_test(&pool, 0, CV_HANDLE_GENERATION_MAX));
     CHECK_OK(cv_handle_pool_alloc(&pool, &id));
     CHECK_EQ_INT(cv_handle_generation(id), CV_HANDLE_GENERATION_MAX);
     CHECK_OK(cv_handle_pool_free(&pool, id));
@@ -138,6 +143,58 @@ static void test_context_handles(void) {
     cv_context_destroy(ctx);
 }
 
+/* Pool sizes are capped, and a pool costs memory only as handles are created:
+ * a context that may hold 16M of every type is cheap until used. */
+static void test_pool_limits(void) {
+    cv_context *ctx = NULL;
+    CHECK_RESULT(cv_context_create(&(cv_context_desc){ .max_buffers = UINT32_MAX }, &ctx), CV_ERROR_LIMIT_EXCEEDED);
+    CHECK(ctx == NULL);
+    CHECK(strstr(cv_last_error(), "max_buffers") != NULL);
+    CHECK(strstr(cv_last_error(), "16777216") != NULL);
+    CHECK_RESULT(cv_context_create(&(cv_context_desc){ .max_samplers = CV_MAX_POOL_HANDLES + 1 }, &ctx),
+                 CV_ERROR_LIMIT_EXCEEDED);
+    CHECK(strstr(cv_last_error(), "max_samplers") != NULL);
+    CHECK(ctx == NULL);
+
+    const cv_context_desc most = { CV_MAX_POOL_HANDLES, CV_MAX_POOL_HANDLES, CV_MAX_POOL_HANDLES,
+                                   CV_MAX_POOL_HANDLES, CV_MAX_POOL_HANDLES, CV_MAX_POOL_HANDLES };
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    int created = 0;
+    for (int i = 0; i < 2000; i++) {
+        if (cv_context_create(&most, &ctx) != CV_OK)
+            break;
+        cv_buffer b;
+        if (cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 4 }, &b) == CV_OK)
+            created++;
+        cv_context_destroy(ctx);
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    CHECK_EQ_INT(created, 2000);
+    struct rusage usage;
+    getrusage(RUSAGE_SELF, &usage);
+    printf("2000 contexts of %u handles per type: %.3f s, peak RSS %ld MiB\n", CV_MAX_POOL_HANDLES,
+           (double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9, usage.ru_maxrss / 1024);
+    CHECK(usage.ru_maxrss < 512 * 1024);   /* KiB: a fully backed pool of 16M slots alone would pass this */
+
+    /* Growing past the first chunks keeps every handle and description intact. */
+    CHECK_OK(cv_context_create(&(cv_context_desc){ .max_buffers = 5000 }, &ctx));
+    static cv_buffer many[5000];
+    for (uint32_t i = 0; i < 5000; i++)
+        CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = i + 1 }, &many[i]));
+    cv_buffer extra;
+    CHECK_RESULT(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 1 }, &extra), CV_ERROR_OUT_OF_HANDLES);
+    int described = 0;
+    for (uint32_t i = 0; i < 5000; i++) {
+        cv_resource_desc d;
+        described += cv_context_describe(ctx, cv_any(many[i]), &d) == CV_OK && d.buffer.size == i + 1 &&
+                     cv_handle_index(many[i].id) == i;
+    }
+    CHECK_EQ_INT(described, 5000);
+    CHECK_EQ_INT(cv_context_live_count(ctx, CV_HANDLE_BUFFER), 5000);
+    cv_context_destroy(ctx);
+}
+
 static void test_result_table(void) {
     CHECK(strcmp(cv_result_name(CV_ERROR_STALE_HANDLE), "CV_ERROR_STALE_HANDLE") == 0);
     CHECK(strcmp(cv_result_name((cv_result)12345), "CV_RESULT_UNKNOWN") == 0);
@@ -152,6 +209,7 @@ int main(void) {
     test_pool_exhaustion_and_bad_ids();
     test_generation_wraps_past_zero();
     test_context_handles();
+    test_pool_limits();
     test_result_table();
     return check_report("handles");
 }

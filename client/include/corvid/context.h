@@ -23,8 +23,14 @@ typedef struct cv_context cv_context;
  * every handle carries (handle.h), and the tag has 8 bits (0 is no tag). */
 #define CV_MAX_CONTEXTS 255u
 
+/* The most handles of one type a context may hold: the 24 index bits of a
+ * handle (handle.h). A pool takes memory only as its handles are created, so a
+ * context may ask for the maximum at no cost up front. */
+#define CV_MAX_POOL_HANDLES (1u << 24)
+
 typedef struct cv_context_desc {
-    /* Pool sizes per resource type; 0 = default (buffers and textures 65536, others 4096). */
+    /* The most handles of each type; 0 = default (buffers and textures 65536, others 4096).
+     * Above CV_MAX_POOL_HANDLES, cv_context_create fails with CV_ERROR_LIMIT_EXCEEDED. */
     uint32_t max_buffers, max_textures, max_samplers, max_pipelines, max_cmdlists, max_accels;
 } cv_context_desc;
 
