@@ -5,9 +5,11 @@
 #include <string.h>
 
 /* What the pool keeps per slot, ahead of the caller's data. */
+typedef enum slot_state { SLOT_FREE = 0, SLOT_LIVE, SLOT_RETIRED } slot_state;
+
 typedef struct slot {
     uint32_t generation;    /* 1..CV_HANDLE_GENERATION_MAX, never 0 */
-    uint32_t in_use;
+    uint32_t state;         /* slot_state */
 } slot;
 
 /* The caller's data starts this far into a slot, aligned for any type. */
@@ -88,11 +90,11 @@ cv_result cv_handle_pool_alloc(cv_handle_pool *pool, uint64_t *out_id) {
             return r;
         index = pool->used++;
     } else {
-        return cv_error(CV_ERROR_OUT_OF_HANDLES, "all %u %s handles are in use", pool->capacity,
-                        cv_handle_type_name(pool->type));
+        return cv_error(CV_ERROR_OUT_OF_HANDLES, "all %u %s handles are in use (%u retired: their generations are "
+                        "used up)", pool->capacity, cv_handle_type_name(pool->type), pool->retired);
     }
     slot *s = slot_at(pool, index);
-    s->in_use = 1;
+    s->state = SLOT_LIVE;
     pool->live++;
     *out_id = cv_handle_pack(pool->type, pool->tag, s->generation, index);
     return CV_OK;
@@ -117,11 +119,11 @@ cv_result cv_handle_pool_check(const cv_handle_pool *pool, uint64_t id) {
         return cv_error(CV_ERROR_INVALID_HANDLE, "%s handle 0x%016llx: slot %u is out of range (%u slots)",
                         cv_handle_type_name(pool->type), (unsigned long long)id, index, pool->capacity);
     uint32_t generation = cv_handle_pool_slot_generation(pool, index);
-    bool in_use = index < pool->used && slot_at(pool, index)->in_use;
-    if (!in_use || generation != cv_handle_generation(id))
+    slot_state state = index < pool->used ? (slot_state)slot_at(pool, index)->state : SLOT_FREE;
+    if (state != SLOT_LIVE || generation != cv_handle_generation(id))
         return cv_error(CV_ERROR_STALE_HANDLE, "%s handle 0x%016llx is stale (slot %u is at generation %u%s)",
                         cv_handle_type_name(pool->type), (unsigned long long)id, index, generation,
-                        in_use ? "" : ", free");
+                        state == SLOT_LIVE ? "" : state == SLOT_FREE ? ", free" : ", retired: generations used up");
     return CV_OK;
 }
 
@@ -131,11 +133,16 @@ cv_result cv_handle_pool_free(cv_handle_pool *pool, uint64_t id) {
         return r;
     uint32_t index = cv_handle_index(id);
     slot *s = slot_at(pool, index);
-    s->in_use = 0;
-    uint32_t next = (s->generation + 1) & CV_HANDLE_GENERATION_MAX;
-    s->generation = next ? next : 1;
-    pool->free_slots[pool->free_count++] = index;
     pool->live--;
+    if (s->generation == CV_HANDLE_GENERATION_MAX) {
+        /* The next generation would wrap to 1 and revive every old handle of this slot. */
+        s->state = SLOT_RETIRED;
+        pool->retired++;
+        return CV_OK;
+    }
+    s->state = SLOT_FREE;
+    s->generation++;
+    pool->free_slots[pool->free_count++] = index;
     return CV_OK;
 }
 
@@ -150,7 +157,7 @@ uint32_t cv_handle_pool_slot_generation(const cv_handle_pool *pool, uint32_t ind
 }
 
 cv_result cv_handle_pool_set_generation_for_test(cv_handle_pool *pool, uint32_t index, uint32_t generation) {
-    if (index >= pool->used || slot_at(pool, index)->in_use || generation == 0 ||
+    if (index >= pool->used || slot_at(pool, index)->state != SLOT_FREE || generation == 0 ||
         generation > CV_HANDLE_GENERATION_MAX)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s handle pool: cannot set slot %u to generation %u",
                         cv_handle_type_name(pool->type), index, generation);

@@ -1,5 +1,5 @@
 /* Handle pools and context handles: packing, generation bumps, exhaustion,
- * stale use, double destroy, wrong types, generation wrap-around, pool limits. */
+ * stale use, double destroy, wrong types, retired slots, pool limits. */
 #include <string.h>
 #include <sys/resource.h>
 #include <time.h>
@@ -70,18 +70,36 @@ static void test_pool_exhaustion_and_bad_ids(void) {
     cv_handle_pool_finish(&pool);
 }
 
-static void test_generation_wraps_past_zero(void) {
+/* A slot whose generation is used up is retired, never reused: wrapping to 1
+ * would make the handles of its first generations valid again. */
+static void test_exhausted_slot_is_retired(void) {
     cv_handle_pool pool;
-    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_TEXTURE, 7, 1, 0));
-    uint64_t id;
-    CHECK_OK(cv_handle_pool_alloc(&pool, &id));
-    CHECK_RESULT(cv_handle_pool_set_generation_for_test(&pool, 0, CV_HANDLE_GENERATION_MAX), CV_ERROR_INVALID_ARGUMENT);
-    CHECK_OK(cv_handle_pool_free(&pool, id));
+    CHECK_OK(cv_handle_pool_init(&pool, CV_HANDLE_TEXTURE, 7, 2, 0));
+    uint64_t first, last, other, none = 0;
+    CHECK_OK(cv_handle_pool_alloc(&pool, &first));
+    CHECK_RESULT(cv_handle_pool_set_generation_for_test(&pool, 0, CV_HANDLE_GENERATION_MAX),
+                 CV_ERROR_INVALID_ARGUMENT);   /* live */
+    CHECK_OK(cv_handle_pool_free(&pool, first));
     CHECK_OK(cv_handle_pool_set_generation_for_test(&pool, 0, CV_HANDLE_GENERATION_MAX));
-    CHECK_OK(cv_handle_pool_alloc(&pool, &id));
-    CHECK_EQ_INT(cv_handle_generation(id), CV_HANDLE_GENERATION_MAX);
-    CHECK_OK(cv_handle_pool_free(&pool, id));
-    CHECK_EQ_INT(cv_handle_pool_slot_generation(&pool, 0), 1);   /* skips 0: 0 is never a valid generation */
+    CHECK_OK(cv_handle_pool_alloc(&pool, &last));
+    CHECK_EQ_INT(cv_handle_index(last), 0);
+    CHECK_EQ_INT(cv_handle_generation(last), CV_HANDLE_GENERATION_MAX);
+    CHECK_OK(cv_handle_pool_free(&pool, last));
+    CHECK_RESULT(cv_handle_pool_check(&pool, last), CV_ERROR_STALE_HANDLE);
+    CHECK(strstr(cv_last_error(), "retired") != NULL);
+    CHECK_RESULT(cv_handle_pool_free(&pool, last), CV_ERROR_STALE_HANDLE);
+    CHECK_RESULT(cv_handle_pool_set_generation_for_test(&pool, 0, 1), CV_ERROR_INVALID_ARGUMENT);
+    /* The next handle comes from another slot, and slot 0 is never handed out again. */
+    CHECK_OK(cv_handle_pool_alloc(&pool, &other));
+    CHECK_EQ_INT(cv_handle_index(other), 1);
+    CHECK_RESULT(cv_handle_pool_alloc(&pool, &none), CV_ERROR_OUT_OF_HANDLES);
+    CHECK(strstr(cv_last_error(), "1 retired") != NULL);
+    CHECK(none == 0);
+    CHECK_RESULT(cv_handle_pool_check(&pool, first), CV_ERROR_STALE_HANDLE);
+    CHECK_OK(cv_handle_pool_free(&pool, other));
+    CHECK_OK(cv_handle_pool_alloc(&pool, &other));
+    CHECK_EQ_INT(cv_handle_index(other), 1);
+    CHECK_EQ_INT(pool.live, 1);
     cv_handle_pool_finish(&pool);
 }
 
@@ -207,7 +225,7 @@ int main(void) {
     test_packing();
     test_pool_generations();
     test_pool_exhaustion_and_bad_ids();
-    test_generation_wraps_past_zero();
+    test_exhausted_slot_is_retired();
     test_context_handles();
     test_pool_limits();
     test_result_table();

@@ -23,6 +23,10 @@
  * apart). Devices belong to one context too, and a device's table holds only
  * its context's handles, so cv_device_lookup() never finds a foreign one.
  *
+ * A slot whose generation reaches 2^24-1 is retired when that handle is
+ * destroyed, never reused: a wrapped generation would make an old handle valid
+ * again. A context therefore loses one slot per 2^24-1 destroys of that slot.
+ *
  * One handle, many representations: every cv_device keeps its own object for a
  * handle, loaded and unloaded independently (see device.h).
  *

@@ -4,7 +4,10 @@
  * its own tables by the same slot index. Not thread-safe: callers hold their
  * own lock. Slots are handed out lowest index first, then reused
  * last-freed-first; each free bumps the slot's generation, so an old handle to
- * a reused slot is reported stale.
+ * a reused slot is reported stale. A slot freed at generation
+ * CV_HANDLE_GENERATION_MAX is retired for good instead: wrapping its generation
+ * would make its oldest handles valid again. A pool thus loses one slot per
+ * 2^24-1 reuses of that slot, and `retired` says how many it has lost.
  *
  * Each slot carries `data_size` bytes for the caller (the context keeps a
  * resource's description or a command list there). Memory grows with use: a
@@ -29,6 +32,7 @@ typedef struct cv_handle_pool {
     uint32_t capacity;      /* the most slots it may hold */
     uint32_t live;          /* allocated and not yet freed */
     uint32_t used;          /* slots [0, used) have been handed out at least once */
+    uint32_t retired;       /* slots whose generations are used up, never handed out again */
     size_t data_size;       /* caller's bytes per slot */
     size_t stride;          /* bytes per slot in a chunk */
     unsigned char *chunks[CV_HANDLE_POOL_CHUNKS];
@@ -42,11 +46,12 @@ cv_result cv_handle_pool_init(cv_handle_pool *pool, cv_handle_type type, uint32_
 void cv_handle_pool_finish(cv_handle_pool *pool);
 
 /* Allocates a slot; *out_id gets the packed handle. CV_ERROR_OUT_OF_HANDLES
- * when all `capacity` slots are in use, CV_ERROR_OUT_OF_MEMORY if a new chunk
+ * when all `capacity` slots are in use or retired, CV_ERROR_OUT_OF_MEMORY if a new chunk
  * cannot be had (the pool is then unchanged). A fresh slot's data is zeroed; a
  * reused slot's data is as its last user left it. */
 cv_result cv_handle_pool_alloc(cv_handle_pool *pool, uint64_t *out_id);
-/* Frees a live handle. Stale or double frees fail and change nothing. */
+/* Frees a live handle (retiring its slot at the last generation). Stale or
+ * double frees fail and change nothing. */
 cv_result cv_handle_pool_free(cv_handle_pool *pool, uint64_t id);
 /* CV_OK if `id` is a live handle of this pool; otherwise INVALID_HANDLE (0, no
  * context tag, index out of range), WRONG_HANDLE_TYPE, FOREIGN_HANDLE (another
