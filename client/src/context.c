@@ -5,6 +5,7 @@
 #include "corvid/handle_pool.h"
 
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -54,6 +55,11 @@ static void tag_release(uint32_t tag) {
     pthread_mutex_unlock(&tags_lock);
 }
 
+/* Contexts alive in the process. It exists for leak checks (cv_live_contexts,
+ * CHECK_NOTHING_LIVE in the tests), and is atomic because contexts come and go
+ * on any thread. */
+static atomic_uint live_contexts;
+
 static bool is_described(cv_handle_type t) {
     return t == CV_HANDLE_BUFFER || t == CV_HANDLE_TEXTURE || t == CV_HANDLE_SAMPLER ||
            t == CV_HANDLE_PIPELINE || t == CV_HANDLE_ACCEL;
@@ -101,6 +107,7 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
         r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, ctx->tag,
                                 sizes[t].asked ? sizes[t].asked : sizes[t].fallback, data);
     }
+    atomic_fetch_add(&live_contexts, 1);
     if (r != CV_OK) {
         cv_context_destroy(ctx);
         return r;
@@ -130,6 +137,7 @@ void cv_context_destroy(cv_context *ctx) {
     pthread_mutex_destroy(&ctx->lock);
     tag_release(ctx->tag);
     free(ctx);
+    atomic_fetch_sub(&live_contexts, 1);
 }
 
 /* Allocates a handle of `type` and stores its description under the lock. */
@@ -379,3 +387,5 @@ void cv_context_detach_device(cv_context *ctx, cv_device *dev) {
     }
     pthread_mutex_unlock(&ctx->lock);
 }
+
+uint32_t cv_live_contexts(void) { return atomic_load(&live_contexts); }

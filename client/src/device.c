@@ -3,11 +3,19 @@
  * and deferred release. Backends only create objects and run commands. */
 #include "device_internal.h"
 
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "context_internal.h"
+
+/* Devices alive in the process. It exists for leak checks (cv_live_devices,
+ * CHECK_NOTHING_LIVE in the tests), and is atomic because devices come and go
+ * on any thread. */
+static atomic_uint live_devices;
+
+uint32_t cv_live_devices(void) { return atomic_load(&live_devices); }
 
 static cv_device_resource *slot_of(const cv_device *dev, uint64_t id) {
     cv_handle_type t = cv_handle_type_of(id);
@@ -121,6 +129,7 @@ cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_
         free(dev);
         return r;
     }
+    atomic_fetch_add(&live_devices, 1);
     *out = dev;
     return CV_OK;
 }
@@ -149,6 +158,7 @@ void cv_device_destroy(cv_device *dev) {
     pthread_mutex_unlock(&dev->lock);
     pthread_mutex_destroy(&dev->lock);
     free(dev);
+    atomic_fetch_sub(&live_devices, 1);
 }
 
 /* ---- load / unload ------------------------------------------------------- */

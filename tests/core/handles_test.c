@@ -6,6 +6,7 @@
 
 #include "check.h"
 #include "corvid/context.h"
+#include "corvid/device.h"
 #include "corvid/handle_pool.h"
 
 static void test_packing(void) {
@@ -159,6 +160,7 @@ static void test_context_handles(void) {
     CHECK_OK(cv_buffer_destroy(ctx, c));
     CHECK_EQ_INT(cv_context_live_count(ctx, CV_HANDLE_BUFFER), 0);
     cv_context_destroy(ctx);
+    CHECK_NOTHING_LIVE();
 }
 
 /* Pool sizes are capped, and a pool costs memory only as handles are created:
@@ -211,6 +213,32 @@ static void test_pool_limits(void) {
     CHECK_EQ_INT(described, 5000);
     CHECK_EQ_INT(cv_context_live_count(ctx, CV_HANDLE_BUFFER), 5000);
     cv_context_destroy(ctx);
+    CHECK_NOTHING_LIVE();
+}
+
+/* The process-wide counts behind CHECK_NOTHING_LIVE follow creates and destroys. */
+static void test_live_counts(void) {
+    CHECK_NOTHING_LIVE();
+    cv_context *ctx = NULL, *other = NULL;
+    CHECK_RESULT(cv_context_create(&(cv_context_desc){ .max_buffers = UINT32_MAX }, &ctx), CV_ERROR_LIMIT_EXCEEDED);
+    CHECK_EQ_INT(cv_live_contexts(), 0);
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    CHECK_OK(cv_context_create(NULL, &other));
+    CHECK_EQ_INT(cv_live_contexts(), 2);
+    cv_device *a = NULL, *b = NULL;
+    CHECK_OK(cv_device_create(ctx, cv_mock_backend(), NULL, &a));
+    CHECK_OK(cv_device_create(ctx, cv_mock_backend(), NULL, &b));
+    CHECK_EQ_INT(cv_live_devices(), 2);
+    CHECK_RESULT(cv_device_create(ctx, cv_mock_backend(), &(cv_device_desc){ .adapter = "no-such-adapter" }, &a),
+                 CV_ERROR_NOT_FOUND);
+    CHECK_EQ_INT(cv_live_devices(), 2);
+    cv_device_destroy(a);
+    CHECK_EQ_INT(cv_live_devices(), 1);
+    cv_context_destroy(ctx);   /* takes b with it */
+    CHECK_EQ_INT(cv_live_devices(), 0);
+    CHECK_EQ_INT(cv_live_contexts(), 1);
+    cv_context_destroy(other);
+    CHECK_NOTHING_LIVE();
 }
 
 static void test_result_table(void) {
@@ -228,6 +256,8 @@ int main(void) {
     test_exhausted_slot_is_retired();
     test_context_handles();
     test_pool_limits();
+    test_live_counts();
     test_result_table();
+    CHECK_NOTHING_LIVE();
     return check_report("handles");
 }

@@ -84,6 +84,7 @@ static void test_foreign_handles_are_rejected(void) {
     CHECK_OK(cv_context_check(a.ctx, cv_any(a.buf)));
     cv_context_destroy(a.ctx);
     cv_context_destroy(b.ctx);
+    CHECK_NOTHING_LIVE();
 }
 
 /* Contexts alive at the same time never share a tag. */
@@ -104,10 +105,12 @@ static void test_live_contexts_have_distinct_tags(void) {
             CHECK_RESULT(cv_context_check(ctx[i], (cv_handle){ ids[j] }), i == j ? CV_OK : CV_ERROR_FOREIGN_HANDLE);
     for (int i = 0; i < N; i++)
         cv_context_destroy(ctx[i]);
+    CHECK_NOTHING_LIVE();
 }
 
 int main(void) {
     test_foreign_handles_are_rejected();
     test_live_contexts_have_distinct_tags();
+    CHECK_NOTHING_LIVE();
     return check_report("isolation");
 }

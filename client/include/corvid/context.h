@@ -75,6 +75,12 @@ cv_result cv_context_describe(cv_context *ctx, cv_handle h, cv_resource_desc *ou
 /* Number of live handles of a type (for leak checks). */
 uint32_t cv_context_live_count(cv_context *ctx, cv_handle_type type);
 
+/* Contexts and devices alive in this process, for leak checks: a test that
+ * ends with both at zero destroyed everything it created (a context's handles
+ * and loaded representations go with it). */
+uint32_t cv_live_contexts(void);
+uint32_t cv_live_devices(void);
+
 /* Starts (re)recording a command list. The returned recorder belongs to the
  * calling thread until cv_command_list_end(); record with the cv_cmd_* calls. */
 cv_result cv_cmdlist_begin(cv_context *ctx, cv_cmdlist h, cv_command_list **out);
