@@ -305,7 +305,10 @@ static cv_result buffer_access(cv_device *dev, cv_buffer b, uint64_t offset, uin
     pthread_mutex_lock(&dev->lock);
     cv_device_resource *s;
     cv_result r = cv_device_require(dev, b.id, CV_HANDLE_BUFFER, src ? "buffer write" : "buffer read", &s);
-    if (r == CV_OK && (size == 0 || offset > s->desc.buffer.size || size > s->desc.buffer.size - offset))
+    if (r == CV_OK && size == 0)
+        r = cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer '%s': %s of 0 bytes at offset %llu: size is 0",
+                     s->desc.buffer.label, src ? "write" : "read", (unsigned long long)offset);
+    if (r == CV_OK && (offset > s->desc.buffer.size || size > s->desc.buffer.size - offset))
         r = cv_error(CV_ERROR_OUT_OF_RANGE, "buffer '%s' (%llu bytes): %s of %llu bytes at offset %llu is out of range",
                      s->desc.buffer.label, (unsigned long long)s->desc.buffer.size, src ? "write" : "read",
                      (unsigned long long)size, (unsigned long long)offset);
@@ -334,8 +337,11 @@ static cv_result texture_access(cv_device *dev, cv_texture t, cv_rect rect, cons
     cv_result r = cv_device_require(dev, t.id, CV_HANDLE_TEXTURE, src ? "texture write" : "texture read", &s);
     if (r == CV_OK) {
         const cv_texture_desc *d = &s->desc.texture;
-        if (rect.width == 0 || rect.height == 0 || rect.x > d->width || rect.width > d->width - rect.x ||
-            rect.y > d->height || rect.height > d->height - rect.y)
+        if (rect.width == 0 || rect.height == 0)
+            r = cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': %s of an empty %ux%u region at (%u,%u)",
+                         d->label, src ? "write" : "read", rect.width, rect.height, rect.x, rect.y);
+        else if (rect.x > d->width || rect.width > d->width - rect.x || rect.y > d->height ||
+                 rect.height > d->height - rect.y)
             r = cv_error(CV_ERROR_OUT_OF_RANGE, "texture '%s' (%ux%u): %s of %ux%u at (%u,%u) is out of range",
                          d->label, d->width, d->height, src ? "write" : "read", rect.width, rect.height, rect.x,
                          rect.y);

@@ -27,7 +27,7 @@ typedef struct validator {
 
 __attribute__((format(printf, 3, 4)))
 static cv_result fail(const validator *v, cv_result code, const char *fmt, ...) {
-    char detail[320];
+    char detail[CV_ERROR_MESSAGE_MAX];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(detail, sizeof(detail), fmt, ap);
@@ -43,11 +43,8 @@ static cv_result need(const validator *v, uint64_t id, cv_handle_type type, cons
     cv_device_resource *s = NULL;
     cv_result code = cv_device_require(v->dev, id, type, field, &s);
     *out = code == CV_OK ? s : NULL;
-    if (code != CV_OK) {
-        char why[400];
-        snprintf(why, sizeof(why), "%s", cv_last_error());
-        return fail(v, code, "%s", why);
-    }
+    if (code != CV_OK)
+        return fail(v, code, "%s", cv_last_error());   /* fail() formats into its own buffer first */
     return CV_OK;
 }
 

@@ -247,6 +247,21 @@ static void test_result_table(void) {
     CHECK(strlen(cv_result_string(CV_ERROR_OUT_OF_RANGE)) > 5);
     CHECK_RESULT(cv_error(CV_ERROR_IO, "file %s: %d", "x.exr", 7), CV_ERROR_IO);
     CHECK(strcmp(cv_last_error(), "file x.exr: 7") == 0);
+
+    /* Long messages survive whole (the buffer used to cut them at 511 bytes), also
+     * when a message quotes the previous one. */
+    static char name[3000];
+    memset(name, 'n', sizeof(name) - 1);
+    CHECK_RESULT(cv_error(CV_ERROR_IO, "file %.500s: %d", name, 7), CV_ERROR_IO);
+    CHECK_EQ_INT(strlen(cv_last_error()), 5 + 500 + 3);
+    CHECK(strcmp(cv_last_error() + 505, ": 7") == 0);
+    CHECK_RESULT(cv_error(CV_ERROR_IO, "reading scene: %s", cv_last_error()), CV_ERROR_IO);
+    CHECK_EQ_INT(strlen(cv_last_error()), 15 + 508);
+    CHECK(strcmp(cv_last_error() + 15 + 505, ": 7") == 0);
+    CHECK_RESULT(cv_error(CV_ERROR_IO, "%s|%s", name, name), CV_ERROR_IO);   /* over the limit: cut, terminated */
+    CHECK_EQ_INT(strlen(cv_last_error()), CV_ERROR_MESSAGE_MAX - 1);
+    cv_clear_error();
+    CHECK(strcmp(cv_last_error(), "") == 0);
 }
 
 int main(void) {

@@ -52,6 +52,9 @@ const char *cv_result_name(cv_result r);
 /* "stale handle (its resource was destroyed)". */
 const char *cv_result_string(cv_result r);
 
+/* The longest message kept, terminating NUL included; longer ones are cut. */
+#define CV_ERROR_MESSAGE_MAX 4096
+
 /* The detailed message of the last failure on this thread ("" if none). */
 const char *cv_last_error(void);
 void cv_clear_error(void);
