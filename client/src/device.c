@@ -26,6 +26,8 @@ static cv_device_resource *slot_of(const cv_device *dev, uint64_t id) {
     return index < tab->capacity ? &tab->slots[index] : NULL;
 }
 
+/* Compares the whole id, context tag included: a device's table holds only its
+ * context's handles, so another context's handle to the same slot never matches. */
 const cv_device_resource *cv_device_lookup(const cv_device *dev, uint64_t id) {
     const cv_device_resource *s = id ? slot_of(dev, id) : NULL;
     return s && s->id == id ? s : NULL;
