@@ -107,7 +107,7 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
         r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, ctx->tag,
                                 sizes[t].asked ? sizes[t].asked : sizes[t].fallback, data);
     }
-    atomic_fetch_add(&live_contexts, 1);
+    atomic_fetch_add(&live_contexts, 1);   /* cv_context_destroy below takes it off again */
     if (r != CV_OK) {
         cv_context_destroy(ctx);
         return r;
