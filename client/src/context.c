@@ -5,17 +5,60 @@
 #include "corvid/handle_pool.h"
 
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
 struct cv_context {
     pthread_mutex_t lock;
+    uint32_t tag;                                    /* in every handle it makes (handle.h) */
+    /* Slot data: a cv_resource_desc for described types, a cv_command_list for cmdlists. */
     cv_handle_pool pools[CV_HANDLE_TYPE_COUNT];
-    cv_resource_desc *descs[CV_HANDLE_TYPE_COUNT];   /* by slot, for described types */
-    cv_command_list *lists;                          /* by cmdlist slot */
     cv_device **devices;
     uint32_t device_count, device_capacity;
 };
+
+/* Context tags are process-wide state because their one purpose is to tell
+ * apart the contexts that live in one process (a node holds one per client
+ * session): each handle carries its context's tag and every lookup compares it.
+ * A set of the tags in use, not a bare counter, so two live contexts never
+ * share one; the cursor moves on, so a destroyed context's tag comes back as
+ * late as possible and its old handles read as foreign meanwhile. 0 is never a
+ * tag, so a handle with no tag is recognisably malformed. */
+static pthread_mutex_t tags_lock = PTHREAD_MUTEX_INITIALIZER;
+static bool tag_used[CV_HANDLE_TAG_MAX + 1];
+static uint32_t tag_cursor;
+
+static cv_result tag_acquire(uint32_t *out) {
+    pthread_mutex_lock(&tags_lock);
+    uint32_t tag = 0;
+    for (uint32_t i = 0; i < CV_HANDLE_TAG_MAX && !tag; i++) {
+        uint32_t candidate = (tag_cursor + i) % CV_HANDLE_TAG_MAX + 1;
+        if (!tag_used[candidate])
+            tag = candidate;
+    }
+    if (tag) {
+        tag_used[tag] = true;
+        tag_cursor = tag;
+    }
+    pthread_mutex_unlock(&tags_lock);
+    if (!tag)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "cv_context_create: %u contexts are alive, the most one process "
+                        "can hold (CV_MAX_CONTEXTS)", CV_MAX_CONTEXTS);
+    *out = tag;
+    return CV_OK;
+}
+
+static void tag_release(uint32_t tag) {
+    pthread_mutex_lock(&tags_lock);
+    tag_used[tag] = false;
+    pthread_mutex_unlock(&tags_lock);
+}
+
+/* Contexts alive in the process. It exists for leak checks (cv_live_contexts,
+ * CHECK_NOTHING_LIVE in the tests), and is atomic because contexts come and go
+ * on any thread. */
+static atomic_uint live_contexts;
 
 static bool is_described(cv_handle_type t) {
     return t == CV_HANDLE_BUFFER || t == CV_HANDLE_TEXTURE || t == CV_HANDLE_SAMPLER ||
@@ -24,36 +67,47 @@ static bool is_described(cv_handle_type t) {
 
 static bool valid_type(cv_handle_type t) { return t > CV_HANDLE_NONE && t < CV_HANDLE_TYPE_COUNT; }
 
+/* The context's description of slot `index` of a described type. */
+static cv_resource_desc *desc_of(cv_context *ctx, cv_handle_type type, uint32_t index) {
+    return cv_handle_pool_data(&ctx->pools[type], index);
+}
+
+/* The command list behind slot `index` of the cmdlist pool. */
+static cv_command_list *list_of(cv_context *ctx, uint32_t index) {
+    return cv_handle_pool_data(&ctx->pools[CV_HANDLE_CMDLIST], index);
+}
+
 cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
     if (!out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_context_create: out is NULL");
     cv_context_desc d = desc ? *desc : (cv_context_desc){ 0 };
-    uint32_t caps[CV_HANDLE_TYPE_COUNT] = {
-        [CV_HANDLE_BUFFER] = d.max_buffers ? d.max_buffers : 65536,
-        [CV_HANDLE_TEXTURE] = d.max_textures ? d.max_textures : 65536,
-        [CV_HANDLE_SAMPLER] = d.max_samplers ? d.max_samplers : 4096,
-        [CV_HANDLE_PIPELINE] = d.max_pipelines ? d.max_pipelines : 4096,
-        [CV_HANDLE_CMDLIST] = d.max_cmdlists ? d.max_cmdlists : 4096,
-        [CV_HANDLE_ACCEL] = d.max_accels ? d.max_accels : 4096,
+    const struct { const char *field; uint32_t asked, fallback; } sizes[CV_HANDLE_TYPE_COUNT] = {
+        [CV_HANDLE_BUFFER] = { "max_buffers", d.max_buffers, 65536 },
+        [CV_HANDLE_TEXTURE] = { "max_textures", d.max_textures, 65536 },
+        [CV_HANDLE_SAMPLER] = { "max_samplers", d.max_samplers, 4096 },
+        [CV_HANDLE_PIPELINE] = { "max_pipelines", d.max_pipelines, 4096 },
+        [CV_HANDLE_CMDLIST] = { "max_cmdlists", d.max_cmdlists, 4096 },
+        [CV_HANDLE_ACCEL] = { "max_accels", d.max_accels, 4096 },
     };
+    for (int t = CV_HANDLE_BUFFER; t < CV_HANDLE_TYPE_COUNT; t++)
+        if (sizes[t].asked > CV_MAX_POOL_HANDLES)
+            return cv_error(CV_ERROR_LIMIT_EXCEEDED, "cv_context_create: %s = %u exceeds the limit of %u "
+                            "(CV_MAX_POOL_HANDLES)", sizes[t].field, sizes[t].asked, CV_MAX_POOL_HANDLES);
     cv_context *ctx = calloc(1, sizeof(*ctx));
     if (!ctx)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: context");
+    cv_result r = tag_acquire(&ctx->tag);
+    if (r != CV_OK) {
+        free(ctx);
+        return r;
+    }
     pthread_mutex_init(&ctx->lock, NULL);
-    cv_result r = CV_OK;
     for (int t = CV_HANDLE_BUFFER; t < CV_HANDLE_TYPE_COUNT && r == CV_OK; t++) {
-        r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, caps[t]);
-        if (r == CV_OK && is_described((cv_handle_type)t)) {
-            ctx->descs[t] = calloc(caps[t], sizeof(cv_resource_desc));
-            if (!ctx->descs[t])
-                r = cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: %u descriptions", caps[t]);
-        }
+        size_t data = t == CV_HANDLE_CMDLIST ? sizeof(cv_command_list) : sizeof(cv_resource_desc);
+        r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, ctx->tag,
+                                sizes[t].asked ? sizes[t].asked : sizes[t].fallback, data);
     }
-    if (r == CV_OK) {
-        ctx->lists = calloc(caps[CV_HANDLE_CMDLIST], sizeof(cv_command_list));
-        if (!ctx->lists)
-            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: command lists");
-    }
+    atomic_fetch_add(&live_contexts, 1);   /* cv_context_destroy below takes it off again */
     if (r != CV_OK) {
         cv_context_destroy(ctx);
         return r;
@@ -74,19 +128,16 @@ void cv_context_destroy(cv_context *ctx) {
             break;
         cv_device_destroy(dev);
     }
-    if (ctx->lists) {
-        for (uint32_t i = 0; i < ctx->pools[CV_HANDLE_CMDLIST].capacity; i++)
-            cv_command_list_finish(&ctx->lists[i]);
-        free(ctx->lists);
-    }
-    for (int t = 0; t < CV_HANDLE_TYPE_COUNT; t++) {
-        free(ctx->descs[t]);
+    for (uint32_t i = 0; i < ctx->pools[CV_HANDLE_CMDLIST].used; i++)
+        cv_command_list_finish(list_of(ctx, i));
+    for (int t = 0; t < CV_HANDLE_TYPE_COUNT; t++)
         if (ctx->pools[t].capacity)
             cv_handle_pool_finish(&ctx->pools[t]);
-    }
     free(ctx->devices);
     pthread_mutex_destroy(&ctx->lock);
+    tag_release(ctx->tag);
     free(ctx);
+    atomic_fetch_sub(&live_contexts, 1);
 }
 
 /* Allocates a handle of `type` and stores its description under the lock. */
@@ -95,7 +146,7 @@ static cv_result create_described(cv_context *ctx, const cv_resource_desc *desc,
     uint64_t id;
     cv_result r = cv_handle_pool_alloc(&ctx->pools[desc->type], &id);
     if (r == CV_OK) {
-        ctx->descs[desc->type][cv_handle_index(id)] = *desc;
+        *desc_of(ctx, desc->type, cv_handle_index(id)) = *desc;
         *out = id;
     }
     pthread_mutex_unlock(&ctx->lock);
@@ -188,7 +239,7 @@ cv_result cv_cmdlist_create(cv_context *ctx, cv_cmdlist *out) {
     uint64_t id;
     cv_result r = cv_handle_pool_alloc(&ctx->pools[CV_HANDLE_CMDLIST], &id);
     if (r == CV_OK) {
-        cv_command_list *list = &ctx->lists[cv_handle_index(id)];
+        cv_command_list *list = list_of(ctx, cv_handle_index(id));
         uint32_t version = list->version;
         cv_command_list_finish(list);
         cv_command_list_init(list);
@@ -227,7 +278,7 @@ cv_result cv_context_describe(cv_context *ctx, cv_handle h, cv_resource_desc *ou
         r = cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "a %s handle has no resource description",
                      cv_handle_type_name(cv_handle_type_of(h.id)));
     if (r == CV_OK)
-        *out = ctx->descs[cv_handle_type_of(h.id)][cv_handle_index(h.id)];
+        *out = *desc_of(ctx, cv_handle_type_of(h.id), cv_handle_index(h.id));
     pthread_mutex_unlock(&ctx->lock);
     return r;
 }
@@ -253,7 +304,7 @@ cv_result cv_destroy(cv_context *ctx, cv_handle h) {
     cv_handle_type t = cv_handle_type_of(h.id);
     cv_handle_pool_free(&ctx->pools[t], h.id);
     if (t == CV_HANDLE_CMDLIST)
-        ctx->lists[cv_handle_index(h.id)].ended_ok = false;
+        list_of(ctx, cv_handle_index(h.id))->ended_ok = false;
     uint32_t n = ctx->device_count;
     cv_device **devices = n ? malloc(n * sizeof(*devices)) : NULL;
     if (devices)
@@ -271,7 +322,7 @@ cv_result cv_cmdlist_begin(cv_context *ctx, cv_cmdlist h, cv_command_list **out)
     pthread_mutex_lock(&ctx->lock);
     cv_result r = cv_handle_pool_check(&ctx->pools[CV_HANDLE_CMDLIST], h.id);
     if (r == CV_OK) {
-        cv_command_list *list = &ctx->lists[cv_handle_index(h.id)];
+        cv_command_list *list = list_of(ctx, cv_handle_index(h.id));
         cv_command_list_begin(list);
         *out = list;
     }
@@ -285,7 +336,7 @@ cv_result cv_cmdlist_get(cv_context *ctx, cv_cmdlist h, cv_command_list **out) {
     pthread_mutex_lock(&ctx->lock);
     cv_result r = cv_handle_pool_check(&ctx->pools[CV_HANDLE_CMDLIST], h.id);
     if (r == CV_OK)
-        *out = &ctx->lists[cv_handle_index(h.id)];
+        *out = list_of(ctx, cv_handle_index(h.id));
     pthread_mutex_unlock(&ctx->lock);
     return r;
 }
@@ -294,7 +345,7 @@ cv_result cv_context_executable_list(cv_context *ctx, uint64_t id, cv_command_li
     pthread_mutex_lock(&ctx->lock);
     cv_result r = cv_handle_pool_check(&ctx->pools[CV_HANDLE_CMDLIST], id);
     if (r == CV_OK) {
-        cv_command_list *list = &ctx->lists[cv_handle_index(id)];
+        cv_command_list *list = list_of(ctx, cv_handle_index(id));
         if (list->recording)
             r = cv_error(CV_ERROR_BAD_STATE, "command list 0x%016llx is still recording", (unsigned long long)id);
         else if (!list->ended_ok)
@@ -336,3 +387,5 @@ void cv_context_detach_device(cv_context *ctx, cv_device *dev) {
     }
     pthread_mutex_unlock(&ctx->lock);
 }
+
+uint32_t cv_live_contexts(void) { return atomic_load(&live_contexts); }

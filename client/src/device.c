@@ -3,11 +3,19 @@
  * and deferred release. Backends only create objects and run commands. */
 #include "device_internal.h"
 
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "context_internal.h"
+
+/* Devices alive in the process. It exists for leak checks (cv_live_devices,
+ * CHECK_NOTHING_LIVE in the tests), and is atomic because devices come and go
+ * on any thread. */
+static atomic_uint live_devices;
+
+uint32_t cv_live_devices(void) { return atomic_load(&live_devices); }
 
 static cv_device_resource *slot_of(const cv_device *dev, uint64_t id) {
     cv_handle_type t = cv_handle_type_of(id);
@@ -18,6 +26,8 @@ static cv_device_resource *slot_of(const cv_device *dev, uint64_t id) {
     return index < tab->capacity ? &tab->slots[index] : NULL;
 }
 
+/* Compares the whole id, context tag included: a device's table holds only its
+ * context's handles, so another context's handle to the same slot never matches. */
 const cv_device_resource *cv_device_lookup(const cv_device *dev, uint64_t id) {
     const cv_device_resource *s = id ? slot_of(dev, id) : NULL;
     return s && s->id == id ? s : NULL;
@@ -121,6 +131,7 @@ cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_
         free(dev);
         return r;
     }
+    atomic_fetch_add(&live_devices, 1);
     *out = dev;
     return CV_OK;
 }
@@ -149,6 +160,7 @@ void cv_device_destroy(cv_device *dev) {
     pthread_mutex_unlock(&dev->lock);
     pthread_mutex_destroy(&dev->lock);
     free(dev);
+    atomic_fetch_sub(&live_devices, 1);
 }
 
 /* ---- load / unload ------------------------------------------------------- */
@@ -297,7 +309,10 @@ static cv_result buffer_access(cv_device *dev, cv_buffer b, uint64_t offset, uin
     pthread_mutex_lock(&dev->lock);
     cv_device_resource *s;
     cv_result r = cv_device_require(dev, b.id, CV_HANDLE_BUFFER, src ? "buffer write" : "buffer read", &s);
-    if (r == CV_OK && (size == 0 || offset > s->desc.buffer.size || size > s->desc.buffer.size - offset))
+    if (r == CV_OK && size == 0)
+        r = cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer '%s': %s of 0 bytes at offset %llu: size is 0",
+                     s->desc.buffer.label, src ? "write" : "read", (unsigned long long)offset);
+    if (r == CV_OK && (offset > s->desc.buffer.size || size > s->desc.buffer.size - offset))
         r = cv_error(CV_ERROR_OUT_OF_RANGE, "buffer '%s' (%llu bytes): %s of %llu bytes at offset %llu is out of range",
                      s->desc.buffer.label, (unsigned long long)s->desc.buffer.size, src ? "write" : "read",
                      (unsigned long long)size, (unsigned long long)offset);
@@ -326,8 +341,11 @@ static cv_result texture_access(cv_device *dev, cv_texture t, cv_rect rect, cons
     cv_result r = cv_device_require(dev, t.id, CV_HANDLE_TEXTURE, src ? "texture write" : "texture read", &s);
     if (r == CV_OK) {
         const cv_texture_desc *d = &s->desc.texture;
-        if (rect.width == 0 || rect.height == 0 || rect.x > d->width || rect.width > d->width - rect.x ||
-            rect.y > d->height || rect.height > d->height - rect.y)
+        if (rect.width == 0 || rect.height == 0)
+            r = cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': %s of an empty %ux%u region at (%u,%u)",
+                         d->label, src ? "write" : "read", rect.width, rect.height, rect.x, rect.y);
+        else if (rect.x > d->width || rect.width > d->width - rect.x || rect.y > d->height ||
+                 rect.height > d->height - rect.y)
             r = cv_error(CV_ERROR_OUT_OF_RANGE, "texture '%s' (%ux%u): %s of %ux%u at (%u,%u) is out of range",
                          d->label, d->width, d->height, src ? "write" : "read", rect.width, rect.height, rect.x,
                          rect.y);

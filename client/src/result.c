@@ -4,7 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-static _Thread_local char last_error[512];
+static _Thread_local char last_error[CV_ERROR_MESSAGE_MAX];
 
 const char *cv_result_name(cv_result r) {
     switch (r) {
@@ -29,7 +29,7 @@ const char *cv_last_error(void) { return last_error; }
 void cv_clear_error(void) { last_error[0] = '\0'; }
 
 cv_result cv_verror(cv_result code, const char *fmt, va_list ap) {
-    char message[sizeof(last_error)];
+    char message[sizeof(last_error)];   /* the arguments may quote last_error itself */
     vsnprintf(message, sizeof(message), fmt, ap);
     snprintf(last_error, sizeof(last_error), "%s", message);
     static int log_errors = -1;

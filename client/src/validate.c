@@ -27,7 +27,7 @@ typedef struct validator {
 
 __attribute__((format(printf, 3, 4)))
 static cv_result fail(const validator *v, cv_result code, const char *fmt, ...) {
-    char detail[320];
+    char detail[CV_ERROR_MESSAGE_MAX];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(detail, sizeof(detail), fmt, ap);
@@ -36,16 +36,15 @@ static cv_result fail(const validator *v, cv_result code, const char *fmt, ...) 
                     cv_command_name(v->cmd->type), detail);
 }
 
+/* *out is always written (NULL on failure): callers chain `if (r == CV_OK) r = need(...)`
+ * and the compiler cannot prove that a failure code is never CV_OK. */
 static cv_result need(const validator *v, uint64_t id, cv_handle_type type, const char *field,
                       const cv_device_resource **out) {
     cv_device_resource *s = NULL;
     cv_result code = cv_device_require(v->dev, id, type, field, &s);
-    if (code != CV_OK) {
-        char why[400];
-        snprintf(why, sizeof(why), "%s", cv_last_error());
-        return fail(v, code, "%s", why);
-    }
-    *out = s;
+    *out = code == CV_OK ? s : NULL;
+    if (code != CV_OK)
+        return fail(v, code, "%s", cv_last_error());   /* fail() formats into its own buffer first */
     return CV_OK;
 }
 
@@ -76,6 +75,7 @@ static cv_result texture_rect(const validator *v, const cv_device_resource *t, c
 /* Pipeline of a dispatch/draw: right kind, bindings and push constants as the registry says. */
 static cv_result check_pipeline_use(validator *v, cv_pipeline p, cv_pipeline_kind kind, cv_span bindings,
                                     cv_span push, const cv_device_resource **out) {
+    *out = NULL;
     const cv_device_resource *pr;
     cv_result r = need(v, p.id, CV_HANDLE_PIPELINE, "pipeline", &pr);
     if (r != CV_OK)
@@ -228,6 +228,14 @@ static cv_result check_targets(validator *v, const cv_device_resource *p) {
     return CV_OK;
 }
 
+/* first + count must not pass 2^32: the shader's vertex or instance index would wrap to 0. */
+static cv_result count_fits(const validator *v, const char *first_name, uint32_t first, const char *count_name,
+                            uint32_t count) {
+    if (count > UINT32_MAX - first)
+        return fail(v, CV_ERROR_OUT_OF_RANGE, "%s %u + %s %u pass 2^32", first_name, first, count_name, count);
+    return CV_OK;
+}
+
 static cv_result check_draw(validator *v, const cv_draw_cmd *c) {
     const cv_device_resource *p;
     cv_result r = check_pipeline_use(v, c->pipeline, CV_PIPELINE_GRAPHICS, c->bindings, c->push, &p);
@@ -236,6 +244,10 @@ static cv_result check_draw(validator *v, const cv_draw_cmd *c) {
     if (r == CV_OK && (c->vertex_count == 0 || c->instance_count == 0))
         r = fail(v, CV_ERROR_INVALID_ARGUMENT, "empty draw (%u vertices, %u instances)", c->vertex_count,
                  c->instance_count);
+    if (r == CV_OK)
+        r = count_fits(v, "first_vertex", c->first_vertex, "vertex_count", c->vertex_count);
+    if (r == CV_OK)
+        r = count_fits(v, "first_instance", c->first_instance, "instance_count", c->instance_count);
     return r;
 }
 
@@ -256,7 +268,16 @@ static cv_result check_draw_indexed(validator *v, const cv_draw_indexed_cmd *c) 
     if (c->index_count == 0 || c->instance_count == 0)
         return fail(v, CV_ERROR_INVALID_ARGUMENT, "empty draw (%u indices, %u instances)", c->index_count,
                     c->instance_count);
-    return buffer_range(v, ib, "index_buffer", c->index_offset + 4ull * c->first_index, 4ull * c->index_count);
+    r = count_fits(v, "first_instance", c->first_instance, "instance_count", c->instance_count);
+    if (r != CV_OK)
+        return r;
+    /* The indices read are [index_offset + 4 * first_index, + 4 * index_count). The sum can
+     * pass 2^64 (a wire list can carry any offset), so it is checked, not computed blindly. */
+    uint64_t start;
+    if (__builtin_add_overflow(c->index_offset, 4ull * c->first_index, &start))
+        return fail(v, CV_ERROR_OUT_OF_RANGE, "index_buffer: index_offset %llu + 4 * first_index %u passes 2^64",
+                    (unsigned long long)c->index_offset, c->first_index);
+    return buffer_range(v, ib, "index_buffer", start, 4ull * c->index_count);
 }
 
 static cv_result check_copy_buffer(validator *v, const cv_copy_buffer_cmd *c) {
@@ -271,6 +292,7 @@ static cv_result check_copy_buffer(validator *v, const cv_copy_buffer_cmd *c) {
     r = buffer_range(v, src, "src", c->src_offset, c->size);
     if (r == CV_OK)
         r = buffer_range(v, dst, "dst", c->dst_offset, c->size);
+    /* Both ranges are inside their buffers by now, so these sums cannot wrap. */
     if (r == CV_OK && c->src.id == c->dst.id && c->src_offset < c->dst_offset + c->size &&
         c->dst_offset < c->src_offset + c->size)
         r = fail(v, CV_ERROR_INVALID_ARGUMENT, "source and destination ranges overlap in buffer '%s'",
@@ -292,6 +314,7 @@ static cv_result check_copy_texture(validator *v, const cv_copy_texture_cmd *c) 
     r = texture_rect(v, src, "src", c->src_x, c->src_y, c->width, c->height);
     if (r == CV_OK)
         r = texture_rect(v, dst, "dst", c->dst_x, c->dst_y, c->width, c->height);
+    /* Both regions are inside textures of at most CV_MAX_TEXTURE_DIM by now: no wrap. */
     if (r == CV_OK && c->src.id == c->dst.id && c->src_x < c->dst_x + c->width && c->dst_x < c->src_x + c->width &&
         c->src_y < c->dst_y + c->height && c->dst_y < c->src_y + c->height)
         r = fail(v, CV_ERROR_INVALID_ARGUMENT, "source and destination regions overlap in texture '%s'",
@@ -314,6 +337,7 @@ static cv_result check_buffer_texture_copy(validator *v, uint64_t buffer_id, uin
     if (offset % align)
         return fail(v, CV_ERROR_INVALID_ARGUMENT, "buffer offset %llu is not a multiple of %u",
                     (unsigned long long)offset, align);
+    /* w and h are at most CV_MAX_TEXTURE_DIM (2^14) and texel 16 bytes: the product fits easily. */
     return buffer_range(v, buf, to_texture ? "src" : "dst", offset, (uint64_t)w * h * texel);
 }
 

@@ -91,7 +91,8 @@ static cv_result block_create(vk_memory *m, uint32_t type, vk_memory_kind kind, 
                               const char *what, vk_block **out) {
     vk_block *b = calloc(1, sizeof(*b));
     if (!b)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: memory block for %s", what);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: host memory for the record of a %llu-byte block for %s",
+                        (unsigned long long)size, what);
     /* Buffers in linear blocks may be read through device addresses (trace kernels, acceleration structures). */
     VkMemoryAllocateFlagsInfo flags = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO,
                                         .flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT };
@@ -101,7 +102,12 @@ static cv_result block_create(vk_memory *m, uint32_t type, vk_memory_kind kind, 
     VkResult vr = vkAllocateMemory(m->device, &info, NULL, &b->memory);
     if (vr != VK_SUCCESS) {
         free(b);
-        return vk_fail(vr, "vkAllocateMemory of %llu bytes (type %u) for %s", (unsigned long long)size, type, what);
+        uint32_t heap = m->properties.memoryTypes[type].heapIndex;
+        return vk_fail(vr, "vkAllocateMemory of %llu bytes (%s) for %s from heap %u of %llu bytes (memory type %u, "
+                       "%llu bytes already allocated on this device)", (unsigned long long)size,
+                       dedicated ? "a dedicated allocation" : "a shared block", what, heap,
+                       (unsigned long long)m->properties.memoryHeaps[heap].size, type,
+                       (unsigned long long)m->block_bytes);
     }
     if (m->properties.memoryTypes[type].propertyFlags & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) {
         vr = vkMapMemory(m->device, b->memory, 0, VK_WHOLE_SIZE, 0, &b->mapped);
@@ -117,7 +123,8 @@ static cv_result block_create(vk_memory *m, uint32_t type, vk_memory_kind kind, 
             vkUnmapMemory(m->device, b->memory);
         vkFreeMemory(m->device, b->memory, NULL);
         free(b);
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: memory block for %s", what);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: host memory for the record of a %llu-byte block for %s",
+                        (unsigned long long)size, what);
     }
     b->ranges[0] = (free_range){ 0, size };
     b->range_count = 1;
@@ -222,7 +229,9 @@ cv_result vk_memory_alloc(vk_memory *m, const VkMemoryRequirements *req, VkMemor
         r = block_create(m, type, kind, dedicated ? req->size : m->block_size, dedicated, what, &block);
         if (r == CV_OK && !block_take(block, req->size, alignment, &offset)) {
             block_destroy(m, block);
-            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: %llu bytes for %s", (unsigned long long)req->size, what);
+            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: %llu bytes (alignment %llu) for %s do not fit a new block "
+                         "of memory type %u (heap %u)", (unsigned long long)req->size,
+                         (unsigned long long)alignment, what, type, m->properties.memoryTypes[type].heapIndex);
         }
         if (r == CV_OK) {
             block->next = m->blocks[type][kind];

@@ -321,6 +321,7 @@ void vk_trace_record(cv_backend_device *bd, cv_vulkan_trace_path path, vk_tracke
 /* ---- public queries ----------------------------------------------------------------- */
 
 static cv_result vulkan_device(cv_device *dev, const char *what, cv_backend_device **out) {
+    *out = NULL;   /* written on every path: callers test the result, which gcc -O3 cannot see through */
     if (!dev)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: NULL device", what);
     if (strcmp(cv_device_get_info(dev)->backend, "vulkan") != 0)

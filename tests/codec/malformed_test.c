@@ -50,9 +50,9 @@ static void expect_one(Corvid__Command *c, cv_result code, const char *needle, c
     expect_commands(&c, 1, code, needle, what);
 }
 
-static const uint64_t BUFFER = 0x0100000100000001ull;   /* buffer, generation 1, slot 1 */
-static const uint64_t TEXTURE = 0x0200000100000002ull;
-static const uint64_t PIPELINE = 0x0400000100000003ull;
+static const uint64_t BUFFER = 0x1000000100000001ull;   /* buffer, generation 1, slot 1 */
+static const uint64_t TEXTURE = 0x2000000100000002ull;
+static const uint64_t PIPELINE = 0x4000000100000003ull;
 
 static void test_not_protobuf(void) {
     uint8_t garbage[32];
@@ -141,7 +141,7 @@ static void test_handle_tags(void) {
     expect_one(&c2, CV_ERROR_WRONG_HANDLE_TYPE, "'dst' wants a buffer handle", "texture as buffer");
 
     Corvid__BarrierCmd b = CORVID__BARRIER_CMD__INIT;
-    b.resource = (0x7full << 56) | 1;
+    b.resource = (0xfull << 60) | 1;
     Corvid__Command c3 = CORVID__COMMAND__INIT;
     c3.cmd_case = CORVID__COMMAND__CMD_BARRIER;
     c3.barrier = &b;

@@ -20,7 +20,8 @@ uint32_t test_rng_below(test_rng *rng, uint32_t n) {
 static uint64_t random_handle(test_rng *r, cv_handle_type type) {
     if (type == CV_HANDLE_NONE || test_rng_below(r, 8) == 0)
         return 0;
-    return cv_handle_pack(type, 1 + test_rng_below(r, CV_HANDLE_GENERATION_MAX), (uint32_t)test_rng_next(r));
+    return cv_handle_pack(type, 1 + test_rng_below(r, CV_HANDLE_TAG_MAX), 1 + test_rng_below(r, CV_HANDLE_GENERATION_MAX),
+                          (uint32_t)test_rng_next(r));
 }
 
 /* Any finite float bit pattern, denormals included. NaNs are left out because
@@ -53,8 +54,8 @@ static uint32_t random_bindings(test_rng *r, cv_binding out[CV_MAX_BINDINGS]) {
     uint32_t n = test_rng_below(r, CV_MAX_BINDINGS + 1);
     for (uint32_t i = 0; i < n; i++) {
         cv_handle_type t = test_rng_below(r, 2) ? CV_HANDLE_BUFFER : CV_HANDLE_TEXTURE;
-        out[i].resource.id = cv_handle_pack(t, 1 + test_rng_below(r, CV_HANDLE_GENERATION_MAX),
-                                            (uint32_t)test_rng_next(r));
+        out[i].resource.id = cv_handle_pack(t, 1 + test_rng_below(r, CV_HANDLE_TAG_MAX),
+                                            1 + test_rng_below(r, CV_HANDLE_GENERATION_MAX), (uint32_t)test_rng_next(r));
         out[i].sampler.id = t == CV_HANDLE_TEXTURE ? random_handle(r, CV_HANDLE_SAMPLER) : 0;
         out[i].offset = test_rng_next(r);
         out[i].range = test_rng_next(r);

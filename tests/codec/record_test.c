@@ -10,9 +10,9 @@
 #include "corvid/command_codec.h"
 #include "random_list.h"
 
-static const cv_buffer BUF = { 0x0100000100000001ull };
-static const cv_texture TEX = { 0x0200000100000002ull };
-static const cv_pipeline PIPE = { 0x0400000100000003ull };
+static const cv_buffer BUF = { 0x1000000100000001ull };
+static const cv_texture TEX = { 0x2000000100000002ull };
+static const cv_pipeline PIPE = { 0x4000000100000003ull };
 
 static void fresh(cv_command_list *list) {
     cv_command_list_finish(list);

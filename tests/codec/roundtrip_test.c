@@ -76,8 +76,8 @@ static void test_limits_round_trip(void) {
     cv_command_list_begin(&list);
     cv_binding bindings[CV_MAX_BINDINGS];
     for (uint32_t i = 0; i < CV_MAX_BINDINGS; i++)
-        bindings[i] = (cv_binding){ { cv_handle_pack(CV_HANDLE_TEXTURE, CV_HANDLE_GENERATION_MAX, UINT32_MAX - i) },
-                                    { cv_handle_pack(CV_HANDLE_SAMPLER, 1, i) }, UINT64_MAX - i, UINT64_MAX };
+        bindings[i] = (cv_binding){ { cv_handle_pack(CV_HANDLE_TEXTURE, CV_HANDLE_TAG_MAX, CV_HANDLE_GENERATION_MAX, CV_HANDLE_INDEX_MAX - i) },
+                                    { cv_handle_pack(CV_HANDLE_SAMPLER, 1, 1, i) }, UINT64_MAX - i, UINT64_MAX };
     uint8_t push[CV_MAX_PUSH_CONSTANTS];
     for (uint32_t i = 0; i < sizeof(push); i++)
         push[i] = (uint8_t)(255 - i);
@@ -87,9 +87,9 @@ static void test_limits_round_trip(void) {
     char label[CV_LABEL_MAX];
     memset(label, '\xe2', sizeof(label) - 1);
     label[sizeof(label) - 1] = '\0';
-    cv_pipeline pipe = { cv_handle_pack(CV_HANDLE_PIPELINE, CV_HANDLE_GENERATION_MAX, UINT32_MAX) };
-    cv_buffer buf = { cv_handle_pack(CV_HANDLE_BUFFER, CV_HANDLE_GENERATION_MAX, UINT32_MAX) };
-    cv_texture tex = { cv_handle_pack(CV_HANDLE_TEXTURE, 1, 0) };
+    cv_pipeline pipe = { cv_handle_pack(CV_HANDLE_PIPELINE, CV_HANDLE_TAG_MAX, CV_HANDLE_GENERATION_MAX, CV_HANDLE_INDEX_MAX) };
+    cv_buffer buf = { cv_handle_pack(CV_HANDLE_BUFFER, CV_HANDLE_TAG_MAX, CV_HANDLE_GENERATION_MAX, CV_HANDLE_INDEX_MAX) };
+    cv_texture tex = { cv_handle_pack(CV_HANDLE_TEXTURE, 1, 1, 0) };
 
     CHECK_OK(cv_cmd_begin_marker(&list, CV_QUEUE_GRAPHICS, &(cv_begin_marker_args){ .label = label }));
     CHECK_OK(cv_cmd_dispatch(&list, CV_QUEUE_COMPUTE,
@@ -150,7 +150,7 @@ static void test_negative_zero_arrives_as_zero(void) {
     cv_command_list_init(&d);
     cv_command_list_begin(&list);
     CHECK_OK(cv_cmd_clear_texture(&list, CV_QUEUE_COMPUTE,
-                                  &(cv_clear_texture_args){ .texture = { cv_handle_pack(CV_HANDLE_TEXTURE, 1, 1) },
+                                  &(cv_clear_texture_args){ .texture = { cv_handle_pack(CV_HANDLE_TEXTURE, 1, 1, 1) },
                                                             .r = -0.0f, .g = 0.5f }));
     CHECK_OK(cv_command_list_end(&list));
     uint8_t *bytes;
@@ -212,14 +212,14 @@ static void test_decode_replaces(void) {
     cv_command_list_init(&b);
     CHECK_OK(random_list_record(&a, 11, 30));
     CHECK_OK(random_list_record(&b, 12, 60));
-    b.id = 0x0500000100000007ull;
+    b.id = 0x5000000100000007ull;
     uint32_t version = b.version;
     uint8_t *bytes;
     size_t size;
     CHECK_OK(cv_command_list_encode(&a, &bytes, &size));
     CHECK_OK(cv_command_list_decode(bytes, size, &b));
     CHECK(lists_equal(&a, &b, "replaced"));
-    CHECK(b.id == 0x0500000100000007ull);
+    CHECK(b.id == 0x5000000100000007ull);
     CHECK_EQ_INT(b.version, version + 1);
     free(bytes);
     cv_command_list_finish(&a);
@@ -249,7 +249,7 @@ static void test_encode_size_limit(void) {
     cv_command_list list;
     cv_command_list_init(&list);
     cv_command_list_begin(&list);
-    cv_buffer buf = { cv_handle_pack(CV_HANDLE_BUFFER, 3, 3) };
+    cv_buffer buf = { cv_handle_pack(CV_HANDLE_BUFFER, 3, 3, 3) };
     for (int i = 0; i < 1023; i++)
         cv_cmd_update_buffer(&list, CV_QUEUE_COPY,
                              &(cv_update_buffer_args){ .buffer = buf, .data = update, .data_size = sizeof(update) });

@@ -29,6 +29,7 @@ int main(int argc, char **argv) {
     fixture_shutdown(fx);
     if (fx->validation_messages)
         CHECK_EQ_INT(fx->validation_messages(), 0);
+    CHECK_NOTHING_LIVE();
     char label[64];
     snprintf(label, sizeof(label), "conformance[%s]", name);
     return check_report(label);

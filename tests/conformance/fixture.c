@@ -73,6 +73,14 @@ cv_result fixture_device(const fixture *f, cv_context *ctx, uint32_t index, cv_d
     return cv_device_create(ctx, f->backend(), &desc, out);
 }
 
+void fixture_settle(const fixture *f) {
+    (void)f;
+#ifdef CORVID_HAVE_NODE
+    if (node.node)
+        CHECK_EQ_INT(scratch_node_wait_sessions(&node, 5000), 0);
+#endif
+}
+
 void fixture_shutdown(const fixture *f) {
     (void)f;
 #ifdef CORVID_HAVE_NODE

@@ -26,6 +26,10 @@ const fixture *fixture_find(const char *name);
 cv_result fixture_device(const fixture *f, cv_context *ctx, uint32_t index, cv_device **out);
 /* The endpoint of a proxy fixture's node (started on first use), NULL for local fixtures. */
 const char *fixture_endpoint(const fixture *f);
+/* Waits until what the fixture runs behind the devices has let go of them (a
+ * proxy fixture's node ends a session shortly after its client left), so leak
+ * checks count only what is really left. */
+void fixture_settle(const fixture *f);
 /* Stops what the fixture started (a proxy fixture's node); checks it ended clean. */
 void fixture_shutdown(const fixture *f);
 

@@ -23,7 +23,12 @@ void conformance_resources(world *w) {
     CHECK(memcmp(out, in + 100, 200) == 0);
     CHECK_RESULT(cv_device_read_buffer(w->dev, b, 1000, 100, out), CV_ERROR_OUT_OF_RANGE);
     CHECK_RESULT(cv_device_write_buffer(w->dev, b, UINT64_MAX - 4, 8, in), CV_ERROR_OUT_OF_RANGE);
-    CHECK_RESULT(cv_device_read_buffer(w->dev, b, 0, 0, out), CV_ERROR_OUT_OF_RANGE);
+    CHECK_RESULT(cv_device_read_buffer(w->dev, b, 0, 0, out), CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "size is 0") != NULL);
+    CHECK_RESULT(cv_device_write_buffer(w->dev, b, 1024, 0, in), CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "write of 0 bytes") != NULL);
+    CHECK_RESULT(cv_device_read_buffer(w->dev, b, 1000, 100, out), CV_ERROR_OUT_OF_RANGE);
+    CHECK(strstr(cv_last_error(), "read of 100 bytes at offset 1000") != NULL);
     /* A failed write changes nothing. */
     CHECK_OK(cv_device_read_buffer(w->dev, b, 0, sizeof(out), out));
     CHECK(memcmp(out, in, sizeof(in)) == 0);
@@ -52,6 +57,8 @@ void conformance_resources(world *w) {
     for (int y = 0; y < 4; y++)
         CHECK(memcmp(back + y * 32, texels + ((6 + y) * 16 + 4) * 4, 32) == 0);
     CHECK_RESULT(cv_device_read_texture(w->dev, w->rgba8_b, (cv_rect){ 12, 0, 8, 4 }, back), CV_ERROR_OUT_OF_RANGE);
+    CHECK_RESULT(cv_device_write_texture(w->dev, w->rgba8_b, (cv_rect){ 0, 0, 0, 4 }, texels), CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "empty 0x4 region") != NULL);
     CHECK_RESULT(cv_device_read_texture(w->dev, (cv_texture){ w->small.id }, (cv_rect){ 0, 0, 1, 1 }, back),
                  CV_ERROR_WRONG_HANDLE_TYPE);
 

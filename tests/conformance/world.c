@@ -3,6 +3,8 @@
 
 #include <string.h>
 
+#include "check.h"
+
 static cv_result make_buffer(world *w, uint64_t size, uint32_t usage, const char *label, cv_buffer *out) {
     cv_buffer_desc d = { .size = size, .usage = usage };
     strncpy(d.label, label, sizeof(d.label) - 1);
@@ -72,8 +74,11 @@ cv_result world_init(world *w, const fixture *fx) {
 }
 
 void world_finish(world *w) {
+    const fixture *fx = w->fx;
     cv_context_destroy(w->ctx);   /* destroys the device and every handle */
     memset(w, 0, sizeof(*w));
+    fixture_settle(fx);
+    CHECK_NOTHING_LIVE();
 }
 
 cv_command_list *world_begin(world *w) {

@@ -135,9 +135,9 @@ static const cv_resource_desc buffer_desc = { .type = CV_HANDLE_BUFFER, .buffer 
 static const cv_resource_desc texture_desc = {
     .type = CV_HANDLE_TEXTURE, .texture = { .width = 8, .height = 8, .format = CV_FORMAT_RGBA8_UNORM } };
 
-#define BUF_ID(i) cv_handle_pack(CV_HANDLE_BUFFER, 1, (i))
-#define TEX_ID(i) cv_handle_pack(CV_HANDLE_TEXTURE, 1, (i))
-#define LIST_ID(i) cv_handle_pack(CV_HANDLE_CMDLIST, 1, (i))
+#define BUF_ID(i) cv_handle_pack(CV_HANDLE_BUFFER, 1, 1, (i))
+#define TEX_ID(i) cv_handle_pack(CV_HANDLE_TEXTURE, 1, 1, (i))
+#define LIST_ID(i) cv_handle_pack(CV_HANDLE_CMDLIST, 1, 1, (i))
 
 static uint64_t send_write(raw *c, uint64_t id, uint64_t offset, const void *data, size_t size) {
     Corvid__WriteBuffer w = CORVID__WRITE_BUFFER__INIT;
@@ -301,7 +301,7 @@ static void bad_requests(void) {
     /* 12: a pipeline the registry does not have */
     cv_resource_desc pipe = { .type = CV_HANDLE_PIPELINE };
     snprintf(pipe.pipeline.name, sizeof(pipe.pipeline.name), "no-such-pipeline");
-    EXPECT_REPLY(&c, send_create(&c, cv_handle_pack(CV_HANDLE_PIPELINE, 1, 1), &pipe), CV_ERROR_UNKNOWN_PIPELINE,
+    EXPECT_REPLY(&c, send_create(&c, cv_handle_pack(CV_HANDLE_PIPELINE, 1, 1, 1), &pipe), CV_ERROR_UNKNOWN_PIPELINE,
                  "no-such-pipeline");
     /* 13: a write out of range (async: answered only because it fails) */
     uint8_t bytes[64] = { 1 };

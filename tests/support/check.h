@@ -6,6 +6,7 @@
 
 #include <stdio.h>
 #include <inttypes.h>
+#include "corvid/context.h"
 #include "corvid/result.h"
 
 extern int check_failures;
@@ -45,6 +46,15 @@ extern int check_count;
     } while (0)
 
 #define CHECK_OK(expr) CHECK_RESULT(expr, CV_OK)
+
+/* Checks that every context and device the test created has been destroyed
+ * (libuv's way: each test proves it cleaned up). Use it at the end of a test,
+ * after destroying what it made. */
+#define CHECK_NOTHING_LIVE()                                                            \
+    do {                                                                                \
+        CHECK_EQ_INT(cv_live_contexts(), 0);                                            \
+        CHECK_EQ_INT(cv_live_devices(), 0);                                             \
+    } while (0)
 
 /* Prints "<name>: N passed, N failed" and returns the process exit code. */
 int check_report(const char *name);

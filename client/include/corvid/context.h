@@ -19,8 +19,18 @@
 
 typedef struct cv_context cv_context;
 
+/* Contexts alive at once in one process: each has its own context tag, which
+ * every handle carries (handle.h), and the tag has 12 bits (0 is no tag). */
+#define CV_MAX_CONTEXTS 4095u
+
+/* The most handles of one type a context may hold: the 24 index bits of a
+ * handle (handle.h). A pool takes memory only as its handles are created, so a
+ * context may ask for the maximum at no cost up front. */
+#define CV_MAX_POOL_HANDLES (1u << 24)
+
 typedef struct cv_context_desc {
-    /* Pool sizes per resource type; 0 = default (buffers and textures 65536, others 4096). */
+    /* The most handles of each type; 0 = default (buffers and textures 65536, others 4096).
+     * Above CV_MAX_POOL_HANDLES, cv_context_create fails with CV_ERROR_LIMIT_EXCEEDED. */
     uint32_t max_buffers, max_textures, max_samplers, max_pipelines, max_cmdlists, max_accels;
 } cv_context_desc;
 
@@ -36,6 +46,7 @@ typedef struct cv_resource_desc {
     };
 } cv_resource_desc;
 
+/* CV_ERROR_LIMIT_EXCEEDED when CV_MAX_CONTEXTS contexts are alive. */
 cv_result cv_context_create(const cv_context_desc *desc, cv_context **out);
 /* Destroys every device still attached, then every resource. */
 void cv_context_destroy(cv_context *ctx);
@@ -57,12 +68,18 @@ cv_result cv_destroy(cv_context *ctx, cv_handle h);
 #define cv_cmdlist_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_cmdlist)(h)))
 #define cv_accel_destroy(ctx, h) cv_destroy((ctx), cv_any((cv_accel)(h)))
 
-/* CV_OK if h is live; otherwise why not (invalid, stale, ...). */
+/* CV_OK if h is live; otherwise why not (invalid, another context's, stale, ...). */
 cv_result cv_context_check(cv_context *ctx, cv_handle h);
 /* Copies the description of a live buffer/texture/sampler/pipeline/accel handle. */
 cv_result cv_context_describe(cv_context *ctx, cv_handle h, cv_resource_desc *out);
 /* Number of live handles of a type (for leak checks). */
 uint32_t cv_context_live_count(cv_context *ctx, cv_handle_type type);
+
+/* Contexts and devices alive in this process, for leak checks: a test that
+ * ends with both at zero destroyed everything it created (a context's handles
+ * and loaded representations go with it). */
+uint32_t cv_live_contexts(void);
+uint32_t cv_live_devices(void);
 
 /* Starts (re)recording a command list. The returned recorder belongs to the
  * calling thread until cv_command_list_end(); record with the cv_cmd_* calls. */

@@ -39,8 +39,9 @@
     X(CV_ERROR_IO, -22, "input/output error")                                                \
     X(CV_ERROR_NOT_FOUND, -23, "not found")                                                  \
     X(CV_ERROR_CONNECTION, -24, "connection failed or dropped")                              \
-    X(CV_ERROR_ALREADY_EXISTS, -25, "already exists")                                        \
-    X(CV_ERROR_HASH_MISMATCH, -26, "content does not match its hash")
+    X(CV_ERROR_FOREIGN_HANDLE, -25, "handle belongs to another context")                     \
+    X(CV_ERROR_ALREADY_EXISTS, -26, "already exists")                                        \
+    X(CV_ERROR_HASH_MISMATCH, -27, "content does not match its hash")
 
 typedef enum cv_result {
 #define CV_RESULT_ENUM(name, value, text) name = value,
@@ -52,6 +53,9 @@ typedef enum cv_result {
 const char *cv_result_name(cv_result r);
 /* "stale handle (its resource was destroyed)". */
 const char *cv_result_string(cv_result r);
+
+/* The longest message kept, terminating NUL included; longer ones are cut. */
+#define CV_ERROR_MESSAGE_MAX 4096
 
 /* The detailed message of the last failure on this thread ("" if none). */
 const char *cv_last_error(void);
