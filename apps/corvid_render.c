@@ -590,9 +590,10 @@ int main(int argc, char **argv) {
         for (uint32_t d = 0; o.nodes && d < device_count; d++) {
             cv_proxy_stats ps;
             if (cv_proxy_get_stats(devices[d], &ps) == CV_OK)
-                printf("  %s: sent %.2f MB, received %.2f MB, %llu round trips; scene data uploaded %.2f MB, "
-                       "already on the node %.2f MB\n", cv_device_label(devices[d]), ps.bytes_sent / 1e6,
-                       ps.bytes_received / 1e6, (unsigned long long)ps.round_trips, ps.upload_bytes_sent / 1e6,
+                printf("  %s: sent %.2f MB, received %.2f MB, %llu round trips + %llu waits for finished work; "
+                       "scene data uploaded %.2f MB, already on the node %.2f MB\n", cv_device_label(devices[d]),
+                       ps.bytes_sent / 1e6, ps.bytes_received / 1e6, (unsigned long long)ps.round_trips,
+                       (unsigned long long)ps.blocking_waits, ps.upload_bytes_sent / 1e6,
                        ps.upload_bytes_skipped / 1e6);
         }
     }

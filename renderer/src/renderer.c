@@ -43,7 +43,8 @@ struct cv_renderer {
     cv_buffer vertices, materials, lights;
     cv_accel accel;
     cv_pipeline pipelines[PIPE_COUNT];
-    cv_cmdlist lists[CV_RENDER_MAX_DEVICES];
+    cv_cmdlist lists[CV_RENDER_MAX_DEVICES];   /* per device: G-buffer, then each frame's trace */
+    cv_cmdlist accumulate;                      /* the primary's accumulate (+ filter, composite) */
     uint32_t width, height;                 /* of the textures below; 0 = none yet */
     cv_texture textures[TEX_COUNT];
     cv_buffer rays[CV_RENDER_MAX_DEVICES], hits[CV_RENDER_MAX_DEVICES];
@@ -127,6 +128,8 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
     }
     for (uint32_t d = 0; d < device_count && res == CV_OK; d++)
         res = cv_cmdlist_create(r->ctx, &r->lists[d]);
+    if (res == CV_OK)
+        res = cv_cmdlist_create(r->ctx, &r->accumulate);
     r->upload_ms = now_ms() - t0;
     if (res != CV_OK) {
         cv_renderer_destroy(r);
@@ -168,6 +171,7 @@ void cv_renderer_destroy(cv_renderer *r) {
         destroy_handle(r, r->pipelines[p].id);
     for (uint32_t d = 0; d < r->count; d++)
         destroy_handle(r, r->lists[d].id);
+    destroy_handle(r, r->accumulate.id);
     render_scene_data_free(&r->data);
     free(r);
 }
@@ -366,6 +370,13 @@ static double pass_ms(cv_device *dev, uint64_t ticket, const char *label) {
     return -1.0;
 }
 
+/* A finished trace submission's time: the GPU's measure of the "trace" pass,
+ * else the wall time since it was submitted. */
+static double trace_ms(cv_device *dev, uint64_t ticket, double submitted_ms) {
+    double gpu = pass_ms(dev, ticket, "trace");
+    return gpu > 0.0 ? gpu : now_ms() - submitted_ms;
+}
+
 cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene) {
     cv_render_settings s = in ? *in : (cv_render_settings){ 0 };
     if (!s.width) s.width = 640;
@@ -498,18 +509,16 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         cv_mgpu_copy_plan plan = { 0 };
         if (res == CV_OK)
             res = cv_mgpu_plan_copies(&part, 0, CV_MGPU_ALL_DEVICES, CV_MGPU_ISOLATED_TO_ISOLATED, &plan);
+        /* The primary's own trace needs no wait: its accumulate is submitted to
+         * the same device, which runs submissions in order, so waiting for the
+         * accumulate covers both (one round trip less per frame on a remote
+         * primary). Its trace time is read once the accumulate is done. */
         double ms[CV_PARTITION_MAX_DEVICES] = { 0 };
-        for (uint32_t d = 0; d < r->count && res == CV_OK; d++) {
+        for (uint32_t d = 1; d < r->count && res == CV_OK; d++) {
             if (!tickets[d])
                 continue;
             res = cv_device_wait(r->devices[d], tickets[d], UINT64_MAX);
-            double wall = now_ms() - submit_ms[d];
-            double gpu = pass_ms(r->devices[d], tickets[d], "trace");
-            ms[d] = gpu > 0.0 ? gpu : wall;
-            uint64_t rays = (uint64_t)part.ranges[d].width * r->height * (1 + s.ao_samples);
-            st.devices[d] = (cv_render_device_stats){ .columns = part.ranges[d], .rays = rays, .trace_ms = ms[d],
-                                                      .ms_per_column = ms[d] / part.ranges[d].width };
-            st.rays_total += rays;
+            ms[d] = trace_ms(r->devices[d], tickets[d], submit_ms[d]);
             for (uint32_t c = 0; c < plan.count && res == CV_OK; c++) {
                 const cv_mgpu_copy *cp = &plan.copies[c];
                 if (cp->src_device != d)
@@ -521,14 +530,24 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                 st.transfer_ms += ts.total_ms;
             }
         }
-        if (res == CV_OK) res = begin(r, 0, &l);
+        if (res == CV_OK) res = cv_cmdlist_begin(r->ctx, r->accumulate, &l);
         if (res == CV_OK) {
             record_accumulate(r, f, l);
             if (f + 1 == s.frames)
                 record_filter_composite(r, (uint32_t)s.filter_iterations, l);
-            res = run_list(primary, r->lists[0], &ticket);
+            res = run_list(primary, r->accumulate, &ticket);
         }
         if (res == CV_OK) res = cv_device_wait(primary, ticket, UINT64_MAX);
+        if (res == CV_OK && tickets[0])
+            ms[0] = trace_ms(primary, tickets[0], submit_ms[0]);
+        for (uint32_t d = 0; d < r->count && res == CV_OK; d++) {
+            if (!tickets[d])
+                continue;
+            uint64_t rays = (uint64_t)part.ranges[d].width * r->height * (1 + s.ao_samples);
+            st.devices[d] = (cv_render_device_stats){ .columns = part.ranges[d], .rays = rays, .trace_ms = ms[d],
+                                                      .ms_per_column = ms[d] / part.ranges[d].width };
+            st.rays_total += rays;
+        }
         if (res == CV_OK && r->count > 1)
             res = cv_balancer_update(&balancer, &part, ms);
         if (res == CV_OK && progress)

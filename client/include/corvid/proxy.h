@@ -34,6 +34,8 @@ typedef struct cv_proxy_stats {
     uint64_t upload_bytes_sent;      /* content-addressed data actually sent */
     uint64_t upload_bytes_skipped;   /* ... that the node had already */
     uint64_t round_trips;            /* requests that waited for an answer */
+    uint64_t blocking_waits;         /* waits for a ticket the node had not yet reported finished:
+                                        each costs at least the node's latency, like a round trip */
 } cv_proxy_stats;
 
 /* CV_ERROR_INVALID_ARGUMENT if dev is not a proxy device. */

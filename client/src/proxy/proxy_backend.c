@@ -472,6 +472,8 @@ static cv_result proxy_wait(cv_backend_device *p, uint64_t ticket, uint64_t time
     }
     pthread_mutex_lock(&p->lock);
     cv_result r = CV_OK;
+    if (p->completed < ticket && p->dead == CV_OK)
+        p->stats.blocking_waits++;
     while (p->completed < ticket && p->dead == CV_OK) {
         if (forever) {
             pthread_cond_wait(&p->cond, &p->lock);
