@@ -52,6 +52,9 @@ struct cv_renderer {
     double upload_ms;
 };
 
+/* Frames a single-device render keeps submitted ahead of the one it waits for. */
+#define IN_FLIGHT_FRAMES 3u
+
 static double now_ms(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -487,6 +490,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     if (res == CV_OK)
         res = cv_balancer_init(&balancer, &(cv_balancer_desc){ .device_count = r->count });
     double frames_start = now_ms();
+    uint64_t accumulated[IN_FLIGHT_FRAMES] = { 0 };   /* the primary's accumulate ticket of recent frames */
     for (uint32_t f = 0; f < s.frames && res == CV_OK; f++) {
         cv_partition part;
         res = cv_balancer_split(&balancer, r->width, s.tile, &part);
@@ -537,15 +541,25 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                 record_filter_composite(r, (uint32_t)s.filter_iterations, l);
             res = run_list(primary, r->accumulate, &ticket);
         }
-        if (res == CV_OK) res = cv_device_wait(primary, ticket, UINT64_MAX);
-        if (res == CV_OK && tickets[0])
+        /* Several devices: the balancer wants this frame's times before it splits
+         * the next one, so the frame ends here. One device: frames are pipelined,
+         * up to IN_FLIGHT_FRAMES submitted ahead, so a remote device's latency
+         * hides behind the work of the frames before (nothing to balance). */
+        accumulated[f % IN_FLIGHT_FRAMES] = ticket;
+        bool last = f + 1 == s.frames, wait_now = last || r->count > 1;
+        if (res == CV_OK && wait_now)
+            res = cv_device_wait(primary, ticket, UINT64_MAX);
+        else if (res == CV_OK && f + 1 >= IN_FLIGHT_FRAMES)
+            res = cv_device_wait(primary, accumulated[(f + 1) % IN_FLIGHT_FRAMES], UINT64_MAX);
+        if (res == CV_OK && tickets[0] && wait_now)
             ms[0] = trace_ms(primary, tickets[0], submit_ms[0]);
         for (uint32_t d = 0; d < r->count && res == CV_OK; d++) {
             if (!tickets[d])
                 continue;
             uint64_t rays = (uint64_t)part.ranges[d].width * r->height * (1 + s.ao_samples);
-            st.devices[d] = (cv_render_device_stats){ .columns = part.ranges[d], .rays = rays, .trace_ms = ms[d],
-                                                      .ms_per_column = ms[d] / part.ranges[d].width };
+            if (wait_now)
+                st.devices[d] = (cv_render_device_stats){ .columns = part.ranges[d], .rays = rays, .trace_ms = ms[d],
+                                                          .ms_per_column = ms[d] / part.ranges[d].width };
             st.rays_total += rays;
         }
         if (res == CV_OK && r->count > 1)
