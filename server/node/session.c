@@ -96,8 +96,7 @@ static cv_result send_node_message(session *s, const Corvid__NodeMessage *m) {
     cv_result r = cv_node_pack_node(m, &buf, &size);
     if (r != CV_OK)
         return r;
-    r = cv_rpc_stream_send(s->stream, buf, size);
-    free(buf);
+    r = cv_rpc_stream_send_owned(s->stream, buf, size);
     if (r == CV_OK)
         atomic_fetch_add(&s->node->bytes_out, size);
     return r;

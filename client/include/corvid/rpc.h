@@ -168,6 +168,10 @@ cv_result cv_rpc_stream_recv(cv_rpc_stream *s, uint32_t timeout_ms, uint8_t **da
  * that is accepted when the queue is empty). Fails with CV_ERROR_CONNECTION once the call is dead or over,
  * CV_ERROR_BAD_STATE after close_send/finish. Messages go out in the order the send() calls queued them. */
 cv_result cv_rpc_stream_send(cv_rpc_stream *s, const void *data, size_t size);
+/* As cv_rpc_stream_send, but takes the malloc'd buffer instead of copying it:
+ * gRPC frees it (free()) once sent, also when the send fails. For large
+ * messages the caller has just packed. */
+cv_result cv_rpc_stream_send_owned(cv_rpc_stream *s, void *data, size_t size);
 
 /* Client: half-close (no more sends), after the queued messages. CV_ERROR_BAD_STATE on a server stream. */
 cv_result cv_rpc_stream_close_send(cv_rpc_stream *s);

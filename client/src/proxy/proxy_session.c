@@ -39,8 +39,7 @@ cv_result proxy_send(proxy_device *p, Corvid__ClientMessage *m) {
     r = cv_node_pack_client(m, &buf, &size);
     if (r != CV_OK)
         return r;
-    r = cv_rpc_stream_send(p->stream, buf, size);
-    free(buf);
+    r = cv_rpc_stream_send_owned(p->stream, buf, size);
     pthread_mutex_lock(&p->lock);
     if (r == CV_OK) {
         p->stats.messages_sent++;

@@ -434,15 +434,16 @@ cv_result cv_rpc_stream_recv(cv_rpc_stream *s, uint32_t timeout_ms, uint8_t **da
     return r;
 }
 
-cv_result cv_rpc_stream_send(cv_rpc_stream *s, const void *data, size_t size) {
-    if (!s || (!data && size))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_stream_send: null stream or data");
+/* Queues a byte buffer made from the message (copied, or wrapped). */
+static cv_result send_buffer(cv_rpc_stream *s, grpc_byte_buffer *buffer, size_t size) {
     cv_rpc_out *o = calloc(1, sizeof *o);
-    if (!o)
+    if (!o) {
+        grpc_byte_buffer_destroy(buffer);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_rpc_stream_send: %zu bytes", size);
+    }
     o->kind = CV_RPC_OUT_MESSAGE;
     o->size = size;
-    o->buffer = cv_rpc_buffer_copy(data, size);
+    o->buffer = buffer;
     cv_result r = CV_OK;
     pthread_mutex_lock(&s->mu);
     while (!s->failed && !s->ended && !s->send_closed && s->out_bytes > 0 &&
@@ -461,6 +462,23 @@ cv_result cv_rpc_stream_send(cv_rpc_stream *s, const void *data, size_t size) {
         free(o);
     }
     return r;
+}
+
+cv_result cv_rpc_stream_send(cv_rpc_stream *s, const void *data, size_t size) {
+    if (!s || (!data && size))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_stream_send: null stream or data");
+    return send_buffer(s, cv_rpc_buffer_copy(data, size), size);
+}
+
+cv_result cv_rpc_stream_send_owned(cv_rpc_stream *s, void *data, size_t size) {
+    if (!s || !data) {
+        free(data);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_stream_send_owned: null stream or data");
+    }
+    grpc_slice slice = grpc_slice_new(data, size, free);   /* gRPC frees it once sent */
+    grpc_byte_buffer *bb = grpc_raw_byte_buffer_create(&slice, 1);
+    grpc_slice_unref(slice);
+    return send_buffer(s, bb, size);
 }
 
 cv_result cv_rpc_stream_close_send(cv_rpc_stream *s) {
