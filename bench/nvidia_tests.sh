@@ -1,4 +1,5 @@
-# Runs the Vulkan test binaries, the conformance suite and the renderer test on
+# Runs the Vulkan test binaries, the conformance suite (local and through an
+# in-process corvid-node), the node tests and the renderer test on
 # the NVIDIA machine (validation layer on), logging to $OUT/tests.log.
 . bench/nvidia_env.sh
 cd /tmp/corvid/b/bin
@@ -6,7 +7,8 @@ cd /tmp/corvid/b/bin
   nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
   corvid-render --list-adapters
   pass=0; fail=0
-  for t in vk_* "conformance vulkan" renderer_frames trace_paths; do
+  for t in vk_* "conformance vulkan" renderer_frames trace_paths node_hostile "conformance proxy-vulkan" \
+           node_remote_render; do
     echo "== $t"
     unset CORVID_VIRTUAL_GPUS
     [ "$t" = vk_virtual_gpu ] && export CORVID_VIRTUAL_GPUS=3
