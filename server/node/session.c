@@ -317,8 +317,8 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
 static cv_result do_destroy(session *s, const Corvid__DestroyResource *m) {
     uint64_t id;
     cv_result r = translate(s, m->id, CV_HANDLE_NONE, "destroy", &id);
-    cv_resource_desc desc;
-    if (r == CV_OK)
+    cv_resource_desc desc = { .type = CV_HANDLE_CMDLIST };   /* lists have no description, and no bytes */
+    if (r == CV_OK && cv_handle_type_of(id) != CV_HANDLE_CMDLIST)
         r = cv_context_describe(s->ctx, (cv_handle){ id }, &desc);
     if (r == CV_OK)
         r = cv_destroy(s->ctx, (cv_handle){ id });
