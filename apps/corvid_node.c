@@ -2,7 +2,8 @@
  * GPUs, virtual GPUs, lavapipe, or mock devices) to remote clients over gRPC;
  * see server/node/node.h and proto/node.proto.
  *
- *   corvid-node --listen 0.0.0.0:7700 --adapters H100 --gpus 2
+ *   corvid-node --listen 0.0.0.0:7700 --token-file /etc/corvid/token --tls-cert node.pem --tls-key node.key \
+ *               --adapters H100 --gpus 2
  *   corvid-node --listen 127.0.0.1:0 --backend mock      (prints the port it got)
  *
  * SIGTERM or SIGINT drains: new sessions are refused, health says NOT_SERVING,
@@ -15,7 +16,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
+#include "corvid/rpc.h"
 #include "corvid/vulkan.h"
 #include "node.h"
 
@@ -25,6 +28,9 @@ typedef struct options {
     const char *cache_dir;
     const char *name;
     const char *port_file;
+    const char *token_file;
+    const char *tls_cert, *tls_key, *tls_client_ca;
+    cv_node_quota quota;
     uint64_t cache_bytes;
     uint32_t idle_timeout_s;
     uint32_t drain_timeout_s;
@@ -54,7 +60,20 @@ static void usage(FILE *f) {
             "  --port-file FILE       write the bound port to FILE once listening\n"
             "  --validation           Vulkan validation layer on session devices\n"
             "  --quiet                no per-session log lines\n"
-            "  --help                 this text\n");
+            "  --help                 this text\n"
+            "\nSecurity (docs/node.md, \"Security\"):\n"
+            "  --token-file FILE      clients must send this bearer token (the file's first line) on every\n"
+            "                         session and Info call; also CORVID_NODE_TOKEN_FILE. Required unless\n"
+            "                         --listen is loopback (127.0.0.0/8, ::1, localhost). Never on the command line.\n"
+            "  --tls-cert FILE        TLS: the node's certificate chain (PEM); with --tls-key\n"
+            "  --tls-key FILE         TLS: its private key (PEM)\n"
+            "  --tls-client-ca FILE   mutual TLS: clients need a certificate signed by this CA (PEM)\n"
+            "\nPer-session quotas (a request past one is refused, the session goes on):\n"
+            "  --quota-memory BYTES   device memory: buffers + textures + acceleration structures [16G]\n"
+            "  --quota-resources N    live resources of every type [65536] (1..16777216)\n"
+            "  --quota-inflight N     lists submitted and not completed [256] (1..1024)\n"
+            "  --quota-upload BYTES   bytes one session may add to the upload cache [8G]\n"
+            "  (message size: 4 MiB per message, fixed by the protocol)\n");
 }
 
 static int parse_u32(const char *opt, const char *text, uint32_t lo, uint32_t hi, uint32_t *out) {
@@ -147,6 +166,26 @@ static int parse_args(int argc, char **argv, options *o) {
             o->name = value;
         } else if (!strcmp(name, "--port-file")) {
             o->port_file = value;
+        } else if (!strcmp(name, "--token-file")) {
+            o->token_file = value;
+        } else if (!strcmp(name, "--tls-cert")) {
+            o->tls_cert = value;
+        } else if (!strcmp(name, "--tls-key")) {
+            o->tls_key = value;
+        } else if (!strcmp(name, "--tls-client-ca")) {
+            o->tls_client_ca = value;
+        } else if (!strcmp(name, "--quota-memory")) {
+            bad = parse_size(name, value, &o->quota.memory_bytes);
+        } else if (!strcmp(name, "--quota-resources")) {
+            bad = parse_u32(name, value, 1, 1u << 24, &o->quota.resources);
+        } else if (!strcmp(name, "--quota-inflight")) {
+            bad = parse_u32(name, value, 1, CV_NODE_MAX_QUOTA_INFLIGHT, &o->quota.inflight);
+        } else if (!strcmp(name, "--quota-upload")) {
+            bad = parse_size(name, value, &o->quota.upload_bytes);
+        } else if (!strcmp(name, "--token")) {
+            fprintf(stderr, "corvid-node: --token: a token on the command line is visible to every user (ps); put "
+                    "it in a file and give --token-file FILE\n");
+            return 2;
         } else {
             fprintf(stderr, "corvid-node: unknown option '%s' (see --help)\n", arg);
             return 2;
@@ -157,6 +196,19 @@ static int parse_args(int argc, char **argv, options *o) {
     if (!o->listen[0] || !strchr(o->listen, ':')) {
         fprintf(stderr, "corvid-node: --listen: '%s' is not HOST:PORT\n", o->listen);
         return 2;
+    }
+    if (!o->tls_cert != !o->tls_key) {
+        fprintf(stderr, "corvid-node: %s needs %s too\n", o->tls_cert ? "--tls-cert" : "--tls-key",
+                o->tls_cert ? "--tls-key" : "--tls-cert");
+        return 2;
+    }
+    if (o->tls_client_ca && !o->tls_cert) {
+        fprintf(stderr, "corvid-node: --tls-client-ca needs --tls-cert and --tls-key (mutual TLS is TLS)\n");
+        return 2;
+    }
+    if (!o->token_file) {
+        const char *env = getenv("CORVID_NODE_TOKEN_FILE");
+        o->token_file = env && *env ? env : NULL;
     }
     return 0;
 }
@@ -205,6 +257,29 @@ int main(int argc, char **argv) {
     int parsed = parse_args(argc, argv, &o);
     if (parsed)
         return parsed == 1 ? 0 : 2;
+    /* The token: read before anything starts, so a bad file is a clear error at once. */
+    static char token[1040];
+    if (o.token_file) {
+        if (cv_rpc_read_token_file(o.token_file, token, sizeof(token)) != CV_OK) {
+            fprintf(stderr, "corvid-node: --token-file: %s\n", cv_last_error());
+            return 2;
+        }
+        struct stat st;
+        if (stat(o.token_file, &st) == 0 && (st.st_mode & (S_IRWXG | S_IRWXO)))
+            fprintf(stderr, "corvid-node: warning: token file '%s' can be read by other users (chmod 600 it)\n",
+                    o.token_file);
+    }
+    if (!cv_node_listen_is_local(o.listen)) {
+        if (!o.token_file) {
+            fprintf(stderr, "corvid-node: --listen %s is not loopback: give a token with --token-file FILE (or "
+                    "CORVID_NODE_TOKEN_FILE), a file whose first line is the token; clients set "
+                    "CORVID_NODE_TOKEN_FILE to a file with the same token\n", o.listen);
+            return 2;
+        }
+        if (!o.tls_cert)
+            fprintf(stderr, "corvid-node: warning: --listen %s without --tls-cert: the token and all data travel "
+                    "unencrypted\n", o.listen);
+    }
     char cache_dir[PATH_MAX];
     if (!o.cache_dir && default_cache_dir(cache_dir, sizeof(cache_dir)) != 0) {
         fprintf(stderr, "corvid-node: no cache directory: give --cache-dir\n");
@@ -237,9 +312,15 @@ int main(int argc, char **argv) {
         .idle_timeout_ms = o.idle_timeout_s * 1000u,
         .max_sessions = o.max_sessions,
         .log_sessions = !o.quiet,
+        .token = o.token_file ? token : NULL,
+        .tls_cert_file = o.tls_cert,
+        .tls_key_file = o.tls_key,
+        .tls_client_ca_file = o.tls_client_ca,
+        .quota = o.quota,
     };
     cv_node *node;
     r = cv_node_start(&config, &node);
+    memset(token, 0, sizeof(token));   /* the node keeps only its hash */
     if (r != CV_OK) {
         fprintf(stderr, "corvid-node: %s\n", cv_last_error());
         return 1;
@@ -254,8 +335,10 @@ int main(int argc, char **argv) {
         }
     }
     const char *colon = strrchr(o.listen, ':');
-    printf("corvid-node: listening on %.*s:%d with %u device%s (%s), cache %s\n", (int)(colon - o.listen), o.listen,
-           port, device_count, device_count == 1 ? "" : "s", o.backend, config.cache_dir);
+    printf("corvid-node: listening on %.*s:%d with %u device%s (%s), cache %s, %s, %s\n", (int)(colon - o.listen),
+           o.listen, port, device_count, device_count == 1 ? "" : "s", o.backend, config.cache_dir,
+           o.tls_client_ca ? "mutual TLS" : o.tls_cert ? "TLS" : "plaintext",
+           o.token_file ? "token required" : "no token");
     fflush(stdout);
 
     int sig = 0;

@@ -9,7 +9,7 @@ packages=(
   build-essential cmake ninja-build pkg-config
   libvulkan-dev vulkan-validationlayers glslang-tools spirv-tools vulkan-tools
   libgrpc-dev libprotobuf-c-dev protobuf-c-compiler
-  libopenexr-dev libpng-dev libzstd-dev libssl-dev
+  libopenexr-dev libpng-dev libzstd-dev libssl-dev openssl
   libassimp-dev assimp-testmodels libembree-dev libcjson-dev
 )
 backports_packages=(mesa-vulkan-drivers)

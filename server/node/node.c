@@ -1,14 +1,20 @@
 /* corvid-node's server (node.h): devices probed at start, the content store,
  * the gRPC service (sessions, Info, grpc.health.v1), drain and stop. */
+#include <arpa/inet.h>
+#include <openssl/crypto.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
+
+#include "corvid/sha256.h"
 
 #include "health.pb-c.h"
 #include "node_internal.h"
 
-enum { STATUS_OK = 0, STATUS_INVALID_ARGUMENT = 3, STATUS_NOT_FOUND = 5, STATUS_INTERNAL = 13 };
+enum { STATUS_OK = 0, STATUS_INVALID_ARGUMENT = 3, STATUS_NOT_FOUND = 5, STATUS_INTERNAL = 13,
+       STATUS_UNAUTHENTICATED = 16 };
 
 static const char *const stream_methods[] = { CV_NODE_METHOD_SESSION, NULL };
 static const char *const unary_methods[] = { CV_NODE_METHOD_INFO, CV_HEALTH_METHOD_CHECK, NULL };
@@ -16,6 +22,77 @@ static const char *const unary_methods[] = { CV_NODE_METHOD_INFO, CV_HEALTH_METH
 static void on_stream(cv_rpc_stream *stream, const char *method, void *user) {
     (void)method;   /* the only stream method */
     cv_node_session_run(user, stream);
+}
+
+/* Every call but health must carry "authorization: Bearer <token>" when the node has a token. The presented
+ * token is hashed and the two SHA-256 digests compared with CRYPTO_memcmp: the time taken depends on neither
+ * the token's content nor its length. Refusals are counted and logged with the peer, never the token. */
+static int on_call(const char *method, const char *peer, const cv_rpc_metadata *md, uint32_t count, char *message,
+                   size_t cap, void *user) {
+    cv_node *node = user;
+    if (!node->has_token || strcmp(method, CV_HEALTH_METHOD_CHECK) == 0)
+        return STATUS_OK;
+    const char *auth = NULL;
+    uint32_t seen = 0;
+    for (uint32_t i = 0; i < count; i++)
+        if (strcmp(md[i].key, "authorization") == 0) {
+            auth = md[i].value;
+            seen++;
+        }
+    const char *why = NULL;
+    if (!auth)
+        why = "no 'authorization' metadata";
+    else if (seen > 1)
+        why = "more than one 'authorization' metadata";
+    else if (strncasecmp(auth, "Bearer ", 7) != 0)
+        why = "'authorization' is not 'Bearer <token>'";
+    else {
+        uint8_t digest[CV_SHA256_SIZE];
+        if (cv_sha256(auth + 7, strlen(auth + 7), digest) != CV_OK)
+            why = "the token could not be checked";
+        else if (CRYPTO_memcmp(digest, node->token_sha, sizeof(digest)) != 0)
+            why = "wrong token";
+        OPENSSL_cleanse(digest, sizeof(digest));
+    }
+    if (!why)
+        return STATUS_OK;
+    atomic_fetch_add(&node->unauthenticated, 1);
+    if (node->config.log_sessions)
+        fprintf(stderr, "corvid-node: refused %s from %s: %s\n", method, peer, why);
+    snprintf(message, cap, "unauthenticated: %s (this node needs its bearer token: the client reads it from the "
+             "file named by CORVID_NODE_TOKEN_FILE)", why);
+    return STATUS_UNAUTHENTICATED;
+}
+
+bool cv_node_listen_is_local(const char *listen) {
+    if (!listen)
+        return false;
+    if (strncmp(listen, "unix:", 5) == 0 || strncmp(listen, "unix-abstract:", 14) == 0)
+        return true;
+    if (strncmp(listen, "ipv4:", 5) == 0 || strncmp(listen, "ipv6:", 5) == 0)
+        listen += 5;
+    char host[256];
+    if (listen[0] == '[') {
+        const char *end = strchr(listen, ']');
+        if (!end || (size_t)(end - listen - 1) >= sizeof(host))
+            return false;
+        snprintf(host, sizeof(host), "%.*s", (int)(end - listen - 1), listen + 1);
+    } else {
+        const char *colon = strrchr(listen, ':');
+        size_t n = colon ? (size_t)(colon - listen) : strlen(listen);
+        if (n >= sizeof(host))
+            return false;
+        snprintf(host, sizeof(host), "%.*s", (int)n, listen);
+    }
+    if (strcasecmp(host, "localhost") == 0)
+        return true;
+    struct in_addr v4;
+    if (inet_pton(AF_INET, host, &v4) == 1)
+        return (ntohl(v4.s_addr) >> 24) == 127;
+    struct in6_addr v6;
+    if (inet_pton(AF_INET6, host, &v6) == 1)
+        return IN6_IS_ADDR_LOOPBACK(&v6) || (IN6_IS_ADDR_V4MAPPED(&v6) && v6.s6_addr[12] == 127);
+    return false;   /* "", "0.0.0.0", "::", a host name: reachable from elsewhere */
 }
 
 static int answer_info(cv_node *node, void **response, size_t *size, char *message, size_t cap) {
@@ -89,6 +166,7 @@ static int on_unary(const char *method, const void *request, size_t size, void *
 }
 
 static void free_node(cv_node *node) {
+    OPENSSL_cleanse(node->token_sha, sizeof(node->token_sha));
     if (node->store)
         cv_content_store_close(node->store);
     free(node->devices);
@@ -120,9 +198,34 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_node_start: NULL config, devices, listen or cache_dir");
     if (config->device_count == 0 || config->device_count > CV_NODE_MAX_DEVICES)
         return cv_error(CV_ERROR_OUT_OF_RANGE, "node: %u devices (1..%u)", config->device_count, CV_NODE_MAX_DEVICES);
+    if (config->token && !config->token[0])
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "node: the token is empty");
+    if (!config->token && !cv_node_listen_is_local(config->listen))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "node: listening on '%s', which is not loopback, needs a token "
+                        "(corvid-node: --token-file FILE or CORVID_NODE_TOKEN_FILE, a file whose first line is the "
+                        "token; clients read theirs from CORVID_NODE_TOKEN_FILE), or listen on 127.0.0.1",
+                        config->listen);
+    const cv_node_quota *q = &config->quota;
+    if (q->inflight > CV_NODE_MAX_QUOTA_INFLIGHT)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "node: quota of %u lists in flight (at most %u)", q->inflight,
+                        CV_NODE_MAX_QUOTA_INFLIGHT);
     cv_node *node = calloc(1, sizeof(*node));
     if (!node)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
+    node->quota = (cv_node_quota){
+        .memory_bytes = q->memory_bytes ? q->memory_bytes : CV_NODE_DEFAULT_QUOTA_MEMORY,
+        .resources = q->resources ? q->resources : CV_NODE_DEFAULT_QUOTA_RESOURCES,
+        .inflight = q->inflight ? q->inflight : CV_NODE_DEFAULT_QUOTA_INFLIGHT,
+        .upload_bytes = q->upload_bytes ? q->upload_bytes : CV_NODE_DEFAULT_QUOTA_UPLOAD,
+    };
+    if (config->token) {
+        cv_result hashed = cv_sha256(config->token, strlen(config->token), node->token_sha);
+        if (hashed != CV_OK) {
+            free(node);
+            return hashed;
+        }
+        node->has_token = true;
+    }
     node->config = *config;
     node->devices = calloc(config->device_count, sizeof(*node->devices));
     node->device_info = calloc(config->device_count, sizeof(*node->device_info));
@@ -145,6 +248,9 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     node->config.name = node->name;
     node->config.listen = NULL;
     node->config.cache_dir = NULL;   /* used only here, below */
+    node->config.token = NULL;       /* only its hash is kept */
+    node->config.tls_cert_file = node->config.tls_key_file = node->config.tls_client_ca_file = NULL;
+    node->config.quota = node->quota;
 
     cv_result r = probe_devices(node);
     if (r == CV_OK)
@@ -162,7 +268,11 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         .on_unary = on_unary,
         .stream_methods = stream_methods,
         .unary_methods = unary_methods,
+        .on_call = on_call,
         .user = node,
+        .tls_cert_file = config->tls_cert_file,
+        .tls_key_file = config->tls_key_file,
+        .tls_client_ca_file = config->tls_client_ca_file,
     };
     r = cv_rpc_server_start(&rc, &node->server);
     if (r != CV_OK) {
@@ -201,5 +311,7 @@ cv_node_stats cv_node_get_stats(cv_node *node) {
         .cache_hits = cs.hits,
         .cache_misses = cs.misses,
         .cache_bytes = cs.bytes,
+        .unauthenticated = atomic_load(&node->unauthenticated),
+        .quota_refusals = atomic_load(&node->quota_refusals),
     };
 }

@@ -21,6 +21,10 @@ struct cv_node {
     atomic_uint_fast64_t next_session_id;
     atomic_uint_fast64_t sessions_started, sessions_active;
     atomic_uint_fast64_t messages_in, bytes_in, bytes_out, submissions, errors;
+    atomic_uint_fast64_t unauthenticated, quota_refusals;
+    bool has_token;
+    uint8_t token_sha[32];            /* SHA-256 of the token; the token itself is not kept */
+    cv_node_quota quota;              /* defaults filled in */
 };
 
 /* Runs one session on the calling thread until its stream ends. */

@@ -59,13 +59,79 @@ struct cv_rpc_server {
 
     void (*on_stream)(cv_rpc_stream *, const char *, void *);
     int (*on_unary)(const char *, const void *, size_t, void **, size_t *, char *, size_t, void *);
+    int (*on_call)(const char *, const char *, const cv_rpc_metadata *, uint32_t, char *, size_t, void *);
     void *user;
     char **stream_methods, **unary_methods;   /* NULL-terminated copies */
 };
 
-/* The one place where the server's credentials are made: TLS goes here. */
-static grpc_server_credentials *server_credentials(void) {
-    return grpc_insecure_server_credentials_create();
+/* The one place where the server's credentials are made: plaintext, or TLS with the certificate and key files,
+ * requiring client certificates signed by the client CA when one is given. */
+static cv_result server_credentials(const cv_rpc_server_config *cfg, grpc_server_credentials **out) {
+    if (!cfg->tls_cert_file && !cfg->tls_key_file) {
+        if (cfg->tls_client_ca_file)
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc server: a TLS client CA ('%s') without the server's "
+                            "certificate and key", cfg->tls_client_ca_file);
+        *out = grpc_insecure_server_credentials_create();
+        return CV_OK;
+    }
+    if (!cfg->tls_cert_file || !cfg->tls_key_file)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc server: TLS %s given without its %s",
+                        cfg->tls_cert_file ? "certificate" : "key", cfg->tls_cert_file ? "key" : "certificate");
+    char *cert = NULL, *key = NULL, *ca = NULL;
+    cv_result r = cv_rpc_read_pem_file(cfg->tls_cert_file, "TLS certificate", &cert);
+    if (r == CV_OK)
+        r = cv_rpc_read_pem_file(cfg->tls_key_file, "TLS key", &key);
+    if (r == CV_OK && cfg->tls_client_ca_file)
+        r = cv_rpc_read_pem_file(cfg->tls_client_ca_file, "TLS client CA", &ca);
+    if (r == CV_OK) {
+        grpc_ssl_pem_key_cert_pair pair = {.private_key = key, .cert_chain = cert};
+        *out = grpc_ssl_server_credentials_create_ex(
+            ca, &pair, 1,
+            ca ? GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY : GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE,
+            NULL);
+        if (!*out)
+            r = cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc server: gRPC refused the TLS files ('%s', '%s')",
+                         cfg->tls_cert_file, cfg->tls_key_file);
+    }
+    free(cert);
+    free(ca);
+    if (key) {
+        memset(key, 0, strlen(key));
+        free(key);
+    }
+    return r;
+}
+
+/* Asks the server's on_call whether a call may run: 0, or a refusal status with `reason` filled. */
+static grpc_status_code admit(cv_rpc_server *s, accept_slot *slot, const char *method, char *reason, size_t cap) {
+    if (!s->on_call)
+        return GRPC_STATUS_OK;
+    const grpc_metadata_array *md = &slot->metadata;
+    cv_rpc_metadata *items = calloc(md->count ? md->count : 1, sizeof *items);
+    char *peer = grpc_call_get_peer(slot->call);
+    bool ok = items != NULL;
+    for (size_t i = 0; ok && i < md->count; i++) {
+        items[i].key = cv_rpc_slice_to_string(md->metadata[i].key);
+        items[i].value = cv_rpc_slice_to_string(md->metadata[i].value);
+        ok = items[i].key && items[i].value;
+    }
+    grpc_status_code code = GRPC_STATUS_RESOURCE_EXHAUSTED;
+    snprintf(reason, cap, "node is out of memory");
+    if (ok) {
+        reason[0] = 0;
+        code = (grpc_status_code)s->on_call(method, peer ? peer : "", items, (uint32_t)md->count, reason, cap,
+                                            s->user);
+        reason[cap - 1] = 0;
+    }
+    for (size_t i = 0; items && i < md->count; i++) {
+        if (items[i].value)   /* may be a secret */
+            memset((char *)items[i].value, 0, strlen(items[i].value));
+        free((char *)items[i].key);
+        free((char *)items[i].value);
+    }
+    free(items);
+    gpr_free(peer);
+    return code;
 }
 
 static grpc_arg int_arg(const char *key, int value) {
@@ -264,6 +330,11 @@ static void dispatch(cv_rpc_server *s, accept_slot *slot) {
         refuse(call, cq, GRPC_STATUS_UNIMPLEMENTED, reason);
         return;
     }
+    grpc_status_code denied = admit(s, slot, stream_method ? stream_method : unary_method, reason, sizeof reason);
+    if (denied != GRPC_STATUS_OK) {
+        refuse(call, cq, denied, reason);
+        return;
+    }
     pthread_mutex_lock(&s->mu);
     grpc_status_code refusal = GRPC_STATUS_OK;
     if (stream_method && s->draining) {
@@ -416,6 +487,7 @@ cv_result cv_rpc_server_start(const cv_rpc_server_config *config, cv_rpc_server 
     }
     s->on_stream = config->on_stream;
     s->on_unary = config->on_unary;
+    s->on_call = config->on_call;
     s->user = config->user;
     s->max_streams = config->max_streams ? config->max_streams : 1024;
     uint32_t max_message = config->max_message_bytes ? config->max_message_bytes : CV_RPC_DEFAULT_MAX_MESSAGE;
@@ -437,10 +509,16 @@ cv_result cv_rpc_server_start(const cv_rpc_server_config *config, cv_rpc_server 
     grpc_channel_args server_args = {.num_args = sizeof args / sizeof args[0], .args = args};
 
     grpc_init();
+    grpc_server_credentials *creds = NULL;
+    cv_result r = server_credentials(config, &creds);
+    if (r != CV_OK) {
+        grpc_shutdown();
+        free_server(s);
+        return r;
+    }
     s->server = grpc_server_create(&server_args, NULL);
     s->cq = grpc_completion_queue_create_for_next(NULL);
     grpc_server_register_completion_queue(s->server, s->cq, NULL);
-    grpc_server_credentials *creds = server_credentials();
     s->port = grpc_server_add_http2_port(s->server, config->listen, creds);
     grpc_server_credentials_release(creds);
     if (s->port == 0) {

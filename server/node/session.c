@@ -60,8 +60,15 @@ typedef struct session {
     /* The blob being received, if any. */
     cv_content_upload *upload;
     uint8_t upload_sha[CV_SHA256_BYTES];
-    bool upload_skipping;             /* the store had it already: chunks are dropped */
+    bool upload_skipping;             /* the store had it already, or the quota refused it: chunks are dropped */
+    bool upload_refused;              /* ... the quota refused it */
     uint64_t upload_size;
+
+    /* What the session holds, against the node's quotas (node->quota). */
+    uint64_t memory_bytes;            /* device memory of its live resources */
+    uint32_t resources;               /* live resources */
+    uint64_t uploaded_bytes;          /* added to the content store, over its life */
+    uint32_t inflight;                /* real submissions not yet reported (under lock) */
 
     uint64_t last_client_ticket;
 
@@ -176,6 +183,8 @@ static void *watcher_main(void *arg) {
         pthread_mutex_lock(&s->lock);
         s->pending_head = (s->pending_head + 1) % MAX_PENDING_SUBMITS;
         s->pending_count--;
+        if (p.node_ticket)
+            s->inflight--;
         pthread_cond_broadcast(&s->cond);
     }
     pthread_mutex_unlock(&s->lock);
@@ -190,6 +199,8 @@ static void queue_completion(session *s, const pending_submit *p) {
         pthread_cond_wait(&s->cond, &s->lock);
     s->pending[(s->pending_head + s->pending_count) % MAX_PENDING_SUBMITS] = *p;
     s->pending_count++;
+    if (p->node_ticket)
+        s->inflight++;
     pthread_cond_broadcast(&s->cond);
     pthread_mutex_unlock(&s->lock);
 }
@@ -230,6 +241,33 @@ static uint64_t map_list_handle(uint64_t client_id, void *user) {
     return id ? id : client_id;
 }
 
+/* ---- quotas -------------------------------------------------------------------- */
+
+/* Refuses a request over a session quota: counted, and the session goes on. */
+static cv_result quota_refuse(session *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static cv_result quota_refuse(session *s, const char *fmt, ...) {
+    char text[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof(text), fmt, ap);
+    va_end(ap);
+    atomic_fetch_add(&s->node->quota_refusals, 1);
+    return cv_error(CV_ERROR_LIMIT_EXCEEDED, "session quota exceeded: %s", text);
+}
+
+/* The device memory a resource counts against the memory quota. */
+static uint64_t resource_bytes(const cv_resource_desc *d) {
+    switch (d->type) {
+    case CV_HANDLE_BUFFER: return d->buffer.size;
+    case CV_HANDLE_TEXTURE:
+        return (uint64_t)d->texture.width * d->texture.height * cv_format_bytes(d->texture.format);
+    case CV_HANDLE_ACCEL:
+        return (uint64_t)d->accel.node_count * CV_ACCEL_NODE_BYTES +
+               (uint64_t)d->accel.triangle_count * CV_ACCEL_TRIANGLE_BYTES;
+    default: return 0;
+    }
+}
+
 /* ---- requests ------------------------------------------------------------------ */
 
 static cv_result do_create(session *s, const Corvid__CreateResource *m) {
@@ -240,6 +278,15 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
     if (cv_handle_map_get(&s->map, m->id))
         return cv_error(CV_ERROR_ALREADY_LOADED, "create: handle 0x%016" PRIx64 " already exists in this session",
                         m->id);
+    const cv_node_quota *q = &s->node->quota;
+    if (s->resources >= q->resources)
+        return quota_refuse(s, "create: the session holds %u resources, its limit (corvid-node --quota-resources "
+                            "%u)", s->resources, q->resources);
+    uint64_t bytes = resource_bytes(&desc);
+    if (bytes > q->memory_bytes - s->memory_bytes)
+        return quota_refuse(s, "create of %" PRIu64 " bytes: the session holds %" PRIu64 " bytes of device memory "
+                            "of its limit of %" PRIu64 " (corvid-node --quota-memory %" PRIu64 ")", bytes,
+                            s->memory_bytes, q->memory_bytes, q->memory_bytes);
     cv_handle h = { 0 };
     switch (desc.type) {
     case CV_HANDLE_BUFFER: r = cv_buffer_create(s->ctx, &desc.buffer, (cv_buffer *)&h); break;
@@ -262,16 +309,24 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
         cv_destroy(s->ctx, h);
         return cv_error(r, "%s", why);
     }
+    s->resources++;
+    s->memory_bytes += bytes;
     return CV_OK;
 }
 
 static cv_result do_destroy(session *s, const Corvid__DestroyResource *m) {
     uint64_t id;
     cv_result r = translate(s, m->id, CV_HANDLE_NONE, "destroy", &id);
+    cv_resource_desc desc = { .type = CV_HANDLE_CMDLIST };   /* lists have no description, and no bytes */
+    if (r == CV_OK && cv_handle_type_of(id) != CV_HANDLE_CMDLIST)
+        r = cv_context_describe(s->ctx, (cv_handle){ id }, &desc);
     if (r == CV_OK)
         r = cv_destroy(s->ctx, (cv_handle){ id });
-    if (r == CV_OK)
+    if (r == CV_OK) {
         cv_handle_map_remove(&s->map, m->id);
+        s->resources--;
+        s->memory_bytes -= resource_bytes(&desc);
+    }
     return r;
 }
 
@@ -280,6 +335,7 @@ static void end_upload(session *s) {
         cv_content_upload_abort(s->upload);
     s->upload = NULL;
     s->upload_skipping = false;
+    s->upload_refused = false;
     s->upload_size = 0;
 }
 
@@ -330,6 +386,20 @@ static cv_result do_blob_chunk(session *s, const Corvid__BlobChunk *m) {
         }
         memcpy(s->upload_sha, m->sha256.data, CV_SHA256_BYTES);
         s->upload_size = m->size;
+        uint64_t limit = s->node->quota.upload_bytes;
+        if (s->upload && m->size > limit - s->uploaded_bytes) {
+            /* Refused: the blob's later chunks are dropped, and nothing reaches the store. */
+            cv_content_upload_abort(s->upload);
+            s->upload = NULL;
+            s->upload_skipping = s->upload_refused = true;
+            if (m->offset + m->data.len >= s->upload_size)
+                end_upload(s);
+            return quota_refuse(s, "upload of a %" PRIu64 "-byte blob: the session has sent %" PRIu64 " bytes to "
+                                "the upload cache of its limit of %" PRIu64 " (corvid-node --quota-upload %" PRIu64
+                                ")", m->size, s->uploaded_bytes, limit, limit);
+        }
+        if (s->upload)
+            s->uploaded_bytes += m->size;
     }
     if (m->size != s->upload_size)
         return cv_error(CV_ERROR_MALFORMED, "blob_chunk: size %" PRIu64 " differs from the blob's first chunk (%"
@@ -553,6 +623,13 @@ static cv_result do_submit(session *s, const Corvid__SubmitList *m) {
     pending_submit p = { .client_ticket = m->ticket };
     uint64_t id;
     cv_result r = translate(s, m->id, CV_HANDLE_CMDLIST, "submit", &id);
+    pthread_mutex_lock(&s->lock);
+    uint32_t inflight = s->inflight;
+    pthread_mutex_unlock(&s->lock);
+    uint32_t limit = s->node->quota.inflight;
+    if (r == CV_OK && inflight >= limit)
+        r = quota_refuse(s, "submit of ticket %" PRIu64 ": the session has %u lists in flight, its limit "
+                         "(corvid-node --quota-inflight %u); wait for one to complete", m->ticket, inflight, limit);
     if (r == CV_OK)
         r = cv_device_submit(s->dev, (cv_cmdlist){ id }, &p.node_ticket);
     if (r != CV_OK) {

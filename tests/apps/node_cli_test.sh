@@ -3,6 +3,7 @@
 # options are checked before anything starts; a node serves 2 lavapipe devices;
 # a render on it writes the same PNG as the local render, and a second render
 # uploads no scene bytes; CORVID_NODES works like --nodes; an unreachable node
+# (security options that are wrong are clear errors: tests/node/security_test.c covers the rest)
 # is a clear error; SIGTERM drains and the node exits 0 with a summary.
 set -u
 node=$1 render=$2
@@ -27,6 +28,25 @@ for bad in "--idle-timeout 0" "--idle-timeout=-5" "--max-sessions 99999999999" "
   check "'$bad' explained" test -s "$tmp/err.txt"
 done
 check "range is stated" grep -q "1..64" "$tmp/err.txt"
+check "--help lists --token-file" grep -q -- "--token-file FILE" "$tmp/help.txt"
+check "--help lists the quotas" grep -q -- "--quota-inflight N" "$tmp/help.txt"
+# Security options: each mistake is a clear error before anything starts.
+security_case() {  # security_case "what" "needle" args...
+  local what=$1 needle=$2; shift 2
+  "$node" --backend mock --cache-dir "$tmp/cache" "$@" > /dev/null 2> "$tmp/err.txt"
+  check "$what exits 2" test $? -eq 2
+  check "$what explained" grep -q -- "$needle" "$tmp/err.txt"
+}
+security_case "--token-file of a missing file" "token file '$tmp/none': No such file" --token-file "$tmp/none"
+: > "$tmp/empty-token"
+security_case "--token-file of an empty file" "is empty" --token-file "$tmp/empty-token"
+CORVID_NODE_TOKEN_FILE="$tmp/none" security_case "CORVID_NODE_TOKEN_FILE of a missing file" "token file"
+security_case "--token on the command line" "visible to every user" --token abc
+security_case "non-loopback --listen without a token" "give a token with --token-file" --listen 0.0.0.0:0
+security_case "--tls-cert without --tls-key" "needs --tls-key" --tls-cert "$tmp/cert.pem"
+security_case "--tls-client-ca without TLS" "needs --tls-cert" --tls-client-ca "$tmp/ca.pem"
+security_case "--quota-inflight over 1024" "1..1024" --quota-inflight 2000
+security_case "--quota-memory not a size" "not a size" --quota-memory lots
 
 # A node on a free loopback port with 2 virtual GPUs on lavapipe.
 "$node" --listen 127.0.0.1:0 --port-file "$tmp/port" --adapters llvmpipe --gpus 2 --cache-dir "$tmp/cache" \

@@ -8,8 +8,8 @@
 
 #include "corvid/backend.h"
 
-cv_result scratch_node_start_with(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation,
-                                  uint32_t idle_timeout_ms, const char *cache_dir) {
+static cv_result start(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation,
+                       uint32_t idle_timeout_ms, const char *cache_dir, const cv_node_config *security) {
     memset(n, 0, sizeof(*n));
     if (count == 0 || count > 8)
         return cv_error(CV_ERROR_OUT_OF_RANGE, "scratch node: %u devices (1..8)", count);
@@ -31,11 +31,40 @@ cv_result scratch_node_start_with(scratch_node *n, const cv_backend *backend, ui
                                   .device_count = count, .validation = validation, .cache_dir = n->cache_dir,
                                   .cache_bytes = 256ull << 20, .idle_timeout_ms = idle_timeout_ms,
                                   .log_sessions = getenv("CORVID_NODE_LOG") != NULL };
+    if (security) {
+        if (security->listen)
+            n->config.listen = security->listen;
+        n->config.token = security->token;
+        n->config.tls_cert_file = security->tls_cert_file;
+        n->config.tls_key_file = security->tls_key_file;
+        n->config.tls_client_ca_file = security->tls_client_ca_file;
+        n->config.quota = security->quota;
+        n->config.log_sessions |= security->log_sessions;
+    }
     cv_result r = cv_node_start(&n->config, &n->node);
-    if (r != CV_OK)
-        return r;
+    if (r != CV_OK) {
+        char why[1024];
+        snprintf(why, sizeof(why), "%s", cv_last_error());
+        if (!cache_dir) {
+            char cmd[300];
+            snprintf(cmd, sizeof(cmd), "rm -rf '%s'", n->cache_dir);
+            if (system(cmd) != 0)
+                fprintf(stderr, "scratch node: could not remove %s\n", n->cache_dir);
+        }
+        return cv_error(r, "%s", why);
+    }
     snprintf(n->endpoint, sizeof(n->endpoint), "127.0.0.1:%d", cv_node_port(n->node));
     return CV_OK;
+}
+
+cv_result scratch_node_start_with(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation,
+                                  uint32_t idle_timeout_ms, const char *cache_dir) {
+    return start(n, backend, count, validation, idle_timeout_ms, cache_dir, NULL);
+}
+
+cv_result scratch_node_start_secured(scratch_node *n, const cv_backend *backend, uint32_t count,
+                                     const cv_node_config *security) {
+    return start(n, backend, count, false, 0, NULL, security);
 }
 
 cv_result scratch_node_start(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation) {

@@ -51,8 +51,10 @@
  *    beyond gRPC's own (grpc_init/grpc_shutdown are balanced per client and server object).
  *
  * Errors: functions return cv_result; cv_last_error() says why, with the gRPC status when there is one.
- * Security: insecure (plaintext) channels for now; credentials are made in one function on each side
- * (rpc_client.c / rpc_server.c) where TLS or tokens will go. */
+ * Security: plaintext unless TLS files are given (gRPC's own SSL credentials, made in one function on each
+ * side: client_credentials in rpc_client.c, server_credentials in rpc_server.c). A client may carry a bearer
+ * token, sent as "authorization: Bearer <token>" initial metadata on every call (streams and unary); a server
+ * may check every call before it runs (on_call), with the call's method, peer and initial metadata. */
 #ifndef CORVID_RPC_H
 #define CORVID_RPC_H
 
@@ -99,9 +101,18 @@ typedef struct cv_rpc_client_config {
     uint32_t connect_timeout_ms;      /* 0 = 5000: how long one connection attempt may take; calls made while
                                          the node cannot be reached fail with CV_ERROR_CONNECTION (UNAVAILABLE)
                                          once the attempt failed, they do not wait for the node to come up */
+    const char *bearer_token;         /* NULL = none; else sent as "authorization: Bearer <token>" on every call
+                                         (printable ASCII, no spaces; copied) */
+    const char *tls_ca_file;          /* NULL = plaintext; else TLS, trusting the PEM CA certificates in this file
+                                         (the server's certificate must name the target's host: SAN) */
+    const char *tls_cert_file;        /* with tls_key_file: a client certificate (PEM) for mutual TLS */
+    const char *tls_key_file;
 } cv_rpc_client_config;
 
-/* Creates the channel; connects lazily (on the first call). `config` may be NULL (all defaults). */
+/* Creates the channel; connects lazily (on the first call). `config` may be NULL (all defaults). TLS files are
+ * read here: a file that cannot be read, or a certificate without its key, is CV_ERROR_IO / INVALID_ARGUMENT
+ * naming it. A TLS handshake that fails (untrusted or expired certificate, plaintext server) shows up as
+ * CV_ERROR_CONNECTION (UNAVAILABLE) on the calls. */
 cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *config, cv_rpc_client **out);
 /* Streams must be destroyed first. NULL is ignored. */
 void cv_rpc_client_destroy(cv_rpc_client *c);
@@ -138,10 +149,21 @@ typedef struct cv_rpc_server_config {
                     char *message, size_t message_cap, void *user);
     const char *const *stream_methods;   /* NULL-terminated list of full method paths; copied */
     const char *const *unary_methods;    /* the same; methods in neither list get UNIMPLEMENTED */
+    /* Optional: decides whether a call of a served method may run, before any handler sees it: 0 runs it, a
+       non-zero gRPC status refuses it with the message written to `message` (NUL-terminated, at most cap
+       bytes). Gets the method path, the peer ("ipv4:127.0.0.1:53412") and the call's initial metadata. Runs on
+       the acceptor thread: must be quick and must not block. */
+    int (*on_call)(const char *method, const char *peer, const cv_rpc_metadata *metadata, uint32_t count,
+                   char *message, size_t cap, void *user);
     void *user;
+    /* TLS (NULL = plaintext): the server's certificate chain and private key, PEM files read at start. With
+       tls_client_ca_file, every client must present a certificate signed by a CA in that file (mutual TLS);
+       without it, clients are not asked for one. */
+    const char *tls_cert_file, *tls_key_file, *tls_client_ca_file;
 } cv_rpc_server_config;
 
-/* Binds, starts the acceptor thread. Fails (CV_ERROR_CONNECTION) if the address cannot be bound. */
+/* Binds, starts the acceptor thread. Fails (CV_ERROR_CONNECTION) if the address cannot be bound, CV_ERROR_IO or
+ * CV_ERROR_INVALID_ARGUMENT (naming the file) if a TLS file cannot be read or only one of cert/key is given. */
 cv_result cv_rpc_server_start(const cv_rpc_server_config *config, cv_rpc_server **out);
 int cv_rpc_server_port(const cv_rpc_server *s);        /* bound port */
 /* Stops accepting streams: streams that arrive later are refused with UNAVAILABLE "node is draining";
@@ -198,5 +220,15 @@ const char *cv_rpc_stream_peer(cv_rpc_stream *s);
 
 /* Server: the initial metadata value the client sent under `key`, NULL if absent (and on a client stream). */
 const char *cv_rpc_stream_metadata(cv_rpc_stream *s, const char *key);
+
+/* ---- helpers ---- */
+
+/* Reads a secret (a bearer token) from a file: the first line, trailing whitespace removed. It must be 1..1024
+ * printable ASCII characters without spaces. `out` gets it NUL-terminated (cap >= 1025 holds any). Errors name
+ * the file; the secret never appears in a message. */
+cv_result cv_rpc_read_token_file(const char *path, char *out, size_t cap);
+
+/* Reads a whole (PEM) file into a malloc'd NUL-terminated string, at most 1 MiB. Errors name the file and `what`. */
+cv_result cv_rpc_read_pem_file(const char *path, const char *what, char **out);
 
 #endif

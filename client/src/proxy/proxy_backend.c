@@ -542,10 +542,14 @@ cv_result cv_proxy_query_node(const char *endpoint, uint32_t timeout_ms, cv_prox
     if (!endpoint || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_proxy_query_node: NULL argument");
     cv_rpc_client *client;
-    cv_rpc_client_config cc = { .max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES };
-    cv_result r = cv_rpc_client_create(endpoint, &cc, &client);
-    if (r != CV_OK)
-        return cv_error(CV_ERROR_CONNECTION, "node '%s': %s", endpoint, cv_last_error());
+    cv_rpc_client_config cc;
+    char token[1040];
+    cv_result r = proxy_client_config(&cc, token, sizeof(token));
+    if (r == CV_OK)
+        r = cv_rpc_client_create(endpoint, &cc, &client);
+    memset(token, 0, sizeof(token));
+    if (r != CV_OK)   /* this client's settings (token and TLS files): creating connects nothing yet */
+        return cv_error(r, "node '%s': %s", endpoint, cv_last_error());
     Corvid__InfoRequest req = CORVID__INFO_REQUEST__INIT;
     uint8_t buf[16];
     size_t n = corvid__info_request__pack(&req, buf);

@@ -99,4 +99,9 @@ cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending
 /* The error every call returns once the session is unusable, or CV_OK. */
 cv_result proxy_health(proxy_device *p);
 
+/* The rpc client configuration for talking to a node, from the environment: CORVID_NODE_TOKEN_FILE (the bearer
+ * token, read from the file into `token`, cap >= 1025), CORVID_NODE_TLS_CA (TLS, trusting that CA), and
+ * CORVID_NODE_TLS_CERT / CORVID_NODE_TLS_KEY (a client certificate for mutual TLS). Errors name the variable. */
+cv_result proxy_client_config(cv_rpc_client_config *cc, char *token, size_t cap);
+
 #endif

@@ -2,6 +2,7 @@
 #include "rpc_internal.h"
 
 #include <assert.h>
+#include <errno.h>
 #include <grpc/grpc_security.h>
 #include <grpc/support/alloc.h>
 #include <stdatomic.h>
@@ -9,15 +10,55 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define MAX_PEM_BYTES (1u << 20)
+#define MAX_TOKEN_CHARS 1024u
+
 struct cv_rpc_client {
     grpc_channel *channel;
     char *target;
+    char *authorization;   /* "Bearer <token>", or NULL: sent with every call */
     atomic_uint streams;   /* open streams, to catch destroy-before-streams */
 };
 
-/* The one place where the client's credentials are made: TLS or token credentials go here. */
-static grpc_channel_credentials *client_credentials(void) {
-    return grpc_insecure_credentials_create();
+/* The one place where the client's credentials are made: plaintext, or TLS trusting the CA file's
+ * certificates, with a client certificate for mutual TLS. The bearer token is not a gRPC call credential
+ * (the core sends those only over TLS, and a loopback node takes tokens over plaintext too): it goes as
+ * metadata on each call (with_authorization). */
+static cv_result client_credentials(const cv_rpc_client_config *cfg, grpc_channel_credentials **out) {
+    if (!cfg->tls_ca_file) {
+        if (cfg->tls_cert_file || cfg->tls_key_file)
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc client: a TLS client certificate needs the CA file "
+                            "that the server's certificate is checked against (tls_ca_file)");
+        *out = grpc_insecure_credentials_create();
+        return CV_OK;
+    }
+    if (!cfg->tls_cert_file != !cfg->tls_key_file)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc client: TLS client %s given without its %s",
+                        cfg->tls_cert_file ? "certificate" : "key", cfg->tls_cert_file ? "key" : "certificate");
+    char *ca = NULL, *cert = NULL, *key = NULL;
+    cv_result r = cv_rpc_read_pem_file(cfg->tls_ca_file, "TLS CA", &ca);
+    if (r == CV_OK && cfg->tls_cert_file)
+        r = cv_rpc_read_pem_file(cfg->tls_cert_file, "TLS client certificate", &cert);
+    if (r == CV_OK && cfg->tls_key_file)
+        r = cv_rpc_read_pem_file(cfg->tls_key_file, "TLS client key", &key);
+    if (r == CV_OK) {
+        grpc_ssl_pem_key_cert_pair pair = {.private_key = key, .cert_chain = cert};
+        *out = grpc_ssl_credentials_create(ca, cert ? &pair : NULL, NULL, NULL);
+        if (!*out)
+            r = cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc client: gRPC refused the TLS files (CA '%s')",
+                         cfg->tls_ca_file);
+    }
+    free(ca);
+    free(cert);
+    if (key) {
+        memset(key, 0, strlen(key));
+        free(key);
+    }
+    return r;
+}
+
+static bool token_char_ok(char ch) {
+    return ch > ' ' && ch < 0x7f;
 }
 
 static grpc_arg int_arg(const char *key, int value) {
@@ -39,13 +80,37 @@ cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *c
     uint32_t keepalive_timeout = cfg.keepalive_timeout_ms ? cfg.keepalive_timeout_ms : 5000;
     uint32_t connect_timeout = cfg.connect_timeout_ms ? cfg.connect_timeout_ms : 5000;
 
+    if (cfg.bearer_token) {
+        size_t n = strlen(cfg.bearer_token);
+        bool ok = n > 0 && n <= MAX_TOKEN_CHARS;
+        for (size_t i = 0; ok && i < n; i++)
+            ok = token_char_ok(cfg.bearer_token[i]);
+        if (!ok)
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_client_create: the bearer token for '%s' must be "
+                            "1..%u printable ASCII characters without spaces", target, MAX_TOKEN_CHARS);
+    }
+    grpc_init();
+    grpc_channel_credentials *creds = NULL;
+    cv_result r = client_credentials(&cfg, &creds);
+    if (r != CV_OK) {
+        grpc_shutdown();
+        return cv_error(r, "%s (target '%s')", cv_last_error(), target);
+    }
+
     cv_rpc_client *c = calloc(1, sizeof *c);
     char *name = strdup(target);
-    if (!c || !name) {
+    char *authorization = NULL;
+    if (cfg.bearer_token && (authorization = malloc(strlen(cfg.bearer_token) + 8)))
+        sprintf(authorization, "Bearer %s", cfg.bearer_token);
+    if (!c || !name || (cfg.bearer_token && !authorization)) {
         free(c);
         free(name);
+        free(authorization);
+        grpc_channel_credentials_release(creds);
+        grpc_shutdown();
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_rpc_client_create: '%s'", target);
     }
+    c->authorization = authorization;
     grpc_arg args[] = {
         int_arg(GRPC_ARG_MAX_RECEIVE_MESSAGE_LENGTH, clamp_int(max_message)),
         int_arg(GRPC_ARG_MAX_SEND_MESSAGE_LENGTH, clamp_int(max_message)),
@@ -64,8 +129,6 @@ cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *c
     };
     grpc_channel_args channel_args = {.num_args = sizeof args / sizeof args[0], .args = args};
 
-    grpc_init();
-    grpc_channel_credentials *creds = client_credentials();
     c->channel = grpc_channel_create(target, creds, &channel_args);
     grpc_channel_credentials_release(creds);
     c->target = name;
@@ -83,6 +146,10 @@ void cv_rpc_client_destroy(cv_rpc_client *c) {
     grpc_channel_destroy(c->channel);
     grpc_shutdown();
     free(c->target);
+    if (c->authorization) {
+        memset(c->authorization, 0, strlen(c->authorization));
+        free(c->authorization);
+    }
     free(c);
 }
 
@@ -102,6 +169,9 @@ static cv_result check_metadata(const cv_rpc_metadata *md, uint32_t count) {
     return CV_OK;
 }
 
+static cv_result open_call(cv_rpc_client *c, const char *method, const cv_rpc_metadata *metadata, uint32_t count,
+                           cv_rpc_stream **out);
+
 static grpc_call *create_call(cv_rpc_client *c, grpc_completion_queue *cq, const char *method,
                               gpr_timespec deadline) {
     grpc_slice m = grpc_slice_from_copied_string(method);
@@ -118,6 +188,28 @@ cv_result cv_rpc_client_open(cv_rpc_client *c, const char *method, const cv_rpc_
     cv_result r = check_metadata(metadata, count);
     if (r != CV_OK)
         return r;
+    for (uint32_t i = 0; c->authorization && i < count; i++)
+        if (strcmp(metadata[i].key, "authorization") == 0)
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_client_open: 'authorization' metadata on a client "
+                            "that has a bearer token (it sends its own)");
+    cv_rpc_metadata *all = NULL;
+    if (c->authorization) {
+        all = calloc(count + 1, sizeof *all);
+        if (!all)
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_rpc_client_open");
+        if (count)
+            memcpy(all, metadata, count * sizeof *all);
+        all[count++] = (cv_rpc_metadata){"authorization", c->authorization};
+        metadata = all;
+    }
+    r = open_call(c, method, metadata, count, out);
+    free(all);
+    return r;
+}
+
+static cv_result open_call(cv_rpc_client *c, const char *method, const cv_rpc_metadata *metadata, uint32_t count,
+                           cv_rpc_stream **out) {
+    cv_result r;
     grpc_completion_queue *cq = grpc_completion_queue_create_for_next(NULL);
     grpc_call *call = create_call(c, cq, method, gpr_inf_future(GPR_CLOCK_REALTIME));
     if (!call) {
@@ -181,6 +273,13 @@ cv_result cv_rpc_client_unary(cv_rpc_client *c, const char *method, const void *
     grpc_op ops[6] = {{.op = GRPC_OP_SEND_INITIAL_METADATA}, {.op = GRPC_OP_SEND_MESSAGE},
                       {.op = GRPC_OP_SEND_CLOSE_FROM_CLIENT}, {.op = GRPC_OP_RECV_INITIAL_METADATA},
                       {.op = GRPC_OP_RECV_MESSAGE},           {.op = GRPC_OP_RECV_STATUS_ON_CLIENT}};
+    grpc_metadata auth;
+    if (c->authorization) {
+        auth.key = grpc_slice_from_static_string("authorization");
+        auth.value = grpc_slice_from_copied_string(c->authorization);
+        ops[0].data.send_initial_metadata.count = 1;
+        ops[0].data.send_initial_metadata.metadata = &auth;
+    }
     ops[1].data.send_message.send_message = req;
     ops[3].data.recv_initial_metadata.recv_initial_metadata = &initial;
     ops[4].data.recv_message.recv_message = &resp;
@@ -216,6 +315,8 @@ cv_result cv_rpc_client_unary(cv_rpc_client *c, const char *method, const void *
     }
     grpc_call_unref(call);
     cv_rpc_cq_drain_and_destroy(cq);
+    if (c->authorization)
+        grpc_slice_unref(auth.value);
     grpc_byte_buffer_destroy(req);
     if (resp)
         grpc_byte_buffer_destroy(resp);
@@ -223,5 +324,75 @@ cv_result cv_rpc_client_unary(cv_rpc_client *c, const char *method, const void *
     gpr_free((void *)error_string);
     grpc_metadata_array_destroy(&initial);
     grpc_metadata_array_destroy(&trailing);
+    return r;
+}
+
+/* ---- files ---- */
+
+cv_result cv_rpc_read_pem_file(const char *path, const char *what, char **out) {
+    if (!path || !*path || !what || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_read_pem_file: null or empty argument");
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return cv_error(CV_ERROR_IO, "%s file '%s': %s", what, path, strerror(errno));
+    char *text = malloc(MAX_PEM_BYTES + 1);
+    size_t n = text ? fread(text, 1, MAX_PEM_BYTES + 1, f) : 0;
+    bool failed = text && ferror(f);
+    fclose(f);
+    if (!text)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s file '%s'", what, path);
+    cv_result r = CV_OK;
+    if (failed)
+        r = cv_error(CV_ERROR_IO, "%s file '%s': read error", what, path);
+    else if (n > MAX_PEM_BYTES)
+        r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s file '%s': larger than %u bytes", what, path, MAX_PEM_BYTES);
+    else if (n == 0 || memchr(text, 0, n))
+        r = cv_error(CV_ERROR_MALFORMED, "%s file '%s': %s", what, path, n ? "binary, not PEM" : "empty");
+    else {
+        text[n] = 0;
+        if (!strstr(text, "-----BEGIN "))
+            r = cv_error(CV_ERROR_MALFORMED, "%s file '%s': not PEM (no '-----BEGIN' line)", what, path);
+    }
+    if (r != CV_OK) {
+        memset(text, 0, n < MAX_PEM_BYTES ? n : MAX_PEM_BYTES);
+        free(text);
+        return r;
+    }
+    *out = text;
+    return CV_OK;
+}
+
+cv_result cv_rpc_read_token_file(const char *path, char *out, size_t cap) {
+    if (!path || !*path || !out || cap == 0)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_read_token_file: null or empty argument");
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return cv_error(CV_ERROR_IO, "token file '%s': %s", path, strerror(errno));
+    char line[MAX_TOKEN_CHARS + 3];
+    size_t n = fread(line, 1, sizeof line - 1, f);
+    bool failed = ferror(f);
+    fclose(f);
+    line[n] = 0;
+    char *end = strchr(line, '\n');   /* the first line */
+    size_t len = end ? (size_t)(end - line) : n;
+    while (len && (line[len - 1] == '\r' || line[len - 1] == ' ' || line[len - 1] == '\t'))
+        len--;
+    bool ok = !failed && len > 0 && len <= MAX_TOKEN_CHARS && len < cap;
+    for (size_t i = 0; ok && i < len; i++)
+        ok = token_char_ok(line[i]);
+    cv_result r = CV_OK;
+    if (failed)
+        r = cv_error(CV_ERROR_IO, "token file '%s': read error", path);
+    else if (len == 0)
+        r = cv_error(CV_ERROR_MALFORMED, "token file '%s' is empty (the token is its first line)", path);
+    else if (!ok)
+        r = cv_error(CV_ERROR_MALFORMED, "token file '%s': the token (its first line) must be 1..%u printable "
+                     "ASCII characters without spaces", path, (unsigned)(cap - 1 < MAX_TOKEN_CHARS ? cap - 1
+                     : MAX_TOKEN_CHARS));
+    else {
+        memcpy(out, line, len);
+        out[len] = 0;
+    }
+    memset(line, 0, sizeof line);
     return r;
 }
