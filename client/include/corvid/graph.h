@@ -1,0 +1,202 @@
+/* The render graph: a frame described as passes over resources, baked into
+ * per-device command lists, cross-device transfers and barriers.
+ *
+ * Two phases, as in Halcyon (seed 004) and Frostbite's frame graph:
+ *
+ * Construction (serial, one thread). Resources are declared by description
+ * (transient textures and buffers the graph allocates) or imported (handles
+ * the application already owns). Passes are added with a name, a queue type, a
+ * multi-GPU policy (partition.h: PRIMARY_ONLY runs on devices[0] over the whole
+ * width; ALL_DEVICES runs on every device over its column window) and typed
+ * declarations of what they read and write. A write may carry a transfer rule
+ * saying where its data must go when a pass on other devices reads it; left at
+ * AUTO, a PRIMARY_ONLY -> ALL_DEVICES edge is a multicast and an
+ * ALL_DEVICES -> PRIMARY_ONLY edge gathers each device's columns to the primary.
+ *
+ * A read sees the nearest write of the resource declared before it, or, for a
+ * transient with no earlier writer, its first writer (so passes of single-writer
+ * resources may be added in any order). A read of an imported resource with no
+ * earlier writer sees what the application put there. cv_graph_history() names
+ * the previous frame's contents of a transient, for temporal passes.
+ *
+ * Bake (cv_graph_bake) validates, culls passes that reach no output, orders,
+ * partitions the width, plans cross-device copies, allocates transients from a
+ * pool (two with the same description and disjoint lifetimes share one
+ * resource), places barriers and lays out one command list per pass and device.
+ * A bake that fails changes nothing: the previous bake stays executable. Bake
+ * again whenever the partition should change (execute feeds the balancer).
+ *
+ * Evaluation (cv_graph_execute) records every pass instance on worker threads
+ * through its record callback, submits in step order on each device, runs each
+ * cross-device transfer once its source has finished, waits, and returns
+ * per-pass timings. A record callback sees its column window and the handles of
+ * its resources, never the device count:
+ *
+ *     static void trace(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+ *         cv_binding b[2] = { { cv_any(cv_graph_texture(pc, s->gbuffer)) },
+ *                             { cv_any(cv_graph_texture(pc, s->visibility)) } };
+ *         struct { uint32_t x0, width; } push = { pc->x, pc->width };
+ *         cv_cmd_dispatch(l, pc->queue, &(cv_dispatch_args){ ... .groups_x = (pc->width + 7) / 8 ... });
+ *     }
+ *
+ *     cv_graph *g;
+ *     cv_graph_create(ctx, devices, n, &g);
+ *     cv_graph_resource gbuf, vis;
+ *     cv_graph_create_texture(g, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA32F, .label = "gbuffer" }, &gbuf);
+ *     cv_graph_create_texture(g, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA16F, .label = "visibility" }, &vis);
+ *     cv_graph_pass p;
+ *     cv_graph_add_pass(g, &(cv_graph_pass_desc){ "gbuffer", CV_QUEUE_GRAPHICS, CV_MGPU_PRIMARY_ONLY,
+ *                                                 raster, s }, &p);
+ *     cv_graph_write(g, p, gbuf, CV_GRAPH_COLOR_TARGET, CV_GRAPH_TRANSFER_AUTO);    // multicast
+ *     cv_graph_add_pass(g, &(cv_graph_pass_desc){ "trace", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES,
+ *                                                 trace, s }, &p);
+ *     cv_graph_read(g, p, gbuf, CV_GRAPH_STORAGE_READ);
+ *     cv_graph_write(g, p, vis, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO);    // gathered
+ *     ... a PRIMARY_ONLY "filter" pass reads vis and writes "image" ...
+ *     cv_graph_output(g, image);
+ *     each frame:
+ *         cv_graph_bake(g, &(cv_graph_bake_desc){ .width = w, .tile = 8 });
+ *         cv_graph_execute(g, timings, CV_GRAPH_MAX_STEPS, &count);
+ *     cv_graph_destroy(g);
+ *
+ * Errors name the pass and resource ("graph: pass 'trace': reads 'rays', a
+ * transient no pass writes"). A graph is used by one thread at a time. */
+#ifndef CORVID_GRAPH_H
+#define CORVID_GRAPH_H
+
+#include <stdio.h>
+
+#include "corvid/device.h"
+#include "corvid/partition.h"
+
+typedef struct cv_graph cv_graph;
+
+/* Handles within one graph; 0 is invalid. */
+typedef struct cv_graph_resource { uint32_t id; } cv_graph_resource;
+typedef struct cv_graph_pass { uint32_t id; } cv_graph_pass;
+
+#define CV_GRAPH_MAX_DEVICES 16u
+#define CV_GRAPH_MAX_PASSES 1024u
+#define CV_GRAPH_MAX_RESOURCES 1024u
+/* Passes and transfers of one bake. */
+#define CV_GRAPH_MAX_STEPS (2u * CV_GRAPH_MAX_PASSES)
+
+/* How a pass uses a resource. The first four write, the others read; a
+ * read-modify-write is declared as both a read and a write. */
+typedef enum cv_graph_access {
+    CV_GRAPH_COLOR_TARGET = 0,  /* textures */
+    CV_GRAPH_DEPTH_TARGET,      /* depth textures */
+    CV_GRAPH_STORAGE_WRITE,
+    CV_GRAPH_TRANSFER_DST,
+    CV_GRAPH_STORAGE_READ,
+    CV_GRAPH_SAMPLED,           /* textures */
+    CV_GRAPH_TRANSFER_SRC,
+    CV_GRAPH_ACCESS_COUNT
+} cv_graph_access;
+
+/* Where a write's data goes when passes on other devices read it. */
+typedef enum cv_graph_transfer {
+    CV_GRAPH_TRANSFER_AUTO = 0,           /* multicast after PRIMARY_ONLY, gather after ALL_DEVICES */
+    CV_GRAPH_TRANSFER_MULTICAST,          /* the primary's whole width to every device with a window */
+    CV_GRAPH_TRANSFER_TO_PRIMARY,         /* each device's own columns back to the primary (isolated) */
+    CV_GRAPH_TRANSFER_PRIMARY_TO_WINDOWS, /* from the primary, each device gets only its window */
+} cv_graph_transfer;
+
+typedef struct cv_graph_pass_context {
+    const char *name;          /* the pass's name */
+    cv_queue_type queue;       /* record on this queue */
+    uint32_t x, width;         /* the pass's column window */
+    uint32_t full_width;       /* the bake's width */
+    bool history_valid;        /* history reads hold the previous frame (false on the first) */
+    const void *instance;      /* the graph's, for cv_graph_texture/cv_graph_buffer */
+} cv_graph_pass_context;
+
+/* The record callback of a pass: records the pass's commands for one device
+ * (the window in pc) into `list`. Called on a worker thread, one call per list;
+ * calls for different devices may run at once. Errors are the list's (sticky). */
+typedef void (*cv_graph_record_fn)(const cv_graph_pass_context *pc, cv_command_list *list, void *user);
+
+typedef struct cv_graph_pass_desc {
+    const char *name;          /* 1..CV_LABEL_MAX-1 bytes, unique in the graph */
+    cv_queue_type queue;
+    cv_mgpu_policy policy;
+    cv_graph_record_fn record;
+    void *user;
+} cv_graph_pass_desc;
+
+/* The handle a pass records for one of its declared resources on the device
+ * it is recording for; an undeclared or wrong-typed resource gives id 0, which
+ * the list rejects. */
+cv_texture cv_graph_texture(const cv_graph_pass_context *pc, cv_graph_resource r);
+cv_buffer cv_graph_buffer(const cv_graph_pass_context *pc, cv_graph_resource r);
+
+/* devices[0] is the primary; all devices must belong to ctx. */
+cv_result cv_graph_create(cv_context *ctx, cv_device *const *devices, uint32_t count, cv_graph **out);
+/* Waits for the devices, destroys every resource and list the graph made. */
+void cv_graph_destroy(cv_graph *g);
+
+/* Construction. Transients: the graph allocates them (the label names them in
+ * messages and dumps). column_bytes: for copies of a column range of a buffer,
+ * bytes per column (0: the buffer only moves whole). */
+cv_result cv_graph_create_texture(cv_graph *g, const cv_texture_desc *desc, cv_graph_resource *out);
+cv_result cv_graph_create_buffer(cv_graph *g, const cv_buffer_desc *desc, uint64_t column_bytes,
+                                 cv_graph_resource *out);
+/* Imported: the application's handle, loaded on the devices that use it. */
+cv_result cv_graph_import_texture(cv_graph *g, cv_texture t, cv_graph_resource *out);
+cv_result cv_graph_import_buffer(cv_graph *g, cv_buffer b, uint64_t column_bytes, cv_graph_resource *out);
+/* The previous frame's contents of transient r (read-only). r then keeps its
+ * memory from frame to frame (it is not aliased). */
+cv_result cv_graph_history(cv_graph *g, cv_graph_resource r, cv_graph_resource *out);
+/* Marks r as a result of the graph: passes that reach it are kept, and it is
+ * whole on the primary after execute. */
+cv_result cv_graph_output(cv_graph *g, cv_graph_resource r);
+
+cv_result cv_graph_add_pass(cv_graph *g, const cv_graph_pass_desc *desc, cv_graph_pass *out);
+/* Declarations. Resources are checked at bake, so passes may name resources
+ * in any order; these fail only on a bad pass or argument. */
+cv_result cv_graph_read(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_graph_access access);
+cv_result cv_graph_write(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_graph_access access,
+                         cv_graph_transfer rule);
+/* A built-in pass copying src to dst (same description) with copy commands,
+ * over its window under ALL_DEVICES. */
+cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy policy, cv_graph_resource src,
+                                 cv_graph_resource dst, cv_graph_pass *out);
+
+typedef struct cv_graph_bake_desc {
+    uint32_t width;                 /* columns of the X axis ALL_DEVICES passes split, > 0 */
+    uint32_t tile;                  /* window starts are multiples of it; 0 = 8 */
+    const cv_partition *partition;  /* NULL: the graph's balancer splits the width */
+} cv_graph_bake_desc;
+
+cv_result cv_graph_bake(cv_graph *g, const cv_graph_bake_desc *desc);
+
+/* What a bake decided, for tests and tools (valid until the next bake). */
+typedef struct cv_graph_stats {
+    uint32_t passes, culled, steps, transfers, copies;  /* copies: device-to-device copies of all transfers */
+    uint32_t barriers;
+    uint32_t transients, physical;  /* transient resources, and the resources holding them */
+} cv_graph_stats;
+cv_result cv_graph_get_stats(const cv_graph *g, cv_graph_stats *out);
+/* Whether a pass survived culling. */
+bool cv_graph_pass_kept(const cv_graph *g, cv_graph_pass p);
+/* The physical resource index a transient was given (-1 if it has none). */
+int32_t cv_graph_physical_of(const cv_graph *g, cv_graph_resource r);
+
+typedef struct cv_graph_timing {
+    char name[CV_LABEL_MAX];   /* pass name, or "transfer '<resource>'" */
+    uint32_t device;           /* device index (a transfer: its source) */
+    double ms;
+} cv_graph_timing;
+
+/* Records, submits, transfers and waits; one timing per pass instance and per
+ * transfer, in step order (*count is the number there were; at most capacity
+ * are written). */
+cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capacity, uint32_t *count);
+
+/* The baked graph as stable text (same graph, same bytes) and as Graphviz dot. */
+cv_result cv_graph_dump_text(const cv_graph *g, FILE *f);
+cv_result cv_graph_dump_dot(const cv_graph *g, FILE *f);
+
+const char *cv_graph_access_name(cv_graph_access a);
+
+#endif

@@ -1,0 +1,123 @@
+/* The render graph's own structures, shared by its files: construction
+ * (graph.c), bake (bake.c), evaluation (execute.c), dumps (dump.c). */
+#ifndef CORVID_GRAPH_INTERNAL_H
+#define CORVID_GRAPH_INTERNAL_H
+
+#include "corvid/graph.h"
+
+/* A resource handle's id: index + 1, with this bit set for its history. */
+#define GRAPH_HISTORY_BIT 0x80000000u
+
+typedef struct graph_resource {
+    char name[CV_LABEL_MAX];
+    cv_handle_type type;        /* CV_HANDLE_BUFFER or CV_HANDLE_TEXTURE */
+    cv_texture_desc texture;
+    cv_buffer_desc buffer;
+    uint64_t column_bytes;
+    bool imported, output, history;
+    cv_handle handle;           /* imported */
+    cv_handle frames[2];        /* history: frames[frame & 1] is this frame's, the other the previous */
+} graph_resource;
+
+typedef struct graph_access {
+    uint32_t id;                /* as declared: checked at bake */
+    cv_graph_access access;
+    cv_graph_transfer rule;
+    bool write;
+} graph_access;
+
+typedef struct graph_pass {
+    char name[CV_LABEL_MAX];
+    cv_queue_type queue;
+    cv_mgpu_policy policy;
+    cv_graph_record_fn record;
+    void *user;
+    graph_access *accesses;
+    uint32_t access_count, access_capacity;
+    uint32_t copy_src, copy_dst;  /* built-in copy pass: resource ids */
+} graph_pass;
+
+/* A barrier at the start of a pass instance's list. */
+typedef struct graph_barrier {
+    uint32_t resource;          /* index */
+    bool history;
+    bool after_write, before_write;  /* the earlier access wrote; this one writes */
+} graph_barrier;
+
+/* A pass on one device. */
+typedef struct graph_instance {
+    uint32_t device;
+    cv_column_range window;
+    uint32_t list;              /* index into cv_graph.lists */
+    uint32_t barrier_first, barrier_count;
+} graph_instance;
+
+typedef struct graph_step {
+    bool transfer;
+    uint32_t pass;              /* the pass, or a transfer's source pass */
+    uint32_t resource;          /* transfers */
+    cv_mgpu_transfer rule;      /* transfers */
+    cv_mgpu_copy_plan plan;     /* transfers */
+    uint32_t instance_first, instance_count;  /* passes */
+} graph_step;
+
+/* A resource holding transients (aliased when lifetimes are disjoint). */
+typedef struct graph_physical {
+    cv_handle_type type;
+    cv_texture_desc texture;    /* key: the description, label left out */
+    cv_buffer_desc buffer;
+    cv_handle handle;
+} graph_physical;
+
+typedef struct graph_baked {
+    bool valid;
+    uint32_t width;
+    bool balanced;              /* the partition came from the balancer */
+    cv_partition partition;
+    graph_step *steps;
+    uint32_t step_count;
+    graph_instance *instances;
+    uint32_t instance_count;
+    graph_barrier *barriers;
+    uint32_t barrier_count;
+    bool *kept;                 /* per pass */
+    int32_t *physical;          /* per resource: pool index or -1 */
+    uint32_t *first, *last;     /* per resource: lifetime in steps (transients) */
+    cv_graph_stats stats;
+} graph_baked;
+
+struct cv_graph {
+    cv_context *ctx;
+    cv_device *devices[CV_GRAPH_MAX_DEVICES];
+    uint32_t device_count;
+    graph_resource *resources;
+    uint32_t resource_count, resource_capacity;
+    graph_pass *passes;
+    uint32_t pass_count, pass_capacity;
+    graph_physical *pool;
+    uint32_t pool_count, pool_capacity;
+    cv_cmdlist *lists;
+    uint32_t list_count;
+    cv_balancer balancer;
+    uint64_t frame;             /* executes so far: picks the history frames */
+    uint64_t history_epoch;     /* g->frame when history frames were last created */
+    graph_baked baked;
+};
+
+/* What a record callback's pc->instance points at. */
+typedef struct graph_record_ctx {
+    const cv_graph *graph;
+    uint32_t pass;
+    uint32_t device;
+} graph_record_ctx;
+
+/* The resource behind an id, or NULL (sets *history). */
+const graph_resource *graph_lookup(const cv_graph *g, uint32_t id, bool *history);
+/* The handle an access to resource `index` (its history if `history`) uses on the devices. */
+cv_handle graph_handle_of(const cv_graph *g, uint32_t index, bool history);
+bool graph_access_writes(cv_graph_access a);
+void graph_baked_free(graph_baked *b);
+/* The built-in copy pass's record callback. */
+void graph_record_copy(const cv_graph_pass_context *pc, cv_command_list *list, void *user);
+
+#endif
