@@ -4,11 +4,12 @@
  *
  * Two pairs of devices move the same data: two Vulkan devices (by default two
  * virtual GPUs on the default adapter, so two VkDevices on one GPU or on
- * lavapipe) and two mock devices, whose resources are host memory, so the mock
- * figure is what the transfer machinery itself costs (staging, the reader
- * thread, chunking) on top of copying. The peer is memcpy between two host
- * buffers of the same size: the ceiling for anything that goes through host
- * memory, as every transfer does today.
+ * lavapipe), once per transfer path (transfer.h: staged, host-import, shared,
+ * each forced; a path the pair cannot take is left out), and two mock
+ * devices, whose resources are host memory, so the mock figure is what the
+ * staged machinery itself costs (staging, the reader thread, chunking) on top
+ * of copying. The peer is memcpy between two host buffers of the same size:
+ * the ceiling for anything that goes through host memory with the CPU.
  *
  * Buffers from 64 KiB up to 256 MiB, each bounded by the pair's
  * max_storage_buffer_range, and two textures as the renderer moves them: one
@@ -176,6 +177,7 @@ typedef struct job {
     cv_handle src_res, dst_res;
     uint64_t bytes;
     cv_rect rect;                /* textures: the source rectangle, also where it lands */
+    cv_transfer_path path;       /* forced for this contender (cv_transfer_set_path) */
     const uint8_t *host_src;
     uint8_t *host_dst;
     series s;
@@ -193,7 +195,9 @@ static bool run_once(job *j, timing *t) {
         return true;
     }
     cv_transfer_stats st;
-    cv_result r = j->kind == KIND_BUFFER
+    cv_result r = cv_transfer_set_path(j->path);
+    if (r == CV_OK)
+        r = j->kind == KIND_BUFFER
                       ? cv_transfer_buffer(j->src, (cv_buffer){ j->src_res.id }, 0, j->dst,
                                            (cv_buffer){ j->dst_res.id }, 0, j->bytes, &st)
                       : cv_transfer_texture(j->src, (cv_texture){ j->src_res.id }, j->rect, j->dst,
@@ -252,7 +256,12 @@ static double median_of(const series *s, size_t field, double *v) {
 
 /* ---- rows ------------------------------------------------------------------------------ */
 
-enum { C_VULKAN, C_MOCK, C_MEMCPY, CONTENDERS };
+/* The Vulkan pair once per transfer path, the mock pair (staged), memcpy. */
+enum { C_VK_STAGED, C_VK_HOST, C_VK_SHARED, C_MOCK, C_MEMCPY, CONTENDERS };
+static const cv_transfer_path contender_path[CONTENDERS] = { CV_TRANSFER_STAGED, CV_TRANSFER_HOST_IMPORT,
+                                                             CV_TRANSFER_SHARED, CV_TRANSFER_STAGED };
+static const char *const contender_name[CONTENDERS] = { "vk staged", "vk host-import", "vk shared", "mock staged",
+                                                        "memcpy" };
 
 typedef struct figure {
     bool ran, verified;
@@ -275,7 +284,7 @@ typedef struct bench {
     cv_context *ctx;
     cv_device *vk[CV_VULKAN_MAX_GPUS];
     cv_device *mock[2];
-    pair pairs[2];               /* C_VULKAN, C_MOCK; src NULL when not run */
+    pair pairs[C_MEMCPY];        /* per transfer contender; src NULL when not run */
     row rows[MAX_ROWS];
     uint32_t row_count;
     /* Allocated once with the bench and never freed while it runs: freeing
@@ -310,10 +319,17 @@ static cv_result write_source(const job *j) {
     return cv_device_write_texture(j->src, (cv_texture){ j->src_res.id }, j->rect, j->host_src);
 }
 
-/* Whether the destination now holds the source bytes (read into host_dst). */
-static bool verify(const job *j) {
+/* Whether one more transfer of this contender alone, into a zeroed
+ * destination, delivers the source bytes (read back into host_dst). */
+static bool verify(job *j) {
     memset(j->host_dst, 0, j->bytes);
     cv_result r = j->kind == KIND_BUFFER
+                      ? cv_device_write_buffer(j->dst, (cv_buffer){ j->dst_res.id }, 0, j->bytes, j->host_dst)
+                      : cv_device_write_texture(j->dst, (cv_texture){ j->dst_res.id }, j->rect, j->host_dst);
+    timing t;
+    if (r != CV_OK || !run_once(j, &t))
+        return false;
+    r = j->kind == KIND_BUFFER
                       ? cv_device_read_buffer(j->dst, (cv_buffer){ j->dst_res.id }, 0, j->bytes, j->host_dst)
                       : cv_device_read_texture(j->dst, (cv_texture){ j->dst_res.id }, j->rect, j->host_dst);
     return r == CV_OK && memcmp(j->host_dst, j->host_src, j->bytes) == 0;
@@ -353,13 +369,16 @@ static void run_row(bench *b, row *rw, resource_kind kind, cv_handle src, cv_han
     job jobs[CONTENDERS];
     job *active[CONTENDERS];
     uint32_t n = 0;
-    for (int c = C_VULKAN; c <= C_MOCK; c++) {
+    for (int c = C_VK_STAGED; c <= C_MOCK; c++) {
         const pair *p = &b->pairs[c];
         jobs[c] = (job){ .src = p->src, .dst = p->dst, .kind = kind, .src_res = src, .dst_res = dst,
-                         .bytes = rw->bytes, .rect = rect, .host_src = host_src, .host_dst = host_dst };
+                         .bytes = rw->bytes, .rect = rect, .path = contender_path[c], .host_src = host_src,
+                         .host_dst = host_dst };
         if (!p->src || (kind == KIND_BUFFER && rw->bytes > p->max_buffer))
             continue;
-        if (!load(p->src, src) || !load(p->dst, dst))
+        bool loaded = (cv_device_has(p->src, src) || load(p->src, src)) &&
+                      (cv_device_has(p->dst, dst) || load(p->dst, dst));
+        if (!loaded)
             continue;
         if (write_source(&jobs[c]) != CV_OK) {
             fprintf(stderr, "bench_transfer: source data on %s: %s\n", cv_device_label(p->src), cv_last_error());
@@ -396,7 +415,7 @@ static void buffer_row(bench *b, uint64_t bytes) {
     snprintf(rw->what, sizeof rw->what, "buffer %s", name);
     b->row_count++;
     bool fits = false;
-    for (int c = C_VULKAN; c <= C_MOCK; c++)
+    for (int c = C_VK_STAGED; c <= C_MOCK; c++)
         fits |= b->pairs[c].src && bytes <= b->pairs[c].max_buffer;
     if (!fits)   /* the row stays, empty, to show the size was asked for */
         return;
@@ -464,10 +483,20 @@ static bool open_vulkan(bench *b, cv_vulkan_gpu_config *config) {
         fprintf(stderr, "bench_transfer: Vulkan devices: %s\n", cv_last_error());
         return false;
     }
-    /* Secondary to primary, the direction of the renderer's per-frame columns. */
-    b->pairs[C_VULKAN] = (pair){ b->vk[1], b->vk[0],
-                                 smaller(cv_device_get_info(b->vk[0])->max_storage_buffer_range,
-                                         cv_device_get_info(b->vk[1])->max_storage_buffer_range) };
+    /* Secondary to primary, the direction of the renderer's per-frame columns;
+     * each path the pair can take. */
+    for (int c = C_VK_STAGED; c <= C_VK_SHARED; c++) {
+        cv_transfer_path path;
+        cv_transfer_set_path(contender_path[c]);
+        if (cv_transfer_choose_path(b->vk[1], b->vk[0], &path) != CV_OK) {
+            printf("vulkan %s: not run: %s\n", cv_transfer_path_name(contender_path[c]), cv_last_error());
+            continue;
+        }
+        b->pairs[c] = (pair){ b->vk[1], b->vk[0],
+                              smaller(cv_device_get_info(b->vk[0])->max_storage_buffer_range,
+                                      cv_device_get_info(b->vk[1])->max_storage_buffer_range) };
+    }
+    cv_transfer_clear_path();
     for (uint32_t d = 0; d < 2; d++) {
         const cv_device_info *info = cv_device_get_info(b->vk[d]);
         printf("vulkan %s: %s (%s), adapter %u%s; max storage buffer range %llu MiB\n", cv_device_label(b->vk[d]),
@@ -497,51 +526,52 @@ static bool open_mock(bench *b) {
 
 /* ---- the table ------------------------------------------------------------------------------ */
 
-/* Every transfer cell is 38 characters wide. */
+/* Every transfer cell is 19 characters wide: MB/s and ms of the median run. */
 static void print_transfer(const figure *f) {
     if (f->ran)
-        printf(" %8.0f %8.3f (%7.3f /%7.3f)%c", f->mbps, f->total_ms, f->read_ms, f->write_ms,
-               f->verified ? ' ' : '!');
+        printf(" %8.0f %8.3f%c", f->mbps, f->total_ms, f->verified ? ' ' : '!');
     else
-        printf(" %8s %8s %19s ", "-", "", "");
+        printf(" %8s %8s ", "-", "");
 }
 
 static void print_ratio(const figure *f, const figure *peer) {
     if (f->ran && peer->ran && peer->mbps > 0)
-        printf(" %7.2f", f->mbps / peer->mbps);
+        printf(" %6.2f", f->mbps / peer->mbps);
     else
-        printf(" %7s", "-");
+        printf(" %6s", "-");
 }
 
 static bool print_table(const bench *b) {
     bool all_verified = true;
-    const char *vk = b->pairs[C_VULKAN].src ? "vulkan gpu1 -> gpu0" : "vulkan (not run)";
-    const char *mk = b->pairs[C_MOCK].src ? "mock m1 -> m0" : "mock (not run)";
     printf("\nMB/s = 1e6 bytes/s of the median run (>= %d runs, >= %.2f s per contender and row, interleaved);\n"
-           "ms: one transfer, total (source read / destination write; they overlap above one 4 MiB chunk);\n"
-           "memcpy: the same bytes between two host buffers; ratios: transfer MB/s / memcpy MB/s;\n"
-           "'-': not run (the size is above the pair's max_storage_buffer_range, or the pair is off);\n"
+           "ms: one transfer; vulkan gpu1 -> gpu0 once per forced path (transfer.h), mock m1 -> m0 staged;\n"
+           "memcpy: the same bytes between two host buffers; ratios: vulkan path MB/s / memcpy MB/s;\n"
+           "'-': not run (above the pair's max_storage_buffer_range, a path the pair cannot take, or off);\n"
            "'!' = the destination's bytes differ from the source's\n",
            MIN_REPS, b->o.min_time);
-    printf("%-26s %11s | %-37s| %-37s| %8s | %-15s\n", "", "", vk, mk, "memcpy", "ratio to memcpy");
-    printf("%-26s %11s | %8s %8s %19s | %8s %8s %19s | %8s | %7s %7s\n", "what", "bytes", "MB/s", "ms",
-           "(read / write)", "MB/s", "ms", "(read / write)", "MB/s", "vulkan", "mock");
+    printf("%-26s %11s |", "", "");
+    for (int c = C_VK_STAGED; c <= C_MOCK; c++)
+        printf(" %-18s|", contender_name[c]);
+    printf(" %8s | ratio to memcpy\n", "memcpy");
+    printf("%-26s %11s |", "what", "bytes");
+    for (int c = C_VK_STAGED; c <= C_MOCK; c++)
+        printf(" %8s %8s |", "MB/s", "ms");
+    printf(" %8s | %6s %6s %6s\n", "MB/s", "staged", "host", "shared");
     for (uint32_t i = 0; i < b->row_count; i++) {
         const row *rw = &b->rows[i];
         printf("%-26s %11llu |", rw->what, (unsigned long long)rw->bytes);
-        print_transfer(&rw->f[C_VULKAN]);
-        printf("|");
-        print_transfer(&rw->f[C_MOCK]);
-        printf("|");
+        for (int c = C_VK_STAGED; c <= C_MOCK; c++) {
+            print_transfer(&rw->f[c]);
+            printf("|");
+            all_verified &= !rw->f[c].ran || rw->f[c].verified;
+        }
         if (rw->f[C_MEMCPY].ran)
             printf(" %8.0f |", rw->f[C_MEMCPY].mbps);
         else
             printf(" %8s |", "-");
-        print_ratio(&rw->f[C_VULKAN], &rw->f[C_MEMCPY]);
-        print_ratio(&rw->f[C_MOCK], &rw->f[C_MEMCPY]);
+        for (int c = C_VK_STAGED; c <= C_VK_SHARED; c++)
+            print_ratio(&rw->f[c], &rw->f[C_MEMCPY]);
         printf("\n");
-        for (int c = C_VULKAN; c <= C_MOCK; c++)
-            all_verified &= !rw->f[c].ran || rw->f[c].verified;
     }
     return all_verified;
 }

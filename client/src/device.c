@@ -367,6 +367,43 @@ cv_result cv_device_read_texture(cv_device *dev, cv_texture t, cv_rect rect, voi
     return texture_access(dev, t, rect, NULL, out);
 }
 
+/* ---- cross-device links (transfer.c) ----------------------------------------- */
+
+bool cv_device_link_caps(cv_device *dev, cv_link_caps *out) {
+    memset(out, 0, sizeof(*out));
+    if (!dev->backend->link_caps || !dev->backend->link_staging || !dev->backend->link_copy)
+        return false;
+    pthread_mutex_lock(&dev->lock);
+    dev->backend->link_caps(dev->bd, out);
+    pthread_mutex_unlock(&dev->lock);
+    return true;
+}
+
+cv_result cv_device_link_staging(cv_device *dev, cv_staging_desc *desc, void **out) {
+    pthread_mutex_lock(&dev->lock);
+    cv_result r = dev->backend->link_staging(dev->bd, desc, out);
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
+cv_result cv_device_link_copy(cv_device *dev, void *staging, uint64_t staging_offset, uint64_t id,
+                              uint64_t offset, uint64_t size, cv_rect rect, bool to_staging) {
+    cv_handle_type type = cv_handle_type_of(id);
+    const char *what = to_staging ? "transfer (source)" : "transfer (destination)";
+    pthread_mutex_lock(&dev->lock);
+    cv_device_resource *s;
+    cv_result r = type == CV_HANDLE_BUFFER || type == CV_HANDLE_TEXTURE
+                      ? cv_device_require(dev, id, type, what, &s)
+                      : cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "%s on device '%s': a %s handle", what, dev->label,
+                                 cv_handle_type_name(type));
+    if (r == CV_OK)
+        r = wait_for_resource(dev, s);
+    if (r == CV_OK)
+        r = dev->backend->link_copy(dev->bd, staging, staging_offset, type, s->obj, offset, size, rect, to_staging);
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
 cv_result cv_device_write_accel(cv_device *dev, cv_accel accel, const void *nodes, const void *triangles) {
     if (!dev || !nodes || !triangles)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_write_accel: NULL argument");

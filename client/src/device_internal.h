@@ -53,4 +53,13 @@ cv_result cv_validate_list(cv_device *dev, const cv_command_list *list);
 cv_result cv_device_require(cv_device *dev, uint64_t id, cv_handle_type type, const char *what,
                             cv_device_resource **out);
 
+/* Cross-device link calls for transfer.c (backend.h: link_*), each under the
+ * device lock. link_copy looks the resource up again (it may have gone since
+ * the transfer checked it), waits until no submitted work uses it, and copies
+ * `size` bytes at `offset` of a buffer, or `rect` of a texture. */
+bool cv_device_link_caps(cv_device *dev, cv_link_caps *out);   /* false: the backend has no links */
+cv_result cv_device_link_staging(cv_device *dev, cv_staging_desc *desc, void **out);
+cv_result cv_device_link_copy(cv_device *dev, void *staging, uint64_t staging_offset, uint64_t id,
+                              uint64_t offset, uint64_t size, cv_rect rect, bool to_staging);
+
 #endif

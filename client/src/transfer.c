@@ -1,15 +1,21 @@
-/* Cross-device transfers through host staging memory (see transfer.h).
- * Works between any two backends because it only uses the device read/write
- * calls; both sides are checked before any byte moves. Transfers larger than
- * one chunk are pipelined: a reader thread fills one staging slot from the
- * source device while the calling thread empties the other into the
- * destination, so reading and writing overlap. */
+/* Cross-device transfers (see transfer.h): checks, the choice of path, and
+ * the pipeline every path runs on. Both sides are checked before any byte
+ * moves. Transfers larger than one chunk are pipelined over two staging
+ * slots: a reader thread fills one slot from the source device while the
+ * calling thread empties the other into the destination, so reading and
+ * writing overlap. The slots are host memory (STAGED: the device read/write
+ * calls, any two backends) or memory both devices reach (SHARED, HOST_IMPORT:
+ * the backends' link calls, GPU copies on each side, transfer_link.c). */
 #include "corvid/transfer.h"
 
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
+
+#include "device_internal.h"
+#include "transfer_link.h"
 
 #define CHUNK_BYTES (4u << 20)   /* NOTES-STACK: 1-4 MiB pieces move fastest */
 _Static_assert((uint64_t)CV_MAX_TEXTURE_DIM * 16 <= CHUNK_BYTES, "a texture row fits one staging slot");
@@ -47,14 +53,13 @@ static void slot_give(void *slot) {
     free(slot);
 }
 
-/* Moves `chunks` pieces through two staging slots: io(job, i, slot, read). */
-typedef cv_result (*chunk_io)(void *job, uint64_t chunk, void *slot, bool read);
+/* Moves `chunks` pieces through two staging slots: io(job, i, slot 0 or 1, read). */
+typedef cv_result (*chunk_io)(void *job, uint64_t chunk, uint32_t slot, bool read);
 
 typedef struct pipeline {
     chunk_io io;
     void *job;
     uint64_t chunks;
-    uint8_t *slots[2];
     pthread_mutex_t lock;
     pthread_cond_t changed;
     uint64_t filled;      /* chunks read so far */
@@ -76,7 +81,7 @@ static void *reader(void *arg) {
         if (stop)
             return NULL;
         double t0 = now_ms();
-        cv_result r = p->io(p->job, i, p->slots[i % 2], true);
+        cv_result r = p->io(p->job, i, (uint32_t)(i % 2), true);
         pthread_mutex_lock(&p->lock);
         p->read_ms += now_ms() - t0;
         if (r != CV_OK) {
@@ -93,24 +98,17 @@ static void *reader(void *arg) {
     return NULL;
 }
 
-/* Each chunk is at most CHUNK_BYTES, the size of a staging slot. */
+/* Each chunk fits one staging slot of the path. */
 static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transfer_stats *st) {
     pipeline p = { .io = io, .job = job, .chunks = chunks };
     double t0 = now_ms(), write_ms = 0.0;
-    p.slots[0] = slot_take();
-    p.slots[1] = chunks > 1 ? slot_take() : NULL;
-    if (!p.slots[0] || (chunks > 1 && !p.slots[1])) {
-        slot_give(p.slots[0]);
-        slot_give(p.slots[1]);
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "transfer: staging of %u bytes", CHUNK_BYTES);
-    }
     cv_result r = CV_OK;
     if (chunks == 1) {   /* nothing to overlap */
-        r = io(job, 0, p.slots[0], true);
+        r = io(job, 0, 0, true);
         double t1 = now_ms();
         p.read_ms = t1 - t0;
         if (r == CV_OK)
-            r = io(job, 0, p.slots[0], false);
+            r = io(job, 0, 0, false);
         write_ms = now_ms() - t1;
     } else {
         pthread_mutex_init(&p.lock, NULL);
@@ -130,7 +128,7 @@ static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transf
                     break;
                 }
                 double tw = now_ms();
-                r = io(job, i, p.slots[i % 2], false);
+                r = io(job, i, (uint32_t)(i % 2), false);
                 write_ms += now_ms() - tw;
                 pthread_mutex_lock(&p.lock);
                 p.emptied = i + 1;
@@ -143,8 +141,6 @@ static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transf
         pthread_cond_destroy(&p.changed);
         pthread_mutex_destroy(&p.lock);
     }
-    slot_give(p.slots[0]);
-    slot_give(p.slots[1]);
     if (r == CV_OK && st) {
         st->read_ms = p.read_ms;
         st->write_ms = write_ms;
@@ -153,34 +149,106 @@ static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transf
     return r;
 }
 
-typedef struct buffer_job {
-    cv_device *src, *dst;
-    cv_buffer src_buffer, dst_buffer;
-    uint64_t src_offset, dst_offset, size;
-} buffer_job;
+/* ---- the moves: one job per transfer, one chunk at a time ---------------------- */
 
-static cv_result buffer_chunk(void *arg, uint64_t i, void *slot, bool read) {
-    const buffer_job *j = arg;
-    uint64_t at = i * CHUNK_BYTES, n = j->size - at < CHUNK_BYTES ? j->size - at : CHUNK_BYTES;
-    return read ? cv_device_read_buffer(j->src, j->src_buffer, j->src_offset + at, n, slot)
-                : cv_device_write_buffer(j->dst, j->dst_buffer, j->dst_offset + at, n, slot);
+typedef struct job {
+    cv_device *src, *dst;
+    uint64_t src_id, dst_id;
+    bool texture;
+    uint64_t src_offset, dst_offset, size;    /* buffers */
+    cv_rect src_rect;                          /* textures */
+    uint32_t dst_x, dst_y, rows_per_chunk;
+    uint64_t chunk_bytes, row_bytes;
+    uint8_t *host[2];                          /* STAGED: the slots */
+    transfer_link link;                        /* SHARED, HOST_IMPORT */
+} job;
+
+/* Chunk i as a buffer range (offset from the start of the transfer, size) or as rows. */
+static void chunk_extent(const job *j, uint64_t i, uint64_t *at, uint64_t *n, uint32_t *first, uint32_t *rows) {
+    *at = i * j->chunk_bytes;
+    *n = j->size - *at < j->chunk_bytes ? j->size - *at : j->chunk_bytes;
+    if (j->texture) {
+        *first = (uint32_t)i * j->rows_per_chunk;
+        *rows = j->src_rect.height - *first < j->rows_per_chunk ? j->src_rect.height - *first : j->rows_per_chunk;
+    }
 }
 
-typedef struct texture_job {
-    cv_device *src, *dst;
-    cv_texture src_texture, dst_texture;
-    cv_rect src_rect;
-    uint32_t dst_x, dst_y, rows_per_chunk;
-} texture_job;
+static cv_result staged_chunk(void *arg, uint64_t i, uint32_t slot, bool read) {
+    const job *j = arg;
+    uint64_t at, n;
+    uint32_t first = 0, rows = 0;
+    chunk_extent(j, i, &at, &n, &first, &rows);
+    if (j->texture)
+        return read ? cv_device_read_texture(j->src, (cv_texture){ j->src_id },
+                                             (cv_rect){ j->src_rect.x, j->src_rect.y + first, j->src_rect.width, rows },
+                                             j->host[slot])
+                    : cv_device_write_texture(j->dst, (cv_texture){ j->dst_id },
+                                              (cv_rect){ j->dst_x, j->dst_y + first, j->src_rect.width, rows },
+                                              j->host[slot]);
+    return read ? cv_device_read_buffer(j->src, (cv_buffer){ j->src_id }, j->src_offset + at, n, j->host[slot])
+                : cv_device_write_buffer(j->dst, (cv_buffer){ j->dst_id }, j->dst_offset + at, n, j->host[slot]);
+}
 
-static cv_result texture_chunk(void *arg, uint64_t i, void *slot, bool read) {
-    const texture_job *j = arg;
-    uint32_t first = (uint32_t)i * j->rows_per_chunk;
-    uint32_t rows = j->src_rect.height - first < j->rows_per_chunk ? j->src_rect.height - first : j->rows_per_chunk;
-    return read ? cv_device_read_texture(j->src, j->src_texture,
-                                         (cv_rect){ j->src_rect.x, j->src_rect.y + first, j->src_rect.width, rows }, slot)
-                : cv_device_write_texture(j->dst, j->dst_texture,
-                                          (cv_rect){ j->dst_x, j->dst_y + first, j->src_rect.width, rows }, slot);
+static cv_result link_chunk(void *arg, uint64_t i, uint32_t slot, bool read) {
+    const job *j = arg;
+    uint64_t at, n;
+    uint32_t first = 0, rows = 0;
+    chunk_extent(j, i, &at, &n, &first, &rows);
+    uint64_t where = slot * j->chunk_bytes;
+    if (j->texture)
+        return read ? cv_device_link_copy(j->src, j->link.src_staging, where, j->src_id, 0, 0,
+                                          (cv_rect){ j->src_rect.x, j->src_rect.y + first, j->src_rect.width, rows },
+                                          true)
+                    : cv_device_link_copy(j->dst, j->link.dst_staging, where, j->dst_id, 0, 0,
+                                          (cv_rect){ j->dst_x, j->dst_y + first, j->src_rect.width, rows }, false);
+    return read ? cv_device_link_copy(j->src, j->link.src_staging, where, j->src_id, j->src_offset + at, n,
+                                      (cv_rect){ 0 }, true)
+                : cv_device_link_copy(j->dst, j->link.dst_staging, where, j->dst_id, j->dst_offset + at, n,
+                                      (cv_rect){ 0 }, false);
+}
+
+/* Runs a checked job on the path chosen for the pair. */
+static cv_result run_job(job *j, cv_transfer_stats *stats) {
+    cv_transfer_path path;
+    cv_result r = cv_transfer_choose_path(j->src, j->dst, &path);
+    if (r != CV_OK)
+        return r;
+    cv_transfer_stats st = { .bytes = j->size, .path = path };
+    if (path == CV_TRANSFER_STAGED) {
+        j->chunk_bytes = CHUNK_BYTES;
+    } else {
+        r = transfer_link_acquire(j->src, j->dst, path, &j->link);
+        if (r != CV_OK)
+            return r;
+        j->chunk_bytes = j->link.slot_bytes;
+    }
+    uint64_t chunks;
+    if (j->texture) {
+        /* A row is at most CV_MAX_TEXTURE_DIM * 16 bytes = 256 KiB, well under a chunk. */
+        j->rows_per_chunk = (uint32_t)(j->chunk_bytes / j->row_bytes);
+        if (j->rows_per_chunk > j->src_rect.height)
+            j->rows_per_chunk = j->src_rect.height;
+        chunks = (j->src_rect.height + j->rows_per_chunk - 1) / j->rows_per_chunk;
+        j->chunk_bytes = (uint64_t)j->rows_per_chunk * j->row_bytes;
+    } else {
+        chunks = (j->size + j->chunk_bytes - 1) / j->chunk_bytes;
+    }
+    if (path == CV_TRANSFER_STAGED) {
+        j->host[0] = slot_take();
+        j->host[1] = chunks > 1 ? slot_take() : NULL;
+        if (!j->host[0] || (chunks > 1 && !j->host[1]))
+            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "transfer: staging of %u bytes", CHUNK_BYTES);
+        if (r == CV_OK)
+            r = run_pipeline(staged_chunk, j, chunks, &st);
+        slot_give(j->host[0]);
+        slot_give(j->host[1]);
+    } else {
+        r = run_pipeline(link_chunk, j, chunks, &st);
+        transfer_link_release(&j->link);
+    }
+    if (r == CV_OK && stats)
+        *stats = st;
+    return r;
 }
 
 cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_offset, cv_device *dst,
@@ -197,6 +265,10 @@ cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_
         r = cv_context_describe(cv_device_context(dst), cv_any(dst_buffer), &dd);
     if (r != CV_OK)
         return r;
+    if (sd.type != CV_HANDLE_BUFFER || dd.type != CV_HANDLE_BUFFER)
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "transfer: cv_transfer_buffer needs buffer handles, got a %s "
+                        "on '%s' and a %s on '%s'", cv_handle_type_name(sd.type), cv_device_label(src),
+                        cv_handle_type_name(dd.type), cv_device_label(dst));
     if (size == 0 || src_offset > sd.buffer.size || size > sd.buffer.size - src_offset ||
         dst_offset > dd.buffer.size || size > dd.buffer.size - dst_offset)
         return cv_error(CV_ERROR_OUT_OF_RANGE,
@@ -204,13 +276,9 @@ cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_
                         (unsigned long long)size, sd.buffer.label, (unsigned long long)src_offset,
                         (unsigned long long)sd.buffer.size, dd.buffer.label, (unsigned long long)dst_offset,
                         (unsigned long long)dd.buffer.size);
-    buffer_job job = { src, dst, src_buffer, dst_buffer, src_offset, dst_offset, size };
-    uint64_t chunks = (size + CHUNK_BYTES - 1) / CHUNK_BYTES;
-    cv_transfer_stats st = { .bytes = size };
-    r = run_pipeline(buffer_chunk, &job, chunks, &st);
-    if (r == CV_OK && stats)
-        *stats = st;
-    return r;
+    job j = { .src = src, .dst = dst, .src_id = src_buffer.id, .dst_id = dst_buffer.id, .src_offset = src_offset,
+              .dst_offset = dst_offset, .size = size };
+    return run_job(&j, stats);
 }
 
 cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect src_rect, cv_device *dst,
@@ -227,6 +295,10 @@ cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect sr
         r = cv_context_describe(cv_device_context(dst), cv_any(dst_texture), &dd);
     if (r != CV_OK)
         return r;
+    if (sd.type != CV_HANDLE_TEXTURE || dd.type != CV_HANDLE_TEXTURE)
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "transfer: cv_transfer_texture needs texture handles, got a %s "
+                        "on '%s' and a %s on '%s'", cv_handle_type_name(sd.type), cv_device_label(src),
+                        cv_handle_type_name(dd.type), cv_device_label(dst));
     if (sd.texture.format != dd.texture.format)
         return cv_error(CV_ERROR_FORMAT_MISMATCH, "transfer: '%s' is %s but '%s' is %s", sd.texture.label,
                         cv_format_name(sd.texture.format), dd.texture.label, cv_format_name(dd.texture.format));
@@ -240,15 +312,8 @@ cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect sr
                         sd.texture.width, sd.texture.height, src_rect.x, src_rect.y, dd.texture.label,
                         dd.texture.width, dd.texture.height, dst_x, dst_y);
     uint64_t row = (uint64_t)src_rect.width * cv_format_bytes(sd.texture.format);
-    /* A row is at most CV_MAX_TEXTURE_DIM * 16 bytes = 256 KiB, well under a chunk. */
-    uint32_t rows_per_chunk = (uint32_t)(CHUNK_BYTES / row);
-    if (rows_per_chunk > src_rect.height)
-        rows_per_chunk = src_rect.height;
-    texture_job job = { src, dst, src_texture, dst_texture, src_rect, dst_x, dst_y, rows_per_chunk };
-    uint64_t chunks = (src_rect.height + rows_per_chunk - 1) / rows_per_chunk;
-    cv_transfer_stats st = { .bytes = row * src_rect.height };
-    cv_result res = run_pipeline(texture_chunk, &job, chunks, &st);
-    if (res == CV_OK && stats)
-        *stats = st;
-    return res;
+    job j = { .src = src, .dst = dst, .src_id = src_texture.id, .dst_id = dst_texture.id, .texture = true,
+              .src_rect = src_rect, .dst_x = dst_x, .dst_y = dst_y, .row_bytes = row,
+              .size = row * src_rect.height };
+    return run_job(&j, stats);
 }

@@ -4,6 +4,7 @@
 
 #include "vk_compile.h"
 #include "vk_host_transfer.h"
+#include "vk_link.h"
 #include "vk_pipelines.h"
 #include "vk_submit.h"
 #include "vk_trace.h"
@@ -92,6 +93,9 @@ static const cv_backend vulkan_backend = {
     .wait = vk_wait,
     .completed = vk_completed,
     .timings = timings,
+    .link_caps = vk_link_caps,
+    .link_staging = vk_link_staging,
+    .link_copy = vk_link_copy,
 };
 
 const cv_backend *cv_vulkan_backend(void) { return &vulkan_backend; }

@@ -7,6 +7,7 @@
 
 #include "vk_device.h"
 #include "vk_immediate.h"
+#include "vk_link.h"
 #include "vk_trace.h"
 #include "vk_trace_rt.h"
 
@@ -22,6 +23,18 @@ static cv_result pick_adapter(vk_instance *inst, const char *spec, vk_adapter *o
         *out = adapters[index];
     free(adapters);
     return r;
+}
+
+static bool offers(VkPhysicalDevice physical, const char *name) {
+    uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(physical, NULL, &count, NULL);
+    VkExtensionProperties *exts = calloc(count ? count : 1, sizeof(*exts));
+    bool found = false;
+    if (exts && vkEnumerateDeviceExtensionProperties(physical, NULL, &count, exts) >= 0)
+        for (uint32_t i = 0; i < count && !found; i++)
+            found = strcmp(exts[i].extensionName, name) == 0;
+    free(exts);
+    return found;
 }
 
 static cv_result create_vk_device(cv_backend_device *bd) {
@@ -82,10 +95,17 @@ static cv_result create_vk_device(cv_backend_device *bd) {
             .fragmentStoresAndAtomics = have.features.fragmentStoresAndAtomics,
         },
     };
-    const char *extensions[1 + VK_RT_EXTENSION_COUNT] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
+    const char *extensions[3 + VK_RT_EXTENSION_COUNT] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
     uint32_t extension_count = 1;
     for (uint32_t i = 0; bd->ray_tracing && i < VK_RT_EXTENSION_COUNT; i++)
         extensions[extension_count++] = vk_rt_extensions[i];
+    /* Cross-device links, where offered (vk_link.h). */
+    bd->external_fd = offers(a->physical, VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
+    bd->external_host = offers(a->physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME);
+    if (bd->external_fd)
+        extensions[extension_count++] = VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME;
+    if (bd->external_host)
+        extensions[extension_count++] = VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME;
     VkDeviceCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
         .pNext = &features,
@@ -124,6 +144,14 @@ static cv_result create_vk_device(cv_backend_device *bd) {
     bd->slot_of_type[CV_QUEUE_GRAPHICS] = VK_SLOT_GRAPHICS;
     bd->slot_of_type[CV_QUEUE_COMPUTE] = bd->queues[VK_SLOT_COMPUTE].present ? VK_SLOT_COMPUTE : VK_SLOT_GRAPHICS;
     bd->slot_of_type[CV_QUEUE_COPY] = bd->queues[VK_SLOT_COPY].present ? VK_SLOT_COPY : VK_SLOT_GRAPHICS;
+
+    if (bd->external_fd)
+        bd->get_memory_fd = (PFN_vkGetMemoryFdKHR)vkGetDeviceProcAddr(bd->device, "vkGetMemoryFdKHR");
+    if (bd->external_host)
+        bd->get_host_pointer_properties = (PFN_vkGetMemoryHostPointerPropertiesEXT)vkGetDeviceProcAddr(
+            bd->device, "vkGetMemoryHostPointerPropertiesEXT");
+    bd->external_fd = bd->external_fd && bd->get_memory_fd;
+    bd->external_host = bd->external_host && bd->get_host_pointer_properties;
 
     bd->cmd_push_descriptor_set =
         (PFN_vkCmdPushDescriptorSetKHR)vkGetDeviceProcAddr(bd->device, "vkCmdPushDescriptorSetKHR");
@@ -172,10 +200,19 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     }
     r = pick_adapter(bd->instance, desc->adapter, &bd->adapter);
     if (r == CV_OK) {
-        VkPhysicalDeviceProperties props;
-        vkGetPhysicalDeviceProperties(bd->adapter.physical, &props);
-        bd->limits = props.limits;
-        bd->timestamp_period_ns = props.limits.timestampPeriod;
+        VkPhysicalDeviceExternalMemoryHostPropertiesEXT host = {
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_MEMORY_HOST_PROPERTIES_EXT };
+        VkPhysicalDeviceIDProperties ids = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES,
+                                             .pNext = offers(bd->adapter.physical,
+                                                             VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME) ? &host : NULL };
+        VkPhysicalDeviceProperties2 props2 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &ids };
+        vkGetPhysicalDeviceProperties2(bd->adapter.physical, &props2);
+        const VkPhysicalDeviceProperties *props = &props2.properties;
+        bd->limits = props->limits;
+        bd->timestamp_period_ns = props->limits.timestampPeriod;
+        memcpy(bd->driver_uuid, ids.driverUUID, VK_UUID_SIZE);
+        memcpy(bd->device_uuid, ids.deviceUUID, VK_UUID_SIZE);
+        bd->host_import_alignment = host.minImportedHostPointerAlignment;
         if (!bd->label[0])
             snprintf(bd->label, sizeof(bd->label), "vulkan:%u", bd->adapter.info.index);
         r = create_vk_device(bd);
@@ -204,6 +241,7 @@ void vk_device_destroy(cv_backend_device *bd) {
     if (bd->device) {
         vkDeviceWaitIdle(bd->device);
         vk_trace_finish(bd);
+        vk_link_finish(bd);
         vk_immediate_finish(bd);
         if (bd->memory.device)
             vk_memory_finish(&bd->memory);

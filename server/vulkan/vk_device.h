@@ -63,6 +63,15 @@ struct cv_backend_device {
     double timestamp_period_ns;
     char label[CV_LABEL_MAX];
 
+    /* Cross-device links (vk_link.h): what the device enabled, and its stagings. */
+    bool external_fd;                /* VK_KHR_external_memory_fd */
+    bool external_host;              /* VK_EXT_external_memory_host */
+    VkDeviceSize host_import_alignment;
+    uint8_t driver_uuid[VK_UUID_SIZE], device_uuid[VK_UUID_SIZE];
+    PFN_vkGetMemoryFdKHR get_memory_fd;
+    PFN_vkGetMemoryHostPointerPropertiesEXT get_host_pointer_properties;
+    struct vk_staging *links;   /* cached stagings, linked */
+
     atomic_uint buffers, images, samplers, pipelines;   /* live objects, for stats */
 };
 

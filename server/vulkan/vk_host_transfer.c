@@ -129,21 +129,13 @@ static void transition(VkCommandBuffer cmd, const vk_texture *t, VkImageLayout f
     vkCmdPipelineBarrier2(cmd, &dep);
 }
 
-/* Copies rows [y, y+rows) of rect between the staging buffer and the image,
- * which rests in VK_IMAGE_LAYOUT_GENERAL and is moved to the transfer layout
- * for the copy. Earlier GPU work is ordered by the immediate submission's wait
- * (vk_immediate_end), which the first barrier chains on. */
-static cv_result texture_rows(cv_backend_device *bd, vk_texture *t, VkBuffer buffer, cv_rect rect, uint32_t y,
-                              uint32_t rows, bool to_image) {
-    VkCommandBuffer cmd;
-    cv_result r = vk_immediate_begin(bd, &cmd);
-    if (r != CV_OK)
-        return r;
+void vk_record_texture_rows(VkCommandBuffer cmd, const vk_texture *t, VkBuffer buffer, VkDeviceSize buffer_offset,
+                            cv_rect rect, bool to_image) {
     VkBufferImageCopy region = {
-        .bufferOffset = 0,
+        .bufferOffset = buffer_offset,
         .imageSubresource = { t->aspect, 0, 0, 1 },
-        .imageOffset = { (int32_t)rect.x, (int32_t)(rect.y + y), 0 },
-        .imageExtent = { rect.width, rows, 1 },
+        .imageOffset = { (int32_t)rect.x, (int32_t)rect.y, 0 },
+        .imageExtent = { rect.width, rect.height, 1 },
     };
     VkImageLayout layout = to_image ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     VkAccessFlags2 access = to_image ? VK_ACCESS_2_TRANSFER_WRITE_BIT : VK_ACCESS_2_TRANSFER_READ_BIT;
@@ -156,6 +148,18 @@ static cv_result texture_rows(cv_backend_device *bd, vk_texture *t, VkBuffer buf
     transition(cmd, t, layout, VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
                to_image ? VK_ACCESS_2_TRANSFER_WRITE_BIT : 0, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+}
+
+/* Copies rows [y, y+rows) of rect between the staging buffer and the image.
+ * Earlier GPU work is ordered by the immediate submission's wait
+ * (vk_immediate_end), which the first barrier chains on. */
+static cv_result texture_rows(cv_backend_device *bd, vk_texture *t, VkBuffer buffer, cv_rect rect, uint32_t y,
+                              uint32_t rows, bool to_image) {
+    VkCommandBuffer cmd;
+    cv_result r = vk_immediate_begin(bd, &cmd);
+    if (r != CV_OK)
+        return r;
+    vk_record_texture_rows(cmd, t, buffer, 0, (cv_rect){ rect.x, rect.y + y, rect.width, rows }, to_image);
     return vk_immediate_end(bd);
 }
 

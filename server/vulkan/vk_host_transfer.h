@@ -13,4 +13,10 @@ cv_result vk_host_buffer_read(cv_backend_device *bd, vk_buffer *b, uint64_t offs
 cv_result vk_host_texture_write(cv_backend_device *bd, vk_texture *t, cv_rect rect, const void *data);
 cv_result vk_host_texture_read(cv_backend_device *bd, vk_texture *t, cv_rect rect, void *out);
 
+/* Records a copy of rect between the image and tightly packed rows at
+ * buffer_offset of buffer; the image rests in VK_IMAGE_LAYOUT_GENERAL and is
+ * moved to the transfer layout for the copy (barriers on both sides). */
+void vk_record_texture_rows(VkCommandBuffer cmd, const vk_texture *t, VkBuffer buffer, VkDeviceSize buffer_offset,
+                            cv_rect rect, bool to_image);
+
 #endif

@@ -22,13 +22,49 @@
  * - device_destroy is called after every object was destroyed; it waits idle.
  * - accel_write builds the device's acceleration structure from a flat BVH
  *   (types.h, cv_accel_desc); it is synchronous like the other writes. A
- *   backend without it (NULL) cannot trace rays. */
+ *   backend without it (NULL) cannot trace rays.
+ * - link_caps / link_staging / link_copy (all three or none) let transfer.c
+ *   move bytes between two devices without a host copy (transfer.h's SHARED
+ *   and HOST_IMPORT paths). link_staging gives a "staging": memory the device
+ *   can copy resources into and out of on its own queue, either exported as a
+ *   file descriptor, imported from one, or imported from host memory. The
+ *   backend owns stagings (caching them by key) until device_destroy. link_copy
+ *   is synchronous like buffer_read/write and is called under the same rule:
+ *   when no submitted work uses the resource (or at once, orders_host_access).
+ *   Its writes are available to the other device when it returns. */
 #ifndef CORVID_BACKEND_H
 #define CORVID_BACKEND_H
 
 #include "corvid/device.h"
 
 typedef struct cv_backend_device cv_backend_device;   /* each backend's own */
+
+/* What a device offers for cross-device links (backend.h contract above). */
+typedef struct cv_link_caps {
+    uint8_t driver_uuid[16], device_uuid[16];   /* equal on both devices = one adapter, one driver */
+    bool shared_memory;            /* can export and import memory as opaque file descriptors */
+    bool host_import;              /* can import host allocations */
+    uint64_t host_alignment;       /* host_import: required alignment of pointer and size */
+    char shared_missing[64];       /* !shared_memory: what the device lacks (an extension name) */
+    char host_missing[64];         /* !host_import: likewise */
+} cv_link_caps;
+
+typedef enum cv_staging_kind {
+    CV_STAGING_EXPORT = 1,         /* device memory of this device, exported: fd gets a new descriptor */
+    CV_STAGING_IMPORT = 2,         /* the memory another device exported (fd, key, memory_type, allocation_size) */
+    CV_STAGING_HOST = 3,           /* the host allocation at `host` (page-aligned, host_alignment multiples) */
+} cv_staging_kind;
+
+typedef struct cv_staging_desc {
+    cv_staging_kind kind;
+    uint64_t size;                 /* bytes usable for copies */
+    uint64_t key;                  /* process-unique name of the memory; EXPORT sets it, IMPORT/HOST pass it */
+    int fd;                        /* EXPORT: out, the caller closes it. IMPORT: in; set to -1 when the
+                                      backend took ownership (else the caller closes it) */
+    void *host;                    /* HOST: the allocation */
+    uint32_t memory_type;          /* EXPORT: out; IMPORT: in (backend facts passed back unchanged) */
+    uint64_t allocation_size;      /* likewise */
+} cv_staging_desc;
 
 struct cv_backend {
     const char *name;
@@ -63,6 +99,14 @@ struct cv_backend {
     /* Timings of the latest finished submission of `compiled` (may be NULL: none). */
     cv_result (*timings)(cv_backend_device *bd, void *compiled, cv_pass_timing *out,
                          uint32_t capacity, uint32_t *count);
+
+    /* Cross-device links (optional, NULL = staged transfers only). */
+    void (*link_caps)(cv_backend_device *bd, cv_link_caps *out);
+    cv_result (*link_staging)(cv_backend_device *bd, cv_staging_desc *desc, void **out_staging);
+    /* Copies between a buffer range (offset, size) or a texture rectangle (rows
+     * packed tightly) and the staging at staging_offset, on the GPU. */
+    cv_result (*link_copy)(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
+                           void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging);
 };
 
 /* A device's representation of one handle. */

@@ -1,0 +1,119 @@
+/* The choice of transfer path (transfer.h): the mode in force (the API's, else
+ * CORVID_TRANSFER_PATH, else AUTO) resolved against what the two devices
+ * offer (backend.h, cv_link_caps). */
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "device_internal.h"
+#include "transfer_link.h"
+
+static const char *const names[CV_TRANSFER_PATH_COUNT] = { "auto", "staged", "host-import", "shared" };
+
+static pthread_mutex_t mode_lock = PTHREAD_MUTEX_INITIALIZER;
+static bool mode_set;
+static cv_transfer_path mode_forced;
+
+const char *cv_transfer_path_name(cv_transfer_path path) {
+    return (unsigned)path < CV_TRANSFER_PATH_COUNT ? names[path] : "unknown";
+}
+
+cv_result cv_transfer_path_parse(const char *name, cv_transfer_path *out) {
+    for (int i = 0; name && out && i < CV_TRANSFER_PATH_COUNT; i++)
+        if (strcmp(name, names[i]) == 0) {
+            *out = (cv_transfer_path)i;
+            return CV_OK;
+        }
+    return cv_error(CV_ERROR_INVALID_ARGUMENT, "transfer path '%s' is not one of auto, staged, host-import, shared",
+                    name ? name : "(null)");
+}
+
+cv_result cv_transfer_set_path(cv_transfer_path path) {
+    if ((unsigned)path >= CV_TRANSFER_PATH_COUNT)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_transfer_set_path: no path %d", (int)path);
+    pthread_mutex_lock(&mode_lock);
+    mode_set = true;
+    mode_forced = path;
+    pthread_mutex_unlock(&mode_lock);
+    return CV_OK;
+}
+
+void cv_transfer_clear_path(void) {
+    pthread_mutex_lock(&mode_lock);
+    mode_set = false;
+    pthread_mutex_unlock(&mode_lock);
+}
+
+static cv_result current_mode(cv_transfer_path *out) {
+    pthread_mutex_lock(&mode_lock);
+    bool set = mode_set;
+    *out = mode_forced;
+    pthread_mutex_unlock(&mode_lock);
+    if (set)
+        return CV_OK;
+    const char *env = getenv("CORVID_TRANSFER_PATH");
+    if (!env || !env[0]) {
+        *out = CV_TRANSFER_AUTO;
+        return CV_OK;
+    }
+    cv_result r = cv_transfer_path_parse(env, out);
+    return r == CV_OK ? r : cv_error(r, "CORVID_TRANSFER_PATH: %s", cv_last_error());
+}
+
+/* Whether the pair can take `path` (SHARED or HOST_IMPORT); if not, why, in `why`. */
+static bool pair_can(cv_device *src, cv_device *dst, cv_transfer_path path, char *why, size_t cap) {
+    cv_link_caps a, b;
+    bool la = cv_device_link_caps(src, &a), lb = cv_device_link_caps(dst, &b);
+    cv_device *who = !la ? src : dst;
+    if (!la || !lb) {
+        snprintf(why, cap, "device '%s' (%s backend) has no device-side transfers", cv_device_label(who),
+                 cv_device_get_info(who)->backend);
+        return false;
+    }
+    if (strcmp(cv_device_get_info(src)->backend, cv_device_get_info(dst)->backend) != 0) {
+        snprintf(why, cap, "the devices are on different backends (%s, %s)", cv_device_get_info(src)->backend,
+                 cv_device_get_info(dst)->backend);
+        return false;
+    }
+    if (path == CV_TRANSFER_SHARED) {
+        if (!a.shared_memory || !b.shared_memory) {
+            snprintf(why, cap, "device '%s' lacks %s", cv_device_label(!a.shared_memory ? src : dst),
+                     !a.shared_memory ? a.shared_missing : b.shared_missing);
+            return false;
+        }
+        if (memcmp(a.driver_uuid, b.driver_uuid, 16) != 0 || memcmp(a.device_uuid, b.device_uuid, 16) != 0) {
+            snprintf(why, cap, "they are different adapters or drivers (driverUUID/deviceUUID differ), and memory "
+                     "is shared only within one (VK_KHR_external_memory_fd, opaque fd)");
+            return false;
+        }
+        return true;
+    }
+    if (!a.host_import || !b.host_import) {
+        snprintf(why, cap, "device '%s' lacks %s", cv_device_label(!a.host_import ? src : dst),
+                 !a.host_import ? a.host_missing : b.host_missing);
+        return false;
+    }
+    return true;
+}
+
+cv_result cv_transfer_choose_path(cv_device *src, cv_device *dst, cv_transfer_path *out) {
+    if (!src || !dst || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_transfer_choose_path: NULL argument");
+    cv_transfer_path mode;
+    cv_result r = current_mode(&mode);
+    if (r != CV_OK)
+        return r;
+    char why[256];
+    if (mode == CV_TRANSFER_AUTO) {
+        *out = pair_can(src, dst, CV_TRANSFER_SHARED, why, sizeof(why))        ? CV_TRANSFER_SHARED
+               : pair_can(src, dst, CV_TRANSFER_HOST_IMPORT, why, sizeof(why)) ? CV_TRANSFER_HOST_IMPORT
+                                                                                : CV_TRANSFER_STAGED;
+        return CV_OK;
+    }
+    if (mode != CV_TRANSFER_STAGED && !pair_can(src, dst, mode, why, sizeof(why)))
+        return cv_error(CV_ERROR_UNSUPPORTED, "transfer from device '%s' to device '%s': the %s path is forced but %s",
+                        cv_device_label(src), cv_device_label(dst), cv_transfer_path_name(mode), why);
+    *out = mode;
+    return CV_OK;
+}

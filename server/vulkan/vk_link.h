@@ -1,0 +1,35 @@
+/* Cross-device links (backend.h: link_caps, link_staging, link_copy): staging
+ * buffers whose memory another VkDevice reaches too, and GPU copies between
+ * them and resources.
+ *
+ * Three kinds of staging, each a VkBuffer over the whole memory:
+ *   EXPORT  device memory (device-local where the buffer may have it)
+ *           allocated exportable as an opaque fd (VK_KHR_external_memory_fd);
+ *           one per device, kept until the device goes.
+ *   IMPORT  another device's EXPORT, imported from its fd; legal only between
+ *           devices with equal driverUUID and deviceUUID (the core checks).
+ *   HOST    a host allocation imported with VK_EXT_external_memory_host.
+ * Stagings are cached (EXPORT for good, IMPORT by key, HOST by address, at
+ * most VK_LINK_CACHE of the last two, oldest evicted) and freed with the
+ * device. An import keeps the memory alive after its exporter is destroyed.
+ *
+ * Copies run on the immediate command buffer and are waited for on the host,
+ * like host transfers; the memory barrier at the end of every immediate
+ * submission makes the copy's writes available before it signals. Opaque-fd
+ * memory is shared with another VkDevice, so each copy first acquires the
+ * buffer from VK_QUEUE_FAMILY_EXTERNAL and releases it back after. */
+#ifndef CORVID_VK_LINK_H
+#define CORVID_VK_LINK_H
+
+#include "vk_resources.h"
+
+#define VK_LINK_CACHE 8
+
+void vk_link_caps(cv_backend_device *bd, cv_link_caps *out);
+cv_result vk_link_staging(cv_backend_device *bd, cv_staging_desc *desc, void **out);
+cv_result vk_link_copy(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type, void *obj,
+                       uint64_t offset, uint64_t size, cv_rect rect, bool to_staging);
+/* Frees every staging (at device destruction, the device idle). */
+void vk_link_finish(cv_backend_device *bd);
+
+#endif

@@ -1,0 +1,79 @@
+/* The hybrid renderer on 1, 2, 3 and 4 virtual GPUs (lavapipe, validation on)
+ * with every cross-device transfer forced onto each path in turn through
+ * CORVID_TRANSFER_PATH (staged, host-import, shared): radiance and visibility
+ * must be bit-identical to the one-device frame, and validation silent. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "check.h"
+#include "corvid/renderer.h"
+#include "corvid/scene_procedural.h"
+#include "corvid/transfer.h"
+#include "corvid/vulkan.h"
+
+#define W 160
+#define H 90
+
+static const char *test_adapter(void) {
+    const char *env = getenv("CORVID_TEST_ADAPTER");
+    return env && env[0] ? env : "llvmpipe";
+}
+
+static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out,
+                           cv_render_stats *stats) {
+    cv_render_settings s = { .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = -1,
+                             .filter_iterations = -1 };
+    cv_context *ctx;
+    cv_device *devices[4] = { 0 };
+    cv_vulkan_gpu_table table;
+    cv_renderer *r = NULL;
+    cv_result res = cv_context_create(NULL, &ctx);
+    if (res == CV_OK)
+        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = gpus, .adapters = test_adapter() }, &table);
+    if (res == CV_OK)
+        res = cv_vulkan_create_devices(ctx, &table, true, devices);
+    if (res == CV_OK)
+        res = cv_renderer_create(devices, gpus, scene, bvh, &r);
+    if (res == CV_OK)
+        res = cv_renderer_render(r, &s, out, stats, NULL, NULL);
+    cv_renderer_destroy(r);
+    cv_context_destroy(ctx);
+    return res;
+}
+
+int main(void) {
+    cv_scene *scene = NULL;
+    cv_bvh *bvh = NULL;
+    CHECK_OK(cv_scene_make_room(1, &scene));
+    CHECK_OK(cv_bvh_build_flat(scene, NULL, &bvh));
+    if (!scene || !bvh)
+        return check_report("renderer_transfer_paths");
+    size_t bytes = (size_t)W * H * 4 * sizeof(float);
+    cv_render_output one = { 0 };
+    cv_render_stats stats;
+    unsetenv("CORVID_TRANSFER_PATH");
+    CHECK_OK(render_on(1, scene, bvh, &one, &stats));
+    const char *paths[] = { "staged", "host-import", "shared" };
+    for (int p = 0; p < 3; p++) {
+        setenv("CORVID_TRANSFER_PATH", paths[p], 1);
+        for (uint32_t gpus = 2; gpus <= 4; gpus++) {
+            cv_render_output many = { 0 };
+            CHECK_OK(render_on(gpus, scene, bvh, &many, &stats));
+            CHECK_EQ_INT(stats.device_count, gpus);
+            CHECK(stats.transfer_bytes > 0);
+            bool same = one.radiance && many.radiance && memcmp(one.radiance, many.radiance, bytes) == 0 &&
+                        memcmp(one.visibility, many.visibility, bytes) == 0;
+            CHECK(same);
+            fprintf(stderr, "%s, %u devices: %s, %.1f MB moved in %.1f ms\n", paths[p], gpus,
+                    same ? "bit-identical" : "DIFFERENT", stats.transfer_bytes / 1e6, stats.transfer_ms);
+            cv_render_output_free(&many);
+        }
+    }
+    unsetenv("CORVID_TRANSFER_PATH");
+    cv_render_output_free(&one);
+    cv_bvh_destroy(bvh);
+    cv_scene_destroy(scene);
+    CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);
+    CHECK_NOTHING_LIVE();
+    return check_report("renderer_transfer_paths");
+}
