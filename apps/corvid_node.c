@@ -17,7 +17,9 @@
 #include <string.h>
 
 #include "corvid/vulkan.h"
+#include "metrics.h"
 #include "node.h"
+#include "node_metrics_args.h"
 
 typedef struct options {
     const char *listen;
@@ -52,6 +54,8 @@ static void usage(FILE *f) {
             "  --max-sessions N       concurrent sessions [256] (1..65536)\n"
             "  --name NAME            the name clients see [the host name]\n"
             "  --port-file FILE       write the bound port to FILE once listening\n"
+            "  --metrics-port PORT    serve Prometheus metrics at /metrics on PORT (0 picks a free one) [off]\n"
+            "  --metrics-listen ADDR  numeric address for the metrics port [127.0.0.1]\n"
             "  --validation           Vulkan validation layer on session devices\n"
             "  --quiet                no per-session log lines\n"
             "  --help                 this text\n");
@@ -201,6 +205,9 @@ int main(int argc, char **argv) {
         fprintf(stderr, "corvid-node: %s (see --help)\n", cv_last_error());
         return 2;
     }
+    node_metrics_options metrics_opts;
+    if (node_metrics_args(&argc, argv, &metrics_opts) != 0)
+        return 2;
     options o;
     int parsed = parse_args(argc, argv, &o);
     if (parsed)
@@ -245,6 +252,13 @@ int main(int argc, char **argv) {
         return 1;
     }
     int port = cv_node_port(node);
+    cv_metrics_server *metrics = NULL;
+    if (metrics_opts.enabled &&
+        cv_metrics_server_start(node, metrics_opts.listen, metrics_opts.port, &metrics) != CV_OK) {
+        fprintf(stderr, "corvid-node: --metrics-port: %s\n", cv_last_error());
+        cv_node_stop(node, 0);
+        return 1;
+    }
     if (o.port_file) {
         FILE *f = fopen(o.port_file, "w");
         if (!f || fprintf(f, "%d\n", port) < 0 || fclose(f) != 0) {
@@ -256,6 +270,9 @@ int main(int argc, char **argv) {
     const char *colon = strrchr(o.listen, ':');
     printf("corvid-node: listening on %.*s:%d with %u device%s (%s), cache %s\n", (int)(colon - o.listen), o.listen,
            port, device_count, device_count == 1 ? "" : "s", o.backend, config.cache_dir);
+    if (metrics)
+        printf("corvid-node: metrics at http://%s:%d/metrics\n", metrics_opts.listen ? metrics_opts.listen : "127.0.0.1",
+               cv_metrics_server_port(metrics));
     fflush(stdout);
 
     int sig = 0;
@@ -264,6 +281,7 @@ int main(int argc, char **argv) {
             sig == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_timeout_s);
     cv_node_drain(node);
     cv_node_stats stats = cv_node_get_stats(node);
+    cv_metrics_server_stop(metrics);   /* it reads the node: gone before the node is */
     cv_node_stop(node, o.drain_timeout_s * 1000u);
     fprintf(stderr, "corvid-node: stopped after %" PRIu64 " sessions, %" PRIu64 " submissions, %" PRIu64
             " bytes in, %" PRIu64 " bytes out\n", stats.sessions_started, stats.submissions, stats.bytes_in,

@@ -8,7 +8,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   libvulkan-dev vulkan-validationlayers glslang-tools spirv-tools vulkan-tools
-  libgrpc-dev libprotobuf-c-dev protobuf-c-compiler
+  libgrpc-dev libprotobuf-c-dev protobuf-c-compiler libmicrohttpd-dev
   libopenexr-dev libpng-dev libzstd-dev libssl-dev
   libassimp-dev assimp-testmodels libembree-dev libcjson-dev
 )

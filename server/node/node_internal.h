@@ -6,6 +6,7 @@
 #include <stdatomic.h>
 
 #include "content_store.h"
+#include "metrics.h"
 #include "corvid/node_protocol.h"
 #include "corvid/rpc.h"
 #include "node.h"
@@ -21,6 +22,7 @@ struct cv_node {
     atomic_uint_fast64_t next_session_id;
     atomic_uint_fast64_t sessions_started, sessions_active;
     atomic_uint_fast64_t messages_in, bytes_in, bytes_out, submissions, errors;
+    cv_node_metrics *metrics;         /* what the counters above do not hold (metrics.h) */
 };
 
 /* Runs one session on the calling thread until its stream ends. */

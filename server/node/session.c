@@ -64,6 +64,7 @@ typedef struct session {
     uint64_t upload_size;
 
     uint64_t last_client_ticket;
+    int64_t device_bytes;             /* live resource bytes, for the metrics */
 
     /* Submissions handed to the watcher, oldest first (a ring). */
     pthread_mutex_t lock;
@@ -96,9 +97,12 @@ static cv_result send_node_message(session *s, const Corvid__NodeMessage *m) {
     cv_result r = cv_node_pack_node(m, &buf, &size);
     if (r != CV_OK)
         return r;
+    /* Counted before the send, which may return after the client has the message:
+     * a scrape then never shows less than the client received. */
+    atomic_fetch_add(&s->node->bytes_out, size);
     r = cv_rpc_stream_send_owned(s->stream, buf, size);
-    if (r == CV_OK)
-        atomic_fetch_add(&s->node->bytes_out, size);
+    if (r != CV_OK)
+        atomic_fetch_sub(&s->node->bytes_out, size);
     return r;
 }
 
@@ -142,6 +146,7 @@ static void send_completed(session *s, const pending_submit *p) {
         }
         done.n_timings = n < 32 ? n : 32;
         done.timings = ptrs;
+        cv_node_metrics_passes(s->node->metrics, timings, (uint32_t)done.n_timings);
     }
     Corvid__NodeMessage m = CORVID__NODE_MESSAGE__INIT;
     m.msg_case = CORVID__NODE_MESSAGE__MSG_COMPLETED;
@@ -232,6 +237,13 @@ static uint64_t map_list_handle(uint64_t client_id, void *user) {
 
 /* ---- requests ------------------------------------------------------------------ */
 
+/* Counts a resource created (sign 1) or destroyed (-1) in the device's memory gauge. */
+static void track_bytes(session *s, const cv_resource_desc *desc, int sign) {
+    int64_t bytes = sign * (int64_t)cv_node_resource_bytes(desc);
+    s->device_bytes += bytes;
+    cv_node_metrics_device_bytes(s->node->metrics, s->device_index, bytes);
+}
+
 static cv_result do_create(session *s, const Corvid__CreateResource *m) {
     cv_resource_desc desc;
     cv_result r = cv_node_desc_from_msg(m, &desc);
@@ -262,16 +274,22 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
         cv_destroy(s->ctx, h);
         return cv_error(r, "%s", why);
     }
+    track_bytes(s, &desc, 1);
     return CV_OK;
 }
 
 static cv_result do_destroy(session *s, const Corvid__DestroyResource *m) {
     uint64_t id;
     cv_result r = translate(s, m->id, CV_HANDLE_NONE, "destroy", &id);
+    cv_resource_desc desc = { 0 };
+    if (r == CV_OK && cv_context_describe(s->ctx, (cv_handle){ id }, &desc) != CV_OK)
+        desc.type = CV_HANDLE_NONE;   /* counts 0 bytes */
     if (r == CV_OK)
         r = cv_destroy(s->ctx, (cv_handle){ id });
     if (r == CV_OK)
         cv_handle_map_remove(&s->map, m->id);
+    if (r == CV_OK)
+        track_bytes(s, &desc, -1);
     return r;
 }
 
@@ -706,6 +724,7 @@ static void stop_watcher(session *s, bool abandon) {
 static void session_finish(session *s) {
     end_upload(s);
     stop_watcher(s, true);
+    cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -s->device_bytes);
     if (s->ctx)
         cv_context_destroy(s->ctx);   /* waits for the device, frees every resource */
     cv_handle_map_finish(&s->map);
