@@ -11,6 +11,7 @@ packages=(
   libgrpc-dev libprotobuf-c-dev protobuf-c-compiler libmicrohttpd-dev
   libopenexr-dev libpng-dev libzstd-dev libssl-dev
   libassimp-dev assimp-testmodels libembree-dev libcjson-dev
+  python3-yaml   # tests/apps/deploy_test.sh parses deploy/*.yaml
 )
 backports_packages=(mesa-vulkan-drivers)
 min_mesa_major=25
