@@ -20,7 +20,9 @@
 
 #include "corvid/rpc.h"
 #include "corvid/vulkan.h"
+#include "metrics.h"
 #include "node.h"
+#include "node_metrics_args.h"
 
 typedef struct options {
     const char *listen;
@@ -58,6 +60,8 @@ static void usage(FILE *f) {
             "  --max-sessions N       concurrent sessions [256] (1..65536)\n"
             "  --name NAME            the name clients see [the host name]\n"
             "  --port-file FILE       write the bound port to FILE once listening\n"
+            "  --metrics-port PORT    serve Prometheus metrics at /metrics on PORT (0 picks a free one) [off]\n"
+            "  --metrics-listen ADDR  numeric address for the metrics port [127.0.0.1]\n"
             "  --validation           Vulkan validation layer on session devices\n"
             "  --quiet                no per-session log lines\n"
             "  --help                 this text\n"
@@ -253,6 +257,9 @@ int main(int argc, char **argv) {
         fprintf(stderr, "corvid-node: %s (see --help)\n", cv_last_error());
         return 2;
     }
+    node_metrics_options metrics_opts;
+    if (node_metrics_args(&argc, argv, &metrics_opts) != 0)
+        return 2;
     options o;
     int parsed = parse_args(argc, argv, &o);
     if (parsed)
@@ -326,6 +333,13 @@ int main(int argc, char **argv) {
         return 1;
     }
     int port = cv_node_port(node);
+    cv_metrics_server *metrics = NULL;
+    if (metrics_opts.enabled &&
+        cv_metrics_server_start(node, metrics_opts.listen, metrics_opts.port, &metrics) != CV_OK) {
+        fprintf(stderr, "corvid-node: --metrics-port: %s\n", cv_last_error());
+        cv_node_stop(node, 0);
+        return 1;
+    }
     if (o.port_file) {
         FILE *f = fopen(o.port_file, "w");
         if (!f || fprintf(f, "%d\n", port) < 0 || fclose(f) != 0) {
@@ -339,6 +353,9 @@ int main(int argc, char **argv) {
            o.listen, port, device_count, device_count == 1 ? "" : "s", o.backend, config.cache_dir,
            o.tls_client_ca ? "mutual TLS" : o.tls_cert ? "TLS" : "plaintext",
            o.token_file ? "token required" : "no token");
+    if (metrics)
+        printf("corvid-node: metrics at http://%s:%d/metrics\n", metrics_opts.listen ? metrics_opts.listen : "127.0.0.1",
+               cv_metrics_server_port(metrics));
     fflush(stdout);
 
     int sig = 0;
@@ -347,6 +364,7 @@ int main(int argc, char **argv) {
             sig == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_timeout_s);
     cv_node_drain(node);
     cv_node_stats stats = cv_node_get_stats(node);
+    cv_metrics_server_stop(metrics);   /* it reads the node: gone before the node is */
     cv_node_stop(node, o.drain_timeout_s * 1000u);
     fprintf(stderr, "corvid-node: stopped after %" PRIu64 " sessions, %" PRIu64 " submissions, %" PRIu64
             " bytes in, %" PRIu64 " bytes out\n", stats.sessions_started, stats.submissions, stats.bytes_in,

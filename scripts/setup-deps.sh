@@ -8,9 +8,10 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   libvulkan-dev vulkan-validationlayers glslang-tools spirv-tools vulkan-tools
-  libgrpc-dev libprotobuf-c-dev protobuf-c-compiler
+  libgrpc-dev libprotobuf-c-dev protobuf-c-compiler libmicrohttpd-dev
   libopenexr-dev libpng-dev libzstd-dev libssl-dev openssl
   libassimp-dev assimp-testmodels libembree-dev libcjson-dev
+  python3-yaml   # tests/apps/deploy_test.sh parses deploy/*.yaml
 )
 backports_packages=(mesa-vulkan-drivers)
 min_mesa_major=25

@@ -169,6 +169,7 @@ static void free_node(cv_node *node) {
     OPENSSL_cleanse(node->token_sha, sizeof(node->token_sha));
     if (node->store)
         cv_content_store_close(node->store);
+    cv_node_metrics_destroy(node->metrics);
     free(node->devices);
     free(node->device_info);
     free(node);
@@ -229,7 +230,8 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     node->config = *config;
     node->devices = calloc(config->device_count, sizeof(*node->devices));
     node->device_info = calloc(config->device_count, sizeof(*node->device_info));
-    if (!node->devices || !node->device_info) {
+    node->metrics = cv_node_metrics_create(config->device_count);
+    if (!node->devices || !node->device_info || !node->metrics) {
         free_node(node);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
     }

@@ -6,6 +6,7 @@
 #include <stdatomic.h>
 
 #include "content_store.h"
+#include "metrics.h"
 #include "corvid/node_protocol.h"
 #include "corvid/rpc.h"
 #include "node.h"
@@ -25,6 +26,7 @@ struct cv_node {
     bool has_token;
     uint8_t token_sha[32];            /* SHA-256 of the token; the token itself is not kept */
     cv_node_quota quota;              /* defaults filled in */
+    cv_node_metrics *metrics;         /* what the counters above do not hold (metrics.h) */
 };
 
 /* Runs one session on the calling thread until its stream ends. */

@@ -103,9 +103,12 @@ static cv_result send_node_message(session *s, const Corvid__NodeMessage *m) {
     cv_result r = cv_node_pack_node(m, &buf, &size);
     if (r != CV_OK)
         return r;
+    /* Counted before the send, which may return after the client has the message:
+     * a scrape then never shows less than the client received. */
+    atomic_fetch_add(&s->node->bytes_out, size);
     r = cv_rpc_stream_send_owned(s->stream, buf, size);
-    if (r == CV_OK)
-        atomic_fetch_add(&s->node->bytes_out, size);
+    if (r != CV_OK)
+        atomic_fetch_sub(&s->node->bytes_out, size);
     return r;
 }
 
@@ -149,6 +152,7 @@ static void send_completed(session *s, const pending_submit *p) {
         }
         done.n_timings = n < 32 ? n : 32;
         done.timings = ptrs;
+        cv_node_metrics_passes(s->node->metrics, timings, (uint32_t)done.n_timings);
     }
     Corvid__NodeMessage m = CORVID__NODE_MESSAGE__INIT;
     m.msg_case = CORVID__NODE_MESSAGE__MSG_COMPLETED;
@@ -255,20 +259,21 @@ static cv_result quota_refuse(session *s, const char *fmt, ...) {
     return cv_error(CV_ERROR_LIMIT_EXCEEDED, "session quota exceeded: %s", text);
 }
 
-/* The device memory a resource counts against the memory quota. */
-static uint64_t resource_bytes(const cv_resource_desc *d) {
-    switch (d->type) {
-    case CV_HANDLE_BUFFER: return d->buffer.size;
-    case CV_HANDLE_TEXTURE:
-        return (uint64_t)d->texture.width * d->texture.height * cv_format_bytes(d->texture.format);
-    case CV_HANDLE_ACCEL:
-        return (uint64_t)d->accel.node_count * CV_ACCEL_NODE_BYTES +
-               (uint64_t)d->accel.triangle_count * CV_ACCEL_TRIANGLE_BYTES;
-    default: return 0;
-    }
-}
-
 /* ---- requests ------------------------------------------------------------------ */
+
+/* Counts a resource created (sign 1) or destroyed (-1): the session's quota
+ * figures and the device's memory gauge. */
+static void track_bytes(session *s, const cv_resource_desc *desc, int sign) {
+    uint64_t bytes = cv_node_resource_bytes(desc);
+    if (sign > 0) {
+        s->resources++;
+        s->memory_bytes += bytes;
+    } else {
+        s->resources--;
+        s->memory_bytes -= bytes;
+    }
+    cv_node_metrics_device_bytes(s->node->metrics, s->device_index, sign * (int64_t)bytes);
+}
 
 static cv_result do_create(session *s, const Corvid__CreateResource *m) {
     cv_resource_desc desc;
@@ -282,7 +287,7 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
     if (s->resources >= q->resources)
         return quota_refuse(s, "create: the session holds %u resources, its limit (corvid-node --quota-resources "
                             "%u)", s->resources, q->resources);
-    uint64_t bytes = resource_bytes(&desc);
+    uint64_t bytes = cv_node_resource_bytes(&desc);
     if (bytes > q->memory_bytes - s->memory_bytes)
         return quota_refuse(s, "create of %" PRIu64 " bytes: the session holds %" PRIu64 " bytes of device memory "
                             "of its limit of %" PRIu64 " (corvid-node --quota-memory %" PRIu64 ")", bytes,
@@ -309,8 +314,7 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
         cv_destroy(s->ctx, h);
         return cv_error(r, "%s", why);
     }
-    s->resources++;
-    s->memory_bytes += bytes;
+    track_bytes(s, &desc, 1);
     return CV_OK;
 }
 
@@ -324,8 +328,7 @@ static cv_result do_destroy(session *s, const Corvid__DestroyResource *m) {
         r = cv_destroy(s->ctx, (cv_handle){ id });
     if (r == CV_OK) {
         cv_handle_map_remove(&s->map, m->id);
-        s->resources--;
-        s->memory_bytes -= resource_bytes(&desc);
+        track_bytes(s, &desc, -1);
     }
     return r;
 }
@@ -783,6 +786,7 @@ static void stop_watcher(session *s, bool abandon) {
 static void session_finish(session *s) {
     end_upload(s);
     stop_watcher(s, true);
+    cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -(int64_t)s->memory_bytes);
     if (s->ctx)
         cv_context_destroy(s->ctx);   /* waits for the device, frees every resource */
     cv_handle_map_finish(&s->map);
