@@ -4,7 +4,10 @@
 // jittered inside the sun's cone (soft shadows), then cosine-distributed AO rays
 // of length ao_radius. Sample points are a Halton (2, 3) sequence indexed by
 // frame, Cranley-Patterson rotated per pixel (seed 000, "Hybrid Rendering for
-// Real-Time Ray Tracing"). Pixels without geometry get empty rays (tmax = 0).
+// Real-Time Ray Tracing"). Pixels without geometry get empty rays (tmax = 0);
+// a shadow ray whose direction is below the surface (the pixel faces away from
+// that point of the sun) gets tmin 0 > tmax -1: no ray, and render.resolve
+// reads it as shadowed, not as a miss.
 // Push: { uint x0; uint width; uint height; uint ao_samples; vec4 sun (xyz = unit
 //         direction the light travels, w = cone half angle, radians);
 //         uint frame; float ao_radius; float bias; uint y0; }.
@@ -94,7 +97,7 @@ void main() {
     float sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
     float phi = 2.0 * PI * u.y;
     vec3 dir = normalize(t * (cos(phi) * sin_theta) + b * (sin(phi) * sin_theta) + to_sun * cos_theta);
-    float tmax = dot(dir, n) > 0.0 ? 1e30 : 0.0;   // facing away from the sun: shadowed anyway
+    float tmax = dot(dir, n) > 0.0 ? 1e30 : -1.0;   // facing away from the sun: in shadow
     rays[first] = Ray(origin, 0.0, dir, tmax);
 
     // Ambient occlusion: cosine-weighted hemisphere around n.

@@ -284,7 +284,8 @@ static cv_result record_trace(cv_renderer *r, uint32_t d, cv_column_range cols, 
     uint32_t rows = band_rows(r, d, s, cols.width);
     cv_binding gen[3] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
                           bind_buffer(r->rays[d]) };
-    cv_binding res_b[2] = { bind_buffer(r->hits[d]), bind_texture(r->textures[TEX_VISIBILITY]) };
+    cv_binding res_b[3] = { bind_buffer(r->hits[d]), bind_buffer(r->rays[d]),
+                            bind_texture(r->textures[TEX_VISIBILITY]) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "trace" });
     for (uint32_t y0 = 0; y0 < r->height; y0 += rows) {
         uint32_t h = r->height - y0 < rows ? r->height - y0 : rows;
@@ -309,7 +310,7 @@ static cv_result record_trace(cv_renderer *r, uint32_t d, cv_column_range cols, 
                                                                     .hits = r->hits[d], .count = (uint32_t)count,
                                                                     .flags = CV_TRACE_ANY_HIT });
         cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
-            .pipeline = r->pipelines[PIPE_RESOLVE], .bindings = res_b, .bindings_count = 2, .push = &resolve,
+            .pipeline = r->pipelines[PIPE_RESOLVE], .bindings = res_b, .bindings_count = 3, .push = &resolve,
             .push_size = sizeof(resolve), .groups_x = groups(cols.width, 8), .groups_y = groups(h, 8),
             .groups_z = 1 });
     }
