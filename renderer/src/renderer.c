@@ -10,7 +10,6 @@
 #include <time.h>
 
 #include "camera.h"
-#include "corvid/texel.h"
 #include "corvid/transfer.h"
 #include "scene_upload.h"
 
@@ -27,9 +26,9 @@ static const struct { cv_format format; uint32_t usage; bool everywhere; const c
     [TEX_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, true, "gbuffer normal" },
     [TEX_VISIBILITY] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, true, "visibility" },
     [TEX_DEPTH] = { CV_FORMAT_D32F, CV_TEXTURE_USAGE_DEPTH_TARGET, false, "depth" },
-    [TEX_HISTORY] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, false, "visibility history" },
-    [TEX_PING] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, false, "filter ping" },
-    [TEX_PONG] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, false, "filter pong" },
+    [TEX_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "visibility history" },
+    [TEX_PING] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "filter ping" },
+    [TEX_PONG] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "filter pong" },
     [TEX_RADIANCE] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "radiance" },
     [TEX_ALBEDO] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "albedo" },
 };
@@ -299,7 +298,7 @@ static cv_result record_trace(cv_renderer *r, uint32_t d, cv_column_range cols, 
         } raygen = { cols.x, cols.width, h, s->ao_samples,
                      { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
                        s->sun_cone_degrees * 3.14159265f / 180.0f },
-                     frame, s->ao_radius, r->data.diagonal * 2e-5f, y0 };
+                     s->first_frame + frame, s->ao_radius, r->data.diagonal * 2e-5f, y0 };
         struct { uint32_t x0, width, height, ao_samples, y0, pad[3]; } resolve = { cols.x, cols.width, h,
                                                                                   s->ao_samples, y0, { 0 } };
         cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
@@ -403,18 +402,6 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
     return s;
 }
 
-/* Reads an RGBA16F texture of the primary into floats. */
-static cv_result read_half_rgba(cv_device *dev, cv_texture t, uint32_t w, uint32_t h, float *out) {
-    uint16_t *half = malloc((size_t)w * h * 8);
-    if (!half)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: readback");
-    cv_result res = cv_device_read_texture(dev, t, (cv_rect){ 0, 0, w, h }, half);
-    for (size_t i = 0; res == CV_OK && i < (size_t)w * h * 4; i++)
-        out[i] = cv_half_to_float(half[i]);
-    free(half);
-    return res;
-}
-
 static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_output *out) {
     size_t n = (size_t)r->width * r->height * 4;
     memset(out, 0, sizeof(*out));
@@ -433,7 +420,7 @@ static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_outp
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_NORMAL], all, out->normal);
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_POSITION], all, out->position);
     if (res == CV_OK)
-        res = read_half_rgba(p, r->textures[filtered_texture(iterations)], r->width, r->height, out->visibility);
+        res = cv_device_read_texture(p, r->textures[filtered_texture(iterations)], all, out->visibility);
     if (res != CV_OK)
         cv_render_output_free(out);
     return res;
@@ -458,10 +445,10 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_render: NULL argument");
     cv_render_settings s = cv_render_settings_resolve(settings, r->scene);
     if (s.width > CV_MAX_TEXTURE_DIM || s.height > CV_MAX_TEXTURE_DIM || s.ao_samples > 32 || s.frames > 4096 ||
-        s.filter_iterations > 8)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations "
-                        "(limits %u, 32, 4096, 8)", s.width, s.height, s.ao_samples, s.frames, s.filter_iterations,
-                        CV_MAX_TEXTURE_DIM);
+        s.filter_iterations > 8 || s.first_frame > (1u << 24))
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations, "
+                        "first frame %u (limits %u, 32, 4096, 8, 2^24)", s.width, s.height, s.ao_samples, s.frames,
+                        s.filter_iterations, s.first_frame, CV_MAX_TEXTURE_DIM);
     cv_camera camera = s.camera < cv_scene_camera_count(r->scene) ? *cv_scene_camera(r->scene, s.camera)
                                                                    : cv_scene_framing_camera(r->scene);
     cv_result res = ensure_targets(r, s.width, s.height);

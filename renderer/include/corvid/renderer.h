@@ -35,6 +35,9 @@ typedef struct cv_render_settings {
     uint32_t tile;              /* [8] partition tile width, pixels */
     int32_t filter_iterations;  /* [3] a-trous iterations (steps 1, 2, 4, ...); -1 = none */
     uint32_t band_rays;         /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
+    uint32_t first_frame;       /* [0] sample index of the first frame: frames draw the sample sets of
+                                 * first_frame .. first_frame + frames - 1 (a render can continue
+                                 * another's sequence; tests render single frames of a sequence) */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
@@ -63,7 +66,8 @@ typedef struct cv_render_output {
     float *albedo;
     float *normal;              /* xyz, w = material index */
     float *position;            /* world position, w = 1 on geometry */
-    float *visibility;          /* r = sun visibility, g = ambient occlusion (filtered) */
+    float *visibility;          /* r = sun visibility, g = ambient occlusion (filtered; accumulated in
+                                 * float32), b, a = their mean squares over the frames (unfiltered) */
 } cv_render_output;
 
 typedef struct cv_renderer cv_renderer;
