@@ -246,7 +246,7 @@ static cv_result record_gbuffer(cv_renderer *r, const cv_camera *camera, cv_comm
     float near_plane = r->data.diagonal * 1e-4f, far_plane = r->data.diagonal * 4.0f;
     render_camera_view_proj(camera, (float)r->width / (float)r->height, near_plane, far_plane, push.view_proj);
     memcpy(push.camera, camera->position, sizeof(camera->position));
-    push.camera[3] = 1.0f;
+    push.camera[3] = 1.0f / far_plane;   /* render.gbuffer writes depth = view depth / far */
     cv_binding b = bind_buffer(r->vertices);
     cv_cmd_begin_marker(l, CV_QUEUE_GRAPHICS, &(cv_begin_marker_args){ .label = "gbuffer" });
     cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){
