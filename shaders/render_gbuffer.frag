@@ -1,5 +1,8 @@
 // render.gbuffer, fragment stage: writes the G-buffer.
-//   color0 (RGBA32F): world position, w = 1 where there is geometry (cleared to 0).
+//   color0 (RGBA32F): world position; w = 0 where there is no geometry (the
+//     clear), else the geometric normal on the camera's side, octahedral with
+//     11 bits a coordinate, as w = 1 + code / 2^22 in [1, 2) (exact in float;
+//     render_raygen.comp decodes it; the renderer's output says 1).
 //   color1 (RGBA32F): unit shading normal on the side the camera sees, w = material index.
 // The side is decided by the geometric normal, not the interpolated one. A
 // back face of a closed mesh is never the visible surface: it is discarded, so
@@ -21,6 +24,14 @@ layout(location = 2) flat in uint in_material;
 layout(location = 3) flat in vec4 in_geometric;
 
 layout(location = 0) out vec4 out_position;
+
+float pack_normal(vec3 n) {
+    vec2 e = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
+    if (n.z < 0.0)
+        e = (1.0 - abs(e.yx)) * vec2(e.x >= 0.0 ? 1.0 : -1.0, e.y >= 0.0 ? 1.0 : -1.0);
+    uvec2 q = uvec2(clamp(round((e * 0.5 + 0.5) * 2047.0), 0.0, 2047.0));
+    return 1.0 + float(q.x * 2048u + q.y) / 4194304.0;
+}
 layout(location = 1) out vec4 out_normal;
 
 void main() {
@@ -34,6 +45,6 @@ void main() {
         ng = -ng;
     }
     gl_FragDepth = clamp((1.0 / gl_FragCoord.w) * pc.camera_position.w, 0.0, 1.0);
-    out_position = vec4(in_position, 1.0);
+    out_position = vec4(in_position, pack_normal(ng));
     out_normal = vec4(n, float(in_material));
 }

@@ -419,6 +419,9 @@ static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_outp
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_ALBEDO], all, out->albedo);
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_NORMAL], all, out->normal);
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_POSITION], all, out->position);
+    /* The G-buffer's w packs the geometric normal (render_gbuffer.frag); the output says 1. */
+    for (size_t i = 3; res == CV_OK && i < n; i += 4)
+        out->position[i] = out->position[i] != 0.0f ? 1.0f : 0.0f;
     if (res == CV_OK)
         res = cv_device_read_texture(p, r->textures[filtered_texture(iterations)], all, out->visibility);
     if (res != CV_OK)
