@@ -85,6 +85,18 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                              void *user);
 void cv_render_output_free(cv_render_output *out);
 
+/* The reference (ground truth) for the renderer's image model, on the CPU
+ * (renderer/src/reference.c): per pixel a closest-hit camera ray through the
+ * pixel centre, then `samples` independent samples of the sun's cone (shadow)
+ * and samples * ao_samples cosine AO rays, any-hit with scene/'s cv_trace_ray,
+ * with the same ray rules (origin offset along the geometric normal, below the
+ * surface = shadowed, AO mirrored above the geometric plane), accumulated in
+ * float32, shaded as render.composite (unfiltered). frames, tile, band_rays,
+ * filter_iterations and first_frame are ignored. `threads` pthreads (0 = 2).
+ * Fills *out like cv_renderer_render; failures leave it untouched. */
+cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
+                              uint32_t samples, uint32_t threads, cv_render_output *out);
+
 /* The settings with defaults filled in for this scene. */
 cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene);
 
