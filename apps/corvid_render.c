@@ -38,6 +38,9 @@ static void usage(FILE *f) {
             "                     AO cannot be turned off, so 0 is refused)\n"
             "  --ao-radius M      AO ray length in scene units, > 0 (default 2%% of the scene diagonal)\n"
             "  --exposure EV      exposure of the PNG in stops (default 0)\n"
+            "  --reference N      render the CPU reference instead (ground truth for the renderer's\n"
+            "                     image model): N samples per pixel, 1..65536, unfiltered, float32\n"
+            "                     accumulation, on 2 threads; writes the same layers; no devices\n"
             "  --out PREFIX       output path without extension, ending in a file name (default out/frame)\n"
             "  --gpus N           total devices (virtual GPUs are added to reach N); overrides\n"
             "                     --virtual-gpus and CORVID_VIRTUAL_GPUS\n"
@@ -57,6 +60,7 @@ typedef struct options {
     const char *nodes;           /* --nodes, or CORVID_NODES; NULL = local devices */
     uint64_t stress_triangles;   /* > 0 for --scene stress:N */
     uint32_t seed;
+    uint32_t reference;          /* --reference N: samples per pixel of the CPU reference; 0 = GPU render */
     cv_render_settings settings;
     float exposure;
     bool validation, quiet, list_adapters, help;
@@ -149,6 +153,10 @@ static bool opt_ao_radius(options *o, const char *name, const char *value) {
     return true;
 }
 
+static bool opt_reference(options *o, const char *name, const char *value) {
+    return set_u32(name, value, 1, 65536, &o->reference);
+}
+
 static bool opt_exposure(options *o, const char *name, const char *value) {
     if (!parse_float(value, &o->exposure))
         return refuse(name, value, "a finite number of stops");
@@ -211,6 +219,7 @@ static const struct option_def {
     { "--ao-samples", true, opt_ao_samples },
     { "--ao-radius", true, opt_ao_radius },
     { "--exposure", true, opt_exposure },
+    { "--reference", true, opt_reference },
     { "--out", true, opt_out },
     { "--nodes", true, opt_nodes },
     { "--validation", false, opt_validation },
@@ -539,30 +548,37 @@ int main(int argc, char **argv) {
     if (r == CV_OK)
         r = cv_bvh_build_flat(scene, NULL, &bvh);
     t_bvh = now_ms() - t_bvh;
-    if (r == CV_OK && !o.nodes)
+    if (r == CV_OK && o.reference) {
+        r = cv_render_reference(scene, bvh, &o.settings, o.reference, 2, &image);
+        if (r == CV_OK && !o.quiet)
+            fprintf(stderr, "reference: %u samples per pixel in %.1f s\n", o.reference, (now_ms() - t0) / 1e3);
+    }
+    if (r == CV_OK && !o.nodes && !o.reference)
         r = cv_vulkan_gpu_table_build(&gpu_config, &table);
     if (r == CV_OK && table.count > CV_RENDER_MAX_DEVICES)
         r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "%u devices requested; the renderer takes at most %u", table.count,
                      CV_RENDER_MAX_DEVICES);
-    if (r == CV_OK)
+    if (r == CV_OK && !o.reference)
         r = cv_context_create(NULL, &ctx);
     uint32_t device_count = 0;
-    if (r == CV_OK && o.nodes) {
+    if (r == CV_OK && o.reference) {
+        /* no devices */
+    } else if (r == CV_OK && o.nodes) {
         r = create_node_devices(ctx, o.nodes, devices, &device_count, o.quiet);
     } else if (r == CV_OK) {
         r = cv_vulkan_create_devices(ctx, &table, o.validation, devices);
         device_count = r == CV_OK ? table.count : 0;
     }
-    if (r == CV_OK && !o.quiet && !o.nodes)
+    if (r == CV_OK && !o.quiet && !o.nodes && !o.reference)
         for (uint32_t d = 0; d < table.count; d++) {
             const cv_device_info *info = cv_device_get_info(devices[d]);
             fprintf(stderr, "%s: %s (adapter %u, instance %u)%s, trace path %s\n", cv_device_label(devices[d]),
                     info->name, table.gpus[d].adapter, table.gpus[d].instance, d == 0 ? ", primary" : "",
                     info->trace_path[0] ? info->trace_path : "compute");
         }
-    if (r == CV_OK)
+    if (r == CV_OK && !o.reference)
         r = cv_renderer_create(devices, device_count, scene, bvh, &renderer);
-    if (r == CV_OK)
+    if (r == CV_OK && !o.reference)
         r = cv_renderer_render(renderer, &o.settings, &image, &stats, progress, &o.quiet);
     cv_render_settings s = { 0 };
     cv_camera camera = { 0 };
@@ -573,7 +589,10 @@ int main(int argc, char **argv) {
     }
     if (r == CV_OK)
         r = write_images(&o, &out, &image, &camera);
-    if (r == CV_OK && !o.quiet) {
+    if (r == CV_OK && !o.quiet && o.reference)
+        printf("wrote %s and %s (%ux%u, CPU reference, %u samples x %u AO rays/pixel)\n", out.exr, out.png,
+               image.width, image.height, o.reference, s.ao_samples);
+    if (r == CV_OK && !o.quiet && !o.reference) {
         printf("wrote %s and %s (%ux%u, %u frames, %u AO rays/pixel/frame)\n", out.exr, out.png, image.width,
                image.height, stats.frames, s.ao_samples);
         printf("bvh build %.1f ms; upload to %u devices %.1f ms; %.1f ms per frame; %.2f Mrays/s overall\n", t_bvh,

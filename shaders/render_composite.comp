@@ -5,7 +5,7 @@
 // geometry. Also writes the albedo AOV.
 // Push: { vec4 sun (xyz = unit direction the light travels, w = irradiance);
 //         vec4 sun_color; vec4 sky (rgb radiance); uint width; uint height; uint material_count; uint pad; }.
-// i0: positions, i1: normals (w = material), i2: visibility (RGBA16F),
+// i0: positions, i1: normals (w = material), i2: visibility (RGBA32F: r = sun, g = AO),
 // b3: Material { vec4 base_color_roughness; vec4 emission_metalness; }[],
 // i4: radiance out (RGBA32F), i5: albedo out (RGBA32F),
 // b6: PointLight { vec3 position; float intensity; vec3 color; float pad; }[light_count].
@@ -29,7 +29,7 @@ layout(push_constant, std430) uniform Push {
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
-layout(set = 0, binding = 2, rgba16f) uniform readonly image2D visibility;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D visibility;
 layout(set = 0, binding = 3, std430) readonly buffer Materials { Material materials[]; };
 layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D radiance;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D albedo_out;

@@ -3,7 +3,8 @@
 // similarity so shadows and AO are smoothed within surfaces, not across edges
 // (the spatial part of seed 000's SVGF-like shadow filter). Run with steps 1, 2, 4.
 // Push: { uint width; uint height; uint step; float position_sigma; }.
-// i0: positions, i1: normals (RGBA32F), i2: input visibility, i3: output (RGBA16F).
+// i0: positions, i1: normals (RGBA32F), i2: input visibility, i3: output (both
+// RGBA32F: r = sun, g = AO are filtered, b, a = their second moments pass through).
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -16,8 +17,8 @@ layout(push_constant, std430) uniform Push {
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
-layout(set = 0, binding = 2, rgba16f) uniform readonly image2D source;
-layout(set = 0, binding = 3, rgba16f) uniform writeonly image2D target;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D source;
+layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D target;
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -32,7 +33,7 @@ void main() {
     }
     vec3 cn = imageLoad(gbuffer_normal, p).xyz;
     const float kernel[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
-    vec4 sum = vec4(0.0);
+    vec2 sum = vec2(0.0);
     float weight = 0.0;
     for (int dy = -2; dy <= 2; dy++) {
         for (int dx = -2; dx <= 2; dx++) {
@@ -47,9 +48,9 @@ void main() {
             vec3 d = qp.xyz - cp.xyz;
             float wp = exp(-dot(d, d) / (pc.position_sigma * pc.position_sigma));
             float w = kernel[abs(dx)] * kernel[abs(dy)] * wn * wp;
-            sum += imageLoad(source, q) * w;
+            sum += imageLoad(source, q).rg * w;
             weight += w;
         }
     }
-    imageStore(target, p, weight > 0.0 ? sum / weight : centre);
+    imageStore(target, p, weight > 0.0 ? vec4(sum / weight, centre.ba) : centre);
 }

@@ -1,25 +1,50 @@
 // render.gbuffer, fragment stage: writes the G-buffer.
-//   color0 (RGBA32F): world position, w = 1 where there is geometry (cleared to 0).
-//   color1 (RGBA32F): unit shading normal facing the camera, w = material index.
+//   color0 (RGBA32F): world position; w = 0 where there is no geometry (the
+//     clear), else the geometric normal on the camera's side, octahedral with
+//     11 bits a coordinate, as w = 1 + code / 2^22 in [1, 2) (exact in float;
+//     render_raygen.comp decodes it; the renderer's output says 1).
+//   color1 (RGBA32F): unit shading normal on the side the camera sees, w = material index.
+// The side is decided by the geometric normal, not the interpolated one. A
+// back face of a closed mesh is never the visible surface: it is discarded, so
+// it cannot win the depth test at silhouettes and creases (issue 11, defect 2).
+// Depth is the view-space depth over the far plane, written by the shader: the
+// fixed-function depth (near 1e-4 of the diagonal, LESS) puts most of its float
+// steps next to the near plane; linear depth in float has a step of 2^-24 of
+// the distance everywhere (the precision reversed Z would give).
 #version 460
 
 layout(push_constant, std430) uniform Push {
     mat4 view_proj;
-    vec4 camera_position;
+    vec4 camera_position;   // w = 1 / far plane
 } pc;
 
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
 layout(location = 2) flat in uint in_material;
+layout(location = 3) flat in vec4 in_geometric;
 
 layout(location = 0) out vec4 out_position;
+
+float pack_normal(vec3 n) {
+    vec2 e = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
+    if (n.z < 0.0)
+        e = (1.0 - abs(e.yx)) * vec2(e.x >= 0.0 ? 1.0 : -1.0, e.y >= 0.0 ? 1.0 : -1.0);
+    uvec2 q = uvec2(clamp(round((e * 0.5 + 0.5) * 2047.0), 0.0, 2047.0));
+    return 1.0 + float(q.x * 2048u + q.y) / 4194304.0;
+}
 layout(location = 1) out vec4 out_normal;
 
 void main() {
-    vec3 n = normalize(in_normal);
-    // Shade the side the camera sees: thin walls and open meshes have no inside.
-    if (dot(n, pc.camera_position.xyz - in_position) < 0.0)
+    vec3 n = normalize(in_normal), ng = in_geometric.xyz;
+    vec3 view = pc.camera_position.xyz - in_position;
+    if (dot(ng, view) < 0.0) {
+        if (in_geometric.w != 0.0)
+            discard;
+        // Thin walls and open meshes have no inside: shade the side the camera sees.
         n = -n;
-    out_position = vec4(in_position, 1.0);
+        ng = -ng;
+    }
+    gl_FragDepth = clamp((1.0 / gl_FragCoord.w) * pc.camera_position.w, 0.0, 1.0);
+    out_position = vec4(in_position, pack_normal(ng));
     out_normal = vec4(n, float(in_material));
 }

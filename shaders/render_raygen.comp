@@ -4,7 +4,16 @@
 // jittered inside the sun's cone (soft shadows), then cosine-distributed AO rays
 // of length ao_radius. Sample points are a Halton (2, 3) sequence indexed by
 // frame, Cranley-Patterson rotated per pixel (seed 000, "Hybrid Rendering for
-// Real-Time Ray Tracing"). Pixels without geometry get empty rays (tmax = 0).
+// Real-Time Ray Tracing"). Pixels without geometry get empty rays (tmax = 0);
+// a shadow ray whose direction is below the surface (the pixel faces away from
+// that point of the sun) gets tmin 0 > tmax -1: no ray, and render.resolve
+// reads it as shadowed, not as a miss.
+// Rays leave from the geometric surface (issue 11, defect 4): the origin is
+// offset along the triangle's geometric normal (packed in the G-buffer
+// position's w), the shadow ray counts as below the surface when its
+// direction is below the shading or the geometric plane, and an AO direction
+// drawn around the shading normal that falls below the geometric plane is
+// mirrored across it, so a smooth low-poly mesh does not occlude itself.
 // Push: { uint x0; uint width; uint height; uint ao_samples; vec4 sun (xyz = unit
 //         direction the light travels, w = cone half angle, radians);
 //         uint frame; float ao_radius; float bias; uint y0; }.
@@ -62,6 +71,15 @@ vec2 sample2(uvec2 pixel, uint k) {
     return fract(vec2(halton(index, 2u), halton(index, 3u)) + rotation);
 }
 
+vec3 unpack_normal(float w) {
+    uint code = uint(round((w - 1.0) * 4194304.0));
+    vec2 e = vec2(float(code >> 11u), float(code & 2047u)) / 2047.0 * 2.0 - 1.0;
+    vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
+    float t = max(-n.z, 0.0);
+    n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
+    return normalize(n);
+}
+
 // An orthonormal basis around n (Frisvad, revised by Duff et al.).
 void basis(vec3 n, out vec3 t, out vec3 b) {
     float s = n.z >= 0.0 ? 1.0 : -1.0;
@@ -84,7 +102,8 @@ void main() {
         return;
     }
     vec3 n = imageLoad(gbuffer_normal, ivec2(pixel)).xyz;
-    vec3 origin = p.xyz + n * pc.bias;
+    vec3 ng = unpack_normal(p.w);
+    vec3 origin = p.xyz + ng * pc.bias;
 
     // Shadow ray: a direction inside the cone around the direction to the sun.
     vec3 to_sun = -pc.sun.xyz, t, b;
@@ -94,7 +113,7 @@ void main() {
     float sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
     float phi = 2.0 * PI * u.y;
     vec3 dir = normalize(t * (cos(phi) * sin_theta) + b * (sin(phi) * sin_theta) + to_sun * cos_theta);
-    float tmax = dot(dir, n) > 0.0 ? 1e30 : 0.0;   // facing away from the sun: shadowed anyway
+    float tmax = dot(dir, n) > 0.0 && dot(dir, ng) > 0.0 ? 1e30 : -1.0;   // facing away from the sun: in shadow
     rays[first] = Ray(origin, 0.0, dir, tmax);
 
     // Ambient occlusion: cosine-weighted hemisphere around n.
@@ -103,6 +122,9 @@ void main() {
         vec2 v = sample2(pixel, k + 1u);
         float r = sqrt(v.x), a = 2.0 * PI * v.y;
         vec3 d = normalize(t * (r * cos(a)) + b * (r * sin(a)) + n * sqrt(max(0.0, 1.0 - v.x)));
+        float below = dot(d, ng);
+        if (below < 0.0)
+            d = normalize(d - 2.0 * below * ng);
         rays[first + 1u + k] = Ray(origin, 0.0, d, pc.ao_radius);
     }
 }

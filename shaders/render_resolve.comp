@@ -1,8 +1,11 @@
 // render.resolve: turns any-hit results of render.raygen's rays into visibility
 // for one band of the partition's pixels: r = sun visibility (0 or 1), g =
 // unoccluded fraction of the AO rays. Written at the pixel's full-image position.
+// A shadow ray with tmax < 0 is render.raygen's mark for a surface facing away
+// from the sun: in shadow (0), though tracing it is a miss.
 // Push: { uint x0; uint width; uint height; uint ao_samples; uint y0; uint pad[3]; }.
-// b0: cv_hit[] (20 bytes: t, u, v, triangle, instance), i1: visibility (RGBA16F).
+// b0: cv_hit[] (20 bytes: t, u, v, triangle, instance), b1: the cv_ray[] they
+// answer (32 bytes: origin, tmin, dir, tmax), i2: visibility (RGBA16F).
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -25,15 +28,24 @@ layout(push_constant, std430) uniform Push {
     uint pad2;
 } pc;
 
+struct Ray {
+    vec3 origin;
+    float tmin;
+    vec3 dir;
+    float tmax;
+};
+
 layout(set = 0, binding = 0, std430) readonly buffer Hits { Hit hits[]; };
-layout(set = 0, binding = 1, rgba16f) uniform writeonly image2D visibility;
+layout(set = 0, binding = 1, std430) readonly buffer Rays { Ray rays[]; };
+layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D visibility;
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
     if (local.x >= pc.width || local.y >= pc.height)
         return;
     uint first = (local.y * pc.width + local.x) * (pc.ao_samples + 1u);
-    float sun = hits[first].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
+    bool sun_below = rays[first].tmax < 0.0;
+    float sun = !sun_below && hits[first].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
     float open = 0.0;
     for (uint k = 0u; k < pc.ao_samples; k++)
         open += hits[first + 1u + k].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;

@@ -10,7 +10,6 @@
 #include <time.h>
 
 #include "camera.h"
-#include "corvid/texel.h"
 #include "corvid/transfer.h"
 #include "scene_upload.h"
 
@@ -27,9 +26,9 @@ static const struct { cv_format format; uint32_t usage; bool everywhere; const c
     [TEX_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, true, "gbuffer normal" },
     [TEX_VISIBILITY] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, true, "visibility" },
     [TEX_DEPTH] = { CV_FORMAT_D32F, CV_TEXTURE_USAGE_DEPTH_TARGET, false, "depth" },
-    [TEX_HISTORY] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, false, "visibility history" },
-    [TEX_PING] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, false, "filter ping" },
-    [TEX_PONG] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, false, "filter pong" },
+    [TEX_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "visibility history" },
+    [TEX_PING] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "filter ping" },
+    [TEX_PONG] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "filter pong" },
     [TEX_RADIANCE] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "radiance" },
     [TEX_ALBEDO] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "albedo" },
 };
@@ -250,7 +249,7 @@ static cv_result record_gbuffer(cv_renderer *r, const cv_camera *camera, cv_comm
     float near_plane = r->data.diagonal * 1e-4f, far_plane = r->data.diagonal * 4.0f;
     render_camera_view_proj(camera, (float)r->width / (float)r->height, near_plane, far_plane, push.view_proj);
     memcpy(push.camera, camera->position, sizeof(camera->position));
-    push.camera[3] = 1.0f;
+    push.camera[3] = 1.0f / far_plane;   /* render.gbuffer writes depth = view depth / far */
     cv_binding b = bind_buffer(r->vertices);
     cv_cmd_begin_marker(l, CV_QUEUE_GRAPHICS, &(cv_begin_marker_args){ .label = "gbuffer" });
     cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){
@@ -287,7 +286,8 @@ static cv_result record_trace(cv_renderer *r, uint32_t d, cv_column_range cols, 
     uint32_t rows = band_rows(r, d, s, cols.width);
     cv_binding gen[3] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
                           bind_buffer(r->rays[d]) };
-    cv_binding res_b[2] = { bind_buffer(r->hits[d]), bind_texture(r->textures[TEX_VISIBILITY]) };
+    cv_binding res_b[3] = { bind_buffer(r->hits[d]), bind_buffer(r->rays[d]),
+                            bind_texture(r->textures[TEX_VISIBILITY]) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "trace" });
     for (uint32_t y0 = 0; y0 < r->height; y0 += rows) {
         uint32_t h = r->height - y0 < rows ? r->height - y0 : rows;
@@ -301,7 +301,7 @@ static cv_result record_trace(cv_renderer *r, uint32_t d, cv_column_range cols, 
         } raygen = { cols.x, cols.width, h, s->ao_samples,
                      { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
                        s->sun_cone_degrees * 3.14159265f / 180.0f },
-                     frame, s->ao_radius, r->data.diagonal * 2e-5f, y0 };
+                     s->first_frame + frame, s->ao_radius, r->data.diagonal * 2e-5f, y0 };
         struct { uint32_t x0, width, height, ao_samples, y0, pad[3]; } resolve = { cols.x, cols.width, h,
                                                                                   s->ao_samples, y0, { 0 } };
         cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
@@ -312,7 +312,7 @@ static cv_result record_trace(cv_renderer *r, uint32_t d, cv_column_range cols, 
                                                                     .hits = r->hits[d], .count = (uint32_t)count,
                                                                     .flags = CV_TRACE_ANY_HIT });
         cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
-            .pipeline = r->pipelines[PIPE_RESOLVE], .bindings = res_b, .bindings_count = 2, .push = &resolve,
+            .pipeline = r->pipelines[PIPE_RESOLVE], .bindings = res_b, .bindings_count = 3, .push = &resolve,
             .push_size = sizeof(resolve), .groups_x = groups(cols.width, 8), .groups_y = groups(h, 8),
             .groups_z = 1 });
     }
@@ -405,18 +405,6 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
     return s;
 }
 
-/* Reads an RGBA16F texture of the primary into floats. */
-static cv_result read_half_rgba(cv_device *dev, cv_texture t, uint32_t w, uint32_t h, float *out) {
-    uint16_t *half = malloc((size_t)w * h * 8);
-    if (!half)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: readback");
-    cv_result res = cv_device_read_texture(dev, t, (cv_rect){ 0, 0, w, h }, half);
-    for (size_t i = 0; res == CV_OK && i < (size_t)w * h * 4; i++)
-        out[i] = cv_half_to_float(half[i]);
-    free(half);
-    return res;
-}
-
 static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_output *out) {
     size_t n = (size_t)r->width * r->height * 4;
     memset(out, 0, sizeof(*out));
@@ -434,8 +422,11 @@ static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_outp
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_ALBEDO], all, out->albedo);
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_NORMAL], all, out->normal);
     if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_POSITION], all, out->position);
+    /* The G-buffer's w packs the geometric normal (render_gbuffer.frag); the output says 1. */
+    for (size_t i = 3; res == CV_OK && i < n; i += 4)
+        out->position[i] = out->position[i] != 0.0f ? 1.0f : 0.0f;
     if (res == CV_OK)
-        res = read_half_rgba(p, r->textures[filtered_texture(iterations)], r->width, r->height, out->visibility);
+        res = cv_device_read_texture(p, r->textures[filtered_texture(iterations)], all, out->visibility);
     if (res != CV_OK)
         cv_render_output_free(out);
     return res;
@@ -460,10 +451,10 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_render: NULL argument");
     cv_render_settings s = cv_render_settings_resolve(settings, r->scene);
     if (s.width > CV_MAX_TEXTURE_DIM || s.height > CV_MAX_TEXTURE_DIM || s.ao_samples > 32 || s.frames > 4096 ||
-        s.filter_iterations > 8)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations "
-                        "(limits %u, 32, 4096, 8)", s.width, s.height, s.ao_samples, s.frames, s.filter_iterations,
-                        CV_MAX_TEXTURE_DIM);
+        s.filter_iterations > 8 || s.first_frame > (1u << 24))
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations, "
+                        "first frame %u (limits %u, 32, 4096, 8, 2^24)", s.width, s.height, s.ao_samples, s.frames,
+                        s.filter_iterations, s.first_frame, CV_MAX_TEXTURE_DIM);
     cv_camera camera = s.camera < cv_scene_camera_count(r->scene) ? *cv_scene_camera(r->scene, s.camera)
                                                                    : cv_scene_framing_camera(r->scene);
     cv_result res = ensure_targets(r, s.width, s.height);

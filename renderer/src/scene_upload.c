@@ -28,6 +28,76 @@ static void transform_normal(const float m[3][3], const float n[3], float out[3]
             out[r] /= l;
 }
 
+typedef struct welded { float p[3]; uint32_t index; } welded;
+
+static int compare_welded(const void *a, const void *b) {
+    const welded *x = a, *y = b;
+    for (int k = 0; k < 3; k++)
+        if (x->p[k] != y->p[k])
+            return x->p[k] < y->p[k] ? -1 : 1;
+    return x->index < y->index ? -1 : x->index > y->index;
+}
+
+static int compare_u64(const void *a, const void *b) {
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+static bool has_edge(const uint64_t *edges, size_t n, uint64_t e) {
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (edges[mid] < e)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < n && edges[lo] == e;
+}
+
+/* Whether a mesh is closed and consistently wound: with vertices welded by
+ * equal position, every directed edge appears once and its reverse once. Only
+ * closed meshes may have their back faces dropped by the G-buffer (a wall of
+ * one sheet has no inside). *ok is false without memory. */
+static bool mesh_closed(const cv_mesh *mesh, bool *ok) {
+    uint32_t nv = mesh->vertex_count, nt = mesh->triangle_count;
+    welded *w = malloc((size_t)nv * sizeof(*w));
+    uint32_t *canon = malloc((size_t)nv * sizeof(*canon));
+    uint64_t *edges = malloc((size_t)nt * 3 * sizeof(*edges));
+    bool closed = w && canon && edges;
+    *ok = closed;
+    for (uint32_t v = 0; closed && v < nv; v++) {
+        memcpy(w[v].p, &mesh->positions[3 * v], sizeof(w[v].p));
+        w[v].index = v;
+    }
+    if (closed)
+        qsort(w, nv, sizeof(*w), compare_welded);
+    for (uint32_t v = 0, first = 0; closed && v < nv; v++) {
+        if (v > 0 && memcmp(w[v].p, w[v - 1].p, sizeof(w[v].p)) != 0)
+            first = v;
+        canon[w[v].index] = w[first].index;
+    }
+    for (uint32_t t = 0; closed && t < nt; t++)
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = canon[mesh->indices[3 * t + k]], b = canon[mesh->indices[3 * t + (k + 1) % 3]];
+            if (a == b)
+                closed = false;   /* degenerate: no winding to trust */
+            edges[3 * (size_t)t + k] = (uint64_t)a << 32 | b;
+        }
+    if (closed)
+        qsort(edges, (size_t)nt * 3, sizeof(*edges), compare_u64);
+    for (size_t e = 0; closed && e < (size_t)nt * 3; e++) {
+        if (e > 0 && edges[e] == edges[e - 1])
+            closed = false;
+        else if (!has_edge(edges, (size_t)nt * 3, edges[e] << 32 | edges[e] >> 32))
+            closed = false;
+    }
+    free(w);
+    free(canon);
+    free(edges);
+    return closed;
+}
+
 cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out) {
     memset(out, 0, sizeof(*out));
     uint64_t triangles = cv_scene_world_triangle_count(scene);
@@ -48,6 +118,12 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
         float nm[3][3];
         normal_matrix(inst->transform, nm);
         uint32_t material = inst->material < out->material_count ? inst->material : 0;
+        bool ok;
+        float closed = mesh_closed(mesh, &ok) ? 1.0f : 0.0f;
+        if (!ok) {
+            render_scene_data_free(out);
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: edges of mesh %u", inst->mesh);
+        }
         for (uint32_t t = 0; t < mesh->triangle_count; t++) {
             float world[3][3];
             cv_scene_world_triangle(scene, i, t, world);
@@ -56,7 +132,7 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
                 memcpy(rv->position, world[k], sizeof(world[k]));
                 rv->material = material;
                 transform_normal(nm, &mesh->normals[3 * mesh->indices[3 * t + k]], rv->normal);
-                rv->pad = 0.0f;
+                rv->closed = closed;
             }
         }
     }

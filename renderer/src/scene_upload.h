@@ -1,6 +1,6 @@
 /* The scene as the renderer's GPU buffers want it (host side, built once):
- * a flat vertex list (three world-space vertices per triangle, with normal
- * and material), the material table, and the sun. */
+ * a flat vertex list (three world-space vertices per triangle, with normal,
+ * material and whether its mesh is closed), the material table, and the sun. */
 #ifndef CORVID_RENDER_SCENE_UPLOAD_H
 #define CORVID_RENDER_SCENE_UPLOAD_H
 
@@ -11,7 +11,7 @@ typedef struct render_vertex {
     float position[3];
     uint32_t material;
     float normal[3];
-    float pad;
+    float closed;               /* 1: the mesh is closed (its back faces are never seen), else 0 */
 } render_vertex;
 
 /* Matches render_composite.comp's Material (32 bytes, std430). */

@@ -35,6 +35,9 @@ typedef struct cv_render_settings {
     uint32_t tile;              /* [8] partition tile width, pixels */
     int32_t filter_iterations;  /* [3] a-trous iterations (steps 1, 2, 4, ...); -1 = none */
     uint32_t band_rays;         /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
+    uint32_t first_frame;       /* [0] sample index of the first frame: frames draw the sample sets of
+                                 * first_frame .. first_frame + frames - 1 (a render can continue
+                                 * another's sequence; tests render single frames of a sequence) */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
@@ -63,7 +66,8 @@ typedef struct cv_render_output {
     float *albedo;
     float *normal;              /* xyz, w = material index */
     float *position;            /* world position, w = 1 on geometry */
-    float *visibility;          /* r = sun visibility, g = ambient occlusion (filtered) */
+    float *visibility;          /* r = sun visibility, g = ambient occlusion (filtered; accumulated in
+                                 * float32), b, a = their mean squares over the frames (unfiltered) */
 } cv_render_output;
 
 typedef struct cv_renderer cv_renderer;
@@ -80,6 +84,18 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                              cv_render_stats *stats, void (*progress)(uint32_t frame, uint32_t frames, void *user),
                              void *user);
 void cv_render_output_free(cv_render_output *out);
+
+/* The reference (ground truth) for the renderer's image model, on the CPU
+ * (renderer/src/reference.c): per pixel a closest-hit camera ray through the
+ * pixel centre, then `samples` independent samples of the sun's cone (shadow)
+ * and samples * ao_samples cosine AO rays, any-hit with scene/'s cv_trace_ray,
+ * with the same ray rules (origin offset along the geometric normal, below the
+ * surface = shadowed, AO mirrored above the geometric plane), accumulated in
+ * float32, shaded as render.composite (unfiltered). frames, tile, band_rays,
+ * filter_iterations and first_frame are ignored. `threads` pthreads (0 = 2).
+ * Fills *out like cv_renderer_render; failures leave it untouched. */
+cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
+                              uint32_t samples, uint32_t threads, cv_render_output *out);
 
 /* The settings with defaults filled in for this scene. */
 cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene);

@@ -1,0 +1,234 @@
+/* The reference renderer (see renderer.h, cv_render_reference): the hybrid
+ * renderer's image model evaluated on the CPU with scene/'s closest-hit and
+ * any-hit traversal (cv_trace_ray), independent random samples and float32
+ * accumulation. Rows are split over pthreads; every pixel's samples come from
+ * its own random stream, so the result does not depend on the thread count. */
+#include "corvid/renderer.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "corvid/trace_cpu.h"
+#include "scene_upload.h"
+
+#define REF_PI 3.14159265358979f
+
+typedef struct reference_job {
+    const cv_scene *scene;
+    cv_trace_target target;
+    const render_scene_data *data;
+    const uint64_t *first_vertex;   /* per instance: its first vertex in data->vertices */
+    cv_render_settings s;
+    cv_camera camera;
+    uint32_t samples;
+    cv_render_output *out;
+    uint32_t next_row;              /* guarded by lock */
+    pthread_mutex_t lock;
+} reference_job;
+
+static float dot3(const float a[3], const float b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+static void normalize3(float v[3]) {
+    float l = sqrtf(dot3(v, v));
+    for (int k = 0; k < 3 && l > 0.0f; k++)
+        v[k] /= l;
+}
+
+static void cross3(const float a[3], const float b[3], float o[3]) {
+    o[0] = a[1] * b[2] - a[2] * b[1];
+    o[1] = a[2] * b[0] - a[0] * b[2];
+    o[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* splitmix64: one stream per pixel. */
+static float next_float(uint64_t *state) {
+    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return (float)(z >> 40) / 16777216.0f;
+}
+
+/* The same orthonormal basis as render_raygen.comp. */
+static void basis(const float n[3], float t[3], float b[3]) {
+    float s = n[2] >= 0.0f ? 1.0f : -1.0f, a = -1.0f / (s + n[2]), c = n[0] * n[1] * a;
+    t[0] = 1.0f + s * n[0] * n[0] * a, t[1] = s * c, t[2] = -s * n[0];
+    b[0] = c, b[1] = s + n[1] * n[1] * a, b[2] = -n[1];
+}
+
+static bool occluded(const reference_job *j, const float o[3], const float d[3], float tmax) {
+    cv_ray ray = { { o[0], o[1], o[2] }, 0.0f, { d[0], d[1], d[2] }, tmax };
+    cv_hit hit;
+    return cv_trace_ray(&j->target, &ray, CV_TRACE_ANY_HIT, &hit);
+}
+
+static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
+    const render_scene_data *data = j->data;
+    const cv_camera *cam = &j->camera;
+    size_t i = ((size_t)y * j->s.width + x) * 4;
+    cv_render_output *out = j->out;
+    /* The camera ray through the pixel centre (render_camera_view_proj's frame). */
+    float f[3] = { cam->target[0] - cam->position[0], cam->target[1] - cam->position[1],
+                   cam->target[2] - cam->position[2] }, r[3], u[3];
+    normalize3(f);
+    cross3(f, cam->up, r);
+    normalize3(r);
+    cross3(r, f, u);
+    float th = tanf(cam->vertical_fov * 0.5f), aspect = (float)j->s.width / (float)j->s.height;
+    float sx = ((x + 0.5f) / j->s.width * 2.0f - 1.0f) * th * aspect, sy = (1.0f - (y + 0.5f) / j->s.height * 2.0f) * th;
+    float d[3] = { f[0] + r[0] * sx + u[0] * sy, f[1] + r[1] * sx + u[1] * sy, f[2] + r[2] * sx + u[2] * sy };
+    normalize3(d);
+    cv_ray ray = { { cam->position[0], cam->position[1], cam->position[2] }, 0.0f, { d[0], d[1], d[2] }, INFINITY };
+    cv_hit hit;
+    if (!cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, &hit)) {
+        float sky[4] = { 0.12f, 0.15f, 0.2f, 0.0f };
+        memcpy(&out->radiance[i], sky, sizeof(sky));
+        out->visibility[i] = 1.0f, out->visibility[i + 1] = 1.0f;
+        return;
+    }
+    const render_vertex *v = &data->vertices[j->first_vertex[hit.instance] + 3ull * hit.triangle];
+    float p[3], n[3], ng[3], e1[3], e2[3], w = 1.0f - hit.u - hit.v;
+    for (int k = 0; k < 3; k++) {
+        p[k] = cam->position[k] + d[k] * hit.t;
+        n[k] = w * v[0].normal[k] + hit.u * v[1].normal[k] + hit.v * v[2].normal[k];
+        e1[k] = v[1].position[k] - v[0].position[k];
+        e2[k] = v[2].position[k] - v[0].position[k];
+    }
+    normalize3(n);
+    cross3(e1, e2, ng);
+    normalize3(ng);
+    float nsum[3] = { v[0].normal[0] + v[1].normal[0] + v[2].normal[0], v[0].normal[1] + v[1].normal[1] + v[2].normal[1],
+                      v[0].normal[2] + v[1].normal[2] + v[2].normal[2] };
+    if (dot3(ng, nsum) < 0.0f)
+        for (int k = 0; k < 3; k++) ng[k] = -ng[k];
+    if (dot3(ng, d) > 0.0f)   /* the camera's side, as render.gbuffer */
+        for (int k = 0; k < 3; k++) ng[k] = -ng[k], n[k] = -n[k];
+    float bias = data->diagonal * 2e-5f, origin[3];
+    for (int k = 0; k < 3; k++)
+        origin[k] = p[k] + ng[k] * bias;
+    uint64_t rng = ((uint64_t)(y * j->s.width + x) << 20) ^ 0x5EEDull;
+    float to_sun[3] = { -data->sun_direction[0], -data->sun_direction[1], -data->sun_direction[2] }, st[3], sb[3], nt[3], nb[3];
+    basis(to_sun, st, sb);
+    basis(n, nt, nb);
+    float cone = j->s.sun_cone_degrees * REF_PI / 180.0f, sun = 0.0f, ao = 0.0f;
+    for (uint32_t sample = 0; sample < j->samples; sample++) {
+        float a = next_float(&rng), b = next_float(&rng);
+        float ct = 1.0f - a * (1.0f - cosf(cone)), stt = sqrtf(fmaxf(0.0f, 1.0f - ct * ct)), ph = 2.0f * REF_PI * b, dir[3];
+        for (int k = 0; k < 3; k++)
+            dir[k] = st[k] * cosf(ph) * stt + sb[k] * sinf(ph) * stt + to_sun[k] * ct;
+        normalize3(dir);
+        if (dot3(dir, n) > 0.0f && dot3(dir, ng) > 0.0f && !occluded(j, origin, dir, 1e30f))
+            sun += 1.0f;
+        for (uint32_t k2 = 0; k2 < j->s.ao_samples; k2++) {
+            float c = next_float(&rng), e = next_float(&rng), rr = sqrtf(c), an = 2.0f * REF_PI * e, z = sqrtf(fmaxf(0.0f, 1.0f - c));
+            for (int k = 0; k < 3; k++)
+                dir[k] = nt[k] * rr * cosf(an) + nb[k] * rr * sinf(an) + n[k] * z;
+            normalize3(dir);
+            float below = dot3(dir, ng);
+            if (below < 0.0f) {
+                for (int k = 0; k < 3; k++)
+                    dir[k] -= 2.0f * below * ng[k];
+                normalize3(dir);
+            }
+            if (!occluded(j, origin, dir, j->s.ao_radius))
+                ao += 1.0f;
+        }
+    }
+    sun /= (float)j->samples;
+    ao /= (float)j->samples * (float)j->s.ao_samples;
+    /* render_composite.comp's model. */
+    uint32_t m = v[0].material < data->material_count ? v[0].material : data->material_count - 1;
+    const render_material *mat = &data->materials[m];
+    float albedo[3], color[3], ndl = fmaxf(dot3(n, to_sun), 0.0f), sky[3] = { 0.12f, 0.15f, 0.2f };
+    for (int k = 0; k < 3; k++) {
+        albedo[k] = mat->base_color_roughness[k] * (1.0f - mat->emission_metalness[3] * 0.5f);
+        float local = 0.0f;
+        for (uint32_t l = 0; l < data->light_count; l++) {
+            const render_light *li = &data->lights[l];
+            float tl[3] = { li->position[0] - p[0], li->position[1] - p[1], li->position[2] - p[2] };
+            float d2 = fmaxf(dot3(tl, tl), 1e-4f), nd = fmaxf(dot3(n, tl) / sqrtf(d2), 0.0f);
+            local += li->color[k] * li->intensity * nd / (d2 * REF_PI);
+        }
+        float direct = data->sun_color[k] * data->sun_irradiance * ndl * sun / REF_PI;
+        color[k] = albedo[k] * (direct + sky[k] * ao + local * ao) + mat->emission_metalness[k];
+    }
+    memcpy(&out->radiance[i], color, sizeof(color));
+    out->radiance[i + 3] = 1.0f;
+    memcpy(&out->albedo[i], albedo, sizeof(albedo));
+    out->albedo[i + 3] = 1.0f;
+    memcpy(&out->normal[i], n, sizeof(n));
+    out->normal[i + 3] = (float)m;
+    memcpy(&out->position[i], p, sizeof(p));
+    out->position[i + 3] = 1.0f;
+    out->visibility[i] = sun, out->visibility[i + 1] = ao;
+}
+
+static void *reference_worker(void *arg) {
+    reference_job *j = arg;
+    for (;;) {
+        pthread_mutex_lock(&j->lock);
+        uint32_t y = j->next_row++;
+        pthread_mutex_unlock(&j->lock);
+        if (y >= j->s.height)
+            return NULL;
+        for (uint32_t x = 0; x < j->s.width; x++)
+            shade_pixel(j, x, y);
+    }
+}
+
+cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
+                              uint32_t samples, uint32_t threads, cv_render_output *out) {
+    if (!scene || !bvh || !out || samples == 0 || samples > 65536)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_render_reference: need a scene, its BVH, an output and "
+                        "1..65536 samples");
+    reference_job j = { .scene = scene, .target = { .flat = bvh, .layout = CV_BVH_LAYOUT_NODE2 },
+                        .s = cv_render_settings_resolve(settings, scene), .samples = samples, .out = out };
+    if (j.s.width > CV_MAX_TEXTURE_DIM || j.s.height > CV_MAX_TEXTURE_DIM || j.s.ao_samples > 32)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "cv_render_reference: %ux%u, %u AO samples (limits %u, 32)",
+                        j.s.width, j.s.height, j.s.ao_samples, CV_MAX_TEXTURE_DIM);
+    j.camera = j.s.camera < cv_scene_camera_count(scene) ? *cv_scene_camera(scene, j.s.camera)
+                                                          : cv_scene_framing_camera(scene);
+    render_scene_data data;
+    cv_result res = render_scene_data_build(scene, &data);
+    if (res != CV_OK)
+        return res;
+    j.data = &data;
+    uint64_t *first = malloc((cv_scene_instance_count(scene) + 1) * sizeof(uint64_t));
+    size_t n = (size_t)j.s.width * j.s.height * 4;
+    cv_render_output o = { .width = j.s.width, .height = j.s.height };
+    float **planes[5] = { &o.radiance, &o.albedo, &o.normal, &o.position, &o.visibility };
+    bool ok = first != NULL;
+    for (int p = 0; p < 5; p++)
+        ok = (*planes[p] = calloc(n, sizeof(float))) && ok;
+    if (!ok) {
+        free(first);
+        cv_render_output_free(&o);
+        render_scene_data_free(&data);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_render_reference: %ux%u output", j.s.width, j.s.height);
+    }
+    for (uint32_t in = 0, acc = 0; in < cv_scene_instance_count(scene); in++) {
+        first[in] = (uint64_t)acc * 3;
+        acc += cv_scene_mesh(scene, cv_scene_instance(scene, in)->mesh)->triangle_count;
+    }
+    j.first_vertex = first;
+    j.out = &o;
+    pthread_mutex_init(&j.lock, NULL);
+    if (threads == 0)
+        threads = 2;
+    pthread_t tid[64];
+    uint32_t started = 0;
+    for (; started < threads && started < 64; started++)
+        if (pthread_create(&tid[started], NULL, reference_worker, &j) != 0)
+            break;
+    if (started == 0)
+        reference_worker(&j);
+    for (uint32_t t = 0; t < started; t++)
+        pthread_join(tid[t], NULL);
+    pthread_mutex_destroy(&j.lock);
+    free(first);
+    render_scene_data_free(&data);
+    *out = o;
+    return CV_OK;
+}
