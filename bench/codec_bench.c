@@ -187,8 +187,9 @@ static void record_command(const frame_handles *h, uint32_t i, cv_command_list *
                                                        .count = rays, .flags = CV_TRACE_ANY_HIT });
         break;
     case 4: {
-        cv_binding b[2] = { buf(h->hits, 0, (uint64_t)rays * CV_HIT_BYTES), tex(h->visibility) };
-        cv_cmd_dispatch(l, q, &(cv_dispatch_args){ .pipeline = h->resolve, .bindings = b, .bindings_count = 2,
+        cv_binding b[3] = { buf(h->hits, 0, (uint64_t)rays * CV_HIT_BYTES), buf(h->rays, 0, (uint64_t)rays * CV_RAY_BYTES),
+                            tex(h->visibility) };
+        cv_cmd_dispatch(l, q, &(cv_dispatch_args){ .pipeline = h->resolve, .bindings = b, .bindings_count = 3,
                                                    .push = push, .push_size = h->push_resolve,
                                                    .groups_x = (width + 7) / 8, .groups_y = (height + 7) / 8,
                                                    .groups_z = 1 });
