@@ -2,7 +2,9 @@
 # On the NVIDIA device machine: the tests (bench/nvidia_tests.sh), then
 # bench_node on the GPU (local render vs the same render through a corvid-node
 # on loopback, result stream, uploads, latency through a delaying relay),
-# logging to $OUT/node-bench.log.
+# logging to $OUT/node-bench.log; then issue 9's multi-GPU frame times per
+# transfer path (bench/mgpu_frames.sh), logging to $OUT/mgpu.log.
+repo=$(pwd)
 bash bench/nvidia_tests.sh
 . bench/nvidia_env.sh
 cd /tmp/corvid/b/bin
@@ -10,3 +12,7 @@ cd /tmp/corvid/b/bin
   timeout 300 ./bench_node --adapter NVIDIA --size 1920x1080 --frames 16 --latency-size 1280x720 --latency-frames 16
 } > "$OUT/node-bench.log" 2>&1
 tail -25 "$OUT/node-bench.log"
+{ echo "== issue 9: frame time on 1, 2, 4 virtual GPUs of the H200 per transfer path, 1920x1080, 16 frames"
+  bash "$repo/bench/mgpu_frames.sh" . NVIDIA 1920x1080 16
+} > "$OUT/mgpu.log" 2>&1
+cat "$OUT/mgpu.log"
