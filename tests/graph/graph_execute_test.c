@@ -129,7 +129,10 @@ static void test_execute_three_devices(void) {
         cv_graph_timing t[16];
         uint32_t n = 0;
         CHECK_OK(cv_graph_execute(w.graph, t, 16, &n));
-        CHECK_EQ_INT(n, 1 + 2 + 3 + 3 + 1);   /* clear, 2 transfers, copy x3, stamp x3, gather */
+        /* The first frame splits evenly; later splits follow measured times (a
+         * device may get no columns, and no instance), so only bytes are checked. */
+        if (frame_no == 0)
+            CHECK_EQ_INT(n, 1 + 2 + 3 + 3 + 1);   /* clear, 2 transfers, copy x3, stamp x3, gather */
         uint32_t got[COLUMNS];
         CHECK_OK(cv_device_read_buffer(w.devices[0], result_h, 0, sizeof(got), got));
         int wrong = 0;

@@ -459,7 +459,8 @@ static cv_result alias(const cv_graph *g, bake_state *s, graph_baked *b) {
         free(busy_until);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
     }
-    memcpy(s->physical, g->pool, g->pool_count * sizeof(graph_physical));
+    if (g->pool_count)   /* g->pool is NULL before the first bake */
+        memcpy(s->physical, g->pool, g->pool_count * sizeof(graph_physical));
     s->physical_count = g->pool_count;
     for (uint32_t i = 0; i < g->pool_count + n; i++)
         busy_until[i] = -2;   /* -2: unused this bake */
