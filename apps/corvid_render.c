@@ -34,6 +34,7 @@ static void usage(FILE *f) {
             "  --seed N           seed of procedural scenes, 0..4294967295 (default 1)\n"
             "  --size WxH         image size, each side 1..%u (default 640x360)\n"
             "  --frames N         frames accumulated, 1..%u (default 4)\n"
+            "  --filter N         variance-guided a-trous filter iterations, 0..8 (default 3; 0 = unfiltered)\n"
             "  --ao-samples N     ambient occlusion rays per pixel per frame, 1..%u (default 4;\n"
             "                     AO cannot be turned off, so 0 is refused)\n"
             "  --ao-radius M      AO ray length in scene units, > 0 (default 2%% of the scene diagonal)\n"
@@ -143,6 +144,15 @@ static bool opt_frames(options *o, const char *name, const char *value) {
     return set_u32(name, value, 1, MAX_FRAMES, &o->settings.frames);
 }
 
+/* --filter N: a-trous iterations, 0 = unfiltered (the settings' -1). */
+static bool opt_filter(options *o, const char *name, const char *value) {
+    uint32_t n;
+    if (!set_u32(name, value, 0, 8, &n))
+        return false;
+    o->settings.filter_iterations = n ? (int32_t)n : -1;
+    return true;
+}
+
 static bool opt_ao_samples(options *o, const char *name, const char *value) {
     return set_u32(name, value, 1, MAX_AO_SAMPLES, &o->settings.ao_samples);
 }
@@ -216,6 +226,7 @@ static const struct option_def {
     { "--seed", true, opt_seed },
     { "--size", true, opt_size },
     { "--frames", true, opt_frames },
+    { "--filter", true, opt_filter },
     { "--ao-samples", true, opt_ao_samples },
     { "--ao-radius", true, opt_ao_radius },
     { "--exposure", true, opt_exposure },

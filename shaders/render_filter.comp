@@ -1,10 +1,38 @@
-// render.filter: one edge-avoiding a-trous iteration (5x5 B3-spline kernel with
-// holes of `step` pixels) over the visibility, weighted by normal and position
-// similarity so shadows and AO are smoothed within surfaces, not across edges
-// (the spatial part of seed 000's SVGF-like shadow filter). Run with steps 1, 2, 4.
-// Push: { uint width; uint height; uint step; float position_sigma; }.
-// i0: positions, i1: normals (RGBA32F), i2: input visibility, i3: output (both
-// RGBA32F: r = sun, g = AO are filtered, b, a = their second moments pass through).
+// render.filter: one iteration of a variance-guided edge-avoiding a-trous
+// filter (SVGF, Schied et al. 2017; seed 000's shadow filter) over the
+// accumulated visibility: 5x5 B3-spline kernel with holes of `step` pixels,
+// run with steps 1, 2, 4, ... Each neighbour q of pixel p is weighted by
+//   normal:   max(n_p . n_q, 0)^32
+//   position: exp(-|x_p - x_q|^2 / position_sigma^2)
+//   signal:   exp(-|l_p - l_q| / (sigma_l * sqrt(g3x3(var_p)) + 1e-4)), per channel
+// where var is the variance of the accumulated mean (the estimate the filter
+// reduces), so the filter stops at shadow and AO edges that are real and
+// smooths where the estimate is noisy. Shadow (r) and AO (g) are filtered
+// separately, each with its own variance.
+//
+// Variance: the history holds per pixel the means over n frames of the
+// per-frame value and of its square, so the per-frame variance is
+// m2 - m1^2 and the variance of the mean (var / n). With fewer than 4 frames
+// that temporal estimate means nothing (0 after one frame), and the first
+// iteration estimates the per-frame variance spatially instead, from the
+// moments of the 7x7 neighbours on the same surface (normal and position
+// weights), as SVGF does; from 4 frames on, the first iteration takes the
+// temporal one. Each iteration writes the variance of its output (sum w^2
+// var_q / (sum w)^2) in b, a for the next, which pre-filters it 3x3 (Gaussian)
+// before use.
+//
+// Converged: a channel whose own variance of the mean (the first iteration's
+// estimate, unfiltered) is below `converged_variance` is left as accumulated
+// by every iteration: a long accumulation comes back unfiltered.
+//
+// Push: { uint width; uint height; uint step; uint frames; float position_sigma;
+//         float sigma_l; float converged_variance; uint flags; }
+// flags: bit 0 = first iteration (source is the history), bit 1 = last (b, a
+// get the history's mean squares, as render.accumulate wrote them, so the
+// output keeps its documented layout).
+// i0: positions, i1: normals (RGBA32F), i2: input (RGBA32F: r = sun, g = AO,
+// b, a = their variances of the mean, or in the first iteration the history's
+// mean squares), i3: output (RGBA32F, as i2), i4: the history (RGBA32F, read only).
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -12,45 +40,124 @@ layout(push_constant, std430) uniform Push {
     uint width;
     uint height;
     uint step;
+    uint frames;
     float position_sigma;
+    float sigma_l;
+    float converged_variance;
+    uint flags;
 } pc;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D source;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D target;
+layout(set = 0, binding = 4, rgba32f) uniform readonly image2D history;
+
+const uint FIRST = 1u, LAST = 2u;
+
+bool inside(ivec2 q) {
+    return all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, ivec2(pc.width, pc.height)));
+}
+
+// Normal and position similarity of q to p (0 for sky).
+float geometry_weight(vec3 cp, vec3 cn, ivec2 q) {
+    vec4 qp = imageLoad(gbuffer_position, q);
+    if (qp.w == 0.0)
+        return 0.0;
+    vec3 qn = imageLoad(gbuffer_normal, q).xyz;
+    vec3 d = qp.xyz - cp.xyz;
+    return pow(max(dot(cn, qn), 0.0), 32.0) * exp(-dot(d, d) / (pc.position_sigma * pc.position_sigma));
+}
+
+// The temporal variance of the mean of shadow and AO at q, from the history.
+vec2 temporal_variance(ivec2 q) {
+    vec4 h = imageLoad(history, q);
+    return max(h.ba - h.rg * h.rg, vec2(0.0)) / float(pc.frames);
+}
+
+// The per-frame variance of shadow and AO around p estimated from the moments
+// of its 7x7 neighbours on the same surface, as a variance of the mean.
+vec2 spatial_variance(ivec2 p, vec3 cp, vec3 cn) {
+    vec4 sum = vec4(0.0);
+    float weight = 0.0;
+    for (int dy = -3; dy <= 3; dy++)
+        for (int dx = -3; dx <= 3; dx++) {
+            ivec2 q = p + ivec2(dx, dy);
+            if (!inside(q))
+                continue;
+            float w = geometry_weight(cp, cn, q);
+            sum += imageLoad(history, q) * w;
+            weight += w;
+        }
+    vec4 m = sum / max(weight, 1e-20);
+    return max(m.ba - m.rg * m.rg, vec2(0.0)) / float(pc.frames);
+}
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    ivec2 size = ivec2(pc.width, pc.height);
-    if (p.x >= size.x || p.y >= size.y)
+    if (!inside(p))
         return;
+    bool first = (pc.flags & FIRST) != 0u, last = (pc.flags & LAST) != 0u;
     vec4 centre = imageLoad(source, p);
+    vec4 h = imageLoad(history, p);
     vec4 cp = imageLoad(gbuffer_position, p);
     if (cp.w == 0.0) {
-        imageStore(target, p, centre);
+        imageStore(target, p, vec4(centre.rg, last ? h.ba : vec2(0.0)));
         return;
     }
     vec3 cn = imageLoad(gbuffer_normal, p).xyz;
+
+    // This pixel's variance of the mean (own, for the converged test) and the
+    // 3x3 pre-filtered one the signal weights scale with.
+    vec2 own, guide;
+    bool spatial = pc.frames < 4u;
+    if (first && spatial) {
+        own = guide = spatial_variance(p, cp.xyz, cn);
+    } else {
+        own = first ? temporal_variance(p) : centre.ba;
+        vec2 sum = vec2(0.0);
+        float weight = 0.0;
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                ivec2 q = p + ivec2(dx, dy);
+                if (!inside(q) || imageLoad(gbuffer_position, q).w == 0.0)
+                    continue;
+                float w = (dx == 0 ? 0.5 : 0.25) * (dy == 0 ? 0.5 : 0.25);   // 1/4 1/8 1/16
+                sum += (first ? temporal_variance(q) : imageLoad(source, q).ba) * w;
+                weight += w;
+            }
+        guide = sum / weight;
+    }
+    // In the first iteration the variance of this pixel's output is its own estimate.
+    vec2 var_in = first ? own : centre.ba;
+    bvec2 converged = lessThan(own, vec2(pc.converged_variance));
+    if (all(converged)) {
+        imageStore(target, p, vec4(centre.rg, last ? h.ba : var_in));
+        return;
+    }
+
     const float kernel[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
-    vec2 sum = vec2(0.0);
-    float weight = 0.0;
+    vec2 denom = pc.sigma_l * sqrt(guide) + 1e-4;
+    vec2 sum = vec2(0.0), weight = vec2(0.0), var_sum = vec2(0.0);
     for (int dy = -2; dy <= 2; dy++) {
         for (int dx = -2; dx <= 2; dx++) {
             ivec2 q = p + ivec2(dx, dy) * int(pc.step);
-            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))
+            if (!inside(q))
                 continue;
-            vec4 qp = imageLoad(gbuffer_position, q);
-            if (qp.w == 0.0)
+            float wg = kernel[abs(dx)] * kernel[abs(dy)] * geometry_weight(cp.xyz, cn, q);
+            if (wg == 0.0)
                 continue;
-            vec3 qn = imageLoad(gbuffer_normal, q).xyz;
-            float wn = pow(max(dot(cn, qn), 0.0), 32.0);
-            vec3 d = qp.xyz - cp.xyz;
-            float wp = exp(-dot(d, d) / (pc.position_sigma * pc.position_sigma));
-            float w = kernel[abs(dx)] * kernel[abs(dy)] * wn * wp;
-            sum += imageLoad(source, q).rg * w;
+            vec4 v = imageLoad(source, q);
+            vec2 var_q = dx == 0 && dy == 0 ? var_in : (first ? (spatial ? var_in : temporal_variance(q)) : v.ba);
+            vec2 w = wg * exp(-abs(v.rg - centre.rg) / denom);
+            sum += v.rg * w;
             weight += w;
+            var_sum += w * w * var_q;
         }
     }
-    imageStore(target, p, weight > 0.0 ? vec4(sum / weight, centre.ba) : centre);
+    // weight > 0: the centre itself has weight 1 in every factor.
+    vec2 filtered = sum / weight, var_out = var_sum / (weight * weight);
+    vec2 value = mix(filtered, centre.rg, vec2(converged));
+    vec2 variance = mix(var_out, var_in, vec2(converged));
+    imageStore(target, p, vec4(value, last ? h.ba : variance));
 }

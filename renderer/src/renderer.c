@@ -332,17 +332,28 @@ static int filtered_texture(uint32_t iterations) {
     return iterations == 0 ? TEX_HISTORY : (iterations % 2 ? TEX_PING : TEX_PONG);
 }
 
-/* a-trous iterations (steps 1, 2, 4, ...) history -> ping -> pong -> ping ..., then composite. */
-static void record_filter_composite(cv_renderer *r, uint32_t iterations, cv_command_list *l) {
+/* Variance-guided a-trous iterations (steps 1, 2, 4, ...; render_filter.comp)
+ * history -> ping -> pong -> ping ..., then composite. sigma_l: SVGF's 4.
+ * Converged: a channel whose variance of the mean is below FILTER_CONVERGED_STD^2
+ * (standard error 0.02; a binary shadow ray gets there by 625 frames) is left
+ * unfiltered. */
+#define FILTER_SIGMA_L 4.0f
+#define FILTER_CONVERGED_STD 0.02f
+static void record_filter_composite(cv_renderer *r, uint32_t iterations, uint32_t frames, cv_command_list *l) {
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "filter" });
     for (uint32_t i = 0; i < iterations; i++) {
         int src = i == 0 ? TEX_HISTORY : filtered_texture(i), dst = filtered_texture(i + 1);
-        struct { uint32_t width, height, step; float sigma; } push = { r->width, r->height, 1u << i,
-                                                                       r->data.diagonal * 0.01f };
-        cv_binding b[4] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
-                            bind_texture(r->textures[src]), bind_texture(r->textures[dst]) };
+        struct {
+            uint32_t width, height, step, frames;
+            float position_sigma, sigma_l, converged_variance;
+            uint32_t flags;
+        } push = { r->width, r->height, 1u << i, frames, r->data.diagonal * 0.01f, FILTER_SIGMA_L,
+                   FILTER_CONVERGED_STD * FILTER_CONVERGED_STD, (i == 0 ? 1u : 0u) | (i + 1 == iterations ? 2u : 0u) };
+        cv_binding b[5] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
+                            bind_texture(r->textures[src]), bind_texture(r->textures[dst]),
+                            bind_texture(r->textures[TEX_HISTORY]) };
         cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
-            .pipeline = r->pipelines[PIPE_FILTER], .bindings = b, .bindings_count = 4, .push = &push,
+            .pipeline = r->pipelines[PIPE_FILTER], .bindings = b, .bindings_count = 5, .push = &push,
             .push_size = sizeof(push), .groups_x = groups(r->width, 8), .groups_y = groups(r->height, 8),
             .groups_z = 1 });
     }
@@ -532,7 +543,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         if (res == CV_OK) {
             record_accumulate(r, f, l);
             if (f + 1 == s.frames)
-                record_filter_composite(r, (uint32_t)s.filter_iterations, l);
+                record_filter_composite(r, (uint32_t)s.filter_iterations, s.frames, l);
             res = run_list(primary, r->accumulate, &ticket);
         }
         /* Several devices: the balancer wants this frame's times before it splits

@@ -101,6 +101,7 @@ refused "size 0" "--size: '0x10' is not WxH" --size 0x10
 refused "AO samples 0" "--ao-samples: '0' is not a whole number in 1..32" --ao-samples 0
 refused "AO samples 33" "--ao-samples: '33' is not a whole number in 1..32" --ao-samples=33
 refused "frames over the limit" "--frames: '5000' is not a whole number in 1..4096" --frames 5000
+refused "filter over 8" "--filter: '9' is not a whole number in 0..8" --filter 9
 refused "negative seed" "--seed: '-1' is not a whole number in 0..4294967295" --seed -1
 refused "seed over 32 bits" "--seed: '4294967296' is not a whole number in 0..4294967295" --seed 4294967296
 refused "negative stress" "--scene: 'stress:-5' is not stress:N" --scene stress:-5

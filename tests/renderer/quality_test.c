@@ -11,7 +11,10 @@
  *  - AO rays leave from the geometric surface: a low-poly sphere alone in
  *    open space is unoccluded (AO 1) everywhere;
  *  - the GPU's converged, unfiltered shadow and AO match the CPU reference
- *    (cv_render_reference) on the room. */
+ *    (cv_render_reference) on the room;
+ *  - the filter (variance-guided a-trous) keeps contact-shadow umbrae dark,
+ *    brings one frame closer to the reference, and leaves a converged
+ *    accumulation as it is. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -330,6 +333,156 @@ static void check_against_reference(const cv_scene *scene, const cv_bvh *bvh) {
     cv_render_output_free(&ref);
 }
 
+/* Shadow (c = 0) or AO (c = 1) of `a` against the reference `ref` over pixels
+ * both cover at the same point and, if `only` is set, where only[i]: RMSE,
+ * bias (a - ref), pixels. */
+typedef struct vis_error { double rmse, bias; uint32_t pixels; } vis_error;
+static uint8_t same_point(const cv_render_output *a, const cv_render_output *ref, uint32_t i) {
+    const float *p = &a->position[i * 4], *q = &ref->position[i * 4];
+    return p[3] != 0.0f && q[3] != 0.0f && fabsf(p[0] - q[0]) + fabsf(p[1] - q[1]) + fabsf(p[2] - q[2]) <= 1e-3f;
+}
+static vis_error vis_compare(const cv_render_output *a, const cv_render_output *ref, int c, const uint8_t *only) {
+    vis_error e = { 0 };
+    for (uint32_t i = 0; i < a->width * a->height; i++) {
+        if (!same_point(a, ref, i) || (only && !only[i]))
+            continue;
+        double d = (double)a->visibility[i * 4 + c] - ref->visibility[i * 4 + c];
+        e.bias += d;
+        e.rmse += d * d;
+        e.pixels++;
+    }
+    if (e.pixels) {
+        e.bias /= e.pixels;
+        e.rmse = sqrt(e.rmse / e.pixels);
+    }
+    return e;
+}
+
+static cv_result render_once(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *s,
+                             cv_render_output *out) {
+    rig g;
+    cv_result res = rig_open(scene, bvh, &g);
+    if (res == CV_OK)
+        res = cv_renderer_render(g.renderer, s, out, NULL, NULL, NULL);
+    rig_close(&g);
+    return res;
+}
+
+/* Defect 5, contact shadows: the a-trous filter weighted by normal and
+ * position only spread the lit floor into the thin umbrae at the foot of the
+ * room's boxes. Umbra pixels: reference sun visibility <= 0.02 (256 samples)
+ * with a pixel of visibility >= 0.5 within 2 pixels (the thin, edge-near part
+ * a blur lifts). Mean bias of the filtered shadow there, against the
+ * reference, after 1 and 64 frames at 128x72 (4 AO rays, 3 iterations):
+ * measured +0.0052 and +0.0048 with the position/normal-only filter
+ * (not the issue's +0.15: at this size and sun cone the room's umbrae are
+ * wider than the old filter's reach across surfaces), +0.0030 and +0.0000
+ * with the variance-guided one. Tolerances: 0.01 after 1 frame, 0.002
+ * after 64 (where the old filter's +0.005 fails). */
+#define UMBRA_TOLERANCE_1 0.01
+#define UMBRA_TOLERANCE_64 0.002
+static void check_filter_keeps_umbra(const cv_scene *scene, const cv_bvh *bvh) {
+    enum { UW = 128, UH = 72 };
+    cv_render_settings s = { .width = UW, .height = UH, .frames = 1, .ao_samples = 4 };
+    cv_render_output ref = { 0 }, out[3] = { { 0 } };
+    CHECK_OK(cv_render_reference(scene, bvh, &s, 256, 2, &ref));
+    CHECK_OK(render_once(scene, bvh, &s, &out[0]));
+    s.frames = 64;
+    CHECK_OK(render_once(scene, bvh, &s, &out[1]));
+    s.frames = 1;
+    s.filter_iterations = -1;
+    CHECK_OK(render_once(scene, bvh, &s, &out[2]));
+    uint8_t *umbra = calloc(UW * UH, 1);
+    if (ref.visibility && out[0].visibility && out[1].visibility && out[2].visibility && umbra) {
+        uint32_t count = 0;
+        for (int y = 0; y < UH; y++)
+            for (int x = 0; x < UW; x++) {
+                if (ref.position[(y * UW + x) * 4 + 3] == 0.0f || ref.visibility[(y * UW + x) * 4] > 0.02f)
+                    continue;
+                for (int dy = -2; dy <= 2; dy++)
+                    for (int dx = -2; dx <= 2; dx++) {
+                        int qx = x + dx, qy = y + dy;
+                        if (qx >= 0 && qy >= 0 && qx < UW && qy < UH && ref.position[(qy * UW + qx) * 4 + 3] != 0.0f &&
+                            ref.visibility[(qy * UW + qx) * 4] >= 0.5f)
+                            umbra[y * UW + x] = 1;
+                    }
+                count += umbra[y * UW + x];
+            }
+        vis_error e1 = vis_compare(&out[0], &ref, 0, umbra), e64 = vis_compare(&out[1], &ref, 0, umbra),
+                  raw = vis_compare(&out[2], &ref, 0, umbra);
+        fprintf(stderr, "umbra near lit pixels at %ux%u (%u px): shadow bias vs reference: 1 frame filtered %+.4f "
+                "(unfiltered %+.4f), 64 frames filtered %+.4f\n", UW, UH, e1.pixels, e1.bias, raw.bias, e64.bias);
+        CHECK(count > 40);
+        CHECK(e1.bias < UMBRA_TOLERANCE_1);
+        CHECK(e64.bias < UMBRA_TOLERANCE_64);
+    }
+    free(umbra);
+    for (int k = 0; k < 3; k++)
+        cv_render_output_free(&out[k]);
+    cv_render_output_free(&ref);
+}
+
+/* Defect 5, one frame: at 64x36, 4 AO rays, the filtered shadow and AO after
+ * one frame against a 256-sample reference (converged to ~0.03 per pixel at
+ * worst): RMSE below the unfiltered frame's and below ONE_FRAME_RMSE_*
+ * (measured 0.0289 and 0.0638, unfiltered 0.0304 and 0.0669), mean bias
+ * within 0.01. */
+#define ONE_FRAME_RMSE_SHADOW 0.035
+#define ONE_FRAME_RMSE_AO 0.07
+static void check_filter_one_frame(const cv_scene *scene, const cv_bvh *bvh) {
+    enum { OW = 64, OH = 36 };
+    cv_render_settings s = { .width = OW, .height = OH, .frames = 1, .ao_samples = 4 };
+    cv_render_output ref = { 0 }, filtered = { 0 }, raw = { 0 };
+    CHECK_OK(cv_render_reference(scene, bvh, &s, 256, 2, &ref));
+    CHECK_OK(render_once(scene, bvh, &s, &filtered));
+    s.filter_iterations = -1;
+    CHECK_OK(render_once(scene, bvh, &s, &raw));
+    if (ref.visibility && filtered.visibility && raw.visibility) {
+        vis_error f[2], r[2];
+        for (int c = 0; c < 2; c++) {
+            f[c] = vis_compare(&filtered, &ref, c, NULL);
+            r[c] = vis_compare(&raw, &ref, c, NULL);
+        }
+        fprintf(stderr, "1 frame at %ux%u vs 256-sample reference (%u px): shadow RMSE filtered %.4f (unfiltered "
+                "%.4f) bias %+.4f; AO RMSE filtered %.4f (unfiltered %.4f) bias %+.4f\n", OW, OH, f[0].pixels,
+                f[0].rmse, r[0].rmse, f[0].bias, f[1].rmse, r[1].rmse, f[1].bias);
+        CHECK(f[0].pixels > OW * OH / 2);
+        CHECK(f[0].rmse < ONE_FRAME_RMSE_SHADOW && f[0].rmse < r[0].rmse);
+        CHECK(f[1].rmse < ONE_FRAME_RMSE_AO && f[1].rmse < r[1].rmse);
+        CHECK(fabs(f[0].bias) < 0.01 && fabs(f[1].bias) < 0.01);
+    }
+    cv_render_output_free(&ref);
+    cv_render_output_free(&filtered);
+    cv_render_output_free(&raw);
+}
+
+/* Defect 5, converged: after 1024 frames (1 AO ray) every pixel's variance of
+ * the mean is below the filter's threshold (a binary shadow ray: at most
+ * 0.25 / 1024), so the filter leaves the accumulation as it is: filtered
+ * equals unfiltered within 1e-4 on every pixel. */
+static void check_filter_converged(const cv_scene *scene, const cv_bvh *bvh) {
+    enum { CW = 64, CH = 36 };
+    cv_render_settings s = { .width = CW, .height = CH, .frames = 1024, .ao_samples = 1 };
+    cv_render_output filtered = { 0 }, raw = { 0 };
+    CHECK_OK(render_once(scene, bvh, &s, &filtered));
+    s.filter_iterations = -1;
+    CHECK_OK(render_once(scene, bvh, &s, &raw));
+    if (filtered.visibility && raw.visibility) {
+        double worst = 0.0;
+        uint32_t over = 0;
+        for (uint32_t i = 0; i < CW * CH * 4; i++) {
+            double d = fabs((double)filtered.visibility[i] - raw.visibility[i]);
+            worst = fmax(worst, d);
+            over += d > 1e-4;
+        }
+        fprintf(stderr, "1024 frames at %ux%u: filtered vs unfiltered: worst %.2e, %u values over 1e-4\n", CW, CH,
+                worst, over);
+        CHECK(worst <= 1e-4);
+    }
+    cv_render_output_free(&filtered);
+    cv_render_output_free(&raw);
+}
+
 int main(void) {
     cv_scene *scene = NULL;
     cv_bvh *bvh = NULL;
@@ -339,6 +492,9 @@ int main(void) {
         check_gbuffer_facing(scene, bvh);
         check_accumulation_unbiased(scene, bvh);
         check_against_reference(scene, bvh);
+        check_filter_keeps_umbra(scene, bvh);
+        check_filter_one_frame(scene, bvh);
+        check_filter_converged(scene, bvh);
     }
     check_sphere_unoccluded();
     CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);
