@@ -318,9 +318,7 @@ static int filtered_texture(uint32_t iterations) {
     return iterations == 0 ? TEX_HISTORY : (iterations % 2 ? TEX_PING : TEX_PONG);
 }
 
-/* a-trous iterations (steps 1, 2, 4, ...) history -> ping -> pong -> ping ..., then composite.
- * (Passes 'filter' and 'composite', below; the textures are the renderer's,
- * imported into the graph, so they are the handles cv_graph_texture gives.) */
+/* a-trous iterations (steps 1, 2, 4, ...) history -> ping -> pong -> ping ..., then composite. */
 static void record_filter(cv_renderer *r, uint32_t iterations, cv_command_list *l) {
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "filter" });
     for (uint32_t i = 0; i < iterations; i++) {
@@ -356,6 +354,9 @@ static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_lis
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }
 
+/* Passes 'filter' and 'composite' (primary, last frame). The textures they
+ * record are the renderer's, imported into the graph: the handles
+ * cv_graph_texture would give. */
 static void pass_filter(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
     (void)pc;
     cv_renderer *r = user;
