@@ -12,6 +12,7 @@
 #include "graph_internal.h"
 
 #define MAX_RECORD_THREADS 8u
+#define INSTANCES_PER_THREAD 4u
 
 static double now_ms(void) {
     struct timespec ts;
@@ -63,7 +64,11 @@ static cv_result record_all(cv_graph *g) {
         for (uint32_t i = 0; i < b->steps[s].instance_count; i++)
             r.step_of[b->steps[s].instance_first + i] = s;
     pthread_t threads[MAX_RECORD_THREADS];
-    uint32_t started = 0, want = b->instance_count < MAX_RECORD_THREADS ? b->instance_count : MAX_RECORD_THREADS;
+    /* A thread per INSTANCES_PER_THREAD lists: recording a list is cheap, and a
+     * thread started for one list costs more than it saves (on a busy machine
+     * the join waits for the scheduler). */
+    uint32_t started = 0, want = (b->instance_count + INSTANCES_PER_THREAD - 1) / INSTANCES_PER_THREAD;
+    want = want < MAX_RECORD_THREADS ? want : MAX_RECORD_THREADS;
     while (started + 1 < want && pthread_create(&threads[started], NULL, record_worker, &r) == 0)
         started++;
     record_worker(&r);
