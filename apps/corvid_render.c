@@ -49,6 +49,8 @@ static void usage(FILE *f) {
             "  --adapters LIST    comma-separated adapter names or indices (e.g. llvmpipe, H100, 0)\n"
             "  --nodes LIST       render on the devices of remote corvid-nodes instead, HOST:PORT,...\n"
             "                     (or CORVID_NODES=LIST); the first node's first device is the primary\n"
+            "  --dump-graph FILE  write the frame's render graph (passes, devices, cross-device copies)\n"
+            "                     as text to FILE and as Graphviz dot to FILE.dot\n"
             "  --validation       enable VK_LAYER_KHRONOS_validation\n"
             "  --list-adapters    print the Vulkan adapters and exit\n"
             "  --quiet            print only errors\n"
@@ -58,6 +60,7 @@ static void usage(FILE *f) {
 
 typedef struct options {
     const char *scene, *out;
+    const char *dump_graph;      /* --dump-graph FILE: text to FILE, dot to FILE.dot */
     const char *nodes;           /* --nodes, or CORVID_NODES; NULL = local devices */
     uint64_t stress_triangles;   /* > 0 for --scene stress:N */
     uint32_t seed;
@@ -195,6 +198,13 @@ static bool opt_nodes(options *o, const char *name, const char *value) {
     return true;
 }
 
+static bool opt_dump_graph(options *o, const char *name, const char *value) {
+    if (!value[0])
+        return refuse(name, value, "a file name");
+    o->dump_graph = value;
+    return true;
+}
+
 static bool opt_validation(options *o, const char *name, const char *value) {
     (void)name, (void)value;
     return o->validation = true;
@@ -233,6 +243,7 @@ static const struct option_def {
     { "--reference", true, opt_reference },
     { "--out", true, opt_out },
     { "--nodes", true, opt_nodes },
+    { "--dump-graph", true, opt_dump_graph },
     { "--validation", false, opt_validation },
     { "--quiet", false, opt_quiet },
     { "--list-adapters", false, opt_list_adapters },
@@ -269,6 +280,25 @@ static int parse_args(int argc, char **argv, options *o) {
             return 2;
     }
     return 0;
+}
+
+/* --dump-graph: the renderer's frame graph as text to `path`, as dot to path.dot. */
+static cv_result dump_graph(cv_renderer *renderer, const char *path) {
+    size_t len = strlen(path);
+    char *dot_path = malloc(len + 5);
+    if (!dot_path)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "--dump-graph");
+    memcpy(dot_path, path, len);
+    memcpy(dot_path + len, ".dot", 5);
+    FILE *text = fopen(path, "w"), *dot = fopen(dot_path, "w");
+    cv_result r = text && dot ? cv_renderer_dump_graph(renderer, text, dot)
+                              : cv_error(CV_ERROR_IO, "--dump-graph: %s: %s", text ? dot_path : path, strerror(errno));
+    if (text && fclose(text) != 0 && r == CV_OK)
+        r = cv_error(CV_ERROR_IO, "--dump-graph: %s: %s", path, strerror(errno));
+    if (dot && fclose(dot) != 0 && r == CV_OK)
+        r = cv_error(CV_ERROR_IO, "--dump-graph: %s: %s", dot_path, strerror(errno));
+    free(dot_path);
+    return r;
 }
 
 static cv_result load_scene(const options *o, cv_scene **out) {
@@ -591,6 +621,8 @@ int main(int argc, char **argv) {
         r = cv_renderer_create(devices, device_count, scene, bvh, &renderer);
     if (r == CV_OK && !o.reference)
         r = cv_renderer_render(renderer, &o.settings, &image, &stats, progress, &o.quiet);
+    if (r == CV_OK && o.dump_graph && !o.reference)
+        r = dump_graph(renderer, o.dump_graph);
     cv_render_settings s = { 0 };
     cv_camera camera = { 0 };
     if (r == CV_OK) {

@@ -1,7 +1,9 @@
-/* One hybrid frame across N devices (see renderer.h). The passes are recorded
- * as command lists each frame (recording is cheap and lists are stateless);
- * multi-GPU data movement uses the partition copy plans and cross-device
- * transfers. */
+/* One hybrid frame across N devices (see renderer.h), declared as a render
+ * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame), 'trace'
+ * (every device, over its column window), 'accumulate' (primary), 'filter'
+ * and 'composite' (primary, last frame). The graph multicasts the G-buffer,
+ * copies the secondaries' visibility windows back, places barriers and
+ * balances the columns from the trace times; no pass sees the device count. */
 #include "corvid/renderer.h"
 
 #include <math.h>
@@ -10,7 +12,7 @@
 #include <time.h>
 
 #include "camera.h"
-#include "corvid/transfer.h"
+#include "corvid/graph.h"
 #include "scene_upload.h"
 
 enum { PIPE_GBUFFER, PIPE_RAYGEN, PIPE_RESOLVE, PIPE_ACCUMULATE, PIPE_FILTER, PIPE_COMPOSITE, PIPE_COUNT };
@@ -33,6 +35,11 @@ static const struct { cv_format format; uint32_t usage; bool everywhere; const c
     [TEX_ALBEDO] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "albedo" },
 };
 
+/* Resources the frame graph names: the textures above (imported: the
+ * renderer keeps them from call to call), the scene buffers (imported) and
+ * each device's ray and hit buffers (transients, one band of its window). */
+enum { BUF_VERTICES, BUF_MATERIALS, BUF_LIGHTS, BUF_RAYS, BUF_HITS, BUF_COUNT };
+
 struct cv_renderer {
     cv_context *ctx;
     cv_device *devices[CV_RENDER_MAX_DEVICES];
@@ -42,13 +49,23 @@ struct cv_renderer {
     cv_buffer vertices, materials, lights;
     cv_accel accel;
     cv_pipeline pipelines[PIPE_COUNT];
-    cv_cmdlist lists[CV_RENDER_MAX_DEVICES];   /* per device: G-buffer, then each frame's trace */
-    cv_cmdlist accumulate;                      /* the primary's accumulate (+ filter, composite) */
     uint32_t width, height;                 /* of the textures below; 0 = none yet */
     cv_texture textures[TEX_COUNT];
-    cv_buffer rays[CV_RENDER_MAX_DEVICES], hits[CV_RENDER_MAX_DEVICES];
-    uint64_t ray_capacity[CV_RENDER_MAX_DEVICES];   /* rays the buffers hold */
     double upload_ms;
+    /* The frame as a render graph (rebuilt when the size, the filter
+     * iterations or the ray buffers' size change). */
+    cv_graph *graph;
+    uint32_t graph_iterations;
+    uint32_t graph_frames;                  /* frames of this render call: the filter's history length */
+    uint64_t graph_rays;                    /* rays the ray and hit buffers hold */
+    cv_graph_resource tex[TEX_COUNT], buf[BUF_COUNT];
+    cv_graph_pass gbuffer_pass, filter_pass, composite_pass;
+    /* What the passes record this frame (set before each bake, read by the
+     * record callbacks on the graph's worker threads). */
+    cv_render_settings settings;
+    cv_camera camera;
+    uint32_t frame;
+    uint64_t band_limit;                    /* most rays per band on every device */
 };
 
 /* Frames a single-device render keeps submitted ahead of the one it waits for:
@@ -131,10 +148,11 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
         if (res == CV_OK)
             res = load_everywhere(r, cv_any(r->pipelines[p]));
     }
-    for (uint32_t d = 0; d < device_count && res == CV_OK; d++)
-        res = cv_cmdlist_create(r->ctx, &r->lists[d]);
-    if (res == CV_OK)
-        res = cv_cmdlist_create(r->ctx, &r->accumulate);
+    uint64_t limit = UINT64_MAX;
+    for (uint32_t d = 0; d < device_count; d++)
+        if (cv_device_get_info(devices[d])->max_storage_buffer_range < limit)
+            limit = cv_device_get_info(devices[d])->max_storage_buffer_range;
+    r->band_limit = limit / CV_RAY_BYTES;
     r->upload_ms = now_ms() - t0;
     if (res != CV_OK) {
         cv_renderer_destroy(r);
@@ -149,15 +167,15 @@ static void destroy_handle(cv_renderer *r, uint64_t id) {
         cv_destroy(r->ctx, (cv_handle){ id });
 }
 
+static void destroy_graph(cv_renderer *r) {
+    cv_graph_destroy(r->graph);
+    r->graph = NULL;
+}
+
 static void destroy_targets(cv_renderer *r) {
+    destroy_graph(r);
     for (int t = 0; t < TEX_COUNT; t++)
         destroy_handle(r, r->textures[t].id);
-    for (uint32_t d = 0; d < r->count; d++) {
-        destroy_handle(r, r->rays[d].id);
-        destroy_handle(r, r->hits[d].id);
-        r->rays[d].id = r->hits[d].id = 0;
-        r->ray_capacity[d] = 0;
-    }
     memset(r->textures, 0, sizeof(r->textures));
     r->width = r->height = 0;
 }
@@ -174,9 +192,6 @@ void cv_renderer_destroy(cv_renderer *r) {
     destroy_handle(r, r->accel.id);
     for (int p = 0; p < PIPE_COUNT; p++)
         destroy_handle(r, r->pipelines[p].id);
-    for (uint32_t d = 0; d < r->count; d++)
-        destroy_handle(r, r->lists[d].id);
-    destroy_handle(r, r->accumulate.id);
     render_scene_data_free(&r->data);
     free(r);
 }
@@ -202,93 +217,64 @@ static cv_result ensure_targets(cv_renderer *r, uint32_t width, uint32_t height)
     return res;
 }
 
-/* Grows a device's ray and hit buffers to hold `rays` rays. */
-static cv_result ensure_ray_buffers(cv_renderer *r, uint32_t d, uint64_t rays) {
-    if (rays <= r->ray_capacity[d])
-        return CV_OK;
-    destroy_handle(r, r->rays[d].id);
-    destroy_handle(r, r->hits[d].id);
-    r->rays[d].id = r->hits[d].id = 0;
-    r->ray_capacity[d] = 0;
-    uint64_t limit = cv_device_get_info(r->devices[d])->max_storage_buffer_range;
-    if (rays * CV_RAY_BYTES > limit)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "renderer: %llu rays (%llu bytes) exceed device '%s''s storage "
-                        "buffer range; use fewer AO samples, a smaller image or more devices",
-                        (unsigned long long)rays, (unsigned long long)(rays * CV_RAY_BYTES),
-                        cv_device_label(r->devices[d]));
-    cv_result res = cv_buffer_create(r->ctx, &(cv_buffer_desc){ .size = rays * CV_RAY_BYTES, .label = "rays" },
-                                     &r->rays[d]);
-    if (res == CV_OK)
-        res = cv_device_load(r->devices[d], cv_any(r->rays[d]));
-    if (res == CV_OK)
-        res = cv_buffer_create(r->ctx, &(cv_buffer_desc){ .size = rays * CV_HIT_BYTES, .label = "hits" }, &r->hits[d]);
-    if (res == CV_OK)
-        res = cv_device_load(r->devices[d], cv_any(r->hits[d]));
-    if (res == CV_OK)
-        r->ray_capacity[d] = rays;
-    return res;
-}
-
 static cv_binding bind_texture(cv_texture t) { return (cv_binding){ .resource = cv_any(t) }; }
 static cv_binding bind_buffer(cv_buffer b) { return (cv_binding){ .resource = cv_any(b) }; }
 static uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
 
-static cv_result run_list(cv_device *dev, cv_cmdlist list, uint64_t *ticket) {
-    cv_command_list *l;
-    cv_result res = cv_cmdlist_get(cv_device_context(dev), list, &l);
-    if (res == CV_OK)
-        res = cv_command_list_end(l);
-    if (res == CV_OK)
-        res = cv_device_submit(dev, list, ticket);
-    return res;
-}
-
-/* Primary: the G-buffer (position, normal) by rasterization. */
-static cv_result record_gbuffer(cv_renderer *r, const cv_camera *camera, cv_command_list *l) {
+/* Pass 'gbuffer' (primary, first frame): position and normal by rasterization. */
+static void record_gbuffer(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+    cv_renderer *r = user;
+    const cv_camera *camera = &r->camera;
     struct { float view_proj[16]; float camera[4]; } push;
     float near_plane = r->data.diagonal * 1e-4f, far_plane = r->data.diagonal * 4.0f;
     render_camera_view_proj(camera, (float)r->width / (float)r->height, near_plane, far_plane, push.view_proj);
     memcpy(push.camera, camera->position, sizeof(camera->position));
     push.camera[3] = 1.0f / far_plane;   /* render.gbuffer writes depth = view depth / far */
-    cv_binding b = bind_buffer(r->vertices);
-    cv_cmd_begin_marker(l, CV_QUEUE_GRAPHICS, &(cv_begin_marker_args){ .label = "gbuffer" });
-    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){
-        .color0 = r->textures[TEX_POSITION], .color1 = r->textures[TEX_NORMAL], .depth = r->textures[TEX_DEPTH],
-        .clear = 1, .clear_depth = 1.0f });
-    cv_cmd_draw(l, CV_QUEUE_GRAPHICS, &(cv_draw_args){ .pipeline = r->pipelines[PIPE_GBUFFER], .bindings = &b,
-                                                     .bindings_count = 1, .push = &push, .push_size = sizeof(push),
-                                                     .vertex_count = (uint32_t)r->data.vertex_count,
-                                                     .instance_count = 1 });
-    cv_cmd_end_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 });
-    return cv_cmd_end_marker(l, CV_QUEUE_GRAPHICS, &(cv_end_marker_args){ 0 });
+    cv_binding b = bind_buffer(cv_graph_buffer(pc, r->buf[BUF_VERTICES]));
+    cv_cmd_begin_render_pass(l, pc->queue, &(cv_begin_render_pass_args){
+        .color0 = cv_graph_texture(pc, r->tex[TEX_POSITION]), .color1 = cv_graph_texture(pc, r->tex[TEX_NORMAL]),
+        .depth = cv_graph_texture(pc, r->tex[TEX_DEPTH]), .clear = 1, .clear_depth = 1.0f });
+    cv_cmd_draw(l, pc->queue, &(cv_draw_args){ .pipeline = r->pipelines[PIPE_GBUFFER], .bindings = &b,
+                                               .bindings_count = 1, .push = &push, .push_size = sizeof(push),
+                                               .vertex_count = (uint32_t)r->data.vertex_count, .instance_count = 1 });
+    cv_cmd_end_render_pass(l, pc->queue, &(cv_end_render_pass_args){ 0 });
 }
 
-/* Rays traced per band: the ray and hit buffers hold one band, so a partition
- * of any size fits the device's storage buffer range. */
-static uint64_t band_rays(const cv_renderer *r, uint32_t d, const cv_render_settings *s) {
-    uint64_t limit = cv_device_get_info(r->devices[d])->max_storage_buffer_range / CV_RAY_BYTES;
-    return limit < s->band_rays ? limit : s->band_rays;
+/* Rays traced per band: the ray and hit buffers hold one band, so a window of
+ * any size fits every device's storage buffer range. */
+static uint64_t band_rays(const cv_renderer *r, const cv_render_settings *s) {
+    return r->band_limit < s->band_rays ? r->band_limit : s->band_rays;
 }
 
-/* Rows per band for a partition `width` columns wide. */
-static uint32_t band_rows(const cv_renderer *r, uint32_t d, const cv_render_settings *s, uint32_t width) {
-    uint64_t rows = band_rays(r, d, s) / ((uint64_t)width * (1 + s->ao_samples));
+/* Rows per band for a window `width` columns wide. */
+static uint32_t band_rows(const cv_renderer *r, const cv_render_settings *s, uint32_t width) {
+    uint64_t rows = band_rays(r, s) / ((uint64_t)width * (1 + s->ao_samples));
     if (rows == 0)
         rows = 1;
     return rows < r->height ? (uint32_t)rows : r->height;
 }
 
-/* Any device: for each band of rows of its columns, ray generation, trace,
- * resolve into visibility. */
-static cv_result record_trace(cv_renderer *r, uint32_t d, cv_column_range cols, const cv_render_settings *s,
-                              uint32_t frame, cv_command_list *l) {
+/* Rays the ray and hit buffers must hold for a band of any window of the
+ * image: a band of a narrower window is never larger (at least a row). */
+static uint64_t band_capacity(const cv_renderer *r, const cv_render_settings *s) {
+    uint64_t per_pixel = 1 + s->ao_samples, row = (uint64_t)r->width * per_pixel;
+    uint64_t image = row * r->height, band = band_rays(r, s);
+    return row > band ? row : band < image ? band : image;
+}
+
+/* Pass 'trace' (every device, its window): for each band of rows of the
+ * window, ray generation, trace, resolve into visibility. */
+static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+    cv_renderer *r = user;
+    const cv_render_settings *s = &r->settings;
+    cv_column_range cols = { pc->x, pc->width };
+    cv_buffer rays = cv_graph_buffer(pc, r->buf[BUF_RAYS]), hits = cv_graph_buffer(pc, r->buf[BUF_HITS]);
+    cv_texture visibility = cv_graph_texture(pc, r->tex[TEX_VISIBILITY]);
     uint32_t per_pixel = 1 + s->ao_samples;
-    uint32_t rows = band_rows(r, d, s, cols.width);
-    cv_binding gen[3] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
-                          bind_buffer(r->rays[d]) };
-    cv_binding res_b[3] = { bind_buffer(r->hits[d]), bind_buffer(r->rays[d]),
-                            bind_texture(r->textures[TEX_VISIBILITY]) };
-    cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "trace" });
+    uint32_t rows = band_rows(r, s, cols.width);
+    cv_binding gen[3] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
+                          bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])), bind_buffer(rays) };
+    cv_binding res_b[3] = { bind_buffer(hits), bind_buffer(rays), bind_texture(visibility) };
     for (uint32_t y0 = 0; y0 < r->height; y0 += rows) {
         uint32_t h = r->height - y0 < rows ? r->height - y0 : rows;
         uint64_t count = (uint64_t)cols.width * h * per_pixel;
@@ -301,28 +287,29 @@ static cv_result record_trace(cv_renderer *r, uint32_t d, cv_column_range cols, 
         } raygen = { cols.x, cols.width, h, s->ao_samples,
                      { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
                        s->sun_cone_degrees * 3.14159265f / 180.0f },
-                     s->first_frame + frame, s->ao_radius, r->data.diagonal * 2e-5f, y0 };
+                     s->first_frame + r->frame, s->ao_radius, r->data.diagonal * 2e-5f, y0 };
         struct { uint32_t x0, width, height, ao_samples, y0, pad[3]; } resolve = { cols.x, cols.width, h,
                                                                                   s->ao_samples, y0, { 0 } };
-        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
+        cv_cmd_dispatch(l, pc->queue, &(cv_dispatch_args){
             .pipeline = r->pipelines[PIPE_RAYGEN], .bindings = gen, .bindings_count = 3, .push = &raygen,
             .push_size = sizeof(raygen), .groups_x = groups(cols.width, 8), .groups_y = groups(h, 8),
             .groups_z = 1 });
-        cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = r->accel, .rays = r->rays[d],
-                                                                    .hits = r->hits[d], .count = (uint32_t)count,
-                                                                    .flags = CV_TRACE_ANY_HIT });
-        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
+        cv_cmd_trace_rays(l, pc->queue, &(cv_trace_rays_args){ .accel = r->accel, .rays = rays, .hits = hits,
+                                                               .count = (uint32_t)count, .flags = CV_TRACE_ANY_HIT });
+        cv_cmd_dispatch(l, pc->queue, &(cv_dispatch_args){
             .pipeline = r->pipelines[PIPE_RESOLVE], .bindings = res_b, .bindings_count = 3, .push = &resolve,
             .push_size = sizeof(resolve), .groups_x = groups(cols.width, 8), .groups_y = groups(h, 8),
             .groups_z = 1 });
     }
-    return cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }
 
-static void record_accumulate(cv_renderer *r, uint32_t frame, cv_command_list *l) {
-    struct { uint32_t width, height, frame, pad; } push = { r->width, r->height, frame, 0 };
-    cv_binding b[2] = { bind_texture(r->textures[TEX_VISIBILITY]), bind_texture(r->textures[TEX_HISTORY]) };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
+/* Pass 'accumulate' (primary): this frame's visibility into the running mean. */
+static void record_accumulate(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+    cv_renderer *r = user;
+    struct { uint32_t width, height, frame, pad; } push = { r->width, r->height, r->frame, 0 };
+    cv_binding b[2] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_VISIBILITY])),
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_HISTORY])) };
+    cv_cmd_dispatch(l, pc->queue, &(cv_dispatch_args){
         .pipeline = r->pipelines[PIPE_ACCUMULATE], .bindings = b, .bindings_count = 2, .push = &push,
         .push_size = sizeof(push), .groups_x = groups(r->width, 8), .groups_y = groups(r->height, 8), .groups_z = 1 });
 }
@@ -333,13 +320,13 @@ static int filtered_texture(uint32_t iterations) {
 }
 
 /* Variance-guided a-trous iterations (steps 1, 2, 4, ...; render_filter.comp)
- * history -> ping -> pong -> ping ..., then composite. sigma_l: SVGF's 4.
+ * history -> ping -> pong -> ping ... sigma_l: SVGF's 4.
  * Converged: a channel whose variance of the mean is below FILTER_CONVERGED_STD^2
  * (standard error 0.02; a binary shadow ray gets there by 625 frames) is left
  * unfiltered. */
 #define FILTER_SIGMA_L 4.0f
 #define FILTER_CONVERGED_STD 0.02f
-static void record_filter_composite(cv_renderer *r, uint32_t iterations, uint32_t frames, cv_command_list *l) {
+static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, cv_command_list *l) {
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "filter" });
     for (uint32_t i = 0; i < iterations; i++) {
         int src = i == 0 ? TEX_HISTORY : filtered_texture(i), dst = filtered_texture(i + 1);
@@ -358,6 +345,9 @@ static void record_filter_composite(cv_renderer *r, uint32_t iterations, uint32_
             .groups_z = 1 });
     }
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
+}
+
+static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_list *l) {
     struct {
         float sun[4], sun_color[4], sky[4];
         uint32_t width, height, material_count, light_count;
@@ -376,22 +366,19 @@ static void record_filter_composite(cv_renderer *r, uint32_t iterations, uint32_
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }
 
-static double pass_ms(cv_device *dev, uint64_t ticket, const char *label) {
-    cv_pass_timing t[16];
-    uint32_t n = 0;
-    if (cv_device_timings(dev, ticket, t, 16, &n) != CV_OK)
-        return -1.0;
-    for (uint32_t i = 0; i < n && i < 16; i++)
-        if (strcmp(t[i].label, label) == 0)
-            return t[i].duration_ms;
-    return -1.0;
+/* Passes 'filter' and 'composite' (primary, last frame). The textures they
+ * record are the renderer's, imported into the graph: the handles
+ * cv_graph_texture would give. */
+static void pass_filter(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+    (void)pc;
+    cv_renderer *r = user;
+    record_filter(r, r->graph_iterations, r->graph_frames, l);
 }
 
-/* A finished trace submission's time: the GPU's measure of the "trace" pass,
- * else the wall time since it was submitted. */
-static double trace_ms(cv_device *dev, uint64_t ticket, double submitted_ms) {
-    double gpu = pass_ms(dev, ticket, "trace");
-    return gpu > 0.0 ? gpu : now_ms() - submitted_ms;
+static void pass_composite(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+    (void)pc;
+    cv_renderer *r = user;
+    record_composite(r, r->graph_iterations, l);
 }
 
 cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene) {
@@ -452,8 +439,121 @@ void cv_render_output_free(cv_render_output *out) {
     memset(out, 0, sizeof(*out));
 }
 
-static cv_result begin(cv_renderer *r, uint32_t d, cv_command_list **l) {
-    return cv_cmdlist_begin(r->ctx, r->lists[d], l);
+/* The frame graph for the current targets, `iterations` filter steps and ray
+ * buffers of `rays` rays (built again when any of them changes). */
+static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays) {
+    if (r->graph && r->graph_iterations == iterations && r->graph_rays == rays)
+        return CV_OK;
+    destroy_graph(r);
+    for (uint32_t d = 0; d < r->count; d++)
+        if (rays * CV_RAY_BYTES > cv_device_get_info(r->devices[d])->max_storage_buffer_range)
+            return cv_error(CV_ERROR_LIMIT_EXCEEDED, "renderer: %llu rays (%llu bytes) exceed device '%s''s storage "
+                            "buffer range; use fewer AO samples, a smaller image or more devices",
+                            (unsigned long long)rays, (unsigned long long)(rays * CV_RAY_BYTES),
+                            cv_device_label(r->devices[d]));
+    cv_graph *g;
+    cv_result res = cv_graph_create(r->ctx, r->devices, r->count, &g);
+    if (res != CV_OK)
+        return res;
+    r->graph = g;
+    r->graph_iterations = iterations;
+    r->graph_rays = rays;
+    for (int t = 0; t < TEX_COUNT && res == CV_OK; t++)
+        res = cv_graph_import_texture(g, r->textures[t], &r->tex[t]);
+    if (res == CV_OK) res = cv_graph_import_buffer(g, r->vertices, 0, &r->buf[BUF_VERTICES]);
+    if (res == CV_OK) res = cv_graph_import_buffer(g, r->materials, 0, &r->buf[BUF_MATERIALS]);
+    if (res == CV_OK) res = cv_graph_import_buffer(g, r->lights, 0, &r->buf[BUF_LIGHTS]);
+    if (res == CV_OK)
+        res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_RAY_BYTES, .label = "rays" }, 0,
+                                     &r->buf[BUF_RAYS]);
+    if (res == CV_OK)
+        res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_HIT_BYTES, .label = "hits" }, 0,
+                                     &r->buf[BUF_HITS]);
+    cv_graph_pass p = { 0 };
+#define PASS(name, queue, policy, fn) \
+    if (res == CV_OK) res = cv_graph_add_pass(g, &(cv_graph_pass_desc){ name, queue, policy, fn, r }, &p)
+#define READ(res_, access) if (res == CV_OK) res = cv_graph_read(g, p, res_, access)
+#define WRITE(res_, access) if (res == CV_OK) res = cv_graph_write(g, p, res_, access, CV_GRAPH_TRANSFER_AUTO)
+    /* The G-buffer, on the first frame (the camera is still); the trace on
+     * other devices reads it, so it is multicast. */
+    PASS("gbuffer", CV_QUEUE_GRAPHICS, CV_MGPU_PRIMARY_ONLY, record_gbuffer);
+    READ(r->buf[BUF_VERTICES], CV_GRAPH_STORAGE_READ);
+    WRITE(r->tex[TEX_POSITION], CV_GRAPH_COLOR_TARGET);
+    WRITE(r->tex[TEX_NORMAL], CV_GRAPH_COLOR_TARGET);
+    WRITE(r->tex[TEX_DEPTH], CV_GRAPH_DEPTH_TARGET);
+    r->gbuffer_pass = p;
+    /* Every device traces its window; the primary's accumulate reads the
+     * visibility, so the secondaries' windows are copied back. */
+    PASS("trace", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES, record_trace);
+    READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
+    READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+    WRITE(r->buf[BUF_RAYS], CV_GRAPH_STORAGE_WRITE);
+    WRITE(r->buf[BUF_HITS], CV_GRAPH_STORAGE_WRITE);
+    WRITE(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_WRITE);
+    PASS("accumulate", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_accumulate);
+    READ(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_READ);
+    READ(r->tex[TEX_HISTORY], CV_GRAPH_STORAGE_READ);
+    WRITE(r->tex[TEX_HISTORY], CV_GRAPH_STORAGE_WRITE);
+    /* On the last frame: a-trous iterations, then the composite. */
+    r->filter_pass = (cv_graph_pass){ 0 };
+    if (iterations > 0) {
+        PASS("filter", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, pass_filter);
+        READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_HISTORY], CV_GRAPH_STORAGE_READ);
+        WRITE(r->tex[TEX_PING], CV_GRAPH_STORAGE_WRITE);
+        if (iterations > 1)
+            WRITE(r->tex[TEX_PONG], CV_GRAPH_STORAGE_WRITE);
+        r->filter_pass = p;
+    }
+    PASS("composite", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, pass_composite);
+    READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
+    READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+    READ(r->tex[filtered_texture(iterations)], CV_GRAPH_STORAGE_READ);
+    READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
+    READ(r->buf[BUF_LIGHTS], CV_GRAPH_STORAGE_READ);
+    WRITE(r->tex[TEX_RADIANCE], CV_GRAPH_STORAGE_WRITE);
+    WRITE(r->tex[TEX_ALBEDO], CV_GRAPH_STORAGE_WRITE);
+    r->composite_pass = p;
+#undef PASS
+#undef READ
+#undef WRITE
+    /* The accumulation carries over from frame to frame: an output, so the
+     * accumulate is kept on frames without the composite. */
+    if (res == CV_OK) res = cv_graph_output(g, r->tex[TEX_HISTORY]);
+    if (res == CV_OK) res = cv_graph_output(g, r->tex[TEX_RADIANCE]);
+    if (res == CV_OK) res = cv_graph_output(g, r->tex[TEX_ALBEDO]);
+    if (res != CV_OK)
+        destroy_graph(r);
+    return res;
+}
+
+/* Which passes frame f of `frames` runs: the G-buffer on the first, the
+ * filter and composite on the last. */
+static cv_result enable_passes(cv_renderer *r, bool first, bool last) {
+    cv_result res = cv_graph_enable_pass(r->graph, r->gbuffer_pass, first);
+    if (res == CV_OK && r->filter_pass.id)
+        res = cv_graph_enable_pass(r->graph, r->filter_pass, last);
+    if (res == CV_OK)
+        res = cv_graph_enable_pass(r->graph, r->composite_pass, last);
+    return res;
+}
+
+cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot) {
+    if (!r || (!text && !dot))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_dump_graph: NULL argument");
+    if (!r->graph)
+        return cv_error(CV_ERROR_BAD_STATE, "cv_renderer_dump_graph: nothing rendered yet");
+    /* A frame with every pass (the first frame of a one-frame render), over
+     * the last frame's columns. */
+    cv_partition part;
+    cv_result res = cv_graph_get_partition(r->graph, &part);
+    if (res == CV_OK) res = enable_passes(r, true, true);
+    if (res == CV_OK) res = cv_graph_bake(r->graph, &(cv_graph_bake_desc){ .width = part.width, .tile = part.tile,
+                                                                          .partition = &part });
+    if (res == CV_OK && text) res = cv_graph_dump_text(r->graph, text);
+    if (res == CV_OK && dot) res = cv_graph_dump_dot(r->graph, dot);
+    return res;
 }
 
 cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings, cv_render_output *out,
@@ -466,109 +566,61 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations, "
                         "first frame %u (limits %u, 32, 4096, 8, 2^24)", s.width, s.height, s.ao_samples, s.frames,
                         s.filter_iterations, s.first_frame, CV_MAX_TEXTURE_DIM);
-    cv_camera camera = s.camera < cv_scene_camera_count(r->scene) ? *cv_scene_camera(r->scene, s.camera)
-                                                                   : cv_scene_framing_camera(r->scene);
+    r->camera = s.camera < cv_scene_camera_count(r->scene) ? *cv_scene_camera(r->scene, s.camera)
+                                                            : cv_scene_framing_camera(r->scene);
+    r->settings = s;
+    r->graph_frames = s.frames;
     cv_result res = ensure_targets(r, s.width, s.height);
+    if (res == CV_OK)
+        res = build_graph(r, (uint32_t)s.filter_iterations, band_capacity(r, &s));
     if (res != CV_OK)
         return res;
     cv_render_stats st = { .device_count = r->count, .frames = s.frames, .upload_ms = r->upload_ms };
-    cv_device *primary = r->devices[0];
-    cv_command_list *l;
-    uint64_t ticket = 0;
-    cv_transfer_stats ts;
-
-    /* The G-buffer once (the camera is still), then multicast to the secondaries. */
-    res = begin(r, 0, &l);
-    if (res == CV_OK) res = record_gbuffer(r, &camera, l);
-    if (res == CV_OK) res = run_list(primary, r->lists[0], &ticket);
-    if (res == CV_OK) res = cv_device_wait(primary, ticket, UINT64_MAX);
-    cv_rect all = { 0, 0, r->width, r->height };
-    for (uint32_t d = 1; d < r->count && res == CV_OK; d++) {
-        for (int t = TEX_POSITION; t <= TEX_NORMAL && res == CV_OK; t++) {
-            res = cv_transfer_texture(primary, r->textures[t], all, r->devices[d], r->textures[t], 0, 0, &ts);
-            st.transfer_bytes += ts.bytes;
-            st.transfer_ms += ts.total_ms;
-        }
-    }
-
-    cv_balancer balancer;
-    if (res == CV_OK)
-        res = cv_balancer_init(&balancer, &(cv_balancer_desc){ .device_count = r->count });
+    cv_graph_timing timings[64];
     double frames_start = now_ms();
-    uint64_t accumulated[IN_FLIGHT_FRAMES] = { 0 };   /* the primary's accumulate ticket of recent frames */
+    uint64_t accumulated[IN_FLIGHT_FRAMES] = { 0 };   /* the primary's last ticket of recent frames */
     for (uint32_t f = 0; f < s.frames && res == CV_OK; f++) {
-        cv_partition part;
-        res = cv_balancer_split(&balancer, r->width, s.tile, &part);
-        uint64_t tickets[CV_RENDER_MAX_DEVICES] = { 0 };
-        double submit_ms[CV_RENDER_MAX_DEVICES] = { 0 };
-        /* Every device traces its columns; submissions run concurrently. */
-        for (uint32_t d = 0; d < r->count && res == CV_OK; d++) {
-            cv_column_range cols = part.ranges[d];
-            if (cols.width == 0)
-                continue;
-            uint32_t rows = band_rows(r, d, &s, cols.width);
-            res = ensure_ray_buffers(r, d, (uint64_t)cols.width * rows * (1 + s.ao_samples));
-            if (res == CV_OK) res = begin(r, d, &l);
-            if (res == CV_OK) res = record_trace(r, d, cols, &s, f, l);
-            submit_ms[d] = now_ms();
-            if (res == CV_OK) res = run_list(r->devices[d], r->lists[d], &tickets[d]);
-        }
-        /* Isolated to isolated: each secondary's visibility columns go back to the
-         * primary as soon as that secondary finishes, while the others still trace. */
-        cv_mgpu_copy_plan plan = { 0 };
+        bool last = f + 1 == s.frames;
+        r->frame = f;
+        res = enable_passes(r, f == 0, last);
+        /* The graph's balancer splits the columns from the last frame's trace times. */
         if (res == CV_OK)
-            res = cv_mgpu_plan_copies(&part, 0, CV_MGPU_ALL_DEVICES, CV_MGPU_ISOLATED_TO_ISOLATED, &plan);
-        /* The primary's own trace needs no wait: its accumulate is submitted to
-         * the same device, which runs submissions in order, so waiting for the
-         * accumulate covers both (one round trip less per frame on a remote
-         * primary). Its trace time is read once the accumulate is done. */
-        double ms[CV_PARTITION_MAX_DEVICES] = { 0 };
-        for (uint32_t d = 1; d < r->count && res == CV_OK; d++) {
-            if (!tickets[d])
-                continue;
-            res = cv_device_wait(r->devices[d], tickets[d], UINT64_MAX);
-            ms[d] = trace_ms(r->devices[d], tickets[d], submit_ms[d]);
-            for (uint32_t c = 0; c < plan.count && res == CV_OK; c++) {
-                const cv_mgpu_copy *cp = &plan.copies[c];
-                if (cp->src_device != d)
-                    continue;
-                cv_rect cols = { cp->columns.x, 0, cp->columns.width, r->height };
-                res = cv_transfer_texture(r->devices[d], r->textures[TEX_VISIBILITY], cols,
-                                          r->devices[cp->dst_device], r->textures[TEX_VISIBILITY], cols.x, 0, &ts);
-                st.transfer_bytes += ts.bytes;
-                st.transfer_ms += ts.total_ms;
-            }
-        }
-        if (res == CV_OK) res = cv_cmdlist_begin(r->ctx, r->accumulate, &l);
-        if (res == CV_OK) {
-            record_accumulate(r, f, l);
-            if (f + 1 == s.frames)
-                record_filter_composite(r, (uint32_t)s.filter_iterations, s.frames, l);
-            res = run_list(primary, r->accumulate, &ticket);
-        }
+            res = cv_graph_bake(r->graph, &(cv_graph_bake_desc){ .width = r->width, .tile = s.tile });
+        cv_partition part;
+        if (res == CV_OK)
+            res = cv_graph_get_partition(r->graph, &part);
         /* Several devices: the balancer wants this frame's times before it splits
          * the next one, so the frame ends here. One device: frames are pipelined,
          * up to IN_FLIGHT_FRAMES submitted ahead, so a remote device's latency
          * hides behind the work of the frames before (nothing to balance). */
-        accumulated[f % IN_FLIGHT_FRAMES] = ticket;
-        bool last = f + 1 == s.frames, wait_now = last || r->count > 1;
-        if (res == CV_OK && wait_now)
-            res = cv_device_wait(primary, ticket, UINT64_MAX);
-        else if (res == CV_OK && f + 1 >= IN_FLIGHT_FRAMES)
-            res = cv_device_wait(primary, accumulated[(f + 1) % IN_FLIGHT_FRAMES], UINT64_MAX);
-        if (res == CV_OK && tickets[0] && wait_now)
-            ms[0] = trace_ms(primary, tickets[0], submit_ms[0]);
-        for (uint32_t d = 0; d < r->count && res == CV_OK; d++) {
-            if (!tickets[d])
-                continue;
-            uint64_t rays = (uint64_t)part.ranges[d].width * r->height * (1 + s.ao_samples);
-            if (wait_now)
-                st.devices[d] = (cv_render_device_stats){ .columns = part.ranges[d], .rays = rays, .trace_ms = ms[d],
-                                                          .ms_per_column = ms[d] / part.ranges[d].width };
-            st.rays_total += rays;
+        bool wait_now = last || r->count > 1;
+        uint32_t n = 0;
+        double submitted = now_ms();
+        if (res == CV_OK && wait_now) {
+            res = cv_graph_execute(r->graph, timings, 64, &n);
+        } else if (res == CV_OK) {
+            uint64_t tickets[CV_GRAPH_MAX_DEVICES];
+            res = cv_graph_submit(r->graph, tickets);
+            accumulated[f % IN_FLIGHT_FRAMES] = tickets[0];
+            if (res == CV_OK && f + 1 >= IN_FLIGHT_FRAMES && accumulated[(f + 1) % IN_FLIGHT_FRAMES])
+                res = cv_device_wait(r->devices[0], accumulated[(f + 1) % IN_FLIGHT_FRAMES], UINT64_MAX);
         }
-        if (res == CV_OK && r->count > 1)
-            res = cv_balancer_update(&balancer, &part, ms);
+        double frame_wall = now_ms() - submitted;
+        for (uint32_t i = 0; i < n && i < 64 && res == CV_OK; i++) {
+            const cv_graph_timing *t = &timings[i];
+            if (strncmp(t->name, "transfer ", 9) == 0) {
+                st.transfer_bytes += t->bytes;
+                st.transfer_ms += t->ms;
+            } else if (strcmp(t->name, "trace") == 0 && t->device < r->count) {
+                cv_column_range cols = part.ranges[t->device];
+                double ms = t->ms > 0.0 ? t->ms : frame_wall;   /* no GPU timing: the frame's wall time */
+                st.devices[t->device] = (cv_render_device_stats){
+                    .columns = cols, .rays = (uint64_t)cols.width * r->height * (1 + s.ao_samples), .trace_ms = ms,
+                    .ms_per_column = ms / cols.width };
+            }
+        }
+        for (uint32_t d = 0; d < r->count && res == CV_OK; d++)
+            st.rays_total += (uint64_t)part.ranges[d].width * r->height * (1 + s.ao_samples);
         if (res == CV_OK && progress)
             progress(f + 1, s.frames, user);
     }

@@ -27,6 +27,20 @@ for layer in albedo.R normal.X depth.Z shadow.Y ao.Y; do
 done
 check "reports both devices" grep -q "gpu1: columns" "$tmp/out.txt"
 
+# --dump-graph: the frame's render graph as text (and FILE.dot), naming the
+# passes and, on 2 devices, the G-buffer multicast and the visibility copy-back.
+"$render" --gpus 2 --adapters llvmpipe --size 64x32 --frames 2 --ao-samples 1 --quiet --out "$tmp/g/frame" \
+  --dump-graph "$tmp/g/graph.txt" 2> "$tmp/err.txt"
+check "--dump-graph exits 0" test $? -eq 0
+for graph_pass in gbuffer trace accumulate filter composite; do
+  check "graph dump names pass '$graph_pass'" grep -q "pass '$graph_pass'" "$tmp/g/graph.txt"
+done
+check "graph dump: trace on both devices" grep -q "^      dev1 \[" "$tmp/g/graph.txt"
+check "graph dump: G-buffer multicast" grep -q "transfer 'gbuffer position' after 'gbuffer': MULTICAST: dev0->dev1 \[0,64)" "$tmp/g/graph.txt"
+check "graph dump: visibility copied back" grep -q "transfer 'visibility' after 'trace': ISOLATED_TO_ISOLATED: dev1->dev0 \[" "$tmp/g/graph.txt"
+check "graph dot written" grep -q "^digraph corvid_graph" "$tmp/g/graph.txt.dot"
+check "graph dot has the trace node" grep -q 'label="trace' "$tmp/g/graph.txt.dot"
+
 "$render" --scene "$tmp/missing.glb" --out "$tmp/b/frame" > /dev/null 2> "$tmp/err.txt"
 check "missing scene exits 1" test $? -eq 1
 check "missing scene names the file" grep -q "missing.glb" "$tmp/err.txt"
@@ -138,6 +152,7 @@ check "a used, bad CORVID_VIRTUAL_GPUS is named" grep -qF "CORVID_VIRTUAL_GPUS: 
 "$render" --help > "$tmp/help.txt"
 check "help exits 0" test $? -eq 0
 check "help lists --gpus" grep -q -- "--gpus" "$tmp/help.txt"
+check "help lists --dump-graph" grep -q -- "--dump-graph" "$tmp/help.txt"
 check "help says what --ao-samples 0 does" grep -q "0 is refused" "$tmp/help.txt"
 
 echo "render_cli: $pass passed, $fail failed"

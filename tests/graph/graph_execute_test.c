@@ -2,6 +2,7 @@
  * begins with, and a small frame (clear, multicast, copy, stamp, copy-back)
  * on three devices checked byte by byte. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "check.h"
@@ -146,9 +147,104 @@ static void test_execute_three_devices(void) {
     world_close(&w);
 }
 
+/* A pass that runs on some frames only (cv_graph_enable_pass) and frames
+ * submitted without waiting (cv_graph_submit), as the renderer uses them: a
+ * primary pass fills an imported buffer the all-devices copy reads. */
+typedef struct fill_frame {
+    cv_graph_resource src;
+    uint32_t value;
+} fill_frame;
+
+static void fill_src(const cv_graph_pass_context *pc, cv_command_list *list, void *user) {
+    const fill_frame *f = user;
+    cv_cmd_clear_buffer(list, pc->queue, &(cv_clear_buffer_args){ .buffer = cv_graph_buffer(pc, f->src),
+                                                                  .size = COLUMNS * 4, .value = f->value });
+}
+
+static int count_wrong(graph_world *w, cv_buffer result_h, uint32_t expect) {
+    uint32_t got[COLUMNS];
+    CHECK_OK(cv_device_read_buffer(w->devices[0], result_h, 0, sizeof(got), got));
+    int wrong = 0;
+    for (uint32_t c = 0; c < COLUMNS; c++)
+        wrong += got[c] != expect;
+    return wrong;
+}
+
+static void test_enable_and_submit(void) {
+    graph_world w;
+    world_open(&w, 3);
+    cv_buffer src_h, result_h;
+    CHECK_OK(cv_buffer_create(w.ctx, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "src" }, &src_h));
+    CHECK_OK(cv_buffer_create(w.ctx, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "result" }, &result_h));
+    fill_frame f = { .value = 0x22222222u };
+    cv_graph_resource b, result;
+    CHECK_OK(cv_graph_import_buffer(w.graph, src_h, 4, &f.src));
+    CHECK_OK(cv_graph_create_buffer(w.graph, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "b" }, 4, &b));
+    CHECK_OK(cv_graph_import_buffer(w.graph, result_h, 4, &result));
+    cv_graph_pass fill, spread, gather;
+    CHECK_OK(cv_graph_add_pass(w.graph, &(cv_graph_pass_desc){ .name = "fill", .queue = CV_QUEUE_COMPUTE,
+                                                                .policy = CV_MGPU_PRIMARY_ONLY, .record = fill_src,
+                                                                .user = &f }, &fill));
+    CHECK_OK(cv_graph_write(w.graph, fill, f.src, CV_GRAPH_TRANSFER_DST, CV_GRAPH_TRANSFER_AUTO));
+    CHECK_OK(cv_graph_add_copy_pass(w.graph, "spread", CV_MGPU_ALL_DEVICES, f.src, b, &spread));
+    CHECK_OK(cv_graph_add_copy_pass(w.graph, "gather", CV_MGPU_PRIMARY_ONLY, b, result, &gather));
+    CHECK_OK(cv_graph_output(w.graph, result));
+    CHECK(cv_graph_enable_pass(w.graph, (cv_graph_pass){ 99 }, false) != CV_OK);
+
+    /* Frame 1: fill runs, its buffer is multicast, b is copied back. */
+    CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
+    cv_graph_stats st;
+    CHECK_OK(cv_graph_get_stats(w.graph, &st));
+    CHECK_EQ_INT(st.transfers, 2);
+    cv_partition part;
+    CHECK_OK(cv_graph_get_partition(w.graph, &part));
+    CHECK_EQ_INT(part.width, COLUMNS);
+    CHECK_EQ_INT(part.device_count, 3);
+    cv_graph_timing t[16];
+    uint32_t n = 0;
+    CHECK_OK(cv_graph_execute(w.graph, t, 16, &n));
+    uint64_t moved = 0;
+    for (uint32_t i = 0; i < n && i < 16; i++)
+        moved += strncmp(t[i].name, "transfer ", 9) == 0 ? t[i].bytes : 0;
+    CHECK_EQ_INT(moved, 2 * COLUMNS * 4 + 2 * (COLUMNS / 3) * 4);   /* whole buffer to 2 devices, 2 windows back */
+    CHECK_EQ_INT(count_wrong(&w, result_h, 0x22222222u), 0);
+
+    /* Frame 2: fill disabled: no multicast; every device reads what it holds. */
+    CHECK_OK(cv_graph_enable_pass(w.graph, fill, false));
+    f.value = 0x33333333u;   /* would show if fill still ran */
+    CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
+    CHECK(!cv_graph_pass_kept(w.graph, fill));
+    CHECK(cv_graph_pass_kept(w.graph, spread));
+    CHECK_OK(cv_graph_get_stats(w.graph, &st));
+    CHECK_EQ_INT(st.transfers, 1);
+    CHECK_EQ_INT(st.culled, 1);
+    char *text = dump_text(w.graph);
+    CHECK(text && strstr(text, "culled: 'fill'\n") && !strstr(text, "pass 'fill'"));
+    free(text);
+    /* Submitted without waiting: the last ticket per device covers the frame. */
+    uint64_t tickets[CV_GRAPH_MAX_DEVICES];
+    CHECK_OK(cv_graph_submit(w.graph, tickets));
+    for (uint32_t d = 0; d < 3; d++) {
+        CHECK(tickets[d] > 0);
+        CHECK_OK(cv_device_wait(w.devices[d], tickets[d], UINT64_MAX));
+    }
+    CHECK_EQ_INT(tickets[3], 0);
+    CHECK_EQ_INT(count_wrong(&w, result_h, 0x22222222u), 0);
+
+    /* Enabled again: it runs, and multicasts, once more. */
+    CHECK_OK(cv_graph_enable_pass(w.graph, fill, true));
+    CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
+    CHECK_OK(cv_graph_execute(w.graph, t, 16, &n));
+    CHECK_EQ_INT(count_wrong(&w, result_h, 0x33333333u), 0);
+    CHECK_OK(cv_buffer_destroy(w.ctx, src_h));
+    CHECK_OK(cv_buffer_destroy(w.ctx, result_h));
+    world_close(&w);
+}
+
 int main(void) {
     test_barriers();
     test_execute_three_devices();
+    test_enable_and_submit();
     CHECK_NOTHING_LIVE();
     return check_report("graph_execute_test");
 }

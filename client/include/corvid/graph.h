@@ -152,6 +152,12 @@ cv_result cv_graph_history(cv_graph *g, cv_graph_resource r, cv_graph_resource *
 cv_result cv_graph_output(cv_graph *g, cv_graph_resource r);
 
 cv_result cv_graph_add_pass(cv_graph *g, const cv_graph_pass_desc *desc, cv_graph_pass *out);
+/* Leaves pass p out of the bakes that follow (enabled = false), or puts it
+ * back. A disabled pass is baked as if it had never been added: its writes are
+ * not seen, so a read of an imported resource it would have written sees what
+ * the application (or an earlier execute) left there. For passes that run on
+ * some frames only (a G-buffer drawn once, a filter on the last frame). */
+cv_result cv_graph_enable_pass(cv_graph *g, cv_graph_pass p, bool enabled);
 /* Declarations. Resources are checked at bake, so passes may name resources
  * in any order; these fail only on a bad pass or argument. */
 cv_result cv_graph_read(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_graph_access access);
@@ -177,6 +183,8 @@ typedef struct cv_graph_stats {
     uint32_t transients, physical;  /* transient resources, and the resources holding them */
 } cv_graph_stats;
 cv_result cv_graph_get_stats(const cv_graph *g, cv_graph_stats *out);
+/* The partition of the last bake. */
+cv_result cv_graph_get_partition(const cv_graph *g, cv_partition *out);
 /* Whether a pass survived culling. */
 bool cv_graph_pass_kept(const cv_graph *g, cv_graph_pass p);
 /* The physical resource index a transient was given (-1 if it has none). */
@@ -186,12 +194,21 @@ typedef struct cv_graph_timing {
     char name[CV_LABEL_MAX];   /* pass name, or "transfer '<resource>'" */
     uint32_t device;           /* device index (a transfer: its source) */
     double ms;
+    uint64_t bytes;            /* a transfer: bytes moved between devices */
 } cv_graph_timing;
 
 /* Records, submits, transfers and waits; one timing per pass instance and per
  * transfer, in step order (*count is the number there were; at most capacity
  * are written). */
 cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capacity, uint32_t *count);
+/* cv_graph_execute without the wait: records, submits and runs the transfers
+ * (which synchronize on the host) in step order, then returns with the last
+ * submissions still running. No timings, no balancer feedback. tickets[d] is
+ * the last ticket submitted to device d (0: none); waiting for it covers the
+ * frame on that device (devices run submissions in order). For pipelining
+ * frames (keeping several in flight to hide a remote device's latency); the
+ * lists are re-recorded on the next call, which submissions in flight allow. */
+cv_result cv_graph_submit(cv_graph *g, uint64_t tickets[CV_GRAPH_MAX_DEVICES]);
 
 /* The baked graph as stable text (same graph, same bytes) and as Graphviz dot. */
 cv_result cv_graph_dump_text(const cv_graph *g, FILE *f);

@@ -34,6 +34,8 @@ static const graph_resource *res_of(const cv_graph *g, uint32_t id) {
 }
 
 static bool pass_writes(const graph_pass *p, uint32_t id) {
+    if (p->disabled)
+        return false;   /* baked as if it were not there */
     for (uint32_t a = 0; a < p->access_count; a++)
         if (p->accesses[a].write && p->accesses[a].id == id)
             return true;
@@ -127,7 +129,7 @@ static cv_result find_dependencies(const cv_graph *g, bake_state *s) {
             const graph_access *acc = &pass->accesses[a];
             int32_t *seen = &s->seen[s->access_base[p] + a];
             *seen = -1;
-            if (acc->id & GRAPH_HISTORY_BIT)
+            if (pass->disabled || (acc->id & GRAPH_HISTORY_BIT))
                 continue;   /* last frame's contents: no edge this frame */
             const graph_resource *r = res_of(g, acc->id);
             int32_t w = writer_before(g, acc->id, (int32_t)p);
@@ -226,7 +228,7 @@ static bool resource_reaches_output(const cv_graph *g, uint32_t index) {
     if (!r->history)
         return false;
     for (uint32_t p = 0; p < g->pass_count; p++)
-        for (uint32_t a = 0; a < g->passes[p].access_count; a++)
+        for (uint32_t a = 0; a < g->passes[p].access_count && !g->passes[p].disabled; a++)
             if (g->passes[p].accesses[a].id == ((index + 1) | GRAPH_HISTORY_BIT))
                 return true;   /* next frame reads it */
     return false;
@@ -243,7 +245,7 @@ static cv_result cull(const cv_graph *g, const bake_state *s, graph_baked *b) {
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
     }
     for (uint32_t p = 0; p < n; p++)
-        for (uint32_t a = 0; a < g->passes[p].access_count && !b->kept[p]; a++) {
+        for (uint32_t a = 0; a < g->passes[p].access_count && !b->kept[p] && !g->passes[p].disabled; a++) {
             const graph_access *acc = &g->passes[p].accesses[a];
             if (acc->write && resource_reaches_output(g, (acc->id & ~GRAPH_HISTORY_BIT) - 1)) {
                 b->kept[p] = true;
@@ -701,6 +703,13 @@ cv_result cv_graph_get_stats(const cv_graph *g, cv_graph_stats *out) {
     if (!g || !out || !g->baked.valid)
         return cv_error(CV_ERROR_BAD_STATE, "cv_graph_get_stats: the graph is not baked");
     *out = g->baked.stats;
+    return CV_OK;
+}
+
+cv_result cv_graph_get_partition(const cv_graph *g, cv_partition *out) {
+    if (!g || !out || !g->baked.valid)
+        return cv_error(CV_ERROR_BAD_STATE, "cv_graph_get_partition: the graph is not baked");
+    *out = g->baked.partition;
     return CV_OK;
 }
 

@@ -12,6 +12,7 @@
 #include "graph_internal.h"
 
 #define MAX_RECORD_THREADS 8u
+#define INSTANCES_PER_THREAD 4u
 
 static double now_ms(void) {
     struct timespec ts;
@@ -63,7 +64,11 @@ static cv_result record_all(cv_graph *g) {
         for (uint32_t i = 0; i < b->steps[s].instance_count; i++)
             r.step_of[b->steps[s].instance_first + i] = s;
     pthread_t threads[MAX_RECORD_THREADS];
-    uint32_t started = 0, want = b->instance_count < MAX_RECORD_THREADS ? b->instance_count : MAX_RECORD_THREADS;
+    /* A thread per INSTANCES_PER_THREAD lists: recording a list is cheap, and a
+     * thread started for one list costs more than it saves (on a busy machine
+     * the join waits for the scheduler). */
+    uint32_t started = 0, want = (b->instance_count + INSTANCES_PER_THREAD - 1) / INSTANCES_PER_THREAD;
+    want = want < MAX_RECORD_THREADS ? want : MAX_RECORD_THREADS;
     while (started + 1 < want && pthread_create(&threads[started], NULL, record_worker, &r) == 0)
         started++;
     record_worker(&r);
@@ -83,23 +88,26 @@ static cv_result record_all(cv_graph *g) {
     return CV_OK;
 }
 
-static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms) {
+static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uint64_t *bytes) {
     const graph_resource *r = &g->resources[st->resource];
     cv_handle h = graph_handle_of(g, st->resource, false);
     double start = now_ms();
     cv_result res = CV_OK;
+    *bytes = 0;
     for (uint32_t c = 0; c < st->plan.count && res == CV_OK; c++) {
         const cv_mgpu_copy *cp = &st->plan.copies[c];
         cv_device *src = g->devices[cp->src_device], *dst = g->devices[cp->dst_device];
+        cv_transfer_stats ts = { 0 };
         if (r->type == CV_HANDLE_TEXTURE) {
             cv_rect rect = { cp->columns.x, 0, cp->columns.width, r->texture.height };
-            res = cv_transfer_texture(src, (cv_texture){ h.id }, rect, dst, (cv_texture){ h.id }, rect.x, 0, NULL);
+            res = cv_transfer_texture(src, (cv_texture){ h.id }, rect, dst, (cv_texture){ h.id }, rect.x, 0, &ts);
         } else {
             bool whole = cp->columns.x == 0 && cp->columns.width == g->baked.width;
             uint64_t offset = whole ? 0 : cp->columns.x * r->column_bytes;
             uint64_t size = whole ? r->buffer.size : cp->columns.width * r->column_bytes;
-            res = cv_transfer_buffer(src, (cv_buffer){ h.id }, offset, dst, (cv_buffer){ h.id }, offset, size, NULL);
+            res = cv_transfer_buffer(src, (cv_buffer){ h.id }, offset, dst, (cv_buffer){ h.id }, offset, size, &ts);
         }
+        *bytes += ts.bytes;
         if (res != CV_OK)
             res = cv_error(res, "graph: transfer of '%s' after pass '%s' (device %u -> %u): %s", r->name,
                            g->passes[st->pass].name, cp->src_device, cp->dst_device, cv_last_error());
@@ -120,23 +128,28 @@ static double instance_ms(cv_graph *g, const graph_instance *inst, const char *n
 }
 
 static void put_timing(cv_graph_timing *out, uint32_t capacity, uint32_t *count, const char *name, uint32_t device,
-                       double ms) {
+                       double ms, uint64_t bytes) {
     if (out && *count < capacity) {
-        out[*count] = (cv_graph_timing){ .device = device, .ms = ms };
+        out[*count] = (cv_graph_timing){ .device = device, .ms = ms, .bytes = bytes };
         snprintf(out[*count].name, sizeof(out[*count].name), "%s", name);
     }
     (*count)++;
 }
 
-cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capacity, uint32_t *count) {
+/* Both evaluations: with `wait`, waits, reads timings and feeds the balancer;
+ * without, returns each device's last ticket in last[] once all is submitted. */
+static cv_result evaluate(cv_graph *g, bool wait, cv_graph_timing *timings, uint32_t capacity, uint32_t *count,
+                          uint64_t *last) {
     if (!g || !g->baked.valid)
-        return cv_error(CV_ERROR_BAD_STATE, "cv_graph_execute: the graph is not baked");
+        return cv_error(CV_ERROR_BAD_STATE, "cv_graph_%s: the graph is not baked", wait ? "execute" : "submit");
     graph_baked *b = &g->baked;
     uint64_t *tickets = calloc(b->instance_count + 1, sizeof(uint64_t));
     double *transfer_ms = calloc(b->step_count + 1, sizeof(double));
-    if (!tickets || !transfer_ms) {
+    uint64_t *transfer_bytes = calloc(b->step_count + 1, sizeof(uint64_t));
+    if (!tickets || !transfer_ms || !transfer_bytes) {
         free(tickets);
         free(transfer_ms);
+        free(transfer_bytes);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: execute");
     }
     /* Record in parallel. */
@@ -145,7 +158,7 @@ cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capac
     for (uint32_t s = 0; s < b->step_count && res == CV_OK; s++) {
         const graph_step *st = &b->steps[s];
         if (st->transfer) {
-            res = run_transfer(g, st, &transfer_ms[s]);
+            res = run_transfer(g, st, &transfer_ms[s], &transfer_bytes[s]);
             continue;
         }
         for (uint32_t i = 0; i < st->instance_count && res == CV_OK; i++) {
@@ -156,8 +169,15 @@ cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capac
                                cv_last_error());
         }
     }
+    if (!wait) {   /* cv_graph_submit: the last tickets; after a failure, wait as below */
+        for (uint32_t d = 0; d < CV_GRAPH_MAX_DEVICES; d++)
+            last[d] = 0;
+        for (uint32_t i = 0; i < b->instance_count && res == CV_OK; i++)
+            if (tickets[i] > last[b->instances[i].device])
+                last[b->instances[i].device] = tickets[i];
+    }
     /* Wait for everything submitted, even after a failure. */
-    for (uint32_t i = 0; i < b->instance_count; i++)
+    for (uint32_t i = 0; i < b->instance_count && (wait || res != CV_OK); i++)
         if (tickets[i]) {
             cv_result w = cv_device_wait(g->devices[b->instances[i].device], tickets[i], UINT64_MAX);
             res = res == CV_OK ? w : res;
@@ -166,19 +186,19 @@ cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capac
     double ms[CV_PARTITION_MAX_DEVICES] = { 0 };
     bool balanced_pass = false;
     uint32_t n = 0;
-    for (uint32_t s = 0; s < b->step_count && res == CV_OK; s++) {
+    for (uint32_t s = 0; s < b->step_count && res == CV_OK && wait; s++) {
         const graph_step *st = &b->steps[s];
         const graph_pass *pass = &g->passes[st->pass];
         if (st->transfer) {
             char name[CV_LABEL_MAX + 16];
             snprintf(name, sizeof(name), "transfer '%s'", g->resources[st->resource].name);
-            put_timing(timings, capacity, &n, name, st->plan.copies[0].src_device, transfer_ms[s]);
+            put_timing(timings, capacity, &n, name, st->plan.copies[0].src_device, transfer_ms[s], transfer_bytes[s]);
             continue;
         }
         for (uint32_t i = 0; i < st->instance_count; i++) {
             const graph_instance *inst = &b->instances[st->instance_first + i];
             double t = instance_ms(g, inst, pass->name, tickets[st->instance_first + i]);
-            put_timing(timings, capacity, &n, pass->name, inst->device, t);
+            put_timing(timings, capacity, &n, pass->name, inst->device, t, 0);
             if (pass->policy == CV_MGPU_ALL_DEVICES) {
                 ms[inst->device] += t > 0.0 ? t : 1e-6;
                 balanced_pass = true;
@@ -194,5 +214,16 @@ cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capac
     }
     free(tickets);
     free(transfer_ms);
+    free(transfer_bytes);
     return res;
+}
+
+cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capacity, uint32_t *count) {
+    return evaluate(g, true, timings, capacity, count, NULL);
+}
+
+cv_result cv_graph_submit(cv_graph *g, uint64_t tickets[CV_GRAPH_MAX_DEVICES]) {
+    if (!tickets)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_submit: NULL tickets");
+    return evaluate(g, false, NULL, 0, NULL, tickets);
 }

@@ -213,6 +213,13 @@ cv_result cv_graph_add_pass(cv_graph *g, const cv_graph_pass_desc *desc, cv_grap
     return CV_OK;
 }
 
+cv_result cv_graph_enable_pass(cv_graph *g, cv_graph_pass p, bool enabled) {
+    if (!g || p.id == 0 || p.id > g->pass_count)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_enable_pass: unknown pass #%u", p.id);
+    g->passes[p.id - 1].disabled = !enabled;
+    return CV_OK;
+}
+
 static cv_result declare(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_graph_access access,
                          cv_graph_transfer rule, bool write) {
     if (!g || p.id == 0 || p.id > g->pass_count)

@@ -35,6 +35,7 @@ typedef struct graph_pass {
     graph_access *accesses;
     uint32_t access_count, access_capacity;
     uint32_t copy_src, copy_dst;  /* built-in copy pass: resource ids */
+    bool disabled;                /* cv_graph_enable_pass(false): left out of bakes */
 } graph_pass;
 
 /* A barrier at the start of a pass instance's list. */

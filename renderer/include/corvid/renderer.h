@@ -15,6 +15,8 @@
 #ifndef CORVID_RENDERER_H
 #define CORVID_RENDERER_H
 
+#include <stdio.h>
+
 #include "corvid/bvh.h"
 #include "corvid/device.h"
 #include "corvid/partition.h"
@@ -84,6 +86,12 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                              cv_render_stats *stats, void (*progress)(uint32_t frame, uint32_t frames, void *user),
                              void *user);
 void cv_render_output_free(cv_render_output *out);
+
+/* The renderer's frame as its render graph (corvid/graph.h) sees it, after a
+ * render: every pass (the first frame of a one-frame render) over the last
+ * frame's columns, as text (cv_graph_dump_text) and/or Graphviz dot; either
+ * FILE may be NULL. */
+cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot);
 
 /* The reference (ground truth) for the renderer's image model, on the CPU
  * (renderer/src/reference.c): per pixel a closest-hit camera ray through the
