@@ -292,7 +292,7 @@ int main(int argc, char **argv) {
         fprintf(stderr, "corvid-node: no cache directory: give --cache-dir\n");
         return 2;
     }
-    cv_node_device_spec devices[CV_VULKAN_MAX_GPUS];
+    cv_node_device_spec devices[CV_MAX_DEVICES];
     uint32_t device_count = 0;
     cv_result r = make_devices(&o, &gpus, devices, &device_count);
     if (r != CV_OK) {

@@ -498,9 +498,9 @@ static cv_result create_node_devices(cv_context *ctx, const char *list, cv_devic
     for (uint32_t i = 0; r == CV_OK && i < node_count; i++) {
         r = cv_proxy_query_node(nodes[i].text, 10000, info);
         for (uint32_t d = 0; r == CV_OK && d < info->device_count; d++) {
-            if (n == CV_RENDER_MAX_DEVICES) {
+            if (n == CV_MAX_DEVICES) {
                 r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "the nodes serve more than %u devices, the renderer's limit",
-                             CV_RENDER_MAX_DEVICES);
+                             CV_MAX_DEVICES);
                 break;
             }
             char adapter[16];
@@ -566,7 +566,7 @@ int main(int argc, char **argv) {
     cv_bvh *bvh = NULL;
     cv_context *ctx = NULL;
     cv_renderer *renderer = NULL;
-    cv_device *devices[CV_VULKAN_MAX_GPUS] = { 0 };
+    cv_device *devices[CV_MAX_DEVICES] = { 0 };
     cv_vulkan_gpu_table table = { 0 };
     cv_render_output image = { 0 };
     cv_render_stats stats = { 0 };
@@ -596,9 +596,9 @@ int main(int argc, char **argv) {
     }
     if (r == CV_OK && !o.nodes && !o.reference)
         r = cv_vulkan_gpu_table_build(&gpu_config, &table);
-    if (r == CV_OK && table.count > CV_RENDER_MAX_DEVICES)
+    if (r == CV_OK && table.count > CV_MAX_DEVICES)
         r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "%u devices requested; the renderer takes at most %u", table.count,
-                     CV_RENDER_MAX_DEVICES);
+                     CV_MAX_DEVICES);
     if (r == CV_OK && !o.reference)
         r = cv_context_create(NULL, &ctx);
     uint32_t device_count = 0;

@@ -282,7 +282,7 @@ typedef struct pair {
 typedef struct bench {
     options o;
     cv_context *ctx;
-    cv_device *vk[CV_VULKAN_MAX_GPUS];
+    cv_device *vk[CV_MAX_DEVICES];
     cv_device *mock[2];
     pair pairs[C_MEMCPY];        /* per transfer contender; src NULL when not run */
     row rows[MAX_ROWS];

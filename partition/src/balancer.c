@@ -13,9 +13,9 @@ cv_result cv_balancer_init(cv_balancer *b, const cv_balancer_desc *desc) {
     if (b == NULL || desc == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: %s is NULL",
                         b == NULL ? "balancer" : "desc");
-    if (desc->device_count == 0 || desc->device_count > CV_PARTITION_MAX_DEVICES)
+    if (desc->device_count == 0 || desc->device_count > CV_MAX_DEVICES)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: device_count %u is outside 1..%u",
-                        desc->device_count, CV_PARTITION_MAX_DEVICES);
+                        desc->device_count, CV_MAX_DEVICES);
     double smoothing = desc->smoothing == 0.0 ? DEFAULT_SMOOTHING : desc->smoothing;
     if (!(smoothing > 0.0 && smoothing <= 1.0))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: smoothing %g is outside (0, 1]",
@@ -36,7 +36,7 @@ cv_result cv_balancer_init(cv_balancer *b, const cv_balancer_desc *desc) {
  * until none moves; each round pins at least one more device, and the floor
  * times the device count is at most 1, so it ends within device_count rounds. */
 static void apply_floor(double *shares, uint32_t n, double floor_share) {
-    bool pinned[CV_PARTITION_MAX_DEVICES] = { false };
+    bool pinned[CV_MAX_DEVICES] = { false };
     for (uint32_t round = 0; round < n; round++) {
         double free_sum = 0.0;
         uint32_t pinned_count = 0;
@@ -90,7 +90,7 @@ cv_result cv_balancer_split(const cv_balancer *b, uint32_t width, uint32_t tile,
                             cv_partition *out) {
     if (b == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: balancer is NULL");
-    double shares[CV_PARTITION_MAX_DEVICES];
+    double shares[CV_MAX_DEVICES];
     cv_balancer_shares(b, shares);
     cv_partition fresh;
     cv_result r = cv_partition_split(width, tile, b->device_count, shares, &fresh);
@@ -138,7 +138,7 @@ cv_result cv_balancer_update(cv_balancer *b, const cv_partition *used, const dou
     if (r != CV_OK)
         return r;
 
-    double samples[CV_PARTITION_MAX_DEVICES];
+    double samples[CV_MAX_DEVICES];
     for (uint32_t d = 0; d < b->device_count; d++) {
         if (!isfinite(ms[d]) || ms[d] < 0.0)
             return cv_error(CV_ERROR_INVALID_ARGUMENT,

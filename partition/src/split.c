@@ -5,9 +5,9 @@
 #include "corvid/partition.h"
 
 static cv_result check_shape(uint32_t width, uint32_t tile, uint32_t device_count) {
-    if (device_count == 0 || device_count > CV_PARTITION_MAX_DEVICES)
+    if (device_count == 0 || device_count > CV_MAX_DEVICES)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: device_count %u is outside 1..%u",
-                        device_count, CV_PARTITION_MAX_DEVICES);
+                        device_count, CV_MAX_DEVICES);
     if (width == 0)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: width is 0 (nothing to split)");
     if (tile == 0)

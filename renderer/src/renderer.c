@@ -42,7 +42,7 @@ enum { BUF_VERTICES, BUF_MATERIALS, BUF_LIGHTS, BUF_RAYS, BUF_HITS, BUF_COUNT };
 
 struct cv_renderer {
     cv_context *ctx;
-    cv_device *devices[CV_RENDER_MAX_DEVICES];
+    cv_device *devices[CV_MAX_DEVICES];
     uint32_t count;
     const cv_scene *scene;
     render_scene_data data;
@@ -102,9 +102,9 @@ static cv_result upload_buffer(cv_renderer *r, const void *data, uint64_t size, 
 
 cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, const cv_scene *scene,
                              const cv_bvh *bvh, cv_renderer **out) {
-    if (!devices || !scene || !bvh || !out || device_count == 0 || device_count > CV_RENDER_MAX_DEVICES)
+    if (!devices || !scene || !bvh || !out || device_count == 0 || device_count > CV_MAX_DEVICES)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: need 1..%u devices, a scene and its BVH",
-                        CV_RENDER_MAX_DEVICES);
+                        CV_MAX_DEVICES);
     cv_renderer *r = calloc(1, sizeof(*r));
     if (!r)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer");
@@ -599,7 +599,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         if (res == CV_OK && wait_now) {
             res = cv_graph_execute(r->graph, timings, 64, &n);
         } else if (res == CV_OK) {
-            uint64_t tickets[CV_GRAPH_MAX_DEVICES];
+            uint64_t tickets[CV_MAX_DEVICES];
             res = cv_graph_submit(r->graph, tickets);
             accumulated[f % IN_FLIGHT_FRAMES] = tickets[0];
             if (res == CV_OK && f + 1 >= IN_FLIGHT_FRAMES && accumulated[(f + 1) % IN_FLIGHT_FRAMES])

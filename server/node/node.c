@@ -197,8 +197,8 @@ static cv_result probe_devices(cv_node *node) {
 cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     if (!config || !out || !config->devices || !config->listen || !config->cache_dir)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_node_start: NULL config, devices, listen or cache_dir");
-    if (config->device_count == 0 || config->device_count > CV_NODE_MAX_DEVICES)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "node: %u devices (1..%u)", config->device_count, CV_NODE_MAX_DEVICES);
+    if (config->device_count == 0 || config->device_count > CV_MAX_DEVICES)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "node: %u devices (1..%u)", config->device_count, CV_MAX_DEVICES);
     if (config->token && !config->token[0])
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "node: the token is empty");
     if (!config->token && !cv_node_listen_is_local(config->listen))

@@ -59,7 +59,7 @@ typedef struct cv_node_config {
     const char *listen;               /* "host:port"; port 0 picks a free one */
     const char *name;                 /* reported to clients; NULL = the host name */
     const cv_node_device_spec *devices;
-    uint32_t device_count;            /* 1..CV_NODE_MAX_DEVICES */
+    uint32_t device_count;            /* 1..CV_MAX_DEVICES */
     bool validation;                  /* API validation on session devices */
     const char *cache_dir;            /* content store directory (created) */
     uint64_t cache_bytes;             /* content store size limit; 0 = 4 GiB */

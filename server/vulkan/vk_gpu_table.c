@@ -19,9 +19,9 @@ static cv_result parse_count(const char *text, const char *what, uint32_t *out) 
     char *end = NULL;
     errno = 0;
     unsigned long v = text ? strtoul(text, &end, 10) : 0;
-    if (!text || !*text || *end || errno || v == 0 || v > CV_VULKAN_MAX_GPUS)
+    if (!text || !*text || *end || errno || v == 0 || v > CV_MAX_DEVICES)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%s' is not a count in 1..%u", what, text ? text : "",
-                        CV_VULKAN_MAX_GPUS);
+                        CV_MAX_DEVICES);
     *out = (uint32_t)v;
     return CV_OK;
 }
@@ -83,7 +83,7 @@ static cv_result table_adapters(const vk_adapter *adapters, uint32_t count, cons
     uint32_t n = 0;
     if (list && *list) {
         char spec[256];
-        for (const char *p = list; n < CV_VULKAN_MAX_GPUS;) {
+        for (const char *p = list; n < CV_MAX_DEVICES;) {
             size_t len = strcspn(p, ",");
             /* An empty entry would match every adapter name: ",,," made three devices. */
             if (len == 0 || len >= sizeof(spec))
@@ -103,7 +103,7 @@ static cv_result table_adapters(const vk_adapter *adapters, uint32_t count, cons
         cv_result r = vk_adapters_choose(adapters, count, CV_VULKAN_PURPOSE_RENDER, &best);
         if (r != CV_OK)
             return r;
-        for (uint32_t i = 0; i < count && n < CV_VULKAN_MAX_GPUS; i++)
+        for (uint32_t i = 0; i < count && n < CV_MAX_DEVICES; i++)
             if (adapters[i].info.usable && adapters[i].info.type == adapters[best].info.type)
                 out[n++] = i;
     }
@@ -131,7 +131,7 @@ cv_result cv_vulkan_gpu_table_build(const cv_vulkan_gpu_config *config, cv_vulka
     if (r != CV_OK)
         return r;
     vk_adapter *adapters = NULL;
-    uint32_t count = 0, chosen[CV_VULKAN_MAX_GPUS], chosen_count = 0;
+    uint32_t count = 0, chosen[CV_MAX_DEVICES], chosen_count = 0;
     r = vk_adapters_enumerate(inst, &adapters, &count);
     if (r == CV_OK)
         r = table_adapters(adapters, count, c.adapters, chosen, &chosen_count);
@@ -141,9 +141,9 @@ cv_result cv_vulkan_gpu_table_build(const cv_vulkan_gpu_config *config, cv_vulka
         return r;
 
     uint32_t total = c.total ? c.total : chosen_count * c.virtual_per_adapter;
-    if (total > CV_VULKAN_MAX_GPUS)
+    if (total > CV_MAX_DEVICES)
         return cv_error(CV_ERROR_LIMIT_EXCEEDED, "vulkan: %u adapters x %u virtual GPUs exceeds %u devices",
-                        chosen_count, c.virtual_per_adapter, CV_VULKAN_MAX_GPUS);
+                        chosen_count, c.virtual_per_adapter, CV_MAX_DEVICES);
     cv_vulkan_gpu_table table = { .count = total };
     for (uint32_t i = 0; i < total; i++) {
         /* Explicit totals go round-robin over adapters; otherwise each

@@ -222,7 +222,7 @@ static void test_enable_and_submit(void) {
     CHECK(text && strstr(text, "culled: 'fill'\n") && !strstr(text, "pass 'fill'"));
     free(text);
     /* Submitted without waiting: the last ticket per device covers the frame. */
-    uint64_t tickets[CV_GRAPH_MAX_DEVICES];
+    uint64_t tickets[CV_MAX_DEVICES];
     CHECK_OK(cv_graph_submit(w.graph, tickets));
     for (uint32_t d = 0; d < 3; d++) {
         CHECK(tickets[d] > 0);

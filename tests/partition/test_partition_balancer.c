@@ -235,13 +235,13 @@ static void test_unmeasured_and_idle_devices(void) {
 /* Many devices of speeds 1, 2, 3, 4, 1, 2, ...: after a few frames each range
  * is within two tiles of its share (no speed is under the minimum share). */
 static void test_many_devices(uint32_t n) {
-    double speeds[CV_PARTITION_MAX_DEVICES];
+    double speeds[CV_MAX_DEVICES];
     for (uint32_t d = 0; d < n; d++)
         speeds[d] = 1 + d % 4;
     cv_balancer b;
     CHECK_OK(cv_balancer_init(&b, &(cv_balancer_desc){ .device_count = n }));
     cv_partition p;
-    double ms[CV_PARTITION_MAX_DEVICES];
+    double ms[CV_MAX_DEVICES];
     for (int frame = 0; frame < 5; frame++) {
         CHECK_OK(cv_balancer_split(&b, 4096, 8, &p));
         simulate_frame(&p, speeds, 0.0, NULL, ms);

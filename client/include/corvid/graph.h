@@ -75,7 +75,6 @@ typedef struct cv_graph cv_graph;
 typedef struct cv_graph_resource { uint32_t id; } cv_graph_resource;
 typedef struct cv_graph_pass { uint32_t id; } cv_graph_pass;
 
-#define CV_GRAPH_MAX_DEVICES 16u
 #define CV_GRAPH_MAX_PASSES 1024u
 #define CV_GRAPH_MAX_RESOURCES 1024u
 /* Passes and transfers of one bake. */
@@ -208,7 +207,7 @@ cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capac
  * frame on that device (devices run submissions in order). For pipelining
  * frames (keeping several in flight to hide a remote device's latency); the
  * lists are re-recorded on the next call, which submissions in flight allow. */
-cv_result cv_graph_submit(cv_graph *g, uint64_t tickets[CV_GRAPH_MAX_DEVICES]);
+cv_result cv_graph_submit(cv_graph *g, uint64_t tickets[CV_MAX_DEVICES]);
 
 /* The baked graph as stable text (same graph, same bytes) and as Graphviz dot. */
 cv_result cv_graph_dump_text(const cv_graph *g, FILE *f);

@@ -39,8 +39,6 @@
 /* Buffer writes of at least this many bytes are content-addressed (hashed,
  * sent once per node cache); smaller ones travel inline. */
 #define CV_NODE_BLOB_MIN_BYTES (256u << 10)
-/* Node device count a client can address. */
-#define CV_NODE_MAX_DEVICES 64u
 #define CV_SHA256_BYTES 32u
 
 /* Storage the pointers of a filled Corvid__CreateResource refer to. */

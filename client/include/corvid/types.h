@@ -9,6 +9,10 @@
 #include <stddef.h>
 
 #define CV_LABEL_MAX 48
+/* Devices working together at most: one cap shared by every layer that counts
+ * them (a context's virtual GPU table, a node's devices, the render graph, the
+ * partitioner, the renderer). */
+#define CV_MAX_DEVICES 64u
 #define CV_MAX_BINDINGS 16
 #define CV_MAX_PUSH_CONSTANTS 128
 #define CV_MAX_COLOR_TARGETS 2

@@ -507,8 +507,8 @@ static uint64_t physical_key(const graph_baked *b, uint32_t r, bool history) {
  * or a read meets a later write (never between two reads). A transfer waits
  * on the host, so it leaves nothing pending on either device. */
 static cv_result place_barriers(const cv_graph *g, graph_baked *b) {
-    uint32_t cap = 64, count = 0, tracked[CV_GRAPH_MAX_DEVICES] = { 0 };
-    track *state[CV_GRAPH_MAX_DEVICES] = { 0 };
+    uint32_t cap = 64, count = 0, tracked[CV_MAX_DEVICES] = { 0 };
+    track *state[CV_MAX_DEVICES] = { 0 };
     cv_result res = CV_OK;
     b->barriers = malloc(cap * sizeof(graph_barrier));
     for (uint32_t d = 0; d < g->device_count; d++)

@@ -170,7 +170,7 @@ static cv_result evaluate(cv_graph *g, bool wait, cv_graph_timing *timings, uint
         }
     }
     if (!wait) {   /* cv_graph_submit: the last tickets; after a failure, wait as below */
-        for (uint32_t d = 0; d < CV_GRAPH_MAX_DEVICES; d++)
+        for (uint32_t d = 0; d < CV_MAX_DEVICES; d++)
             last[d] = 0;
         for (uint32_t i = 0; i < b->instance_count && res == CV_OK; i++)
             if (tickets[i] > last[b->instances[i].device])
@@ -183,7 +183,7 @@ static cv_result evaluate(cv_graph *g, bool wait, cv_graph_timing *timings, uint
             res = res == CV_OK ? w : res;
         }
     /* Timings, and the balancer's feedback from the ALL_DEVICES passes. */
-    double ms[CV_PARTITION_MAX_DEVICES] = { 0 };
+    double ms[CV_MAX_DEVICES] = { 0 };
     bool balanced_pass = false;
     uint32_t n = 0;
     for (uint32_t s = 0; s < b->step_count && res == CV_OK && wait; s++) {
@@ -222,7 +222,7 @@ cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capac
     return evaluate(g, true, timings, capacity, count, NULL);
 }
 
-cv_result cv_graph_submit(cv_graph *g, uint64_t tickets[CV_GRAPH_MAX_DEVICES]) {
+cv_result cv_graph_submit(cv_graph *g, uint64_t tickets[CV_MAX_DEVICES]) {
     if (!tickets)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_submit: NULL tickets");
     return evaluate(g, false, NULL, 0, NULL, tickets);

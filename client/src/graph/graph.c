@@ -33,9 +33,9 @@ static bool grow(void **items, uint32_t *capacity, uint32_t needed, size_t size)
 }
 
 cv_result cv_graph_create(cv_context *ctx, cv_device *const *devices, uint32_t count, cv_graph **out) {
-    if (!ctx || !devices || !out || count == 0 || count > CV_GRAPH_MAX_DEVICES)
+    if (!ctx || !devices || !out || count == 0 || count > CV_MAX_DEVICES)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_create: need a context and 1..%u devices",
-                        CV_GRAPH_MAX_DEVICES);
+                        CV_MAX_DEVICES);
     for (uint32_t d = 0; d < count; d++)
         if (!devices[d] || cv_device_context(devices[d]) != ctx)
             return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_create: device %u is %s", d,

@@ -89,7 +89,7 @@ typedef struct graph_baked {
 
 struct cv_graph {
     cv_context *ctx;
-    cv_device *devices[CV_GRAPH_MAX_DEVICES];
+    cv_device *devices[CV_MAX_DEVICES];
     uint32_t device_count;
     graph_resource *resources;
     uint32_t resource_count, resource_capacity;

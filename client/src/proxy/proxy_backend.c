@@ -37,9 +37,9 @@ static cv_result resolve_device(const char *endpoint, const char *text, uint32_t
     char *end;
     unsigned long v = strtoul(text, &end, 10);
     if (!*end && text[0] != '-' && text[0] != '+') {
-        if (v >= CV_NODE_MAX_DEVICES)
+        if (v >= CV_MAX_DEVICES)
             return cv_error(CV_ERROR_NOT_FOUND, "node '%s': device %s does not exist (at most %u)", endpoint, text,
-                            CV_NODE_MAX_DEVICES);
+                            CV_MAX_DEVICES);
         *out = (uint32_t)v;   /* the node checks it against its own count at hello */
         return CV_OK;
     }

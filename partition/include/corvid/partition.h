@@ -58,8 +58,8 @@
 #include <stdint.h>
 
 #include "corvid/result.h"
+#include "corvid/types.h"
 
-#define CV_PARTITION_MAX_DEVICES 64
 
 /* Columns [x, x + width) of the pass. width 0 means the device sits this pass out. */
 typedef struct cv_column_range {
@@ -71,10 +71,10 @@ typedef struct cv_partition {
     uint32_t width;         /* columns of the whole pass */
     uint32_t tile;          /* every non-empty range starts on a multiple of this */
     uint32_t device_count;  /* ranges[0 .. device_count-1] are meaningful */
-    cv_column_range ranges[CV_PARTITION_MAX_DEVICES];
+    cv_column_range ranges[CV_MAX_DEVICES];
 } cv_partition;
 
-/* Splits `width` columns among `device_count` devices (1..CV_PARTITION_MAX_DEVICES)
+/* Splits `width` columns among `device_count` devices (1..CV_MAX_DEVICES)
  * in proportion to `weights` (device_count finite values >= 0, not all 0; NULL
  * means equal weights), with range starts snapped to multiples of `tile` (>= 1). */
 cv_result cv_partition_split(uint32_t width, uint32_t tile, uint32_t device_count,
@@ -89,7 +89,7 @@ cv_result cv_partition_split(uint32_t width, uint32_t tile, uint32_t device_coun
 cv_result cv_partition_validate(const cv_partition *p);
 
 typedef struct cv_balancer_desc {
-    uint32_t device_count;  /* 1..CV_PARTITION_MAX_DEVICES */
+    uint32_t device_count;  /* 1..CV_MAX_DEVICES */
     /* Weight of the newest measurement in the moving average of each device's
      * speed, in (0, 1]; 0 means 0.15. Lower is steadier, higher adapts faster. */
     double smoothing;
@@ -104,8 +104,8 @@ typedef struct cv_balancer {
     double smoothing;
     double min_share;
     uint32_t frames;                            /* updates taken so far */
-    bool measured[CV_PARTITION_MAX_DEVICES];    /* has a speed sample */
-    double speed[CV_PARTITION_MAX_DEVICES];     /* smoothed columns per ms */
+    bool measured[CV_MAX_DEVICES];    /* has a speed sample */
+    double speed[CV_MAX_DEVICES];     /* smoothed columns per ms */
     cv_partition last;                          /* the partition of the last update */
 } cv_balancer;
 
@@ -159,7 +159,7 @@ typedef struct cv_mgpu_copy {
 
 typedef struct cv_mgpu_copy_plan {
     uint32_t count;
-    cv_mgpu_copy copies[CV_PARTITION_MAX_DEVICES];
+    cv_mgpu_copy copies[CV_MAX_DEVICES];
 } cv_mgpu_copy_plan;
 
 /* Lists the copies that apply `rule` to the output of a pass that ran under

@@ -22,7 +22,6 @@
 #include "corvid/partition.h"
 #include "corvid/scene.h"
 
-#define CV_RENDER_MAX_DEVICES 16
 /* Rays per trace_rays command: a partition is traced in bands of rows so its
  * ray and hit buffers stay bounded (128 MiB of rays) whatever the image size. */
 #define CV_RENDER_BAND_RAYS (1u << 22)
@@ -53,7 +52,7 @@ typedef struct cv_render_device_stats {
 typedef struct cv_render_stats {
     uint32_t device_count;
     uint32_t frames;
-    cv_render_device_stats devices[CV_RENDER_MAX_DEVICES];
+    cv_render_device_stats devices[CV_MAX_DEVICES];
     uint64_t rays_total;        /* over all frames */
     uint64_t transfer_bytes;    /* over all frames, between devices */
     double transfer_ms;

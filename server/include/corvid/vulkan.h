@@ -136,7 +136,6 @@ cv_result cv_vulkan_set_trace_path(cv_device *dev, cv_vulkan_trace_path mode);
 
 /* ---- virtual GPU table ---------------------------------------------------- */
 
-#define CV_VULKAN_MAX_GPUS 64
 
 typedef struct cv_vulkan_gpu_config {
     /* Device instances per adapter; 0 = CORVID_VIRTUAL_GPUS from the environment, else 1. */
@@ -157,7 +156,7 @@ typedef struct cv_vulkan_gpu {
 /* The device indirection table: virtual GPU i runs on gpus[i].adapter. */
 typedef struct cv_vulkan_gpu_table {
     uint32_t count;
-    cv_vulkan_gpu gpus[CV_VULKAN_MAX_GPUS];
+    cv_vulkan_gpu gpus[CV_MAX_DEVICES];
 } cv_vulkan_gpu_table;
 
 /* Takes "--virtual-gpus N" (instances per adapter), "--gpus N" (total devices)
