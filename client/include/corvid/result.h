@@ -13,6 +13,7 @@
 #include <stdarg.h>
 
 /* X(NAME, value, description) */
+/* clang-format off */
 #define CV_RESULT_TABLE(X)                                                                   \
     X(CV_OK, 0, "success")                                                                   \
     X(CV_ERROR_INVALID_ARGUMENT, -1, "invalid argument")                                     \
@@ -39,6 +40,7 @@
     X(CV_ERROR_IO, -22, "input/output error")                                                \
     X(CV_ERROR_NOT_FOUND, -23, "not found")                                                  \
     X(CV_ERROR_CONNECTION, -24, "connection failed or dropped")
+/* clang-format on */
 
 typedef enum cv_result {
 #define CV_RESULT_ENUM(name, value, text) name = value,
