@@ -15,7 +15,8 @@ execute_process(COMMAND ${CC} -std=c11 -fsyntax-only -I${INCLUDE} ${SRC}/type_sa
 if(bad_rc EQUAL 0)
   message(FATAL_ERROR "type_safety_bad.c compiled: a texture handle was accepted as a buffer")
 endif()
-if(NOT bad_err MATCHES "incompatible types")
+# gcc: "incompatible types when initializing"; clang: "with an expression of incompatible type".
+if(NOT bad_err MATCHES "incompatible type")
   message(FATAL_ERROR "type_safety_bad.c failed for another reason:\n${bad_err}")
 endif()
 message(STATUS "type safety: 2 passed, 0 failed")
