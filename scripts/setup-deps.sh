@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages Corvid needs, skipping what is already present.
 # Vulkan on CPU machines is Mesa 25 lavapipe from bookworm-backports (Vulkan 1.4,
-# descriptor indexing, ray-tracing pipeline), see docs/stack.md.
+# descriptor indexing, ray-tracing pipeline), see docs/building.md. clang and
+# clang-format (14) are for CI's clang build and format check.
 # Idempotent: a second run with everything installed touches nothing.
 set -euo pipefail
 
 packages=(
-  build-essential cmake ninja-build pkg-config
+  build-essential cmake ninja-build pkg-config clang clang-format
   libvulkan-dev vulkan-validationlayers glslang-tools spirv-tools vulkan-tools
   libgrpc-dev libprotobuf-c-dev protobuf-c-compiler libmicrohttpd-dev
   libopenexr-dev libpng-dev libzstd-dev libssl-dev openssl

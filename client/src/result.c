@@ -1,6 +1,7 @@
 /* Result names, descriptions and the per-thread error message. */
 #include "corvid/result.h"
 
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -32,10 +33,15 @@ cv_result cv_verror(cv_result code, const char *fmt, va_list ap) {
     char message[sizeof(last_error)];   /* the arguments may quote last_error itself */
     vsnprintf(message, sizeof(message), fmt, ap);
     snprintf(last_error, sizeof(last_error), "%s", message);
-    static int log_errors = -1;
-    if (log_errors < 0)
-        log_errors = getenv("CORVID_LOG_ERRORS") != NULL;
-    if (log_errors)
+    /* Process-wide on purpose: the environment is the process's. Read once,
+     * lazily; an atomic because errors are reported from many threads. */
+    static atomic_int log_errors = -1;
+    int log = atomic_load_explicit(&log_errors, memory_order_relaxed);
+    if (log < 0) {
+        log = getenv("CORVID_LOG_ERRORS") != NULL;
+        atomic_store_explicit(&log_errors, log, memory_order_relaxed);
+    }
+    if (log)
         fprintf(stderr, "corvid: %s: %s\n", cv_result_name(code), last_error);
     return code;
 }

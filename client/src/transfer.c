@@ -17,7 +17,7 @@
 #include "device_internal.h"
 #include "transfer_link.h"
 
-#define CHUNK_BYTES (4u << 20)   /* NOTES-STACK: 1-4 MiB pieces move fastest */
+#define CHUNK_BYTES (4u << 20)   /* bench_transfer measures this size (bench/README.md) */
 _Static_assert((uint64_t)CV_MAX_TEXTURE_DIM * 16 <= CHUNK_BYTES, "a texture row fits one staging slot");
 
 static double now_ms(void) {

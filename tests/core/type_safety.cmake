@@ -15,7 +15,7 @@ execute_process(COMMAND ${CC} -std=c11 -fsyntax-only -I${INCLUDE} ${SRC}/type_sa
 if(bad_rc EQUAL 0)
   message(FATAL_ERROR "type_safety_bad.c compiled: a texture handle was accepted as a buffer")
 endif()
-# gcc says "incompatible types", clang "incompatible type".
+# gcc: "incompatible types when initializing"; clang: "with an expression of incompatible type".
 if(NOT bad_err MATCHES "incompatible type")
   message(FATAL_ERROR "type_safety_bad.c failed for another reason:\n${bad_err}")
 endif()

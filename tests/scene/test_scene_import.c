@@ -102,7 +102,7 @@ static void test_engine(void)
     CHECK_OK(cv_scene_import(path, &s));
     if (!s)
         return;
-    /* Measured with assimp and counted independently (NOTES-STACK.md). */
+    /* Measured with assimp and counted independently. */
     CHECK_EQ_INT(cv_scene_mesh_count(s), 34);
     CHECK_EQ_INT(cv_scene_triangle_count(s), 75730);
     CHECK_EQ_INT(cv_scene_world_triangle_count(s), 121496);

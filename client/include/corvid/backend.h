@@ -10,7 +10,7 @@
  *   leaves no partial state behind.
  * - resource_destroy / list_release are called only once the core knows no
  *   submitted work uses the object any more (completed() passed its last use).
- * - list_compile gets a list that validate.h already accepted for this device;
+ * - list_compile gets a list that client/src/validate.c already accepted for this device;
  *   it may look resources up with cv_device_lookup() and trust what it finds.
  * - submit must give the submission the ticket it is passed; tickets increase
  *   by one per submit; completed() returns the highest finished ticket.

@@ -13,7 +13,7 @@
  * What recording checks needs no device: queue types, handle type tags, sizes
  * and limits, render-pass and marker nesting. What needs a device (is the handle
  * loaded, is the copy in bounds, do formats match) is checked when the list is
- * compiled for a device (validate.h), identically for every backend. */
+ * compiled for a device (client/src/validate.c), identically for every backend. */
 #ifndef CORVID_COMMAND_LIST_H
 #define CORVID_COMMAND_LIST_H
 

@@ -28,6 +28,7 @@
 #define CV_Q_GC (CV_QUEUE_BIT_GRAPHICS | CV_QUEUE_BIT_COMPUTE)
 #define CV_Q_G CV_QUEUE_BIT_GRAPHICS
 
+/* clang-format off */
 #define CV_COMMAND_TABLE(X)                                                               \
     X(1, DISPATCH, dispatch, Dispatch, CV_Q_GC)                                           \
     X(2, DISPATCH_INDIRECT, dispatch_indirect, DispatchIndirect, CV_Q_GC)                 \
@@ -117,6 +118,7 @@ typedef enum cv_command_type {
 #undef CV_CMD_ENUM
     CV_CMD_TYPE_END
 } cv_command_type;
+/* clang-format on */
 
 const char *cv_command_name(cv_command_type t);   /* "dispatch", ... or "unknown" */
 uint32_t cv_command_queues(cv_command_type t);    /* allowed queue bits, 0 if unknown */

@@ -7,7 +7,7 @@
  * be created and destroyed while the application runs.
  *
  * Before a list is compiled, it is validated against this device's resources
- * (validate.h): every handle loaded and of the right type, every copy and
+ * (client/src/validate.c): every handle loaded and of the right type, every copy and
  * binding in bounds, formats and usages matching the pipeline registry. A bad
  * list is rejected with a message and nothing is submitted.
  *

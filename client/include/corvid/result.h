@@ -13,6 +13,7 @@
 #include <stdarg.h>
 
 /* X(NAME, value, description) */
+/* clang-format off */
 #define CV_RESULT_TABLE(X)                                                                   \
     X(CV_OK, 0, "success")                                                                   \
     X(CV_ERROR_INVALID_ARGUMENT, -1, "invalid argument")                                     \
@@ -42,6 +43,7 @@
     X(CV_ERROR_FOREIGN_HANDLE, -25, "handle belongs to another context")                     \
     X(CV_ERROR_ALREADY_EXISTS, -26, "already exists")                                        \
     X(CV_ERROR_HASH_MISMATCH, -27, "content does not match its hash")
+/* clang-format on */
 
 typedef enum cv_result {
 #define CV_RESULT_ENUM(name, value, text) name = value,

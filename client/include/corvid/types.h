@@ -35,6 +35,7 @@ enum {
 const char *cv_queue_type_name(cv_queue_type q);
 
 /* X(NAME, bytes per texel, is_depth, description) */
+/* clang-format off */
 #define CV_FORMAT_TABLE(X)                               \
     X(UNDEFINED, 0, 0, "undefined")                      \
     X(RGBA8_UNORM, 4, 0, "rgba8 unorm")                  \
@@ -52,6 +53,7 @@ typedef enum cv_format {
 #undef CV_FORMAT_ENUM
     CV_FORMAT_COUNT
 } cv_format;
+/* clang-format on */
 
 uint32_t cv_format_bytes(cv_format f);   /* 0 for UNDEFINED or out of range */
 bool cv_format_is_depth(cv_format f);
