@@ -36,10 +36,10 @@ static void usage(FILE *f) {
 
 typedef struct layer_def {
     const char *name;
-    const char *channels[3];    /* full EXR channel names */
+    const char *channels[3]; /* full EXR channel names */
     uint32_t count;
-    bool luminance;             /* reduce to luminance (else each channel) */
-    double peak;                /* SSIM's L; 0 = A's largest compared value */
+    bool luminance; /* reduce to luminance (else each channel) */
+    double peak;    /* SSIM's L; 0 = A's largest compared value */
 } layer_def;
 
 static const layer_def layer_defs[] = {
@@ -111,8 +111,9 @@ static int compare_row(const cv_exr_image *a, const cv_exr_image *b, const uint8
     }
     out->layer = d->name;
     snprintf(out->channel, sizeof out->channel, "%s",
-             channel < 0 ? "L" : strrchr(d->channels[channel], '.') ? strrchr(d->channels[channel], '.') + 1
-                                                                     : d->channels[channel]);
+             channel < 0                          ? "L"
+             : strrchr(d->channels[channel], '.') ? strrchr(d->channels[channel], '.') + 1
+                                                  : d->channels[channel]);
     out->peak = peak;
     if (rc == 0 && cv_image_metrics_f32(pa, pb, mask, a->width, a->height, peak, &out->m) != CV_OK) {
         fprintf(stderr, "corvid-compare: %s\n", cv_last_error());
@@ -217,8 +218,10 @@ int main(int argc, char **argv) {
             common[ncommon++] = d;
     }
     if (rc == 0 && ncommon == 0) {
-        fprintf(stderr, "corvid-compare: %s and %s have no layer in common (radiance R/G/B, albedo.*, normal.*, "
-                "depth.Z, shadow.Y, ao.Y)\n", paths[0], paths[1]);
+        fprintf(stderr,
+                "corvid-compare: %s and %s have no layer in common (radiance R/G/B, albedo.*, normal.*, "
+                "depth.Z, shadow.Y, ao.Y)\n",
+                paths[0], paths[1]);
         rc = 2;
     }
     size_t n = (size_t)img[0].width * img[0].height;
@@ -261,9 +264,11 @@ int main(int argc, char **argv) {
         print_json_string(paths[0]);
         printf(", \"b\": ");
         print_json_string(paths[1]);
-        printf(", \"width\": %u, \"height\": %u, \"covered_a\": %llu, \"covered_b\": %llu, \"compared\": %llu, "
-               "\"layers\": [", img[0].width, img[0].height, (unsigned long long)covered[0],
-               (unsigned long long)covered[1], (unsigned long long)both);
+        printf(
+            ", \"width\": %u, \"height\": %u, \"covered_a\": %llu, \"covered_b\": %llu, \"compared\": %llu, "
+            "\"layers\": [",
+            img[0].width, img[0].height, (unsigned long long)covered[0], (unsigned long long)covered[1],
+            (unsigned long long)both);
         for (size_t r = 0; r < nrows; r++) {
             const cv_image_metrics *m = &rows[r].m;
             printf("%s\n  {\"layer\": \"%s\", \"channel\": \"%s\", \"pixels\": %llu, \"nonfinite\": %llu, \"rmse\": ",

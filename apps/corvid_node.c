@@ -68,7 +68,8 @@ static void usage(FILE *f) {
             "\nSecurity (docs/node.md, \"Security\"):\n"
             "  --token-file FILE      clients must send this bearer token (the file's first line) on every\n"
             "                         session and Info call; also CORVID_NODE_TOKEN_FILE. Required unless\n"
-            "                         --listen is loopback (127.0.0.0/8, ::1, localhost). Never on the command line.\n"
+            "                         --listen is loopback (127.0.0.0/8, ::1, localhost). Never on the command "
+            "line.\n"
             "  --tls-cert FILE        TLS: the node's certificate chain (PEM); with --tls-key\n"
             "  --tls-key FILE         TLS: its private key (PEM)\n"
             "  --tls-client-ca FILE   mutual TLS: clients need a certificate signed by this CA (PEM)\n"
@@ -99,9 +100,12 @@ static int parse_size(const char *opt, const char *text, uint64_t *out) {
     uint64_t scale = 1;
     if (end && *end) {
         switch (*end) {
-        case 'K': case 'k': scale = 1ull << 10; break;
-        case 'M': case 'm': scale = 1ull << 20; break;
-        case 'G': case 'g': scale = 1ull << 30; break;
+        case 'K':
+        case 'k': scale = 1ull << 10; break;
+        case 'M':
+        case 'm': scale = 1ull << 20; break;
+        case 'G':
+        case 'g': scale = 1ull << 30; break;
         default: scale = 0; break;
         }
         if (end[1])
@@ -118,8 +122,13 @@ static int parse_size(const char *opt, const char *text, uint64_t *out) {
 
 /* Returns 0 to run, 1 after --help, 2 on a bad option (nothing started). */
 static int parse_args(int argc, char **argv, options *o) {
-    *o = (options){ .listen = "127.0.0.1:7700", .backend = "vulkan", .cache_bytes = 4ull << 30,
-                    .idle_timeout_s = 300, .drain_timeout_s = 30, .max_sessions = 256, .mock_devices = 1 };
+    *o = (options){ .listen = "127.0.0.1:7700",
+                    .backend = "vulkan",
+                    .cache_bytes = 4ull << 30,
+                    .idle_timeout_s = 300,
+                    .drain_timeout_s = 30,
+                    .max_sessions = 256,
+                    .mock_devices = 1 };
     for (int i = 1; i < argc; i++) {
         char *arg = argv[i];
         char *eq = strncmp(arg, "--", 2) == 0 ? strchr(arg, '=') : NULL;
@@ -187,7 +196,8 @@ static int parse_args(int argc, char **argv, options *o) {
         } else if (!strcmp(name, "--quota-upload")) {
             bad = parse_size(name, value, &o->quota.upload_bytes);
         } else if (!strcmp(name, "--token")) {
-            fprintf(stderr, "corvid-node: --token: a token on the command line is visible to every user (ps); put "
+            fprintf(stderr,
+                    "corvid-node: --token: a token on the command line is visible to every user (ps); put "
                     "it in a file and give --token-file FILE\n");
             return 2;
         } else {
@@ -221,7 +231,7 @@ static int parse_args(int argc, char **argv, options *o) {
 static int default_cache_dir(char *out, size_t cap) {
     const char *xdg = getenv("XDG_CACHE_HOME");
     const char *home = getenv("HOME");
-    int n = xdg && *xdg ? snprintf(out, cap, "%s/corvid-node", xdg)
+    int n = xdg && *xdg     ? snprintf(out, cap, "%s/corvid-node", xdg)
             : home && *home ? snprintf(out, cap, "%s/.cache/corvid-node", home)
                             : snprintf(out, cap, "/var/tmp/corvid-node-cache");
     return n > 0 && (size_t)n < cap ? 0 : -1;
@@ -278,14 +288,18 @@ int main(int argc, char **argv) {
     }
     if (!cv_node_listen_is_local(o.listen)) {
         if (!o.token_file) {
-            fprintf(stderr, "corvid-node: --listen %s is not loopback: give a token with --token-file FILE (or "
+            fprintf(stderr,
+                    "corvid-node: --listen %s is not loopback: give a token with --token-file FILE (or "
                     "CORVID_NODE_TOKEN_FILE), a file whose first line is the token; clients set "
-                    "CORVID_NODE_TOKEN_FILE to a file with the same token\n", o.listen);
+                    "CORVID_NODE_TOKEN_FILE to a file with the same token\n",
+                    o.listen);
             return 2;
         }
         if (!o.tls_cert)
-            fprintf(stderr, "corvid-node: warning: --listen %s without --tls-cert: the token and all data travel "
-                    "unencrypted\n", o.listen);
+            fprintf(stderr,
+                    "corvid-node: warning: --listen %s without --tls-cert: the token and all data travel "
+                    "unencrypted\n",
+                    o.listen);
     }
     char cache_dir[PATH_MAX];
     if (!o.cache_dir && default_cache_dir(cache_dir, sizeof(cache_dir)) != 0) {
@@ -327,7 +341,7 @@ int main(int argc, char **argv) {
     };
     cv_node *node;
     r = cv_node_start(&config, &node);
-    memset(token, 0, sizeof(token));   /* the node keeps only its hash */
+    memset(token, 0, sizeof(token)); /* the node keeps only its hash */
     if (r != CV_OK) {
         fprintf(stderr, "corvid-node: %s\n", cv_last_error());
         return 1;
@@ -351,11 +365,13 @@ int main(int argc, char **argv) {
     const char *colon = strrchr(o.listen, ':');
     printf("corvid-node: listening on %.*s:%d with %u device%s (%s), cache %s, %s, %s\n", (int)(colon - o.listen),
            o.listen, port, device_count, device_count == 1 ? "" : "s", o.backend, config.cache_dir,
-           o.tls_client_ca ? "mutual TLS" : o.tls_cert ? "TLS" : "plaintext",
+           o.tls_client_ca ? "mutual TLS"
+           : o.tls_cert    ? "TLS"
+                           : "plaintext",
            o.token_file ? "token required" : "no token");
     if (metrics)
-        printf("corvid-node: metrics at http://%s:%d/metrics\n", metrics_opts.listen ? metrics_opts.listen : "127.0.0.1",
-               cv_metrics_server_port(metrics));
+        printf("corvid-node: metrics at http://%s:%d/metrics\n",
+               metrics_opts.listen ? metrics_opts.listen : "127.0.0.1", cv_metrics_server_port(metrics));
     fflush(stdout);
 
     int sig = 0;
@@ -364,10 +380,11 @@ int main(int argc, char **argv) {
             sig == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_timeout_s);
     cv_node_drain(node);
     cv_node_stats stats = cv_node_get_stats(node);
-    cv_metrics_server_stop(metrics);   /* it reads the node: gone before the node is */
+    cv_metrics_server_stop(metrics); /* it reads the node: gone before the node is */
     cv_node_stop(node, o.drain_timeout_s * 1000u);
-    fprintf(stderr, "corvid-node: stopped after %" PRIu64 " sessions, %" PRIu64 " submissions, %" PRIu64
-            " bytes in, %" PRIu64 " bytes out\n", stats.sessions_started, stats.submissions, stats.bytes_in,
-            stats.bytes_out);
+    fprintf(stderr,
+            "corvid-node: stopped after %" PRIu64 " sessions, %" PRIu64 " submissions, %" PRIu64 " bytes in, %" PRIu64
+            " bytes out\n",
+            stats.sessions_started, stats.submissions, stats.bytes_in, stats.bytes_out);
     return 0;
 }

@@ -60,11 +60,11 @@ static void usage(FILE *f) {
 
 typedef struct options {
     const char *scene, *out;
-    const char *dump_graph;      /* --dump-graph FILE: text to FILE, dot to FILE.dot */
-    const char *nodes;           /* --nodes, or CORVID_NODES; NULL = local devices */
-    uint64_t stress_triangles;   /* > 0 for --scene stress:N */
+    const char *dump_graph;    /* --dump-graph FILE: text to FILE, dot to FILE.dot */
+    const char *nodes;         /* --nodes, or CORVID_NODES; NULL = local devices */
+    uint64_t stress_triangles; /* > 0 for --scene stress:N */
     uint32_t seed;
-    uint32_t reference;          /* --reference N: samples per pixel of the CPU reference; 0 = GPU render */
+    uint32_t reference; /* --reference N: samples per pixel of the CPU reference; 0 = GPU render */
     cv_render_settings settings;
     float exposure;
     bool validation, quiet, list_adapters, help;
@@ -291,8 +291,9 @@ static cv_result dump_graph(cv_renderer *renderer, const char *path) {
     memcpy(dot_path, path, len);
     memcpy(dot_path + len, ".dot", 5);
     FILE *text = fopen(path, "w"), *dot = fopen(dot_path, "w");
-    cv_result r = text && dot ? cv_renderer_dump_graph(renderer, text, dot)
-                              : cv_error(CV_ERROR_IO, "--dump-graph: %s: %s", text ? dot_path : path, strerror(errno));
+    cv_result r = text && dot
+                      ? cv_renderer_dump_graph(renderer, text, dot)
+                      : cv_error(CV_ERROR_IO, "--dump-graph: %s: %s", text ? dot_path : path, strerror(errno));
     if (text && fclose(text) != 0 && r == CV_OK)
         r = cv_error(CV_ERROR_IO, "--dump-graph: %s: %s", path, strerror(errno));
     if (dot && fclose(dot) != 0 && r == CV_OK)
@@ -320,11 +321,11 @@ static void progress(uint32_t frame, uint32_t frames, void *user) {
  * in their directory before anything is rendered, so that a destination that
  * cannot take them fails at once rather than after the whole render. */
 typedef struct outputs {
-    char *exr, *png;             /* final names */
+    char *exr, *png; /* final names */
     const char *exr_temp, *png_temp;
     cv_file_set *set;
-    char *made;                  /* the folders this run created, to remove on failure; NULL if none */
-    size_t made_top;             /* length of the top-most folder created */
+    char *made;      /* the folders this run created, to remove on failure; NULL if none */
+    size_t made_top; /* length of the top-most folder created */
 } outputs;
 
 /* A copy of `a` followed by `b`, or NULL without memory. */
@@ -421,13 +422,12 @@ static float *plane(const float *rgba, size_t pixels, int c) {
 
 /* Writes both files to their temporaries and renames them into place only
  * when both were written. */
-static cv_result write_images(const options *o, outputs *out, const cv_render_output *img,
-                              const cv_camera *camera) {
+static cv_result write_images(const options *o, outputs *out, const cv_render_output *img, const cv_camera *camera) {
     size_t n = (size_t)img->width * img->height;
     cv_result r = CV_OK;
     float *depth = malloc(n * sizeof(float));
-    float *planes[8] = { plane(img->albedo, n, 0), plane(img->albedo, n, 1), plane(img->albedo, n, 2),
-                         plane(img->normal, n, 0), plane(img->normal, n, 1), plane(img->normal, n, 2),
+    float *planes[8] = { plane(img->albedo, n, 0),     plane(img->albedo, n, 1),    plane(img->albedo, n, 2),
+                         plane(img->normal, n, 0),     plane(img->normal, n, 1),    plane(img->normal, n, 2),
                          plane(img->visibility, n, 0), plane(img->visibility, n, 1) };
     for (int i = 0; i < 8; i++)
         if (!planes[i])
@@ -441,18 +441,33 @@ static cv_result write_images(const options *o, outputs *out, const cv_render_ou
     }
     if (r == CV_OK) {
         cv_exr_layer layers[] = {
-            { .channel_count = 4, .channels = { "R", "G", "B", "A" }, .type = CV_EXR_FLOAT,
+            { .channel_count = 4,
+              .channels = { "R", "G", "B", "A" },
+              .type = CV_EXR_FLOAT,
               .interleaved = img->radiance },
-            { .name = "albedo", .channel_count = 3, .channels = { "R", "G", "B" }, .type = CV_EXR_HALF,
+            { .name = "albedo",
+              .channel_count = 3,
+              .channels = { "R", "G", "B" },
+              .type = CV_EXR_HALF,
               .planes = { planes[0], planes[1], planes[2] } },
-            { .name = "normal", .channel_count = 3, .channels = { "X", "Y", "Z" }, .type = CV_EXR_FLOAT,
+            { .name = "normal",
+              .channel_count = 3,
+              .channels = { "X", "Y", "Z" },
+              .type = CV_EXR_FLOAT,
               .planes = { planes[3], planes[4], planes[5] } },
             { .name = "depth", .channel_count = 1, .channels = { "Z" }, .type = CV_EXR_FLOAT, .planes = { depth } },
-            { .name = "shadow", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { planes[6] } },
+            { .name = "shadow",
+              .channel_count = 1,
+              .channels = { "Y" },
+              .type = CV_EXR_HALF,
+              .planes = { planes[6] } },
             { .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { planes[7] } },
         };
-        r = cv_exr_write(out->exr_temp, &(cv_exr_desc){ .width = img->width, .height = img->height, .compression = CV_EXR_ZIP,
-                                               .layer_count = 6, .layers = layers });
+        r = cv_exr_write(out->exr_temp, &(cv_exr_desc){ .width = img->width,
+                                                        .height = img->height,
+                                                        .compression = CV_EXR_ZIP,
+                                                        .layer_count = 6,
+                                                        .layers = layers });
     }
     uint8_t *rgb = r == CV_OK ? malloc(n * 3) : NULL;
     if (r == CV_OK && !rgb)
@@ -481,8 +496,8 @@ static int list_adapters(void) {
     }
     for (uint32_t i = 0; i < count && i < 16; i++)
         printf("%u: %s (%s)%s%s%s\n", info[i].index, info[i].name, info[i].driver,
-               info[i].ray_tracing_pipeline ? ", ray-tracing pipeline" : "", info[i].usable ? "" : ", unusable: ",
-               info[i].usable ? "" : info[i].unusable_reason);
+               info[i].ray_tracing_pipeline ? ", ray-tracing pipeline" : "",
+               info[i].usable ? "" : ", unusable: ", info[i].usable ? "" : info[i].unusable_reason);
     return 0;
 }
 
@@ -556,8 +571,9 @@ int main(int argc, char **argv) {
             return 2;
     }
     if (o.nodes && local_choice) {
-        fprintf(stderr, "corvid-render: --nodes renders on the devices the nodes serve; --gpus, --virtual-gpus and "
-                        "--adapters choose local ones: give one or the other\n");
+        fprintf(stderr,
+                "corvid-render: --nodes renders on the devices the nodes serve; --gpus, --virtual-gpus and "
+                "--adapters choose local ones: give one or the other\n");
         return 2;
     }
 
@@ -652,11 +668,12 @@ int main(int argc, char **argv) {
         for (uint32_t d = 0; o.nodes && d < device_count; d++) {
             cv_proxy_stats ps;
             if (cv_proxy_get_stats(devices[d], &ps) == CV_OK)
-                printf("  %s: sent %.2f MB, received %.2f MB, %llu round trips + %llu waits for finished work; "
-                       "scene data uploaded %.2f MB, already on the node %.2f MB\n", cv_device_label(devices[d]),
-                       ps.bytes_sent / 1e6, ps.bytes_received / 1e6, (unsigned long long)ps.round_trips,
-                       (unsigned long long)ps.blocking_waits, ps.upload_bytes_sent / 1e6,
-                       ps.upload_bytes_skipped / 1e6);
+                printf(
+                    "  %s: sent %.2f MB, received %.2f MB, %llu round trips + %llu waits for finished work; "
+                    "scene data uploaded %.2f MB, already on the node %.2f MB\n",
+                    cv_device_label(devices[d]), ps.bytes_sent / 1e6, ps.bytes_received / 1e6,
+                    (unsigned long long)ps.round_trips, (unsigned long long)ps.blocking_waits,
+                    ps.upload_bytes_sent / 1e6, ps.upload_bytes_skipped / 1e6);
         }
     }
     if (r == CV_OK && o.validation && cv_vulkan_validation_message_count())

@@ -9,9 +9,9 @@
 #include <stdbool.h>
 
 typedef struct node_metrics_options {
-    bool enabled;            /* --metrics-port given */
+    bool enabled; /* --metrics-port given */
     int port;
-    const char *listen;      /* NULL = 127.0.0.1 */
+    const char *listen; /* NULL = 127.0.0.1 */
 } node_metrics_options;
 
 /* Takes the options above out of argv (argc shrinks); the rest is left in

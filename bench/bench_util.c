@@ -10,8 +10,7 @@
 
 #define MAX_THREADS 256
 
-double bench_now(void)
-{
+double bench_now(void) {
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
@@ -24,8 +23,7 @@ typedef struct loop {
     atomic_size_t next;
 } loop;
 
-static void *run(void *p)
-{
+static void *run(void *p) {
     loop *l = p;
     for (;;) {
         size_t begin = atomic_fetch_add(&l->next, l->chunk);
@@ -35,9 +33,8 @@ static void *run(void *p)
     }
 }
 
-void bench_parallel(uint32_t threads, size_t count, size_t chunk, bench_range_fn fn, void *ctx)
-{
-    loop l = {.fn = fn, .ctx = ctx, .count = count, .chunk = chunk ? chunk : 1};
+void bench_parallel(uint32_t threads, size_t count, size_t chunk, bench_range_fn fn, void *ctx) {
+    loop l = { .fn = fn, .ctx = ctx, .count = count, .chunk = chunk ? chunk : 1 };
     atomic_init(&l.next, 0);
     pthread_t tids[MAX_THREADS];
     uint32_t started = 0;
@@ -51,8 +48,7 @@ void bench_parallel(uint32_t threads, size_t count, size_t chunk, bench_range_fn
         pthread_join(tids[i], NULL);
 }
 
-void bench_machine(char *buf, size_t size)
-{
+void bench_machine(char *buf, size_t size) {
     char model[256] = "unknown CPU", line[512];
     FILE *f = fopen("/proc/cpuinfo", "r");
     while (f && fgets(line, sizeof line, f)) {

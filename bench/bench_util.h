@@ -7,7 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-double bench_now(void);     /* seconds, monotonic */
+double bench_now(void); /* seconds, monotonic */
 
 /* fn(ctx, begin, end) over [0, count) in chunks of `chunk`, on `threads` threads. */
 typedef void (*bench_range_fn)(void *ctx, size_t begin, size_t end);

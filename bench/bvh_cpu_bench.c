@@ -35,8 +35,7 @@ typedef struct options {
     uint32_t seed;
 } options;
 
-static void usage(FILE *f)
-{
+static void usage(FILE *f) {
     fprintf(f,
             "usage: bench_bvh_cpu [options]\n"
             "Builds BVHs and traces ray sets with Corvid's CPU code and with Embree 3,\n"
@@ -53,11 +52,16 @@ static void usage(FILE *f)
             "  --help           this text\n");
 }
 
-static bool parse(int argc, char **argv, options *o)
-{
-    *o = (options){.threads = (uint32_t)sysconf(_SC_NPROCESSORS_ONLN), .width = 512, .height = 512,
-                   .stress_triangles = 1000000, .room = true, .stress = true, .imported = true, .min_time = 0.3,
-                   .seed = 1};
+static bool parse(int argc, char **argv, options *o) {
+    *o = (options){ .threads = (uint32_t)sysconf(_SC_NPROCESSORS_ONLN),
+                    .width = 512,
+                    .height = 512,
+                    .stress_triangles = 1000000,
+                    .room = true,
+                    .stress = true,
+                    .imported = true,
+                    .min_time = 0.3,
+                    .seed = 1 };
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -108,23 +112,21 @@ typedef struct builds {
     cv_bvh *flat;
     cv_scene_bvh *two_level;
     embree_peer *embree;
-    double flat_s, two_level_s, embree_s;   /* best of the repetitions */
+    double flat_s, two_level_s, embree_s; /* best of the repetitions */
 } builds;
 
 /* Further runs of a build that took `first` seconds (the best run is kept,
  * shared machines are noisy): two more, up to four to fill min_time; none
  * for builds over two seconds. */
-static int build_reps(const options *o, double first)
-{
+static int build_reps(const options *o, double first) {
     if (first > 2.0)
         return 0;
     int reps = first > 0.0 ? (int)(o->min_time / first) : 4;
     return reps < 2 ? 2 : reps > 4 ? 4 : reps;
 }
 
-static bool build_all(const options *o, const cv_scene *s, builds *b)
-{
-    cv_bvh_build_options opt = {.thread_count = o->threads};
+static bool build_all(const options *o, const cv_scene *s, builds *b) {
+    cv_bvh_build_options opt = { .thread_count = o->threads };
     double t0 = bench_now();
     if (cv_bvh_build_flat(s, &opt, &b->flat) != CV_OK) {
         fprintf(stderr, "corvid flat build failed: %s\n", cv_last_error());
@@ -156,26 +158,25 @@ static bool build_all(const options *o, const cv_scene *s, builds *b)
     return true;
 }
 
-static void print_builds(const cv_scene *s, const builds *b)
-{
+static void print_builds(const cv_scene *s, const builds *b) {
     double tris = (double)cv_scene_world_triangle_count(s);
     cv_bvh_report rep;
     bool checked = cv_bvh_check(b->flat, &rep) == CV_OK;
     printf("  build (best of runs)          time        Mtris/s\n");
-    printf("  corvid flat                %8.1f ms  %8.2f   (%u nodes, SAH %.1f, invariants %s)\n",
-           b->flat_s * 1e3, tris / b->flat_s * 1e-6, b->flat->node_count, checked ? rep.sah_cost : 0.0,
+    printf("  corvid flat                %8.1f ms  %8.2f   (%u nodes, SAH %.1f, invariants %s)\n", b->flat_s * 1e3,
+           tris / b->flat_s * 1e-6, b->flat->node_count, checked ? rep.sah_cost : 0.0,
            checked ? "ok" : cv_last_error());
     printf("  corvid two-level           %8.1f ms  %8.2f   (%u meshes, %u instances)\n", b->two_level_s * 1e3,
            tris / b->two_level_s * 1e-6, b->two_level->mesh_count, b->two_level->instance_count);
-    printf("  embree rtcCommitScene      %8.1f ms  %8.2f   corvid flat / embree: %.2fx the time\n",
-           b->embree_s * 1e3, tris / b->embree_s * 1e-6, b->flat_s / b->embree_s);
+    printf("  embree rtcCommitScene      %8.1f ms  %8.2f   corvid flat / embree: %.2fx the time\n", b->embree_s * 1e3,
+           tris / b->embree_s * 1e-6, b->flat_s / b->embree_s);
 }
 
 /* ---- tracing ---- */
 
 enum { T_SKIP, T_NODE2, T_TWO_LEVEL, T_EMBREE1, T_EMBREE16, TRACERS };
-static const char *const tracer_names[TRACERS] = {"corvid skip", "corvid node2", "corvid 2-lvl", "embree x1",
-                                                  "embree x16"};
+static const char *const tracer_names[TRACERS] = { "corvid skip", "corvid node2", "corvid 2-lvl", "embree x1",
+                                                   "embree x16" };
 
 typedef struct run_ctx {
     const options *o;
@@ -184,13 +185,12 @@ typedef struct run_ctx {
     bool occlusion;
 } run_ctx;
 
-static void trace_once(const run_ctx *c, int tracer, cv_hit *hits)
-{
+static void trace_once(const run_ctx *c, int tracer, cv_hit *hits) {
     uint32_t flags = c->occlusion ? CV_TRACE_ANY_HIT : CV_TRACE_CLOSEST;
-    cv_trace_target t = {.flat = c->b->flat, .layout = CV_BVH_LAYOUT_SKIP};
+    cv_trace_target t = { .flat = c->b->flat, .layout = CV_BVH_LAYOUT_SKIP };
     switch (tracer) {
     case T_NODE2: t.layout = CV_BVH_LAYOUT_NODE2; break;
-    case T_TWO_LEVEL: t = (cv_trace_target){.two_level = c->b->two_level, .layout = CV_BVH_LAYOUT_NODE2}; break;
+    case T_TWO_LEVEL: t = (cv_trace_target){ .two_level = c->b->two_level, .layout = CV_BVH_LAYOUT_NODE2 }; break;
     case T_EMBREE1:
     case T_EMBREE16:
         embree_peer_trace(c->b->embree, c->set->rays, c->set->count, c->occlusion, tracer == T_EMBREE1 ? 1 : 16,
@@ -202,8 +202,7 @@ static void trace_once(const run_ctx *c, int tracer, cv_hit *hits)
 }
 
 /* Mrays/s over repetitions filling min_time. */
-static double measure(const run_ctx *c, int tracer, cv_hit *hits)
-{
+static double measure(const run_ctx *c, int tracer, cv_hit *hits) {
     double total = 0.0;
     uint64_t rays = 0;
     do {
@@ -215,8 +214,7 @@ static double measure(const run_ctx *c, int tracer, cv_hit *hits)
     return total > 0.0 ? (double)rays / total * 1e-6 : 0.0;
 }
 
-static uint32_t count_hits(const cv_hit *h, uint32_t n)
-{
+static uint32_t count_hits(const cv_hit *h, uint32_t n) {
     uint32_t k = 0;
     for (uint32_t i = 0; i < n; i++)
         k += h[i].triangle != CV_BVH_INVALID;
@@ -226,8 +224,7 @@ static uint32_t count_hits(const cv_hit *h, uint32_t n)
 /* Rays where one side hit and the other missed, and (closest hits) where
  * both hit different triangles at distances more than 1e-4 apart. */
 static void disagreements(const cv_hit *a, const cv_hit *b, uint32_t n, bool occlusion, uint32_t *hit_miss,
-                          uint32_t *closest)
-{
+                          uint32_t *closest) {
     *hit_miss = *closest = 0;
     for (uint32_t i = 0; i < n; i++) {
         bool ha = a[i].triangle != CV_BVH_INVALID, hb = b[i].triangle != CV_BVH_INVALID;
@@ -239,9 +236,8 @@ static void disagreements(const cv_hit *a, const cv_hit *b, uint32_t n, bool occ
     }
 }
 
-static void trace_set(const options *o, const builds *b, const cv_ray_set *set)
-{
-    run_ctx c = {.o = o, .b = b, .set = set, .occlusion = cv_ray_kind_is_occlusion(set->kind)};
+static void trace_set(const options *o, const builds *b, const cv_ray_set *set) {
+    run_ctx c = { .o = o, .b = b, .set = set, .occlusion = cv_ray_kind_is_occlusion(set->kind) };
     cv_hit *hits[TRACERS];
     double mrays[TRACERS];
     for (int t = 0; t < TRACERS; t++) {
@@ -258,7 +254,8 @@ static void trace_set(const options *o, const builds *b, const cv_ray_set *set)
         worst_hm = hm > worst_hm ? hm : worst_hm;
     }
     disagreements(hits[T_NODE2], hits[T_EMBREE1], set->count, c.occlusion, &hm, &cl);
-    uint32_t corvid_hits = count_hits(hits[T_NODE2], set->count), embree_hits = count_hits(hits[T_EMBREE1], set->count);
+    uint32_t corvid_hits = count_hits(hits[T_NODE2], set->count),
+             embree_hits = count_hits(hits[T_EMBREE1], set->count);
     printf("  %-10s %8u %-7s", cv_ray_kind_name(set->kind), set->count, c.occlusion ? "any" : "closest");
     for (int t = 0; t < TRACERS; t++)
         printf(" %12.2f", mrays[t]);
@@ -269,17 +266,17 @@ static void trace_set(const options *o, const builds *b, const cv_ray_set *set)
         free(hits[t]);
 }
 
-static void trace_all(const options *o, const cv_scene *s, const builds *b)
-{
-    cv_ray_set_desc desc = {.width = o->width, .height = o->height, .seed = o->seed,
-                            .random_count = o->width * o->height};
+static void trace_all(const options *o, const cv_scene *s, const builds *b) {
+    cv_ray_set_desc desc = {
+        .width = o->width, .height = o->height, .seed = o->seed, .random_count = o->width * o->height
+    };
     cv_ray_set primary;
     if (cv_ray_set_make(s, CV_RAYS_PRIMARY, &desc, &primary) != CV_OK) {
         fprintf(stderr, "primary rays: %s\n", cv_last_error());
         return;
     }
     cv_hit *hits = malloc((size_t)primary.count * sizeof(cv_hit) + 1);
-    cv_trace_target t = {.flat = b->flat, .layout = CV_BVH_LAYOUT_NODE2};
+    cv_trace_target t = { .flat = b->flat, .layout = CV_BVH_LAYOUT_NODE2 };
     if (!hits || cv_trace_batch(&t, primary.rays, primary.count, 0, o->threads, hits) != CV_OK) {
         fprintf(stderr, "primary trace failed\n");
         exit(1);
@@ -307,15 +304,14 @@ static void trace_all(const options *o, const cv_scene *s, const builds *b)
     cv_ray_set_free(&primary);
 }
 
-static void bench_scene(const options *o, const char *name, cv_scene *s)
-{
+static void bench_scene(const options *o, const char *name, cv_scene *s) {
     if (!s)
         return;
     printf("\n== %s: %llu world triangles (%llu stored), %u meshes, %u instances\n", name,
            (unsigned long long)cv_scene_world_triangle_count(s), (unsigned long long)cv_scene_triangle_count(s),
            cv_scene_mesh_count(s), cv_scene_instance_count(s));
     fflush(stdout);
-    builds b = {0};
+    builds b = { 0 };
     if (build_all(o, s, &b)) {
         print_builds(s, &b);
         printf("  peer: %s\n", embree_peer_describe(b.embree));
@@ -329,16 +325,14 @@ static void bench_scene(const options *o, const char *name, cv_scene *s)
     fflush(stdout);
 }
 
-static cv_scene *make_stress(const options *o, uint64_t triangles)
-{
+static cv_scene *make_stress(const options *o, uint64_t triangles) {
     cv_scene *s = NULL;
     if (cv_scene_make_stress(o->seed, triangles, &s) != CV_OK)
         fprintf(stderr, "stress scene: %s\n", cv_last_error());
     return s;
 }
 
-int main(int argc, char **argv)
-{
+int main(int argc, char **argv) {
     options o;
     if (!parse(argc, argv, &o)) {
         usage(stderr);
@@ -349,8 +343,9 @@ int main(int argc, char **argv)
     printf("bench_bvh_cpu: Corvid CPU BVH vs Embree %s\n", embree_peer_version());
     printf("machine: %s; %u threads for both; %ux%u primary rays; compiler %s\n", machine, o.threads, o.width,
            o.height, __VERSION__);
-    printf("corvid: binned SAH (16 bins, leaves <= 8), build time includes transforming the triangles;\n"
-           "embree: default build quality, time of rtcCommitScene only (vertex buffers filled beforehand)\n");
+    printf(
+        "corvid: binned SAH (16 bins, leaves <= 8), build time includes transforming the triangles;\n"
+        "embree: default build quality, time of rtcCommitScene only (vertex buffers filled beforehand)\n");
     if (o.room) {
         cv_scene *s = NULL;
         if (cv_scene_make_room(o.seed, &s) != CV_OK)

@@ -30,7 +30,7 @@
 #define MAX_COUNTS 8
 #define MAX_REPS 100000
 #define MIN_REPS 3
-#define FRAME_COMMANDS 10   /* the frame's shape repeats every ten commands */
+#define FRAME_COMMANDS 10 /* the frame's shape repeats every ten commands */
 
 typedef struct options {
     uint32_t counts[MAX_COUNTS];
@@ -118,9 +118,15 @@ typedef struct frame_handles {
  * only their values, and the context hands out real ones. */
 static bool make_handles(cv_context *ctx, frame_handles *h) {
     cv_result r = CV_OK;
-    struct { const char *name; cv_pipeline *out; uint32_t *push; } pipes[] = {
-        { "render.raygen", &h->raygen, &h->push_raygen },     { "render.resolve", &h->resolve, &h->push_resolve },
-        { "render.filter", &h->filter, &h->push_filter },     { "render.composite", &h->composite, &h->push_composite },
+    struct {
+        const char *name;
+        cv_pipeline *out;
+        uint32_t *push;
+    } pipes[] = {
+        { "render.raygen", &h->raygen, &h->push_raygen },
+        { "render.resolve", &h->resolve, &h->push_resolve },
+        { "render.filter", &h->filter, &h->push_filter },
+        { "render.composite", &h->composite, &h->push_composite },
     };
     for (size_t i = 0; i < sizeof pipes / sizeof pipes[0] && r == CV_OK; i++) {
         const cv_pipeline_info *info = cv_pipeline_registry_find(pipes[i].name);
@@ -129,9 +135,14 @@ static bool make_handles(cv_context *ctx, frame_handles *h) {
         if (r == CV_OK)
             *pipes[i].push = info->push_constant_size;
     }
-    struct { uint64_t size; cv_buffer *out; } buffers[] = {
-        { 1920ull * 1080 * 5 * CV_RAY_BYTES, &h->rays }, { 1920ull * 1080 * 5 * CV_HIT_BYTES, &h->hits },
-        { 4096, &h->constants },                         { 64ull << 20, &h->readback },
+    struct {
+        uint64_t size;
+        cv_buffer *out;
+    } buffers[] = {
+        { 1920ull * 1080 * 5 * CV_RAY_BYTES, &h->rays },
+        { 1920ull * 1080 * 5 * CV_HIT_BYTES, &h->hits },
+        { 4096, &h->constants },
+        { 64ull << 20, &h->readback },
     };
     for (size_t i = 0; i < sizeof buffers / sizeof buffers[0] && r == CV_OK; i++)
         r = cv_buffer_create(ctx, &(cv_buffer_desc){ .size = buffers[i].size }, buffers[i].out);
@@ -148,9 +159,7 @@ static bool make_handles(cv_context *ctx, frame_handles *h) {
     return r == CV_OK;
 }
 
-static cv_binding tex(cv_texture t) {
-    return (cv_binding){ .resource = cv_any(t) };
-}
+static cv_binding tex(cv_texture t) { return (cv_binding){ .resource = cv_any(t) }; }
 
 static cv_binding buf(cv_buffer b, uint64_t offset, uint64_t range) {
     return (cv_binding){ .resource = cv_any(b), .offset = offset, .range = range };
@@ -165,62 +174,94 @@ static void record_command(const frame_handles *h, uint32_t i, cv_command_list *
     _Static_assert(64 + MAX_UPDATE_BYTES / 4 <= sizeof h->values / sizeof h->values[0], "values cover every read");
     const cv_queue_type q = CV_QUEUE_COMPUTE;
     switch (i % FRAME_COMMANDS) {
-    case 0:
-        cv_cmd_begin_marker(l, q, &(cv_begin_marker_args){ .label = "trace columns" });
-        break;
+    case 0: cv_cmd_begin_marker(l, q, &(cv_begin_marker_args){ .label = "trace columns" }); break;
     case 1: {
-        uint32_t bytes = MAX_UPDATE_BYTES - 64 * (frame % 6);   /* 128..448 bytes of frame constants */
-        cv_cmd_update_buffer(l, q, &(cv_update_buffer_args){ .buffer = h->constants, .offset = 256,
-                                                            .data = push, .data_size = bytes });
+        uint32_t bytes = MAX_UPDATE_BYTES - 64 * (frame % 6); /* 128..448 bytes of frame constants */
+        cv_cmd_update_buffer(l, q,
+                             &(cv_update_buffer_args){
+                                 .buffer = h->constants, .offset = 256, .data = push, .data_size = bytes });
         break;
     }
     case 2: {
         cv_binding b[3] = { tex(h->position), tex(h->normal), buf(h->rays, 0, (uint64_t)rays * CV_RAY_BYTES) };
-        cv_cmd_dispatch(l, q, &(cv_dispatch_args){ .pipeline = h->raygen, .bindings = b, .bindings_count = 3,
-                                                   .push = push, .push_size = h->push_raygen,
-                                                   .groups_x = (width + 7) / 8, .groups_y = (height + 7) / 8,
-                                                   .groups_z = 1 });
+        cv_cmd_dispatch(l, q,
+                        &(cv_dispatch_args){ .pipeline = h->raygen,
+                                             .bindings = b,
+                                             .bindings_count = 3,
+                                             .push = push,
+                                             .push_size = h->push_raygen,
+                                             .groups_x = (width + 7) / 8,
+                                             .groups_y = (height + 7) / 8,
+                                             .groups_z = 1 });
         break;
     }
     case 3:
-        cv_cmd_trace_rays(l, q, &(cv_trace_rays_args){ .accel = h->accel, .rays = h->rays, .hits = h->hits,
-                                                       .count = rays, .flags = CV_TRACE_ANY_HIT });
+        cv_cmd_trace_rays(
+            l, q,
+            &(cv_trace_rays_args){
+                .accel = h->accel, .rays = h->rays, .hits = h->hits, .count = rays, .flags = CV_TRACE_ANY_HIT });
         break;
     case 4: {
-        cv_binding b[3] = { buf(h->hits, 0, (uint64_t)rays * CV_HIT_BYTES), buf(h->rays, 0, (uint64_t)rays * CV_RAY_BYTES),
-                            tex(h->visibility) };
-        cv_cmd_dispatch(l, q, &(cv_dispatch_args){ .pipeline = h->resolve, .bindings = b, .bindings_count = 3,
-                                                   .push = push, .push_size = h->push_resolve,
-                                                   .groups_x = (width + 7) / 8, .groups_y = (height + 7) / 8,
-                                                   .groups_z = 1 });
+        cv_binding b[3] = { buf(h->hits, 0, (uint64_t)rays * CV_HIT_BYTES),
+                            buf(h->rays, 0, (uint64_t)rays * CV_RAY_BYTES), tex(h->visibility) };
+        cv_cmd_dispatch(l, q,
+                        &(cv_dispatch_args){ .pipeline = h->resolve,
+                                             .bindings = b,
+                                             .bindings_count = 3,
+                                             .push = push,
+                                             .push_size = h->push_resolve,
+                                             .groups_x = (width + 7) / 8,
+                                             .groups_y = (height + 7) / 8,
+                                             .groups_z = 1 });
         break;
     }
-    case 5:
-        cv_cmd_end_marker(l, q, &(cv_end_marker_args){ 0 });
-        break;
+    case 5: cv_cmd_end_marker(l, q, &(cv_end_marker_args){ 0 }); break;
     case 6: {
         cv_binding b[4] = { tex(h->position), tex(h->normal), tex(h->history), tex(h->filtered) };
-        cv_cmd_dispatch(l, q, &(cv_dispatch_args){ .pipeline = h->filter, .bindings = b, .bindings_count = 4,
-                                                   .push = push, .push_size = h->push_filter,
-                                                   .groups_x = 240, .groups_y = 135, .groups_z = 1 });
+        cv_cmd_dispatch(l, q,
+                        &(cv_dispatch_args){ .pipeline = h->filter,
+                                             .bindings = b,
+                                             .bindings_count = 4,
+                                             .push = push,
+                                             .push_size = h->push_filter,
+                                             .groups_x = 240,
+                                             .groups_y = 135,
+                                             .groups_z = 1 });
         break;
     }
     case 7:
-        cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = h->hits,
-                                                                     .src_offset = (uint64_t)frame << 12,
-                                                                     .dst = h->readback, .size = 1u << 20 });
+        cv_cmd_copy_buffer(l, CV_QUEUE_COPY,
+                           &(cv_copy_buffer_args){ .src = h->hits,
+                                                   .src_offset = (uint64_t)frame << 12,
+                                                   .dst = h->readback,
+                                                   .size = 1u << 20 });
         break;
     case 8:
-        cv_cmd_copy_texture(l, CV_QUEUE_COPY, &(cv_copy_texture_args){ .src = h->visibility, .src_x = width,
-                                                                       .dst = h->history, .dst_x = width,
-                                                                       .width = 1920 - width, .height = height });
+        cv_cmd_copy_texture(l, CV_QUEUE_COPY,
+                            &(cv_copy_texture_args){ .src = h->visibility,
+                                                     .src_x = width,
+                                                     .dst = h->history,
+                                                     .dst_x = width,
+                                                     .width = 1920 - width,
+                                                     .height = height });
         break;
     default: {
-        cv_binding b[7] = { tex(h->position), tex(h->normal), tex(h->filtered), buf(h->constants, 0, 0),
-                            tex(h->radiance), tex(h->history), buf(h->readback, 0, 1u << 20) };
-        cv_cmd_dispatch(l, q, &(cv_dispatch_args){ .pipeline = h->composite, .bindings = b, .bindings_count = 7,
-                                                   .push = push, .push_size = h->push_composite,
-                                                   .groups_x = 240, .groups_y = 135, .groups_z = 1 });
+        cv_binding b[7] = { tex(h->position),
+                            tex(h->normal),
+                            tex(h->filtered),
+                            buf(h->constants, 0, 0),
+                            tex(h->radiance),
+                            tex(h->history),
+                            buf(h->readback, 0, 1u << 20) };
+        cv_cmd_dispatch(l, q,
+                        &(cv_dispatch_args){ .pipeline = h->composite,
+                                             .bindings = b,
+                                             .bindings_count = 7,
+                                             .push = push,
+                                             .push_size = h->push_composite,
+                                             .groups_x = 240,
+                                             .groups_y = 135,
+                                             .groups_z = 1 });
         break;
     }
     }
@@ -239,12 +280,12 @@ static cv_result record_list(const frame_handles *h, uint32_t count, cv_command_
 typedef struct subject {
     const frame_handles *handles;
     uint32_t count;
-    cv_command_list recorded;      /* recorded once; what encode reads */
-    cv_command_list scratch;       /* re-recorded by the record contender */
-    cv_command_list decoded;       /* decode's output, replaced every run */
-    uint8_t *bytes;                /* the encoder's output */
+    cv_command_list recorded; /* recorded once; what encode reads */
+    cv_command_list scratch;  /* re-recorded by the record contender */
+    cv_command_list decoded;  /* decode's output, replaced every run */
+    uint8_t *bytes;           /* the encoder's output */
     size_t size;
-    Corvid__CommandList *message;  /* the same list as protobuf-c's message tree */
+    Corvid__CommandList *message; /* the same list as protobuf-c's message tree */
 } subject;
 
 typedef enum contender_id { C_RECORD, C_ENCODE, C_PACK, C_DECODE, C_UNPACK, CONTENDERS } contender_id;
@@ -253,9 +294,7 @@ static const char *const contender_name[CONTENDERS] = { "record", "encode", "pac
 static bool run_once(subject *s, contender_id c) {
     cv_result r = CV_OK;
     switch (c) {
-    case C_RECORD:
-        r = record_list(s->handles, s->count, &s->scratch);
-        break;
+    case C_RECORD: r = record_list(s->handles, s->count, &s->scratch); break;
     case C_ENCODE: {
         uint8_t *out;
         size_t n;
@@ -273,9 +312,7 @@ static bool run_once(subject *s, contender_id c) {
         free(out);
         break;
     }
-    case C_DECODE:
-        r = cv_command_list_decode(s->bytes, s->size, &s->decoded);
-        break;
+    case C_DECODE: r = cv_command_list_decode(s->bytes, s->size, &s->decoded); break;
     default: {
         Corvid__CommandList *m = corvid__command_list__unpack(NULL, s->size, s->bytes);
         if (!m)
@@ -290,7 +327,7 @@ static bool run_once(subject *s, contender_id c) {
 }
 
 typedef struct series {
-    double *runs;                  /* seconds */
+    double *runs; /* seconds */
     uint32_t count;
     double sum;
     bool failed;
@@ -348,9 +385,9 @@ typedef struct row {
     uint32_t count;
     size_t bytes;
     uint32_t bindings, data_bytes;
-    double seconds[CONTENDERS];    /* medians; 0 = not measured */
-    bool same_bytes;               /* protobuf-c packs exactly the encoder's bytes */
-    bool round_trip;               /* decoding then encoding gives the same bytes back */
+    double seconds[CONTENDERS]; /* medians; 0 = not measured */
+    bool same_bytes;            /* protobuf-c packs exactly the encoder's bytes */
+    bool round_trip;            /* decoding then encoding gives the same bytes back */
 } row;
 
 static bool encoded_equal(const cv_command_list *l, const uint8_t *bytes, size_t size) {
@@ -422,17 +459,18 @@ static void print_rate(const row *rw, contender_id c, bool with_mb) {
 
 static void print_ratio(double a, double b) {
     if (a > 0.0 && b > 0.0)
-        printf(" %6.2f", b / a);   /* seconds: the peer's time over ours = our speed over the peer's */
+        printf(" %6.2f", b / a); /* seconds: the peer's time over ours = our speed over the peer's */
     else
         printf(" %6s", "-");
 }
 
 static bool print_table(const options *o, const row *rows, uint32_t n) {
     bool all_good = true;
-    printf("\nmedians of >= %d runs, >= %.2f s per contender and size, interleaved; MB/s = 1e6 encoded bytes/s;\n"
-           "Mc/s = million commands/s; x: Corvid's speed over protobuf-c's (encode/pack, decode/unpack+free);\n"
-           "same: protobuf-c packs exactly the encoder's bytes; trip: decode then encode gives them back\n",
-           MIN_REPS, o->min_time);
+    printf(
+        "\nmedians of >= %d runs, >= %.2f s per contender and size, interleaved; MB/s = 1e6 encoded bytes/s;\n"
+        "Mc/s = million commands/s; x: Corvid's speed over protobuf-c's (encode/pack, decode/unpack+free);\n"
+        "same: protobuf-c packs exactly the encoder's bytes; trip: decode then encode gives them back\n",
+        MIN_REPS, o->min_time);
     printf("%8s %10s %6s | %6s | %-14s | %-14s | %6s | %-14s | %-14s | %6s | %4s %4s\n", "", "", "", "record",
            "encode", "pack", "", "decode", "unpack+free", "", "", "");
     printf("%8s %10s %6s | %6s |", "commands", "bytes", "B/cmd", "Mc/s");
@@ -472,8 +510,10 @@ int main(int argc, char **argv) {
     printf("bench_codec: command-list encode/decode (cv_command_list_*) vs protobuf-c %s pack/unpack\n",
            protobuf_c_version());
     printf("machine: %s\n", machine);
-    printf("lists: renderer frames of %d commands (marker pair, update 128-448 B, 4 dispatches with 2-7 bindings\n"
-           "and 16-64 B push constants, trace_rays, copy_buffer, copy_texture)\n", FRAME_COMMANDS);
+    printf(
+        "lists: renderer frames of %d commands (marker pair, update 128-448 B, 4 dispatches with 2-7 bindings\n"
+        "and 16-64 B push constants, trace_rays, copy_buffer, copy_texture)\n",
+        FRAME_COMMANDS);
     cv_context *ctx = NULL;
     frame_handles h;
     if (cv_context_create(NULL, &ctx) != CV_OK || !make_handles(ctx, &h)) {

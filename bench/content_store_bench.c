@@ -114,8 +114,8 @@ static void fail(const char *what) {
 
 /* One round over `count` blobs of `size` bytes in data (count * size bytes);
  * fills seconds[contender]. */
-static void round_once(const options *o, const uint8_t *data, size_t size, size_t count,
-                       const uint8_t (*sha)[32], double *seconds, uint64_t *checksum) {
+static void round_once(const options *o, const uint8_t *data, size_t size, size_t count, const uint8_t (*sha)[32],
+                       double *seconds, uint64_t *checksum) {
     char store_dir[512], plain_dir[512], path[600];
     snprintf(store_dir, sizeof store_dir, "%s/corvid-bench-store-XXXXXX", o->dir);
     snprintf(plain_dir, sizeof plain_dir, "%s/corvid-bench-plain-XXXXXX", o->dir);
@@ -211,8 +211,8 @@ int main(int argc, char **argv) {
     }
     char machine[512];
     bench_machine(machine, sizeof machine);
-    printf("bench_content_store: %s; scratch in %s; %llu MiB per size, %u rounds, median; not fsync()ed\n",
-           machine, o.dir, (unsigned long long)(o.total >> 20), o.rounds);
+    printf("bench_content_store: %s; scratch in %s; %llu MiB per size, %u rounds, median; not fsync()ed\n", machine,
+           o.dir, (unsigned long long)(o.total >> 20), o.rounds);
 
     uint8_t *data = malloc(o.total);
     if (data == NULL)
@@ -233,13 +233,13 @@ int main(int argc, char **argv) {
         size_t size = sizes[si], count = (size_t)(o.total / size);
         if (count == 0)
             continue;
-        uint8_t (*sha)[32] = malloc(count * sizeof *sha);
+        uint8_t(*sha)[32] = malloc(count * sizeof *sha);
         for (size_t i = 0; i < count; i++)
             cv_sha256(data + i * size, size, sha[i]);
         double seconds[CONTENDERS][MAX_ROUNDS];
         for (uint32_t r = 0; r < o.rounds; r++) {
             double one[CONTENDERS];
-            round_once(&o, data, size, count, (const uint8_t (*)[32])sha, one, &checksum);
+            round_once(&o, data, size, count, (const uint8_t(*)[32])sha, one, &checksum);
             for (int c = 0; c < CONTENDERS; c++)
                 seconds[c][r] = one[c];
         }

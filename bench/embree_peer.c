@@ -12,14 +12,13 @@
 
 struct embree_peer {
     RTCDevice device;
-    RTCGeometry *geoms;         /* one per instance, kept to rebuild the scene */
+    RTCGeometry *geoms; /* one per instance, kept to rebuild the scene */
     uint32_t geom_count;
     RTCScene scene;
     char description[128];
 };
 
-static RTCScene commit_scene(embree_peer *p, double *seconds)
-{
+static RTCScene commit_scene(embree_peer *p, double *seconds) {
     RTCScene scene = rtcNewScene(p->device);
     for (uint32_t i = 0; i < p->geom_count; i++)
         rtcAttachGeometryByID(scene, p->geoms[i], i);
@@ -29,8 +28,7 @@ static RTCScene commit_scene(embree_peer *p, double *seconds)
     return scene;
 }
 
-embree_peer *embree_peer_create(const cv_scene *scene, uint32_t threads, double *commit_seconds)
-{
+embree_peer *embree_peer_create(const cv_scene *scene, uint32_t threads, double *commit_seconds) {
     embree_peer *p = calloc(1, sizeof *p);
     char config[64];
     snprintf(config, sizeof config, "threads=%u", threads);
@@ -70,16 +68,14 @@ embree_peer *embree_peer_create(const cv_scene *scene, uint32_t threads, double 
     return p;
 }
 
-double embree_peer_rebuild(embree_peer *p)
-{
+double embree_peer_rebuild(embree_peer *p) {
     double seconds;
     rtcReleaseScene(p->scene);
     p->scene = commit_scene(p, &seconds);
     return seconds;
 }
 
-void embree_peer_destroy(embree_peer *p)
-{
+void embree_peer_destroy(embree_peer *p) {
     if (!p)
         return;
     if (p->scene)
@@ -103,24 +99,23 @@ typedef struct job {
     bool occlusion;
 } job;
 
-static void to_hit(const struct RTCRayHit *rh, cv_hit *h)
-{
+static void to_hit(const struct RTCRayHit *rh, cv_hit *h) {
     if (rh->hit.geomID == RTC_INVALID_GEOMETRY_ID) {
         *h = cv_hit_miss();
         return;
     }
-    *h = (cv_hit){.t = rh->ray.tfar, .u = rh->hit.u, .v = rh->hit.v, .triangle = rh->hit.primID,
-                  .instance = rh->hit.geomID};
+    *h = (cv_hit){
+        .t = rh->ray.tfar, .u = rh->hit.u, .v = rh->hit.v, .triangle = rh->hit.primID, .instance = rh->hit.geomID
+    };
 }
 
-static void trace1(void *ctx, size_t begin, size_t end)
-{
+static void trace1(void *ctx, size_t begin, size_t end) {
     job *j = ctx;
     struct RTCIntersectContext ic;
     rtcInitIntersectContext(&ic);
     for (size_t i = begin; i < end; i++) {
         const cv_ray *r = &j->rays[i];
-        struct RTCRayHit rh = {0};
+        struct RTCRayHit rh = { 0 };
         rh.ray.org_x = r->origin[0];
         rh.ray.org_y = r->origin[1];
         rh.ray.org_z = r->origin[2];
@@ -134,7 +129,7 @@ static void trace1(void *ctx, size_t begin, size_t end)
         rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
         if (j->occlusion) {
             rtcOccluded1(j->peer->scene, &ic, &rh.ray);
-            j->hits[i] = rh.ray.tfar == -INFINITY ? (cv_hit){.t = 0.0f} : cv_hit_miss();
+            j->hits[i] = rh.ray.tfar == -INFINITY ? (cv_hit){ .t = 0.0f } : cv_hit_miss();
         } else {
             rtcIntersect1(j->peer->scene, &ic, &rh);
             to_hit(&rh, &j->hits[i]);
@@ -142,8 +137,7 @@ static void trace1(void *ctx, size_t begin, size_t end)
     }
 }
 
-static void trace16(void *ctx, size_t begin, size_t end)
-{
+static void trace16(void *ctx, size_t begin, size_t end) {
     job *j = ctx;
     struct RTCIntersectContext ic;
     rtcInitIntersectContext(&ic);
@@ -174,20 +168,22 @@ static void trace16(void *ctx, size_t begin, size_t end)
         for (int k = 0; k < 16 && base + (size_t)k < end; k++) {
             cv_hit *h = &j->hits[base + (size_t)k];
             if (j->occlusion)
-                *h = rh.ray.tfar[k] == -INFINITY ? (cv_hit){.t = 0.0f} : cv_hit_miss();
+                *h = rh.ray.tfar[k] == -INFINITY ? (cv_hit){ .t = 0.0f } : cv_hit_miss();
             else if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID)
                 *h = cv_hit_miss();
             else
-                *h = (cv_hit){.t = rh.ray.tfar[k], .u = rh.hit.u[k], .v = rh.hit.v[k], .triangle = rh.hit.primID[k],
-                              .instance = rh.hit.geomID[k]};
+                *h = (cv_hit){ .t = rh.ray.tfar[k],
+                               .u = rh.hit.u[k],
+                               .v = rh.hit.v[k],
+                               .triangle = rh.hit.primID[k],
+                               .instance = rh.hit.geomID[k] };
         }
     }
 }
 
 void embree_peer_trace(embree_peer *p, const cv_ray *rays, uint32_t count, bool occlusion, int width,
-                       uint32_t threads, cv_hit *hits)
-{
-    job j = {.peer = p, .rays = rays, .hits = hits, .count = count, .occlusion = occlusion};
+                       uint32_t threads, cv_hit *hits) {
+    job j = { .peer = p, .rays = rays, .hits = hits, .count = count, .occlusion = occlusion };
     /* Chunks of 256 keep 16-ray packets on 16-ray boundaries (4x4 pixel tiles). */
     bench_parallel(threads, count, 256, width == 16 ? trace16 : trace1, &j);
 }

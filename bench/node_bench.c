@@ -98,10 +98,24 @@ static bool parse_rtts(const char *v, options *o) {
 }
 
 static bool parse(int argc, char **argv, options *o) {
-    *o = (options){ .width = 640, .height = 360, .frames = 4, .rounds = 2, .lat_width = 320, .lat_height = 180,
-                    .lat_frames = 4, .rtts = { 0, 5, 20, 50 }, .rtt_count = 4, .read_bytes = 64u << 20,
-                    .upload_bytes = 64u << 20, .reads = 5, .uploads = 3, .frame = true, .stream = true,
-                    .upload = true, .latency = true, .adapter = "llvmpipe" };
+    *o = (options){ .width = 640,
+                    .height = 360,
+                    .frames = 4,
+                    .rounds = 2,
+                    .lat_width = 320,
+                    .lat_height = 180,
+                    .lat_frames = 4,
+                    .rtts = { 0, 5, 20, 50 },
+                    .rtt_count = 4,
+                    .read_bytes = 64u << 20,
+                    .upload_bytes = 64u << 20,
+                    .reads = 5,
+                    .uploads = 3,
+                    .frame = true,
+                    .stream = true,
+                    .upload = true,
+                    .latency = true,
+                    .adapter = "llvmpipe" };
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -232,8 +246,12 @@ static bool node_start(bench_node *n, const cv_backend *backend, const char *ada
     n->device.backend = backend;
     snprintf(n->device.adapter, sizeof(n->device.adapter), "%s", adapter);
     snprintf(n->device.label, sizeof(n->device.label), "%s0", backend->name);
-    n->config = (cv_node_config){ .listen = "127.0.0.1:0", .name = "bench", .devices = &n->device,
-                                  .device_count = 1, .cache_dir = n->cache_dir, .cache_bytes = 1ull << 30 };
+    n->config = (cv_node_config){ .listen = "127.0.0.1:0",
+                                  .name = "bench",
+                                  .devices = &n->device,
+                                  .device_count = 1,
+                                  .cache_dir = n->cache_dir,
+                                  .cache_bytes = 1ull << 30 };
     if (cv_node_start(&n->config, &n->node) != CV_OK) {
         nftw(n->cache_dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
         return fail("node start");
@@ -286,8 +304,8 @@ static void side_close(render_side *s) {
 
 typedef struct render_run {
     double frame_ms, call_ms;
-    uint64_t round_trips;         /* over the whole render call (proxy devices) */
-    uint64_t loop_round_trips;    /* ... of them in the frame loop (start to the last frame's progress call) */
+    uint64_t round_trips;      /* over the whole render call (proxy devices) */
+    uint64_t loop_round_trips; /* ... of them in the frame loop (start to the last frame's progress call) */
 } render_run;
 
 /* The renderer's progress callback: proxy stats after each frame. */
@@ -346,8 +364,10 @@ static void range_of(const double *v, uint32_t n, double *lo, double *hi) {
 
 static bool bench_frame(const options *o, const bench_node *vk, const cv_scene *scene, const cv_bvh *bvh,
                         frame_result *res) {
-    printf("\n1. frame time: %ux%u, %u frames, default settings otherwise; 1 warm-up render, then %u rounds "
-           "(local, remote)\n", o->width, o->height, o->frames, o->rounds);
+    printf(
+        "\n1. frame time: %ux%u, %u frames, default settings otherwise; 1 warm-up render, then %u rounds "
+        "(local, remote)\n",
+        o->width, o->height, o->frames, o->rounds);
     render_side local, remote;
     bool ok = side_open(&local, cv_vulkan_backend(), &(cv_device_desc){ .adapter = o->adapter, .label = "local" },
                         scene, bvh) &&
@@ -370,9 +390,11 @@ static bool bench_frame(const options *o, const bench_node *vk, const cv_scene *
         cv_render_output_free(&b);
         if (!ok)
             break;
-        printf("   %-9s local %8.1f ms/frame (render call %7.1f ms) | remote %8.1f ms/frame (render call %7.1f "
-               "ms, %llu round trips) | %.3fx\n", round ? "measured" : "warm-up", ra.frame_ms, ra.call_ms,
-               rb.frame_ms, rb.call_ms, (unsigned long long)rb.round_trips, rb.frame_ms / ra.frame_ms);
+        printf(
+            "   %-9s local %8.1f ms/frame (render call %7.1f ms) | remote %8.1f ms/frame (render call %7.1f "
+            "ms, %llu round trips) | %.3fx\n",
+            round ? "measured" : "warm-up", ra.frame_ms, ra.call_ms, rb.frame_ms, rb.call_ms,
+            (unsigned long long)rb.round_trips, rb.frame_ms / ra.frame_ms);
         if (round == 0)
             continue;
         lf[round - 1] = ra.frame_ms;
@@ -410,7 +432,7 @@ typedef struct latency_row {
     render_side side;
     double frame_ms, call_ms;
     double frames_ms[MAX_ROUNDS], calls_ms[MAX_ROUNDS];
-    uint64_t round_trips, loop_round_trips;   /* over the measured renders */
+    uint64_t round_trips, loop_round_trips; /* over the measured renders */
 } latency_row;
 
 typedef struct latency_result {
@@ -424,8 +446,10 @@ typedef struct latency_result {
  * render in turn, round by round, so background load falls on all of them. */
 static bool bench_latency(const options *o, const bench_node *vk, const cv_scene *scene, const cv_bvh *bvh,
                           latency_result *res) {
-    printf("\n4. latency: %ux%u, %u frames, through relays adding round-trip time; 1 warm-up render, then %u "
-           "rounds, interleaved\n", o->lat_width, o->lat_height, o->lat_frames, o->rounds);
+    printf(
+        "\n4. latency: %ux%u, %u frames, through relays adding round-trip time; 1 warm-up render, then %u "
+        "rounds, interleaved\n",
+        o->lat_width, o->lat_height, o->lat_frames, o->rounds);
     /* The reference image: the local render of the same settings. */
     render_side local;
     cv_render_output reference = { 0 };
@@ -436,7 +460,8 @@ static bool bench_latency(const options *o, const bench_node *vk, const cv_scene
     res->count = 0;
     for (uint32_t i = 0; ok && i <= o->rtt_count; i++) {
         latency_row *row = &res->rows[res->count++];
-        *row = (latency_row){ .what = i == 0 ? "loopback" : "relay", .relay = i > 0,
+        *row = (latency_row){ .what = i == 0 ? "loopback" : "relay",
+                              .relay = i > 0,
                               .rtt_ms = i == 0 ? 0 : o->rtts[i - 1] };
         char endpoint[64];
         snprintf(endpoint, sizeof endpoint, "%s", vk->endpoint);
@@ -477,9 +502,11 @@ static bool bench_latency(const options *o, const bench_node *vk, const cv_scene
         if (ok) {
             row->frame_ms = median(row->frames_ms, o->rounds);
             row->call_ms = median(row->calls_ms, o->rounds);
-            printf("   %-8s +%3u ms rtt: %8.1f ms/frame, %6.2f fps | render call %7.1f ms, %.1f round trips "
-                   "(%.1f in the frame loop)\n", row->what, row->rtt_ms, row->frame_ms, 1e3 / row->frame_ms,
-                   row->call_ms, (double)row->round_trips / o->rounds, (double)row->loop_round_trips / o->rounds);
+            printf(
+                "   %-8s +%3u ms rtt: %8.1f ms/frame, %6.2f fps | render call %7.1f ms, %.1f round trips "
+                "(%.1f in the frame loop)\n",
+                row->what, row->rtt_ms, row->frame_ms, 1e3 / row->frame_ms, row->call_ms,
+                (double)row->round_trips / o->rounds, (double)row->loop_round_trips / o->rounds);
         }
         side_close(&row->side);
         if (row->relay_obj) {
@@ -502,7 +529,7 @@ static bool bench_latency(const options *o, const bench_node *vk, const cv_scene
  * `count` messages, then answers with one empty message. */
 typedef struct peer_server {
     cv_rpc_server *server;
-    const uint8_t *data;     /* count * size bytes to send */
+    const uint8_t *data; /* count * size bytes to send */
 } peer_server;
 
 static void peer_stream(cv_rpc_stream *s, const char *method, void *user) {
@@ -585,8 +612,9 @@ static bool peer_open(peer_client *pc, const uint8_t *data) {
     memset(pc, 0, sizeof(*pc));
     pc->server.data = data;
     static const char *const methods[] = { "/bench.Peer/Stream", NULL };
-    cv_rpc_server_config cfg = { .listen = "127.0.0.1:0", .on_stream = peer_stream, .stream_methods = methods,
-                                 .user = &pc->server };
+    cv_rpc_server_config cfg = {
+        .listen = "127.0.0.1:0", .on_stream = peer_stream, .stream_methods = methods, .user = &pc->server
+    };
     if (cv_rpc_server_start(&cfg, &pc->server.server) != CV_OK)
         return fail("peer server");
     char target[64];
@@ -621,9 +649,10 @@ static double mbps(uint64_t bytes, double s) { return bytes / s / 1e6; }
 
 static bool bench_stream(const options *o, const bench_node *mock, stream_result *res) {
     uint64_t bytes = o->read_bytes;
-    printf("\n2. result stream: cv_device_read_buffer of %llu MiB from a mock device of a node, vs the same bytes "
-           "as %u KiB rpc messages; %u reads each, interleaved\n", (unsigned long long)(bytes >> 20), CHUNK >> 10,
-           o->reads);
+    printf(
+        "\n2. result stream: cv_device_read_buffer of %llu MiB from a mock device of a node, vs the same bytes "
+        "as %u KiB rpc messages; %u reads each, interleaved\n",
+        (unsigned long long)(bytes >> 20), CHUNK >> 10, o->reads);
     uint8_t *data = malloc(bytes), *back = malloc(bytes);
     cv_context *ctx = NULL;
     cv_device *dev = NULL;
@@ -634,16 +663,16 @@ static bool bench_stream(const options *o, const bench_node *mock, stream_result
         fill_random(data, bytes, 7);
         ok = (cv_context_create(NULL, &ctx) == CV_OK || fail("context")) &&
              (cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = mock->endpoint }, &dev) ==
-                  CV_OK || fail("proxy device")) &&
+                  CV_OK ||
+              fail("proxy device")) &&
              (cv_buffer_create(ctx, &(cv_buffer_desc){ .size = bytes, .label = "readback" }, &buf) == CV_OK ||
               fail("buffer")) &&
              (cv_device_load(dev, cv_any(buf)) == CV_OK || fail("load")) &&
-             (cv_device_write_buffer(dev, buf, 0, bytes, data) == CV_OK || fail("write")) &&
-             peer_open(&pc, data);
+             (cv_device_write_buffer(dev, buf, 0, bytes, data) == CV_OK || fail("write")) && peer_open(&pc, data);
     }
     double node_s[64], peer_s[64];
     uint32_t count = (uint32_t)(bytes / CHUNK);
-    for (uint32_t i = 0; ok && i <= o->reads; i++) {   /* i == 0: warm-up */
+    for (uint32_t i = 0; ok && i <= o->reads; i++) { /* i == 0: warm-up */
         memset(back, 0, bytes);
         double t0 = bench_now();
         ok = cv_device_read_buffer(dev, buf, 0, bytes, back) == CV_OK || fail("read");
@@ -706,7 +735,8 @@ static bool upload_session(const bench_node *mock, const uint8_t *data, uint64_t
     cv_buffer buf;
     bool ok = (cv_context_create(NULL, &ctx) == CV_OK || fail("context")) &&
               (cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = mock->endpoint }, &dev) ==
-                   CV_OK || fail("proxy device")) &&
+                   CV_OK ||
+               fail("proxy device")) &&
               (cv_buffer_create(ctx, &(cv_buffer_desc){ .size = bytes, .label = "upload" }, &buf) == CV_OK ||
                fail("buffer")) &&
               (cv_device_load(dev, cv_any(buf)) == CV_OK || fail("load"));
@@ -730,8 +760,10 @@ static bool upload_session(const bench_node *mock, const uint8_t *data, uint64_t
 
 static bool bench_upload(const options *o, const bench_node *mock, upload_result *res) {
     uint64_t bytes = o->upload_bytes;
-    printf("\n3. upload: cv_device_write_buffer of %llu MiB of fresh random bytes in a first session, then the same "
-           "bytes in a second session; %u rounds\n", (unsigned long long)(bytes >> 20), o->uploads);
+    printf(
+        "\n3. upload: cv_device_write_buffer of %llu MiB of fresh random bytes in a first session, then the same "
+        "bytes in a second session; %u rounds\n",
+        (unsigned long long)(bytes >> 20), o->uploads);
     uint8_t *data = malloc(bytes);
     peer_client pc = { 0 };
     bool ok = data && peer_open(&pc, data);
@@ -750,12 +782,13 @@ static bool bench_upload(const options *o, const bench_node *mock, upload_result
         peer[i] = t1 - t0;
         if (!ok)
             break;
-        printf("   round %u: first %7.0f MB/s (sent %llu, skipped %llu, %llu round trips) | cached %7.0f MB/s "
-               "(sent %llu, skipped %llu, %llu round trips) | rpc upload %7.0f MB/s | SHA-256 %6.0f MB/s\n", i + 1,
-               mbps(bytes, first[i]), (unsigned long long)a.upload_bytes_sent,
-               (unsigned long long)a.upload_bytes_skipped, (unsigned long long)a.round_trips, mbps(bytes, cached[i]),
-               (unsigned long long)b.upload_bytes_sent, (unsigned long long)b.upload_bytes_skipped,
-               (unsigned long long)b.round_trips, mbps((uint64_t)count * CHUNK, peer[i]), mbps(bytes, sha[i]));
+        printf(
+            "   round %u: first %7.0f MB/s (sent %llu, skipped %llu, %llu round trips) | cached %7.0f MB/s "
+            "(sent %llu, skipped %llu, %llu round trips) | rpc upload %7.0f MB/s | SHA-256 %6.0f MB/s\n",
+            i + 1, mbps(bytes, first[i]), (unsigned long long)a.upload_bytes_sent,
+            (unsigned long long)a.upload_bytes_skipped, (unsigned long long)a.round_trips, mbps(bytes, cached[i]),
+            (unsigned long long)b.upload_bytes_sent, (unsigned long long)b.upload_bytes_skipped,
+            (unsigned long long)b.round_trips, mbps((uint64_t)count * CHUNK, peer[i]), mbps(bytes, sha[i]));
         if (b.upload_bytes_sent != 0 || b.upload_bytes_skipped != bytes || a.upload_bytes_sent != bytes) {
             fprintf(stderr, "bench_node: the cache did not behave (first sent %llu, second sent %llu)\n",
                     (unsigned long long)a.upload_bytes_sent, (unsigned long long)b.upload_bytes_sent);
@@ -840,9 +873,10 @@ int main(int argc, char **argv) {
                fr.remote_ms / fr.local_ms);
         printf("%-44s | remote %7.1f            | local %8.1f            | %.3fx\n", "  whole render call, ms",
                fr.remote_call_ms, fr.local_call_ms, fr.remote_call_ms / fr.local_call_ms);
-        printf("%-44s | %.1f per render call, %.2f per frame in the frame loop (cv_proxy_stats.round_trips;\n"
-               "%-44s |   completion waits are not counted there: see the latency rows)\n", "  proxy round trips",
-               fr.rt_per_call, fr.rt_per_frame, "");
+        printf(
+            "%-44s | %.1f per render call, %.2f per frame in the frame loop (cv_proxy_stats.round_trips;\n"
+            "%-44s |   completion waits are not counted there: see the latency rows)\n",
+            "  proxy round trips", fr.rt_per_call, fr.rt_per_frame, "");
     }
     if (sr.done)
         printf("%-44s | node %9.0f MB/s      | rpc %10.0f MB/s      | %.2fx (goal >= 0.9x)\n",

@@ -38,8 +38,8 @@ static void sink_stream(cv_rpc_stream *s, const char *method, void *user) {
 }
 
 static double run_layer(const uint8_t *msg, size_t size, size_t count) {
-    static const char *const methods[] = {METHOD, NULL};
-    cv_rpc_server_config scfg = {.listen = "127.0.0.1:0", .on_stream = sink_stream, .stream_methods = methods};
+    static const char *const methods[] = { METHOD, NULL };
+    cv_rpc_server_config scfg = { .listen = "127.0.0.1:0", .on_stream = sink_stream, .stream_methods = methods };
     cv_rpc_server *server;
     atomic_store(&layer_received, 0);
     if (cv_rpc_server_start(&scfg, &server) != CV_OK) {
@@ -52,7 +52,7 @@ static double run_layer(const uint8_t *msg, size_t size, size_t count) {
     cv_rpc_stream *s;
     cv_rpc_client_create(target, NULL, &c);
     cv_rpc_client_open(c, METHOD, NULL, 0, &s);
-    cv_rpc_stream_send(s, msg, 1);   /* connect before timing */
+    cv_rpc_stream_send(s, msg, 1); /* connect before timing */
     while (atomic_load(&layer_received) < 1)
         ;
     atomic_store(&layer_received, 0);
@@ -66,7 +66,7 @@ static double run_layer(const uint8_t *msg, size_t size, size_t count) {
     cv_rpc_stream_close_send(s);
     uint8_t *m;
     size_t n;
-    cv_result r = cv_rpc_stream_recv(s, 600000, &m, &n);   /* end of stream: the server read everything */
+    cv_result r = cv_rpc_stream_recv(s, 600000, &m, &n); /* end of stream: the server read everything */
     double dt = bench_now() - t0;
     if (r != CV_OK || m || atomic_load(&layer_received) != (unsigned long long)size * count) {
         fprintf(stderr, "layer: received %llu of %zu bytes (%s)\n", atomic_load(&layer_received), size * count,
@@ -103,12 +103,12 @@ static void *raw_server_main(void *arg) {
     grpc_server_request_call(rs->server, &call, &details, &md, call_cq, rs->cq, (void *)1);
     wait_tag(rs->cq);
 
-    grpc_op initial = {.op = GRPC_OP_SEND_INITIAL_METADATA};
+    grpc_op initial = { .op = GRPC_OP_SEND_INITIAL_METADATA };
     grpc_call_start_batch(call, &initial, 1, (void *)2, NULL);
     wait_tag(call_cq);
     for (;;) {
         grpc_byte_buffer *bb = NULL;
-        grpc_op op = {.op = GRPC_OP_RECV_MESSAGE};
+        grpc_op op = { .op = GRPC_OP_RECV_MESSAGE };
         op.data.recv_message.recv_message = &bb;
         grpc_call_start_batch(call, &op, 1, (void *)3, NULL);
         grpc_event ev = wait_tag(call_cq);
@@ -119,7 +119,7 @@ static void *raw_server_main(void *arg) {
     }
     int cancelled = 0;
     grpc_slice details_out = grpc_empty_slice();
-    grpc_op end[2] = {{.op = GRPC_OP_SEND_STATUS_FROM_SERVER}, {.op = GRPC_OP_RECV_CLOSE_ON_SERVER}};
+    grpc_op end[2] = { { .op = GRPC_OP_SEND_STATUS_FROM_SERVER }, { .op = GRPC_OP_RECV_CLOSE_ON_SERVER } };
     end[0].data.send_status_from_server.status = GRPC_STATUS_OK;
     end[0].data.send_status_from_server.status_details = &details_out;
     end[1].data.recv_close_on_server.cancelled = &cancelled;
@@ -137,10 +137,11 @@ static void *raw_server_main(void *arg) {
 
 static double run_raw(const uint8_t *msg, size_t size, size_t count, unsigned long long *received) {
     grpc_init();
-    grpc_arg args[] = {{.type = GRPC_ARG_INTEGER, .key = GRPC_ARG_MAX_RECEIVE_MESSAGE_LENGTH,
-                        .value.integer = 16 << 20}};
-    grpc_channel_args ca = {.num_args = 1, .args = args};
-    raw_server rs = {0};
+    grpc_arg args[] = {
+        { .type = GRPC_ARG_INTEGER, .key = GRPC_ARG_MAX_RECEIVE_MESSAGE_LENGTH, .value.integer = 16 << 20 }
+    };
+    grpc_channel_args ca = { .num_args = 1, .args = args };
+    raw_server rs = { 0 };
     rs.server = grpc_server_create(&ca, NULL);
     rs.cq = grpc_completion_queue_create_for_next(NULL);
     grpc_server_register_completion_queue(rs.server, rs.cq, NULL);
@@ -164,36 +165,36 @@ static double run_raw(const uint8_t *msg, size_t size, size_t count, unsigned lo
     grpc_metadata_array_init(&trailing);
     grpc_status_code status;
     grpc_slice details = grpc_empty_slice();
-    grpc_op st = {.op = GRPC_OP_RECV_STATUS_ON_CLIENT};
+    grpc_op st = { .op = GRPC_OP_RECV_STATUS_ON_CLIENT };
     st.data.recv_status_on_client.trailing_metadata = &trailing;
     st.data.recv_status_on_client.status = &status;
     st.data.recv_status_on_client.status_details = &details;
     grpc_call_start_batch(call, &st, 1, (void *)10, NULL);
-    grpc_op initial = {.op = GRPC_OP_SEND_INITIAL_METADATA};
+    grpc_op initial = { .op = GRPC_OP_SEND_INITIAL_METADATA };
     grpc_call_start_batch(call, &initial, 1, (void *)11, NULL);
     wait_tag(cq);
 
-    grpc_slice payload = grpc_slice_from_static_buffer(msg, size);   /* no copy: the floor */
+    grpc_slice payload = grpc_slice_from_static_buffer(msg, size); /* no copy: the floor */
     double t0 = bench_now();
     for (size_t i = 0; i < count; i++) {
         grpc_byte_buffer *bb = grpc_raw_byte_buffer_create(&payload, 1);
-        grpc_op op = {.op = GRPC_OP_SEND_MESSAGE};
+        grpc_op op = { .op = GRPC_OP_SEND_MESSAGE };
         op.data.send_message.send_message = bb;
         grpc_call_start_batch(call, &op, 1, (void *)12, NULL);
         wait_tag(cq);
         grpc_byte_buffer_destroy(bb);
     }
-    grpc_op close = {.op = GRPC_OP_SEND_CLOSE_FROM_CLIENT};
+    grpc_op close = { .op = GRPC_OP_SEND_CLOSE_FROM_CLIENT };
     grpc_call_start_batch(call, &close, 1, (void *)13, NULL);
     /* The status is delivered only once the client has read the (empty) response stream. */
     grpc_metadata_array initial_md;
     grpc_metadata_array_init(&initial_md);
     grpc_byte_buffer *none = NULL;
-    grpc_op reads[2] = {{.op = GRPC_OP_RECV_INITIAL_METADATA}, {.op = GRPC_OP_RECV_MESSAGE}};
+    grpc_op reads[2] = { { .op = GRPC_OP_RECV_INITIAL_METADATA }, { .op = GRPC_OP_RECV_MESSAGE } };
     reads[0].data.recv_initial_metadata.recv_initial_metadata = &initial_md;
     reads[1].data.recv_message.recv_message = &none;
     grpc_call_start_batch(call, reads, 2, (void *)14, NULL);
-    for (int i = 0; i < 3; i++)   /* close, reads, status: the server read everything */
+    for (int i = 0; i < 3; i++) /* close, reads, status: the server read everything */
         wait_tag(cq);
     double dt = bench_now() - t0;
     pthread_join(t, NULL);
@@ -236,8 +237,8 @@ int main(int argc, char **argv) {
         double raw = run_raw(msg, size, count, &raw_bytes);
         double layer = run_layer(msg, size, count);
         double mb = (double)(size * count) / 1e6;
-        printf("  round %d: corvid rpc layer %7.0f MB/s   raw grpc core %7.0f MB/s%s   (layer/raw %.2f)\n",
-               round + 1, mb / layer, mb / raw, raw_bytes == size * count ? "" : " (raw lost bytes!)", raw / layer);
+        printf("  round %d: corvid rpc layer %7.0f MB/s   raw grpc core %7.0f MB/s%s   (layer/raw %.2f)\n", round + 1,
+               mb / layer, mb / raw, raw_bytes == size * count ? "" : " (raw lost bytes!)", raw / layer);
     }
     free(msg);
     return 0;

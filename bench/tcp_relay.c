@@ -34,18 +34,18 @@ typedef struct chunk {
 } chunk;
 
 typedef struct direction {
-    int from, to;                /* indices into conn.fd */
+    int from, to; /* indices into conn.fd */
     chunk *head, *tail;
     size_t queued;
-    bool eof;                    /* `from` said end of stream */
-    bool shut;                   /* passed on to `to` */
-    bool blocked;                /* a released chunk waits for `to` to take it */
+    bool eof;     /* `from` said end of stream */
+    bool shut;    /* passed on to `to` */
+    bool blocked; /* a released chunk waits for `to` to take it */
 } direction;
 
 typedef struct conn {
     bool used;
-    int fd[2];                   /* 0: the accepted client; 1: ours to the target */
-    direction dir[2];            /* 0: client -> target; 1: target -> client */
+    int fd[2];        /* 0: the accepted client; 1: ours to the target */
+    direction dir[2]; /* 0: client -> target; 1: target -> client */
 } conn;
 
 struct tcp_relay {
@@ -54,7 +54,7 @@ struct tcp_relay {
     _Atomic uint32_t delay_us;
     atomic_bool stop;
     pthread_t thread;
-    pthread_mutex_t lock;        /* stats */
+    pthread_mutex_t lock; /* stats */
     tcp_relay_stats stats;
     conn conns[TCP_RELAY_MAX_CONNECTIONS];
 };
@@ -107,10 +107,10 @@ static void accept_one(tcp_relay *r) {
             c = &r->conns[i];
     int up = c ? socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0) : -1;
     struct sockaddr_in target = loopback(r->target_port);
-    if (up < 0 || connect(up, (struct sockaddr *)&target, sizeof target) != 0) {   /* loopback: immediate */
+    if (up < 0 || connect(up, (struct sockaddr *)&target, sizeof target) != 0) { /* loopback: immediate */
         if (up >= 0)
             close(up);
-        close(fd);   /* the client sees the connection refused/closed */
+        close(fd); /* the client sees the connection refused/closed */
         return;
     }
     set_nonblocking(up);
@@ -191,7 +191,7 @@ static bool fill_dir(tcp_relay *r, conn *c, int d, uint8_t *buf) {
         dir->tail = k;
         dir->queued += (size_t)n;
         if ((size_t)n < READ_BYTES)
-            return true;   /* drained for now */
+            return true; /* drained for now */
     }
     return true;
 }
@@ -200,7 +200,7 @@ static void *relay_main(void *arg) {
     tcp_relay *r = arg;
     uint8_t *buf = malloc(READ_BYTES);
     struct pollfd pfd[2 + 2 * TCP_RELAY_MAX_CONNECTIONS];
-    int owner[2 + 2 * TCP_RELAY_MAX_CONNECTIONS];   /* conn index * 2 + side, for pfd[2..] */
+    int owner[2 + 2 * TCP_RELAY_MAX_CONNECTIONS]; /* conn index * 2 + side, for pfd[2..] */
     while (buf && !atomic_load(&r->stop)) {
         uint64_t now = now_ns();
         uint64_t next_release = UINT64_MAX;
@@ -245,7 +245,7 @@ static void *relay_main(void *arg) {
             break;
         }
         if (pfd[0].revents)
-            break;   /* stop */
+            break; /* stop */
         if (pfd[1].revents & POLLIN)
             accept_one(r);
         for (nfds_t p = 2; p < n; p++) {
@@ -254,10 +254,10 @@ static void *relay_main(void *arg) {
             conn *c = &r->conns[owner[p] / 2];
             int side = owner[p] % 2;
             if (!c->used)
-                continue;   /* closed earlier in this pass */
+                continue; /* closed earlier in this pass */
             bool ok = true;
             if (pfd[p].revents & (POLLIN | POLLHUP | POLLERR))
-                ok = fill_dir(r, c, side, buf);   /* the direction that reads `side` has index side */
+                ok = fill_dir(r, c, side, buf); /* the direction that reads `side` has index side */
             if (ok && (pfd[p].revents & POLLERR) && c->dir[side].eof == false)
                 ok = false;
             if (!ok)

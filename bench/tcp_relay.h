@@ -28,7 +28,7 @@
 typedef struct tcp_relay tcp_relay;
 
 typedef struct tcp_relay_stats {
-    uint64_t connections;                 /* accepted, in all */
+    uint64_t connections; /* accepted, in all */
     uint64_t bytes_to_target, bytes_to_client;
 } tcp_relay_stats;
 

@@ -44,11 +44,11 @@ typedef struct options {
     uint64_t stress_triangles[MAX_STRESS];
     uint32_t stress_count;
     const char *model_path;
-    uint32_t width, height;            /* 0: by device type */
-    bool compute, pipeline;            /* paths asked for */
+    uint32_t width, height; /* 0: by device type */
+    bool compute, pipeline; /* paths asked for */
     embree_choice embree;
     uint32_t threads;
-    double warmup, min_time;           /* < 0: by device type */
+    double warmup, min_time; /* < 0: by device type */
     bool validation;
     uint32_t seed;
 } options;
@@ -90,9 +90,17 @@ static bool parse_stress(const char *v, options *o) {
 }
 
 static bool parse(int argc, char **argv, options *o) {
-    *o = (options){ .room = true, .stress = true, .model = true, .stress_triangles = { 1000000, 10000000 },
-                    .stress_count = 2, .compute = true, .pipeline = true,
-                    .threads = (uint32_t)sysconf(_SC_NPROCESSORS_ONLN), .warmup = -1.0, .min_time = -1.0, .seed = 1 };
+    *o = (options){ .room = true,
+                    .stress = true,
+                    .model = true,
+                    .stress_triangles = { 1000000, 10000000 },
+                    .stress_count = 2,
+                    .compute = true,
+                    .pipeline = true,
+                    .threads = (uint32_t)sysconf(_SC_NPROCESSORS_ONLN),
+                    .warmup = -1.0,
+                    .min_time = -1.0,
+                    .seed = 1 };
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -163,7 +171,7 @@ typedef struct bench {
     options o;
     cv_context *ctx;
     cv_device *dev;
-    bool gpu;                          /* not a CPU adapter: warm up, bigger batches */
+    bool gpu; /* not a CPU adapter: warm up, bigger batches */
     bool pipeline_offered;
     bool embree;
 } bench;
@@ -195,9 +203,10 @@ static bool run_init(bench *b, cv_accel accel, const cv_ray_set *set, uint32_t f
         r = cv_cmdlist_begin(b->ctx, run->list, &l);
     if (r == CV_OK) {
         cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "trace" });
-        cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = accel, .rays = run->rays,
-                                                                    .hits = run->hits, .count = set->count,
-                                                                    .flags = flags });
+        cv_cmd_trace_rays(
+            l, CV_QUEUE_COMPUTE,
+            &(cv_trace_rays_args){
+                .accel = accel, .rays = run->rays, .hits = run->hits, .count = set->count, .flags = flags });
         cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
         r = cv_command_list_end(l);
     }
@@ -237,7 +246,7 @@ static bool submit_once(bench *b, trace_run *run, double *trace_s, double *wall_
 }
 
 typedef struct rate {
-    double trace, wall;               /* Mrays/s; 0 = not measured */
+    double trace, wall; /* Mrays/s; 0 = not measured */
 } rate;
 
 /* Keeps the device busy for the warm-up time, then submits until the trace
@@ -268,8 +277,8 @@ static bool set_path(bench *b, cv_vulkan_trace_path path) {
 }
 
 /* Traces a set on one path: its rate, and its hits in `hits`. */
-static rate trace_on_path(bench *b, cv_accel accel, cv_vulkan_trace_path path, const cv_ray_set *set,
-                          uint32_t flags, cv_hit *hits) {
+static rate trace_on_path(bench *b, cv_accel accel, cv_vulkan_trace_path path, const cv_ray_set *set, uint32_t flags,
+                          cv_hit *hits) {
     trace_run run;
     rate result = { 0 };
     if (set_path(b, path) && run_init(b, accel, set, flags, &run)) {
@@ -308,7 +317,7 @@ typedef struct scene_run {
     embree_peer *embree;
     cv_accel accel;
     bool path_on[PATHS];
-    cv_hit *hits[PATHS + 1];           /* per path, and Embree's */
+    cv_hit *hits[PATHS + 1]; /* per path, and Embree's */
 } scene_run;
 
 /* Rays where one side hit and the other missed. */
@@ -367,8 +376,9 @@ static void trace_set(scene_run *s, const cv_ray_set *set) {
 
 static void trace_all(scene_run *s) {
     bench *b = s->b;
-    cv_ray_set_desc desc = { .width = b->o.width, .height = b->o.height, .seed = b->o.seed,
-                             .random_count = b->o.width * b->o.height };
+    cv_ray_set_desc desc = {
+        .width = b->o.width, .height = b->o.height, .seed = b->o.seed, .random_count = b->o.width * b->o.height
+    };
     cv_ray_set primary;
     if (cv_ray_set_make(s->scene, CV_RAYS_PRIMARY, &desc, &primary) != CV_OK) {
         fprintf(stderr, "bench_trace: primary rays: %s\n", cv_last_error());
@@ -376,11 +386,13 @@ static void trace_all(scene_run *s) {
     }
     for (int p = 0; p <= PATHS; p++)
         s->hits[p] = calloc(primary.count, sizeof(cv_hit));
-    printf("  Mrays/s from the trace pass's timestamps (from submit-to-wait wall time);\n"
-           "  embree on %u threads; ratios are compute / best embree and compute / pipeline;\n"
-           "  last columns: rays whose hit/miss differs from the compute path's\n", b->o.threads);
-    printf("  %-10s %8s %-7s %18s %18s %9s %9s %9s %9s\n", "rays", "count", "query", "compute", "pipeline",
-           "embree1", "embree16", "/embree", "/pipeline");
+    printf(
+        "  Mrays/s from the trace pass's timestamps (from submit-to-wait wall time);\n"
+        "  embree on %u threads; ratios are compute / best embree and compute / pipeline;\n"
+        "  last columns: rays whose hit/miss differs from the compute path's\n",
+        b->o.threads);
+    printf("  %-10s %8s %-7s %18s %18s %9s %9s %9s %9s\n", "rays", "count", "query", "compute", "pipeline", "embree1",
+           "embree16", "/embree", "/pipeline");
     trace_set(s, &primary);
     /* The secondary rays start at the primary hits of the path that ran first. */
     const cv_hit *primary_hits = s->hits[s->path_on[P_COMPUTE] ? P_COMPUTE : P_PIPELINE];
@@ -439,8 +451,7 @@ static bool build(scene_run *s, double *corvid_s, double *embree_s) {
  * path (upload and the driver's build), and reports both. */
 static bool write_accel(scene_run *s) {
     bench *b = s->b;
-    cv_accel_desc desc = { .triangle_count = s->bvh->tri_count, .node_count = s->bvh->node2_count,
-                           .label = "bench" };
+    cv_accel_desc desc = { .triangle_count = s->bvh->tri_count, .node_count = s->bvh->node2_count, .label = "bench" };
     if (cv_accel_create(b->ctx, &desc, &s->accel) != CV_OK || cv_device_load(b->dev, cv_any(s->accel)) != CV_OK) {
         fprintf(stderr, "bench_trace: accel: %s\n", cv_last_error());
         return false;
@@ -474,11 +485,10 @@ static void bench_scene(bench *b, const char *name, cv_scene *scene) {
     if (!scene)
         return;
     printf("\n== %s: %llu world triangles (%llu stored), %u instances\n", name,
-           (unsigned long long)cv_scene_world_triangle_count(scene), (unsigned long long)cv_scene_triangle_count(scene),
-           cv_scene_instance_count(scene));
+           (unsigned long long)cv_scene_world_triangle_count(scene),
+           (unsigned long long)cv_scene_triangle_count(scene), cv_scene_instance_count(scene));
     fflush(stdout);
-    scene_run s = { .b = b, .scene = scene,
-                    .path_on = { b->o.compute, b->o.pipeline && b->pipeline_offered } };
+    scene_run s = { .b = b, .scene = scene, .path_on = { b->o.compute, b->o.pipeline && b->pipeline_offered } };
     double corvid_s, embree_s;
     if (build(&s, &corvid_s, &embree_s)) {
         double tris = (double)cv_scene_world_triangle_count(scene);
@@ -512,8 +522,10 @@ static void report_auto_choice(bench *b) {
     if (r == CV_OK)
         r = cv_vulkan_set_trace_path(b->dev, CV_VULKAN_TRACE_AUTO);
     if (r == CV_OK)
-        r = cv_accel_create(b->ctx, &(cv_accel_desc){ .triangle_count = bvh->tri_count,
-                                                      .node_count = bvh->node2_count, .label = "auto" }, &accel);
+        r = cv_accel_create(b->ctx,
+                            &(cv_accel_desc){
+                                .triangle_count = bvh->tri_count, .node_count = bvh->node2_count, .label = "auto" },
+                            &accel);
     if (r == CV_OK)
         r = cv_device_load(b->dev, cv_any(accel));
     if (r == CV_OK)
@@ -523,9 +535,10 @@ static void report_auto_choice(bench *b) {
     if (r != CV_OK)
         fprintf(stderr, "bench_trace: AUTO measurement: %s\n", cv_last_error());
     else if (st.measured)
-        printf("device's own choice (AUTO, measured on the room, %u rays per query): compute %.2f, pipeline %.2f "
-               "Mrays/s -> %s\n", st.measured_rays, st.compute_mrays, st.pipeline_mrays,
-               cv_vulkan_trace_path_name(st.path));
+        printf(
+            "device's own choice (AUTO, measured on the room, %u rays per query): compute %.2f, pipeline %.2f "
+            "Mrays/s -> %s\n",
+            st.measured_rays, st.compute_mrays, st.pipeline_mrays, cv_vulkan_trace_path_name(st.path));
     else
         printf("device's own choice: %s\n", cv_vulkan_trace_path_name(st.path));
     if (accel.id)
@@ -603,8 +616,9 @@ int main(int argc, char **argv) {
         bench_scene(&b, name, s);
     }
     if (b.o.model) {
-        const char *path = b.o.model_path ? b.o.model_path
-                                          : access(DEFAULT_MODEL, R_OK) == 0 ? DEFAULT_MODEL : FALLBACK_MODEL;
+        const char *path = b.o.model_path                     ? b.o.model_path
+                           : access(DEFAULT_MODEL, R_OK) == 0 ? DEFAULT_MODEL
+                                                              : FALLBACK_MODEL;
         cv_scene *s = NULL;
         if (cv_scene_import(path, &s) != CV_OK)
             fprintf(stderr, "bench_trace: model: %s\n", cv_last_error());

@@ -69,8 +69,10 @@ static bool parse_size(const char *text, const char **end, uint64_t *out) {
     unsigned long long v = strtoull(text, &e, 10);
     if (e == text || v == 0)
         return false;
-    uint64_t unit = *e == 'K' || *e == 'k' ? 1ull << 10 : *e == 'M' || *e == 'm' ? 1ull << 20
-                    : *e == 'G' || *e == 'g' ? 1ull << 30 : 1;
+    uint64_t unit = *e == 'K' || *e == 'k'   ? 1ull << 10
+                    : *e == 'M' || *e == 'm' ? 1ull << 20
+                    : *e == 'G' || *e == 'g' ? 1ull << 30
+                                             : 1;
     if (unit > 1)
         e++;
     *out = v * unit;
@@ -99,8 +101,9 @@ static void default_sizes(options *o, uint64_t smallest, uint64_t largest, uint3
 }
 
 static bool parse(int argc, char **argv, options *o) {
-    *o = (options){ .tex_width = 1920, .tex_height = 1080, .columns = 2, .vulkan = true, .mock = true,
-                    .min_time = 0.3 };
+    *o = (options){
+        .tex_width = 1920, .tex_height = 1080, .columns = 2, .vulkan = true, .mock = true, .min_time = 0.3
+    };
     default_sizes(o, 64ull << 10, 256ull << 20, 2);
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -125,8 +128,8 @@ static bool parse(int argc, char **argv, options *o) {
             ok = parse_sizes(v, o);
         } else if (strcmp(a, "--texture") == 0) {
             char tail;
-            ok = sscanf(v, "%ux%u%c", &o->tex_width, &o->tex_height, &tail) == 2 && o->tex_width &&
-                 o->tex_height && o->tex_width <= CV_MAX_TEXTURE_DIM && o->tex_height <= CV_MAX_TEXTURE_DIM;
+            ok = sscanf(v, "%ux%u%c", &o->tex_width, &o->tex_height, &tail) == 2 && o->tex_width && o->tex_height &&
+                 o->tex_width <= CV_MAX_TEXTURE_DIM && o->tex_height <= CV_MAX_TEXTURE_DIM;
         } else if (strcmp(a, "--columns") == 0) {
             o->columns = (uint32_t)strtoul(v, NULL, 10);
             ok = o->columns >= 1 && o->columns <= 64;
@@ -176,14 +179,14 @@ typedef struct job {
     resource_kind kind;
     cv_handle src_res, dst_res;
     uint64_t bytes;
-    cv_rect rect;                /* textures: the source rectangle, also where it lands */
-    cv_transfer_path path;       /* forced for this contender (cv_transfer_set_path) */
+    cv_rect rect;          /* textures: the source rectangle, also where it lands */
+    cv_transfer_path path; /* forced for this contender (cv_transfer_set_path) */
     const uint8_t *host_src;
     uint8_t *host_dst;
     series s;
 } job;
 
-static volatile uint8_t sink;    /* keeps memcpy's result observed */
+static volatile uint8_t sink; /* keeps memcpy's result observed */
 
 static bool run_once(job *j, timing *t) {
     if (j->is_memcpy) {
@@ -197,11 +200,10 @@ static bool run_once(job *j, timing *t) {
     cv_transfer_stats st;
     cv_result r = cv_transfer_set_path(j->path);
     if (r == CV_OK)
-        r = j->kind == KIND_BUFFER
-                      ? cv_transfer_buffer(j->src, (cv_buffer){ j->src_res.id }, 0, j->dst,
-                                           (cv_buffer){ j->dst_res.id }, 0, j->bytes, &st)
-                      : cv_transfer_texture(j->src, (cv_texture){ j->src_res.id }, j->rect, j->dst,
-                                            (cv_texture){ j->dst_res.id }, j->rect.x, j->rect.y, &st);
+        r = j->kind == KIND_BUFFER ? cv_transfer_buffer(j->src, (cv_buffer){ j->src_res.id }, 0, j->dst,
+                                                        (cv_buffer){ j->dst_res.id }, 0, j->bytes, &st)
+                                   : cv_transfer_texture(j->src, (cv_texture){ j->src_res.id }, j->rect, j->dst,
+                                                         (cv_texture){ j->dst_res.id }, j->rect.x, j->rect.y, &st);
     if (r != CV_OK) {
         fprintf(stderr, "bench_transfer: %s -> %s: %s\n", cv_device_label(j->src), cv_device_label(j->dst),
                 cv_last_error());
@@ -276,7 +278,7 @@ typedef struct row {
 
 typedef struct pair {
     cv_device *src, *dst;
-    uint64_t max_buffer;         /* the smaller max_storage_buffer_range of the two */
+    uint64_t max_buffer; /* the smaller max_storage_buffer_range of the two */
 } pair;
 
 typedef struct bench {
@@ -284,7 +286,7 @@ typedef struct bench {
     cv_context *ctx;
     cv_device *vk[CV_MAX_DEVICES];
     cv_device *mock[2];
-    pair pairs[C_MEMCPY];        /* per transfer contender; src NULL when not run */
+    pair pairs[C_MEMCPY]; /* per transfer contender; src NULL when not run */
     row rows[MAX_ROWS];
     uint32_t row_count;
     /* Allocated once with the bench and never freed while it runs: freeing
@@ -329,9 +331,8 @@ static bool verify(job *j) {
     timing t;
     if (r != CV_OK || !run_once(j, &t))
         return false;
-    r = j->kind == KIND_BUFFER
-                      ? cv_device_read_buffer(j->dst, (cv_buffer){ j->dst_res.id }, 0, j->bytes, j->host_dst)
-                      : cv_device_read_texture(j->dst, (cv_texture){ j->dst_res.id }, j->rect, j->host_dst);
+    r = j->kind == KIND_BUFFER ? cv_device_read_buffer(j->dst, (cv_buffer){ j->dst_res.id }, 0, j->bytes, j->host_dst)
+                               : cv_device_read_texture(j->dst, (cv_texture){ j->dst_res.id }, j->rect, j->host_dst);
     return r == CV_OK && memcmp(j->host_dst, j->host_src, j->bytes) == 0;
 }
 
@@ -371,8 +372,15 @@ static void run_row(bench *b, row *rw, resource_kind kind, cv_handle src, cv_han
     uint32_t n = 0;
     for (int c = C_VK_STAGED; c <= C_MOCK; c++) {
         const pair *p = &b->pairs[c];
-        jobs[c] = (job){ .src = p->src, .dst = p->dst, .kind = kind, .src_res = src, .dst_res = dst,
-                         .bytes = rw->bytes, .rect = rect, .path = contender_path[c], .host_src = host_src,
+        jobs[c] = (job){ .src = p->src,
+                         .dst = p->dst,
+                         .kind = kind,
+                         .src_res = src,
+                         .dst_res = dst,
+                         .bytes = rw->bytes,
+                         .rect = rect,
+                         .path = contender_path[c],
+                         .host_src = host_src,
                          .host_dst = host_dst };
         if (!p->src || (kind == KIND_BUFFER && rw->bytes > p->max_buffer))
             continue;
@@ -417,7 +425,7 @@ static void buffer_row(bench *b, uint64_t bytes) {
     bool fits = false;
     for (int c = C_VK_STAGED; c <= C_MOCK; c++)
         fits |= b->pairs[c].src && bytes <= b->pairs[c].max_buffer;
-    if (!fits)   /* the row stays, empty, to show the size was asked for */
+    if (!fits) /* the row stays, empty, to show the size was asked for */
         return;
     cv_buffer src = { 0 }, dst = { 0 };
     if (cv_buffer_create(b->ctx, &(cv_buffer_desc){ .size = bytes, .label = "bench source" }, &src) != CV_OK ||
@@ -435,8 +443,9 @@ static void texture_row(bench *b, cv_format format, cv_rect rect, const char *wh
     row *rw = &b->rows[b->row_count++];
     *rw = (row){ .bytes = (uint64_t)rect.width * rect.height * cv_format_bytes(format) };
     snprintf(rw->what, sizeof rw->what, "%s", what);
-    cv_texture_desc desc = { .width = b->o.tex_width, .height = b->o.tex_height, .format = format,
-                             .label = "bench image" };
+    cv_texture_desc desc = {
+        .width = b->o.tex_width, .height = b->o.tex_height, .format = format, .label = "bench image"
+    };
     cv_texture src = { 0 }, dst = { 0 };
     if (cv_texture_create(b->ctx, &desc, &src) != CV_OK || cv_texture_create(b->ctx, &desc, &dst) != CV_OK)
         fprintf(stderr, "bench_transfer: %s: %s\n", what, cv_last_error());
@@ -450,9 +459,7 @@ static void texture_row(bench *b, cv_format format, cv_rect rect, const char *wh
 
 /* ---- devices ------------------------------------------------------------------------------ */
 
-static uint64_t smaller(uint64_t a, uint64_t b) {
-    return a < b ? a : b;
-}
+static uint64_t smaller(uint64_t a, uint64_t b) { return a < b ? a : b; }
 
 /* Two Vulkan devices from the GPU table; by default two virtual GPUs on the
  * adapter chosen for rendering. */
@@ -543,12 +550,13 @@ static void print_ratio(const figure *f, const figure *peer) {
 
 static bool print_table(const bench *b) {
     bool all_verified = true;
-    printf("\nMB/s = 1e6 bytes/s of the median run (>= %d runs, >= %.2f s per contender and row, interleaved);\n"
-           "ms: one transfer; vulkan gpu1 -> gpu0 once per forced path (transfer.h), mock m1 -> m0 staged;\n"
-           "memcpy: the same bytes between two host buffers; ratios: vulkan path MB/s / memcpy MB/s;\n"
-           "'-': not run (above the pair's max_storage_buffer_range, a path the pair cannot take, or off);\n"
-           "'!' = the destination's bytes differ from the source's\n",
-           MIN_REPS, b->o.min_time);
+    printf(
+        "\nMB/s = 1e6 bytes/s of the median run (>= %d runs, >= %.2f s per contender and row, interleaved);\n"
+        "ms: one transfer; vulkan gpu1 -> gpu0 once per forced path (transfer.h), mock m1 -> m0 staged;\n"
+        "memcpy: the same bytes between two host buffers; ratios: vulkan path MB/s / memcpy MB/s;\n"
+        "'-': not run (above the pair's max_storage_buffer_range, a path the pair cannot take, or off);\n"
+        "'!' = the destination's bytes differ from the source's\n",
+        MIN_REPS, b->o.min_time);
     printf("%-26s %11s |", "", "");
     for (int c = C_VK_STAGED; c <= C_MOCK; c++)
         printf(" %-18s|", contender_name[c]);
@@ -616,7 +624,7 @@ int main(int argc, char **argv) {
         if (status)
             fprintf(stderr, "bench_transfer: some transfers delivered wrong bytes ('!')\n");
     }
-    cv_context_destroy(b->ctx);   /* destroys the devices too */
+    cv_context_destroy(b->ctx); /* destroys the devices too */
     if (b->o.validation && cv_vulkan_validation_message_count() != 0) {
         fprintf(stderr, "bench_transfer: %u validation messages\n", cv_vulkan_validation_message_count());
         status = 1;

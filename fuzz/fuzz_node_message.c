@@ -32,12 +32,12 @@ cv_result cv_rpc_stream_recv(cv_rpc_stream *s, uint32_t timeout_ms, uint8_t **da
     *data = NULL;
     *size = 0;
     if (s->size - s->pos < 2)
-        return CV_OK;   /* the client closed its side */
+        return CV_OK; /* the client closed its side */
     size_t n = (size_t)s->data[s->pos] | (size_t)s->data[s->pos + 1] << 8;
     s->pos += 2;
     if (n > s->size - s->pos)
         n = s->size - s->pos;
-    uint8_t *copy = malloc(n ? n : 1);   /* the session frees it */
+    uint8_t *copy = malloc(n ? n : 1); /* the session frees it */
     if (!copy)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "fuzz stream");
     memcpy(copy, s->data + s->pos, n);
@@ -99,7 +99,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv) {
     node.config.devices = &device;
     node.config.device_count = 1;
     node.config.idle_timeout_ms = 1000;
-    node.config.log_sessions = getenv("CORVID_FUZZ_LOG") != NULL;   /* the session's own log lines */
+    node.config.log_sessions = getenv("CORVID_FUZZ_LOG") != NULL; /* the session's own log lines */
     node.config.name = node.name;
     snprintf(node.name, sizeof(node.name), "fuzz");
     node.device_info = calloc(1, sizeof(*node.device_info));

@@ -50,7 +50,7 @@ static void hello(seed *s) {
 
 static void create(seed *s, cv_context *ctx, cv_handle h) {
     cv_resource_desc desc;
-    bool list = cv_handle_type_of(h.id) == CV_HANDLE_CMDLIST;   /* a list has no description: NULL */
+    bool list = cv_handle_type_of(h.id) == CV_HANDLE_CMDLIST; /* a list has no description: NULL */
     if (!list && cv_context_describe(ctx, h, &desc) != CV_OK) {
         fprintf(stderr, "make_corpus: %s\n", cv_last_error());
         exit(1);

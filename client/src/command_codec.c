@@ -52,11 +52,16 @@ _Static_assert(CV_MAX_ENCODED_LIST <= UINT32_MAX, "decoded sizes must fit in uin
 #define ENC_SCRATCH_ANY(f)
 #define ENC_SCRATCH_BYTES(f)
 #define ENC_SCRATCH_STRING(f) char f##_text[CV_LABEL_MAX];
-#define ENC_SCRATCH_BINDINGS(f) Corvid__Binding f##_items[CV_MAX_BINDINGS]; Corvid__Binding *f##_ptrs[CV_MAX_BINDINGS];
+#define ENC_SCRATCH_BINDINGS(f) \
+    Corvid__Binding f##_items[CV_MAX_BINDINGS]; \
+    Corvid__Binding *f##_ptrs[CV_MAX_BINDINGS];
 #define ENC_SCRATCH_FIELD(num, TYPE, f) ENC_SCRATCH_##TYPE(f)
 
 #define ENC_SCRATCH_TYPE(id, UPPER, lower, Camel, queues) \
-    typedef struct enc_##lower { Corvid__##Camel##Cmd msg; CV_FIELDS_##lower(ENC_SCRATCH_FIELD) } enc_##lower;
+    typedef struct enc_##lower { \
+        Corvid__##Camel##Cmd msg; \
+        CV_FIELDS_##lower(ENC_SCRATCH_FIELD) \
+    } enc_##lower;
 CV_COMMAND_TABLE(ENC_SCRATCH_TYPE)
 #undef ENC_SCRATCH_TYPE
 
@@ -96,28 +101,28 @@ static char *label_text(const cv_command_list *list, cv_span s, char text[CV_LAB
 #define ENC_PIPELINE(f) ENC_HANDLE(f)
 #define ENC_ACCEL(f) ENC_HANDLE(f)
 #define ENC_ANY(f) ENC_HANDLE(f)
-#define ENC_BYTES(f)                                                                    \
+#define ENC_BYTES(f) \
     if ((r = check_span(index, #f, cmd->f, CV_MAX_LIST_DATA, list->data_size)) != CV_OK) \
-        return r;                                                                       \
-    m->f.len = cmd->f.size;                                                             \
+        return r; \
+    m->f.len = cmd->f.size; \
     m->f.data = cmd->f.size ? (uint8_t *)list->data + cmd->f.offset : NULL;
-#define ENC_STRING(f)                                                                   \
+#define ENC_STRING(f) \
     if ((r = check_span(index, #f, cmd->f, CV_LABEL_MAX - 1, list->data_size)) != CV_OK) \
-        return r;                                                                       \
+        return r; \
     m->f = label_text(list, cmd->f, sc->f##_text);
-#define ENC_BINDINGS(f)                                                                       \
-    if ((r = check_span(index, #f, cmd->f, CV_MAX_BINDINGS, list->binding_count)) != CV_OK)   \
-        return r;                                                                             \
-    for (uint32_t i = 0; i < cmd->f.size; i++) {                                              \
-        const cv_binding *b = &list->bindings[cmd->f.offset + i];                             \
-        sc->f##_items[i] = (Corvid__Binding)CORVID__BINDING__INIT;                            \
-        sc->f##_items[i].resource = b->resource.id;                                           \
-        sc->f##_items[i].sampler = b->sampler.id;                                             \
-        sc->f##_items[i].offset = b->offset;                                                  \
-        sc->f##_items[i].range = b->range;                                                    \
-        sc->f##_ptrs[i] = &sc->f##_items[i];                                                  \
-    }                                                                                         \
-    m->n_##f = cmd->f.size;                                                                   \
+#define ENC_BINDINGS(f) \
+    if ((r = check_span(index, #f, cmd->f, CV_MAX_BINDINGS, list->binding_count)) != CV_OK) \
+        return r; \
+    for (uint32_t i = 0; i < cmd->f.size; i++) { \
+        const cv_binding *b = &list->bindings[cmd->f.offset + i]; \
+        sc->f##_items[i] = (Corvid__Binding)CORVID__BINDING__INIT; \
+        sc->f##_items[i].resource = b->resource.id; \
+        sc->f##_items[i].sampler = b->sampler.id; \
+        sc->f##_items[i].offset = b->offset; \
+        sc->f##_items[i].range = b->range; \
+        sc->f##_ptrs[i] = &sc->f##_items[i]; \
+    } \
+    m->n_##f = cmd->f.size; \
     m->f = sc->f##_ptrs;
 #define ENC_FIELD(num, TYPE, f) ENC_##TYPE(f)
 
@@ -129,22 +134,20 @@ static cv_result fill_wire(const cv_command_list *list, uint32_t index, Corvid__
     *wire = (Corvid__Command)CORVID__COMMAND__INIT;
     wire->queue = (uint32_t)c->queue;
     switch (c->type) {
-#define ENC_CASE(id, UPPER, lower, Camel, queues)                       \
-    case CV_CMD_##UPPER: {                                              \
-        enc_##lower *sc = &scratch->lower;                              \
-        Corvid__##Camel##Cmd *m = &sc->msg;                             \
-        const cv_##lower##_cmd *cmd = &c->u.lower;                      \
-        *m = (Corvid__##Camel##Cmd)CORVID__##UPPER##_CMD__INIT;         \
-        CV_FIELDS_##lower(ENC_FIELD)                                    \
-        (void)cmd;                                                      \
-        wire->cmd_case = CORVID__COMMAND__CMD_##UPPER;                  \
-        wire->lower = m;                                                \
-        return r;                                                       \
+#define ENC_CASE(id, UPPER, lower, Camel, queues) \
+    case CV_CMD_##UPPER: { \
+        enc_##lower *sc = &scratch->lower; \
+        Corvid__##Camel##Cmd *m = &sc->msg; \
+        const cv_##lower##_cmd *cmd = &c->u.lower; \
+        *m = (Corvid__##Camel##Cmd)CORVID__##UPPER##_CMD__INIT; \
+        CV_FIELDS_##lower(ENC_FIELD)(void) cmd; \
+        wire->cmd_case = CORVID__COMMAND__CMD_##UPPER; \
+        wire->lower = m; \
+        return r; \
     }
         CV_COMMAND_TABLE(ENC_CASE)
 #undef ENC_CASE
-    default:
-        break;
+    default: break;
     }
     return cv_error(CV_ERROR_INVALID_ARGUMENT, "encode: command %u has unknown type %d", index, (int)c->type);
 }
@@ -192,7 +195,7 @@ cv_result cv_command_list_encode(const cv_command_list *list, uint8_t **out, siz
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_command_list_encode: NULL list or output pointer");
     if (!list->ended_ok)
         return cv_error(CV_ERROR_BAD_STATE, "cv_command_list_encode: the list %s",
-                        list->recording ? "is still recording"
+                        list->recording        ? "is still recording"
                         : list->error != CV_OK ? "ended with an error"
                                                : "was never ended");
     /* A first guess from the list's sizes saves most regrowth. */
@@ -250,18 +253,10 @@ static cv_result skip_field(const uint8_t **p, const uint8_t *end, size_t at, ui
     uint64_t value, len = 0;
     bool ok = true;
     switch (key & 7) {
-    case WIRE_VARINT:
-        ok = read_varint(p, end, &value);
-        break;
-    case WIRE_I64:
-        len = 8;
-        break;
-    case WIRE_I32:
-        len = 4;
-        break;
-    case WIRE_LEN:
-        ok = read_varint(p, end, &len);
-        break;
+    case WIRE_VARINT: ok = read_varint(p, end, &value); break;
+    case WIRE_I64: len = 8; break;
+    case WIRE_I32: len = 4; break;
+    case WIRE_LEN: ok = read_varint(p, end, &len); break;
     default:
         return cv_error(CV_ERROR_MALFORMED, "decode: byte %zu: field %llu has invalid wire type %u", at,
                         (unsigned long long)(key >> 3), (unsigned)(key & 7));
@@ -279,8 +274,10 @@ static cv_result convert_bindings(uint32_t index, const char *field, Corvid__Bin
         return cv_error(CV_ERROR_LIMIT_EXCEEDED, "decode: command %u field '%s' has %zu bindings, limit %u", index,
                         field, count, CV_MAX_BINDINGS);
     for (size_t i = 0; i < count; i++)
-        out[i] = (cv_binding){ .resource = { in[i]->resource }, .sampler = { in[i]->sampler },
-                               .offset = in[i]->offset, .range = in[i]->range };
+        out[i] = (cv_binding){ .resource = { in[i]->resource },
+                               .sampler = { in[i]->sampler },
+                               .offset = in[i]->offset,
+                               .range = in[i]->range };
     return CV_OK;
 }
 
@@ -295,30 +292,29 @@ static cv_result convert_bindings(uint32_t index, const char *field, Corvid__Bin
 #define DEC_PIPELINE(f) DEC_HANDLE(f)
 #define DEC_ACCEL(f) DEC_HANDLE(f)
 #define DEC_ANY(f) DEC_HANDLE(f)
-#define DEC_BYTES(f)            \
-    a.f = m->f.data;            \
+#define DEC_BYTES(f) \
+    a.f = m->f.data; \
     a.f##_size = (uint32_t)m->f.len;
 /* Labels end at their first NUL byte, as C strings do. */
 #define DEC_STRING(f) a.f = m->f;
-#define DEC_BINDINGS(f)                                                                  \
-    cv_binding f##_items[CV_MAX_BINDINGS];                                               \
-    if ((r = convert_bindings(index, #f, m->f, m->n_##f, f##_items)) != CV_OK)           \
-        return r;                                                                        \
-    a.f = f##_items;                                                                     \
+#define DEC_BINDINGS(f) \
+    cv_binding f##_items[CV_MAX_BINDINGS]; \
+    if ((r = convert_bindings(index, #f, m->f, m->n_##f, f##_items)) != CV_OK) \
+        return r; \
+    a.f = f##_items; \
     a.f##_count = (uint32_t)m->n_##f;
 #define DEC_FIELD(num, TYPE, f) DEC_##TYPE(f)
 
-#define DEC_REPLAY(id, UPPER, lower, Camel, queues)                                                       \
-    static cv_result replay_##lower(cv_command_list *list, uint32_t index, cv_queue_type queue,           \
-                                    const Corvid__##Camel##Cmd *m) {                                      \
-        cv_##lower##_args a;                                                                              \
-        cv_result r = CV_OK;                                                                              \
-        memset(&a, 0, sizeof(a));                                                                         \
-        CV_FIELDS_##lower(DEC_FIELD)                                                                      \
-        (void)m;                                                                                          \
-        (void)index;                                                                                      \
-        (void)r;                                                                                          \
-        return cv_cmd_##lower(list, queue, &a);                                                           \
+#define DEC_REPLAY(id, UPPER, lower, Camel, queues) \
+    static cv_result replay_##lower(cv_command_list *list, uint32_t index, cv_queue_type queue, \
+                                    const Corvid__##Camel##Cmd *m) { \
+        cv_##lower##_args a; \
+        cv_result r = CV_OK; \
+        memset(&a, 0, sizeof(a)); \
+        CV_FIELDS_##lower(DEC_FIELD)(void) m; \
+        (void)index; \
+        (void)r; \
+        return cv_cmd_##lower(list, queue, &a); \
     }
 CV_COMMAND_TABLE(DEC_REPLAY)
 #undef DEC_REPLAY
@@ -331,8 +327,8 @@ static cv_result replay_command(cv_command_list *list, uint32_t index, const uin
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "decode: command %u: no memory to unpack its %zu bytes", index, len);
     if (!w && arena->over_limit)
         return cv_error(CV_ERROR_MALFORMED,
-                        "decode: command %u: its %zu bytes unpack to more than %zu bytes (hostile or corrupt)",
-                        index, len, UNPACK_BUDGET(len));
+                        "decode: command %u: its %zu bytes unpack to more than %zu bytes (hostile or corrupt)", index,
+                        len, UNPACK_BUDGET(len));
     if (!w)
         return cv_error(CV_ERROR_MALFORMED, "decode: command %u: %zu bytes that are not a valid Command message",
                         index, len);
@@ -342,12 +338,10 @@ static cv_result replay_command(cv_command_list *list, uint32_t index, const uin
     cv_queue_type queue = (cv_queue_type)w->queue;
     switch (w->cmd_case) {
 #define DEC_CASE(id, UPPER, lower, Camel, queues) \
-    case CORVID__COMMAND__CMD_##UPPER:            \
-        return replay_##lower(list, index, queue, w->lower);
+    case CORVID__COMMAND__CMD_##UPPER: return replay_##lower(list, index, queue, w->lower);
         CV_COMMAND_TABLE(DEC_CASE)
 #undef DEC_CASE
-    default:
-        break;
+    default: break;
     }
     return cv_error(CV_ERROR_MALFORMED,
                     "decode: command %u carries no command (an empty Command, or one this version does not know)",

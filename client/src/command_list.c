@@ -12,9 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-void cv_command_list_init(cv_command_list *list) {
-    memset(list, 0, sizeof(*list));
-}
+void cv_command_list_init(cv_command_list *list) { memset(list, 0, sizeof(*list)); }
 
 void cv_command_list_finish(cv_command_list *list) {
     free(list->commands);
@@ -37,8 +35,8 @@ void cv_command_list_begin(cv_command_list *list) {
     list->error_message[0] = '\0';
 }
 
-__attribute__((format(printf, 3, 4)))
-static cv_result fail(cv_command_list *list, cv_result code, const char *fmt, ...) {
+__attribute__((format(printf, 3, 4))) static cv_result fail(cv_command_list *list, cv_result code, const char *fmt,
+                                                            ...) {
     if (list->error == CV_OK) {
         char detail[200];
         va_list ap;
@@ -46,8 +44,7 @@ static cv_result fail(cv_command_list *list, cv_result code, const char *fmt, ..
         vsnprintf(detail, sizeof(detail), fmt, ap);
         va_end(ap);
         list->error = code;
-        snprintf(list->error_message, sizeof(list->error_message), "command %u: %s", list->count,
-                 detail);
+        snprintf(list->error_message, sizeof(list->error_message), "command %u: %s", list->count, detail);
     }
     return cv_error(list->error, "%s", list->error_message);
 }
@@ -66,9 +63,7 @@ cv_result cv_command_list_end(cv_command_list *list) {
     return CV_OK;
 }
 
-const char *cv_command_list_error(const cv_command_list *list) {
-    return list->error_message;
-}
+const char *cv_command_list_error(const cv_command_list *list) { return list->error_message; }
 
 void cv_list_string(const cv_command_list *l, cv_span s, char *buf, size_t cap) {
     if (cap == 0)
@@ -113,9 +108,8 @@ static cv_result push_data(cv_command_list *list, const void *src, uint32_t size
 static cv_result check_tag(cv_command_list *list, const char *field, uint64_t id, cv_handle_type want) {
     if (id == 0 || cv_handle_type_of(id) == want)
         return CV_OK;
-    return fail(list, CV_ERROR_WRONG_HANDLE_TYPE, "field '%s' wants a %s handle, got a %s handle (0x%016llx)",
-                field, cv_handle_type_name(want), cv_handle_type_name(cv_handle_type_of(id)),
-                (unsigned long long)id);
+    return fail(list, CV_ERROR_WRONG_HANDLE_TYPE, "field '%s' wants a %s handle, got a %s handle (0x%016llx)", field,
+                cv_handle_type_name(want), cv_handle_type_name(cv_handle_type_of(id)), (unsigned long long)id);
 }
 
 static cv_result check_any_tag(cv_command_list *list, const char *field, uint64_t id) {
@@ -125,8 +119,8 @@ static cv_result check_any_tag(cv_command_list *list, const char *field, uint64_
                 (unsigned long long)id);
 }
 
-static cv_result store_bytes(cv_command_list *list, const char *field, const void *src, uint32_t size,
-                             uint32_t limit, cv_span *out) {
+static cv_result store_bytes(cv_command_list *list, const char *field, const void *src, uint32_t size, uint32_t limit,
+                             cv_span *out) {
     if (size > limit)
         return fail(list, CV_ERROR_LIMIT_EXCEEDED, "field '%s' has %u bytes, limit %u", field, size, limit);
     if (size && !src)
@@ -142,8 +136,8 @@ static cv_result store_string(cv_command_list *list, const char *field, const ch
     return push_data(list, s, (uint32_t)n, out);
 }
 
-static cv_result store_bindings(cv_command_list *list, const char *field, const cv_binding *b,
-                                uint32_t count, cv_span *out) {
+static cv_result store_bindings(cv_command_list *list, const char *field, const cv_binding *b, uint32_t count,
+                                cv_span *out) {
     if (count > CV_MAX_BINDINGS)
         return fail(list, CV_ERROR_LIMIT_EXCEEDED, "field '%s' has %u bindings, limit %u", field, count,
                     CV_MAX_BINDINGS);
@@ -195,8 +189,7 @@ static cv_result check_structure(cv_command_list *list, const cv_command *c) {
         break;
     case CV_CMD_BEGIN_MARKER:
     case CV_CMD_TIMESTAMP:
-    case CV_CMD_BARRIER:
-        break;
+    case CV_CMD_BARRIER: break;
     case CV_CMD_TRACE_RAYS:
         if (in_pass)
             return fail(list, CV_ERROR_BAD_STATE, "trace_rays inside a render pass");
@@ -209,10 +202,14 @@ static cv_result check_structure(cv_command_list *list, const cv_command *c) {
         break;
     }
     cv_span push = { 0, 0 };
-    if (c->type == CV_CMD_DISPATCH) push = c->u.dispatch.push;
-    if (c->type == CV_CMD_DISPATCH_INDIRECT) push = c->u.dispatch_indirect.push;
-    if (c->type == CV_CMD_DRAW) push = c->u.draw.push;
-    if (c->type == CV_CMD_DRAW_INDEXED) push = c->u.draw_indexed.push;
+    if (c->type == CV_CMD_DISPATCH)
+        push = c->u.dispatch.push;
+    if (c->type == CV_CMD_DISPATCH_INDIRECT)
+        push = c->u.dispatch_indirect.push;
+    if (c->type == CV_CMD_DRAW)
+        push = c->u.draw.push;
+    if (c->type == CV_CMD_DRAW_INDEXED)
+        push = c->u.draw_indexed.push;
     if (push.size > CV_MAX_PUSH_CONSTANTS)
         return fail(list, CV_ERROR_LIMIT_EXCEEDED, "%u bytes of push constants, limit %u", push.size,
                     CV_MAX_PUSH_CONSTANTS);
@@ -220,10 +217,14 @@ static cv_result check_structure(cv_command_list *list, const cv_command *c) {
 }
 
 static void apply_structure(cv_command_list *list, const cv_command *c) {
-    if (c->type == CV_CMD_BEGIN_RENDER_PASS) list->render_pass_open = 1;
-    if (c->type == CV_CMD_END_RENDER_PASS) list->render_pass_open = 0;
-    if (c->type == CV_CMD_BEGIN_MARKER) list->marker_depth++;
-    if (c->type == CV_CMD_END_MARKER) list->marker_depth--;
+    if (c->type == CV_CMD_BEGIN_RENDER_PASS)
+        list->render_pass_open = 1;
+    if (c->type == CV_CMD_END_RENDER_PASS)
+        list->render_pass_open = 0;
+    if (c->type == CV_CMD_BEGIN_MARKER)
+        list->marker_depth++;
+    if (c->type == CV_CMD_END_MARKER)
+        list->marker_depth--;
 }
 
 /* Field copiers, one per field type; `r` collects the first failure. */
@@ -232,34 +233,45 @@ static void apply_structure(cv_command_list *list, const cv_command *c) {
 #define CV_COPY_U64(n) CV_COPY_SCALAR(n)
 #define CV_COPY_I32(n) CV_COPY_SCALAR(n)
 #define CV_COPY_F32(n) CV_COPY_SCALAR(n)
-#define CV_COPY_HANDLE(n, T) if (r == CV_OK) { r = check_tag(list, #n, a->n.id, T); cmd->n = a->n; }
+#define CV_COPY_HANDLE(n, T) \
+    if (r == CV_OK) { \
+        r = check_tag(list, #n, a->n.id, T); \
+        cmd->n = a->n; \
+    }
 #define CV_COPY_BUFFER(n) CV_COPY_HANDLE(n, CV_HANDLE_BUFFER)
 #define CV_COPY_TEXTURE(n) CV_COPY_HANDLE(n, CV_HANDLE_TEXTURE)
 #define CV_COPY_PIPELINE(n) CV_COPY_HANDLE(n, CV_HANDLE_PIPELINE)
 #define CV_COPY_ACCEL(n) CV_COPY_HANDLE(n, CV_HANDLE_ACCEL)
-#define CV_COPY_ANY(n) if (r == CV_OK) { r = check_any_tag(list, #n, a->n.id); cmd->n = a->n; }
-#define CV_COPY_BYTES(n) if (r == CV_OK) r = store_bytes(list, #n, a->n, a->n##_size, CV_MAX_UPDATE_BYTES, &cmd->n);
-#define CV_COPY_STRING(n) if (r == CV_OK) r = store_string(list, #n, a->n, &cmd->n);
-#define CV_COPY_BINDINGS(n) if (r == CV_OK) r = store_bindings(list, #n, a->n, a->n##_count, &cmd->n);
+#define CV_COPY_ANY(n) \
+    if (r == CV_OK) { \
+        r = check_any_tag(list, #n, a->n.id); \
+        cmd->n = a->n; \
+    }
+#define CV_COPY_BYTES(n) \
+    if (r == CV_OK) \
+        r = store_bytes(list, #n, a->n, a->n##_size, CV_MAX_UPDATE_BYTES, &cmd->n);
+#define CV_COPY_STRING(n) \
+    if (r == CV_OK) \
+        r = store_string(list, #n, a->n, &cmd->n);
+#define CV_COPY_BINDINGS(n) \
+    if (r == CV_OK) \
+        r = store_bindings(list, #n, a->n, a->n##_count, &cmd->n);
 #define CV_COPY_FIELD(num, TYPE, name) CV_COPY_##TYPE(name)
 
-static cv_result begin_record(cv_command_list *list, cv_command_type type, cv_queue_type queue,
-                              const void *args) {
+static cv_result begin_record(cv_command_list *list, cv_command_type type, cv_queue_type queue, const void *args) {
     if (list->error != CV_OK)
         return cv_error(list->error, "%s", list->error_message);
-    if (!list->recording)   /* not sticky: an ended list stays as it was */
-        return cv_error(CV_ERROR_BAD_STATE, "%s recorded into a list that is not recording",
-                        cv_command_name(type));
+    if (!list->recording) /* not sticky: an ended list stays as it was */
+        return cv_error(CV_ERROR_BAD_STATE, "%s recorded into a list that is not recording", cv_command_name(type));
     if (!args)
         return fail(list, CV_ERROR_INVALID_ARGUMENT, "%s with NULL arguments", cv_command_name(type));
     if ((unsigned)queue >= CV_QUEUE_TYPE_COUNT)
         return fail(list, CV_ERROR_INVALID_ARGUMENT, "%s on unknown queue type %d", cv_command_name(type),
                     (int)queue);
     if (!(cv_command_queues(type) & (1u << queue)))
-        return fail(list, CV_ERROR_QUEUE_MISMATCH, "%s is not allowed on the %s queue",
-                    cv_command_name(type), cv_queue_type_name(queue));
-    if (!grow((void **)&list->commands, &list->capacity, list->count + 1, sizeof(cv_command),
-              CV_MAX_COMMANDS))
+        return fail(list, CV_ERROR_QUEUE_MISMATCH, "%s is not allowed on the %s queue", cv_command_name(type),
+                    cv_queue_type_name(queue));
+    if (!grow((void **)&list->commands, &list->capacity, list->count + 1, sizeof(cv_command), CV_MAX_COMMANDS))
         return fail(list, CV_ERROR_LIMIT_EXCEEDED, "list would exceed %u commands", CV_MAX_COMMANDS);
     return CV_OK;
 }
@@ -279,20 +291,19 @@ static cv_result finish_record(cv_command_list *list, cv_command *c, cv_result r
     return CV_OK;
 }
 
-#define CV_CMD_RECORD_DEF(id, UPPER, lower, Camel, queues)                                            \
+#define CV_CMD_RECORD_DEF(id, UPPER, lower, Camel, queues) \
     cv_result cv_cmd_##lower(cv_command_list *list, cv_queue_type queue, const cv_##lower##_args *a) { \
-        cv_result r = begin_record(list, CV_CMD_##UPPER, queue, a);                                   \
-        if (r != CV_OK)                                                                               \
-            return r;                                                                                 \
-        uint32_t saved_data = list->data_size, saved_bindings = list->binding_count;                  \
-        cv_command *c = &list->commands[list->count];                                                 \
-        memset(c, 0, sizeof(*c));                                                                     \
-        c->type = CV_CMD_##UPPER;                                                                     \
-        c->queue = queue;                                                                             \
-        cv_##lower##_cmd *cmd = &c->u.lower;                                                           \
-        CV_FIELDS_##lower(CV_COPY_FIELD)                                                              \
-        (void)cmd;                                                                                    \
-        return finish_record(list, c, r, saved_data, saved_bindings);                                 \
+        cv_result r = begin_record(list, CV_CMD_##UPPER, queue, a); \
+        if (r != CV_OK) \
+            return r; \
+        uint32_t saved_data = list->data_size, saved_bindings = list->binding_count; \
+        cv_command *c = &list->commands[list->count]; \
+        memset(c, 0, sizeof(*c)); \
+        c->type = CV_CMD_##UPPER; \
+        c->queue = queue; \
+        cv_##lower##_cmd *cmd = &c->u.lower; \
+        CV_FIELDS_##lower(CV_COPY_FIELD)(void) cmd; \
+        return finish_record(list, c, r, saved_data, saved_bindings); \
     }
 CV_COMMAND_TABLE(CV_CMD_RECORD_DEF)
 #undef CV_CMD_RECORD_DEF
@@ -308,7 +319,9 @@ static void visit_bindings(const cv_command_list *list, cv_span s, cv_handle_vis
 }
 
 #define CV_VISIT_NONE(n)
-#define CV_VISIT_ID(n) if (cmd->n.id) fn(cmd->n.id, user);
+#define CV_VISIT_ID(n) \
+    if (cmd->n.id) \
+        fn(cmd->n.id, user);
 #define CV_VISIT_U32(n) CV_VISIT_NONE(n)
 #define CV_VISIT_U64(n) CV_VISIT_NONE(n)
 #define CV_VISIT_I32(n) CV_VISIT_NONE(n)
@@ -323,20 +336,17 @@ static void visit_bindings(const cv_command_list *list, cv_span s, cv_handle_vis
 #define CV_VISIT_BINDINGS(n) visit_bindings(list, cmd->n, fn, user);
 #define CV_VISIT_FIELD(num, TYPE, name) CV_VISIT_##TYPE(name)
 
-void cv_command_visit_handles(const cv_command_list *list, const cv_command *c, cv_handle_visitor fn,
-                              void *user) {
+void cv_command_visit_handles(const cv_command_list *list, const cv_command *c, cv_handle_visitor fn, void *user) {
     switch (c->type) {
-#define CV_CMD_VISIT(id, UPPER, lower, Camel, queues)          \
-    case CV_CMD_##UPPER: {                                     \
-        const cv_##lower##_cmd *cmd = &c->u.lower;             \
-        CV_FIELDS_##lower(CV_VISIT_FIELD)                      \
-        (void)cmd;                                             \
-        break;                                                 \
+#define CV_CMD_VISIT(id, UPPER, lower, Camel, queues) \
+    case CV_CMD_##UPPER: { \
+        const cv_##lower##_cmd *cmd = &c->u.lower; \
+        CV_FIELDS_##lower(CV_VISIT_FIELD)(void) cmd; \
+        break; \
     }
         CV_COMMAND_TABLE(CV_CMD_VISIT)
 #undef CV_CMD_VISIT
-    default:
-        break;
+    default: break;
     }
     (void)list;
 }
@@ -352,7 +362,9 @@ static void map_bindings(cv_command_list *list, cv_span s, cv_handle_mapper fn, 
 }
 
 #define CV_MAP_NONE(n)
-#define CV_MAP_ID(n) if (cmd->n.id) cmd->n.id = fn(cmd->n.id, user);
+#define CV_MAP_ID(n) \
+    if (cmd->n.id) \
+        cmd->n.id = fn(cmd->n.id, user);
 #define CV_MAP_U32(n) CV_MAP_NONE(n)
 #define CV_MAP_U64(n) CV_MAP_NONE(n)
 #define CV_MAP_I32(n) CV_MAP_NONE(n)
@@ -369,16 +381,14 @@ static void map_bindings(cv_command_list *list, cv_span s, cv_handle_mapper fn, 
 
 void cv_command_map_handles(cv_command_list *list, cv_command *c, cv_handle_mapper fn, void *user) {
     switch (c->type) {
-#define CV_CMD_MAP(id, UPPER, lower, Camel, queues)            \
-    case CV_CMD_##UPPER: {                                     \
-        cv_##lower##_cmd *cmd = &c->u.lower;                   \
-        CV_FIELDS_##lower(CV_MAP_FIELD)                        \
-        (void)cmd;                                             \
-        break;                                                 \
+#define CV_CMD_MAP(id, UPPER, lower, Camel, queues) \
+    case CV_CMD_##UPPER: { \
+        cv_##lower##_cmd *cmd = &c->u.lower; \
+        CV_FIELDS_##lower(CV_MAP_FIELD)(void) cmd; \
+        break; \
     }
         CV_COMMAND_TABLE(CV_CMD_MAP)
 #undef CV_CMD_MAP
-    default:
-        break;
+    default: break;
     }
 }

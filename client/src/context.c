@@ -11,7 +11,7 @@
 
 struct cv_context {
     pthread_mutex_t lock;
-    uint32_t tag;                                    /* in every handle it makes (handle.h) */
+    uint32_t tag; /* in every handle it makes (handle.h) */
     /* Slot data: a cv_resource_desc for described types, a cv_command_list for cmdlists. */
     cv_handle_pool pools[CV_HANDLE_TYPE_COUNT];
     cv_device **devices;
@@ -43,8 +43,10 @@ static cv_result tag_acquire(uint32_t *out) {
     }
     pthread_mutex_unlock(&tags_lock);
     if (!tag)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "cv_context_create: %u contexts are alive, the most one process "
-                        "can hold (CV_MAX_CONTEXTS)", CV_MAX_CONTEXTS);
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "cv_context_create: %u contexts are alive, the most one process "
+                        "can hold (CV_MAX_CONTEXTS)",
+                        CV_MAX_CONTEXTS);
     *out = tag;
     return CV_OK;
 }
@@ -61,8 +63,8 @@ static void tag_release(uint32_t tag) {
 static atomic_uint live_contexts;
 
 static bool is_described(cv_handle_type t) {
-    return t == CV_HANDLE_BUFFER || t == CV_HANDLE_TEXTURE || t == CV_HANDLE_SAMPLER ||
-           t == CV_HANDLE_PIPELINE || t == CV_HANDLE_ACCEL;
+    return t == CV_HANDLE_BUFFER || t == CV_HANDLE_TEXTURE || t == CV_HANDLE_SAMPLER || t == CV_HANDLE_PIPELINE ||
+           t == CV_HANDLE_ACCEL;
 }
 
 static bool valid_type(cv_handle_type t) { return t > CV_HANDLE_NONE && t < CV_HANDLE_TYPE_COUNT; }
@@ -81,7 +83,10 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
     if (!out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_context_create: out is NULL");
     cv_context_desc d = desc ? *desc : (cv_context_desc){ 0 };
-    const struct { const char *field; uint32_t asked, fallback; } sizes[CV_HANDLE_TYPE_COUNT] = {
+    const struct {
+        const char *field;
+        uint32_t asked, fallback;
+    } sizes[CV_HANDLE_TYPE_COUNT] = {
         [CV_HANDLE_BUFFER] = { "max_buffers", d.max_buffers, 65536 },
         [CV_HANDLE_TEXTURE] = { "max_textures", d.max_textures, 65536 },
         [CV_HANDLE_SAMPLER] = { "max_samplers", d.max_samplers, 4096 },
@@ -91,8 +96,10 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
     };
     for (int t = CV_HANDLE_BUFFER; t < CV_HANDLE_TYPE_COUNT; t++)
         if (sizes[t].asked > CV_MAX_POOL_HANDLES)
-            return cv_error(CV_ERROR_LIMIT_EXCEEDED, "cv_context_create: %s = %u exceeds the limit of %u "
-                            "(CV_MAX_POOL_HANDLES)", sizes[t].field, sizes[t].asked, CV_MAX_POOL_HANDLES);
+            return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                            "cv_context_create: %s = %u exceeds the limit of %u "
+                            "(CV_MAX_POOL_HANDLES)",
+                            sizes[t].field, sizes[t].asked, CV_MAX_POOL_HANDLES);
     cv_context *ctx = calloc(1, sizeof(*ctx));
     if (!ctx)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_context_create: context");
@@ -107,7 +114,7 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
         r = cv_handle_pool_init(&ctx->pools[t], (cv_handle_type)t, ctx->tag,
                                 sizes[t].asked ? sizes[t].asked : sizes[t].fallback, data);
     }
-    atomic_fetch_add(&live_contexts, 1);   /* cv_context_destroy below takes it off again */
+    atomic_fetch_add(&live_contexts, 1); /* cv_context_destroy below takes it off again */
     if (r != CV_OK) {
         cv_context_destroy(ctx);
         return r;
@@ -178,11 +185,10 @@ cv_result cv_texture_create(cv_context *ctx, const cv_texture_desc *desc, cv_tex
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture label is not NUL-terminated");
     if (desc->width == 0 || desc->height == 0 || desc->width > CV_MAX_TEXTURE_DIM ||
         desc->height > CV_MAX_TEXTURE_DIM)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "texture '%s': size %ux%u outside 1..%u", desc->label,
-                        desc->width, desc->height, CV_MAX_TEXTURE_DIM);
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "texture '%s': size %ux%u outside 1..%u", desc->label, desc->width,
+                        desc->height, CV_MAX_TEXTURE_DIM);
     if (desc->format == CV_FORMAT_UNDEFINED || (unsigned)desc->format >= CV_FORMAT_COUNT)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': invalid format %d", desc->label,
-                        (int)desc->format);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': invalid format %d", desc->label, (int)desc->format);
     cv_resource_desc d = { .type = CV_HANDLE_TEXTURE, .texture = *desc };
     bool depth = cv_format_is_depth(desc->format);
     if (d.texture.usage == 0)
@@ -202,8 +208,8 @@ cv_result cv_sampler_create(cv_context *ctx, const cv_sampler_desc *desc, cv_sam
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_sampler_create: NULL argument");
     if ((unsigned)desc->filter > CV_FILTER_NEAREST || (unsigned)desc->address > CV_ADDRESS_REPEAT ||
         !label_ok(desc->label))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "sampler: invalid filter %d or address mode %d",
-                        (int)desc->filter, (int)desc->address);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "sampler: invalid filter %d or address mode %d", (int)desc->filter,
+                        (int)desc->address);
     cv_resource_desc d = { .type = CV_HANDLE_SAMPLER, .sampler = *desc };
     return create_described(ctx, &d, &out->id);
 }
@@ -225,9 +231,10 @@ cv_result cv_accel_create(cv_context *ctx, const cv_accel_desc *desc, cv_accel *
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "acceleration structure label is not NUL-terminated");
     if (desc->triangle_count == 0 || desc->triangle_count > CV_MAX_ACCEL_TRIANGLES || desc->node_count == 0 ||
         desc->node_count > desc->triangle_count)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "acceleration structure '%s': %u triangles and %u nodes (needs "
-                        "1..%u triangles and 1..triangles nodes)", desc->label, desc->triangle_count,
-                        desc->node_count, CV_MAX_ACCEL_TRIANGLES);
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "acceleration structure '%s': %u triangles and %u nodes (needs "
+                        "1..%u triangles and 1..triangles nodes)",
+                        desc->label, desc->triangle_count, desc->node_count, CV_MAX_ACCEL_TRIANGLES);
     cv_resource_desc d = { .type = CV_HANDLE_ACCEL, .accel = *desc };
     return create_described(ctx, &d, &out->id);
 }
@@ -243,7 +250,7 @@ cv_result cv_cmdlist_create(cv_context *ctx, cv_cmdlist *out) {
         uint32_t version = list->version;
         cv_command_list_finish(list);
         cv_command_list_init(list);
-        list->version = version;   /* keeps versions unique per slot across reuse */
+        list->version = version; /* keeps versions unique per slot across reuse */
         list->id = id;
         out->id = id;
     }

@@ -103,8 +103,7 @@ static void collect_finished(cv_device *dev) {
 
 /* ---- create / destroy ------------------------------------------------------ */
 
-cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc,
-                           cv_device **out) {
+cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc, cv_device **out) {
     if (!ctx || !backend || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_create: NULL argument");
     cv_device_desc d = desc ? *desc : (cv_device_desc){ 0 };
@@ -187,7 +186,7 @@ cv_result cv_device_load(cv_device *dev, cv_handle h) {
     if (!dev)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_load: NULL device");
     cv_resource_desc desc;
-    cv_result r = cv_context_describe(dev->ctx, h, &desc);   /* before the device lock: lock order */
+    cv_result r = cv_context_describe(dev->ctx, h, &desc); /* before the device lock: lock order */
     if (r != CV_OK)
         return r;
     const cv_pipeline_info *pipeline = NULL;
@@ -249,10 +248,10 @@ cv_result cv_device_unload(cv_device *dev, cv_handle h) {
     cv_result r = CV_OK;
     if (!drop(dev, h.id)) {
         cv_result live = cv_context_check(dev->ctx, h);
-        r = live != CV_OK ? live
-                          : cv_error(CV_ERROR_NOT_LOADED, "%s handle 0x%016llx is not loaded on device '%s'",
-                                     cv_handle_type_name(cv_handle_type_of(h.id)), (unsigned long long)h.id,
-                                     dev->label);
+        r = live != CV_OK
+                ? live
+                : cv_error(CV_ERROR_NOT_LOADED, "%s handle 0x%016llx is not loaded on device '%s'",
+                           cv_handle_type_name(cv_handle_type_of(h.id)), (unsigned long long)h.id, dev->label);
     }
     collect_finished(dev);
     pthread_mutex_unlock(&dev->lock);
@@ -313,7 +312,8 @@ static cv_result buffer_access(cv_device *dev, cv_buffer b, uint64_t offset, uin
         r = cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer '%s': %s of 0 bytes at offset %llu: size is 0",
                      s->desc.buffer.label, src ? "write" : "read", (unsigned long long)offset);
     if (r == CV_OK && (offset > s->desc.buffer.size || size > s->desc.buffer.size - offset))
-        r = cv_error(CV_ERROR_OUT_OF_RANGE, "buffer '%s' (%llu bytes): %s of %llu bytes at offset %llu is out of range",
+        r = cv_error(CV_ERROR_OUT_OF_RANGE,
+                     "buffer '%s' (%llu bytes): %s of %llu bytes at offset %llu is out of range",
                      s->desc.buffer.label, (unsigned long long)s->desc.buffer.size, src ? "write" : "read",
                      (unsigned long long)size, (unsigned long long)offset);
     if (r == CV_OK)
@@ -342,8 +342,8 @@ static cv_result texture_access(cv_device *dev, cv_texture t, cv_rect rect, cons
     if (r == CV_OK) {
         const cv_texture_desc *d = &s->desc.texture;
         if (rect.width == 0 || rect.height == 0)
-            r = cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': %s of an empty %ux%u region at (%u,%u)",
-                         d->label, src ? "write" : "read", rect.width, rect.height, rect.x, rect.y);
+            r = cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': %s of an empty %ux%u region at (%u,%u)", d->label,
+                         src ? "write" : "read", rect.width, rect.height, rect.x, rect.y);
         else if (rect.x > d->width || rect.width > d->width - rect.x || rect.y > d->height ||
                  rect.height > d->height - rect.y)
             r = cv_error(CV_ERROR_OUT_OF_RANGE, "texture '%s' (%ux%u): %s of %ux%u at (%u,%u) is out of range",
@@ -386,8 +386,8 @@ cv_result cv_device_link_staging(cv_device *dev, cv_staging_desc *desc, void **o
     return r;
 }
 
-cv_result cv_device_link_copy(cv_device *dev, void *staging, uint64_t staging_offset, uint64_t id,
-                              uint64_t offset, uint64_t size, cv_rect rect, bool to_staging) {
+cv_result cv_device_link_copy(cv_device *dev, void *staging, uint64_t staging_offset, uint64_t id, uint64_t offset,
+                              uint64_t size, cv_rect rect, bool to_staging) {
     cv_handle_type type = cv_handle_type_of(id);
     const char *what = to_staging ? "transfer (source)" : "transfer (destination)";
     pthread_mutex_lock(&dev->lock);
@@ -416,10 +416,10 @@ cv_result cv_device_write_accel(cv_device *dev, cv_accel accel, const void *node
     if (r == CV_OK)
         r = wait_for_resource(dev, s);
     if (r == CV_OK) {
-        s->ready = false;   /* a failed rebuild leaves no half-built structure in use */
+        s->ready = false; /* a failed rebuild leaves no half-built structure in use */
         r = dev->backend->accel_write(dev->bd, s->obj, &s->desc.accel, nodes, triangles);
         s->ready = r == CV_OK;
-        dev->epoch++;   /* lists compiled against the old structure are re-checked */
+        dev->epoch++; /* lists compiled against the old structure are re-checked */
     }
     pthread_mutex_unlock(&dev->lock);
     return r;
@@ -558,11 +558,13 @@ cv_result cv_device_timings(cv_device *dev, uint64_t ticket, cv_pass_timing *out
         if (dev->compiled[i].id && dev->compiled[i].last_ticket == ticket)
             found = &dev->compiled[i];
     if (!found)
-        r = cv_error(CV_ERROR_NOT_FOUND, "device '%s': no timings for ticket %llu (kept only for the latest "
-                     "submission of each list)", dev->label, (unsigned long long)ticket);
-    else if (ticket > dev->backend->completed(dev->bd))
-        r = cv_error(CV_ERROR_BAD_STATE, "device '%s': ticket %llu has not finished; wait for it first",
+        r = cv_error(CV_ERROR_NOT_FOUND,
+                     "device '%s': no timings for ticket %llu (kept only for the latest "
+                     "submission of each list)",
                      dev->label, (unsigned long long)ticket);
+    else if (ticket > dev->backend->completed(dev->bd))
+        r = cv_error(CV_ERROR_BAD_STATE, "device '%s': ticket %llu has not finished; wait for it first", dev->label,
+                     (unsigned long long)ticket);
     else
         r = dev->backend->timings(dev->bd, found->obj, out, capacity, count);
     pthread_mutex_unlock(&dev->lock);

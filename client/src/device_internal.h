@@ -14,16 +14,16 @@ typedef struct resource_table {
 
 /* A list compiled for this device (indexed by cmdlist slot). */
 typedef struct compiled_list {
-    uint64_t id;             /* cmdlist handle, 0 = none */
-    uint32_t version;        /* list version it was compiled from */
-    uint64_t epoch;          /* device resource epoch it was validated against */
-    void *obj;               /* backend's compiled form */
-    uint64_t last_ticket;    /* latest submission, 0 = never submitted */
+    uint64_t id;          /* cmdlist handle, 0 = none */
+    uint32_t version;     /* list version it was compiled from */
+    uint64_t epoch;       /* device resource epoch it was validated against */
+    void *obj;            /* backend's compiled form */
+    uint64_t last_ticket; /* latest submission, 0 = never submitted */
 } compiled_list;
 
 /* Something to release once the GPU has finished ticket `after`. */
 typedef struct deferred_release {
-    cv_handle_type type;     /* CV_HANDLE_CMDLIST = a compiled list */
+    cv_handle_type type; /* CV_HANDLE_CMDLIST = a compiled list */
     void *obj;
     uint64_t after;
 } deferred_release;
@@ -40,9 +40,9 @@ struct cv_device {
     uint32_t compiled_capacity;
     deferred_release *deferred;
     uint32_t deferred_count, deferred_capacity;
-    uint64_t last_ticket;    /* highest ticket submitted */
-    uint64_t epoch;          /* bumps whenever a representation goes away */
-    uint32_t loaded;         /* representations loaded (resources + compiled lists) */
+    uint64_t last_ticket; /* highest ticket submitted */
+    uint64_t epoch;       /* bumps whenever a representation goes away */
+    uint32_t loaded;      /* representations loaded (resources + compiled lists) */
 };
 
 /* Validates a list against this device's resources (lock held). validate.c */
@@ -57,9 +57,9 @@ cv_result cv_device_require(cv_device *dev, uint64_t id, cv_handle_type type, co
  * device lock. link_copy looks the resource up again (it may have gone since
  * the transfer checked it), waits until no submitted work uses it, and copies
  * `size` bytes at `offset` of a buffer, or `rect` of a texture. */
-bool cv_device_link_caps(cv_device *dev, cv_link_caps *out);   /* false: the backend has no links */
+bool cv_device_link_caps(cv_device *dev, cv_link_caps *out); /* false: the backend has no links */
 cv_result cv_device_link_staging(cv_device *dev, cv_staging_desc *desc, void **out);
-cv_result cv_device_link_copy(cv_device *dev, void *staging, uint64_t staging_offset, uint64_t id,
-                              uint64_t offset, uint64_t size, cv_rect rect, bool to_staging);
+cv_result cv_device_link_copy(cv_device *dev, void *staging, uint64_t staging_offset, uint64_t id, uint64_t offset,
+                              uint64_t size, cv_rect rect, bool to_staging);
 
 #endif

@@ -17,7 +17,7 @@ cv_result cv_endpoint_parse(const char *text, const char *what, cv_endpoint *out
     size_t len = strlen(text);
     const char *colon = text[0] == '[' ? strstr(text, "]:") : strrchr(text, ':');
     if (colon && text[0] == '[')
-        colon++;   /* at the ':' after the bracket */
+        colon++; /* at the ':' after the bracket */
     if (!colon || colon == text)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%s' is not HOST:PORT", what, text);
     size_t host_len = (size_t)(colon - text);
@@ -33,8 +33,10 @@ cv_result cv_endpoint_parse(const char *text, const char *what, cv_endpoint *out
     } else {
         for (size_t i = 0; i < host_len; i++)
             if (!host_char(text[i]))
-                return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%s': the host may hold letters, digits, '-', '.' "
-                                "and '_' (IPv6 goes in brackets: [::1]:7700)", what, text);
+                return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                                "%s: '%s': the host may hold letters, digits, '-', '.' "
+                                "and '_' (IPv6 goes in brackets: [::1]:7700)",
+                                what, text);
     }
     const char *port = colon + 1;
     char *end;

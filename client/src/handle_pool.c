@@ -8,15 +8,15 @@
 typedef enum slot_state { SLOT_FREE = 0, SLOT_LIVE, SLOT_RETIRED } slot_state;
 
 typedef struct slot {
-    uint32_t generation;    /* 1..CV_HANDLE_GENERATION_MAX, never 0 */
-    uint32_t state;         /* slot_state */
+    uint32_t generation; /* 1..CV_HANDLE_GENERATION_MAX, never 0 */
+    uint32_t state;      /* slot_state */
 } slot;
 
 /* The caller's data starts this far into a slot, aligned for any type. */
 #define DATA_OFFSET ((sizeof(slot) + _Alignof(max_align_t) - 1) / _Alignof(max_align_t) * _Alignof(max_align_t))
 
 static uint32_t chunk_of(uint32_t index) {
-    uint32_t bits = 31u - (uint32_t)__builtin_clz(index | 1u);   /* floor(log2(index)), 0 for 0 */
+    uint32_t bits = 31u - (uint32_t)__builtin_clz(index | 1u); /* floor(log2(index)), 0 for 0 */
     return bits < CV_HANDLE_POOL_FIRST_CHUNK_BITS ? 0 : bits - CV_HANDLE_POOL_FIRST_CHUNK_BITS + 1;
 }
 
@@ -40,8 +40,10 @@ cv_result cv_handle_pool_init(cv_handle_pool *pool, cv_handle_type type, uint32_
                               size_t data_size) {
     if (type == CV_HANDLE_NONE || type >= CV_HANDLE_TYPE_COUNT || tag == 0 || tag > CV_HANDLE_TAG_MAX ||
         capacity == 0 || capacity > CV_HANDLE_INDEX_MAX + 1)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "handle pool: bad type %d, context tag %u or capacity %u "
-                        "(1..%u)", (int)type, tag, capacity, CV_HANDLE_INDEX_MAX + 1);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "handle pool: bad type %d, context tag %u or capacity %u "
+                        "(1..%u)",
+                        (int)type, tag, capacity, CV_HANDLE_INDEX_MAX + 1);
     memset(pool, 0, sizeof(*pool));
     pool->type = type;
     pool->tag = tag;
@@ -90,8 +92,10 @@ cv_result cv_handle_pool_alloc(cv_handle_pool *pool, uint64_t *out_id) {
             return r;
         index = pool->used++;
     } else {
-        return cv_error(CV_ERROR_OUT_OF_HANDLES, "all %u %s handles are in use (%u retired: their generations are "
-                        "used up)", pool->capacity, cv_handle_type_name(pool->type), pool->retired);
+        return cv_error(CV_ERROR_OUT_OF_HANDLES,
+                        "all %u %s handles are in use (%u retired: their generations are "
+                        "used up)",
+                        pool->capacity, cv_handle_type_name(pool->type), pool->retired);
     }
     slot *s = slot_at(pool, index);
     s->state = SLOT_LIVE;
@@ -111,9 +115,10 @@ cv_result cv_handle_pool_check(const cv_handle_pool *pool, uint64_t id) {
         return cv_error(CV_ERROR_INVALID_HANDLE, "%s handle 0x%016llx carries no context tag",
                         cv_handle_type_name(pool->type), (unsigned long long)id);
     if (cv_handle_tag(id) != pool->tag)
-        return cv_error(CV_ERROR_FOREIGN_HANDLE, "%s handle 0x%016llx belongs to another context (its tag is %u, "
-                        "this context's is %u)", cv_handle_type_name(pool->type), (unsigned long long)id,
-                        cv_handle_tag(id), pool->tag);
+        return cv_error(CV_ERROR_FOREIGN_HANDLE,
+                        "%s handle 0x%016llx belongs to another context (its tag is %u, "
+                        "this context's is %u)",
+                        cv_handle_type_name(pool->type), (unsigned long long)id, cv_handle_tag(id), pool->tag);
     uint32_t index = cv_handle_index(id);
     if (index >= pool->capacity || cv_handle_generation(id) == 0)
         return cv_error(CV_ERROR_INVALID_HANDLE, "%s handle 0x%016llx: slot %u is out of range (%u slots)",
@@ -123,7 +128,9 @@ cv_result cv_handle_pool_check(const cv_handle_pool *pool, uint64_t id) {
     if (state != SLOT_LIVE || generation != cv_handle_generation(id))
         return cv_error(CV_ERROR_STALE_HANDLE, "%s handle 0x%016llx is stale (slot %u is at generation %u%s)",
                         cv_handle_type_name(pool->type), (unsigned long long)id, index, generation,
-                        state == SLOT_LIVE ? "" : state == SLOT_FREE ? ", free" : ", retired: generations used up");
+                        state == SLOT_LIVE   ? ""
+                        : state == SLOT_FREE ? ", free"
+                                             : ", retired: generations used up");
     return CV_OK;
 }
 

@@ -16,15 +16,15 @@
 
 typedef struct mock_object {
     cv_handle_type type;
-    uint64_t size;        /* bytes of `bytes` */
-    uint32_t width;       /* textures: texels per row */
-    uint32_t texel;       /* textures: bytes per texel */
-    uint8_t *bytes;       /* buffer or texture contents; NULL for samplers/pipelines */
+    uint64_t size;  /* bytes of `bytes` */
+    uint32_t width; /* textures: texels per row */
+    uint32_t texel; /* textures: bytes per texel */
+    uint8_t *bytes; /* buffer or texture contents; NULL for samplers/pipelines */
 } mock_object;
 
 typedef struct mock_compiled {
-    cv_device *dev;                /* resolves handles when the list runs */
-    cv_command_list list;          /* a private copy: the original may be re-recorded */
+    cv_device *dev;       /* resolves handles when the list runs */
+    cv_command_list list; /* a private copy: the original may be re-recorded */
     cv_pass_timing *timings;
     uint32_t timing_count;
 } mock_compiled;
@@ -148,8 +148,7 @@ static cv_result copy_array(void **dst, const void *src, size_t bytes) {
     return CV_OK;
 }
 
-static cv_result mock_list_compile(cv_backend_device *bd, cv_device *dev, const cv_command_list *list,
-                                   void **out) {
+static cv_result mock_list_compile(cv_backend_device *bd, cv_device *dev, const cv_command_list *list, void **out) {
     (void)bd;
     mock_compiled *c = calloc(1, sizeof(*c));
     if (!c)
@@ -241,8 +240,7 @@ static void emulate(cv_device *dev, const cv_command_list *l, const cv_command *
         memcpy(obj_of(dev, x->buffer.id)->bytes + x->offset, cv_list_bytes(l, x->data), x->data.size);
         break;
     }
-    default:
-        break;
+    default: break;
     }
 }
 
@@ -282,8 +280,9 @@ static cv_result mock_submit(cv_backend_device *bd, void *compiled, uint64_t tic
 
 static cv_result mock_wait(cv_backend_device *bd, uint64_t ticket, uint64_t timeout_ns) {
     (void)timeout_ns;
-    return ticket <= bd->completed ? CV_OK : cv_error(CV_ERROR_TIMEOUT, "mock: ticket %llu never submitted",
-                                                      (unsigned long long)ticket);
+    return ticket <= bd->completed
+               ? CV_OK
+               : cv_error(CV_ERROR_TIMEOUT, "mock: ticket %llu never submitted", (unsigned long long)ticket);
 }
 
 static uint64_t mock_completed(cv_backend_device *bd) { return bd->completed; }

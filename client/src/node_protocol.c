@@ -58,8 +58,7 @@ void cv_node_desc_to_msg(uint64_t id, const cv_resource_desc *desc, Corvid__Crea
         msg->desc_case = CORVID__CREATE_RESOURCE__DESC_ACCEL;
         msg->accel = &st->accel;
         break;
-    default:
-        break;
+    default: break;
     }
 }
 
@@ -119,16 +118,17 @@ cv_result cv_node_desc_from_msg(const Corvid__CreateResource *msg, cv_resource_d
         d.accel.node_count = msg->accel->node_count;
         memcpy(d.accel.label, label, sizeof(label));
         break;
-    case CORVID__CREATE_RESOURCE__DESC_CMDLIST:
-        want = CV_HANDLE_CMDLIST;
-        break;
+    case CORVID__CREATE_RESOURCE__DESC_CMDLIST: want = CV_HANDLE_CMDLIST; break;
     default:
-        return cv_error(CV_ERROR_MALFORMED, "create: no description (buffer, texture, sampler, pipeline, accel or "
+        return cv_error(CV_ERROR_MALFORMED,
+                        "create: no description (buffer, texture, sampler, pipeline, accel or "
                         "cmdlist)");
     }
     if (cv_handle_type_of(msg->id) != want)
-        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "create: handle 0x%016llx is a %s handle but the description "
-                        "is of a %s", (unsigned long long)msg->id, cv_handle_type_name(cv_handle_type_of(msg->id)),
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE,
+                        "create: handle 0x%016llx is a %s handle but the description "
+                        "is of a %s",
+                        (unsigned long long)msg->id, cv_handle_type_name(cv_handle_type_of(msg->id)),
                         cv_handle_type_name(want));
     d.type = want;
     *out = d;
@@ -184,17 +184,17 @@ cv_result cv_node_check_sha(ProtobufCBinaryData b, const char *field) {
     return CV_OK;
 }
 
-#define PACK_BODY(fn_size, fn_pack, m)                                                          \
-    size_t n = fn_size(m);                                                                      \
-    uint8_t *buf = malloc(n ? n : 1);                                                           \
-    if (!buf)                                                                                   \
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "node protocol: message of %zu bytes", n);      \
-    fn_pack(m, buf);                                                                            \
-    *out = buf;                                                                                 \
-    *size = n;                                                                                  \
+#define PACK_BODY(fn_size, fn_pack, m) \
+    size_t n = fn_size(m); \
+    uint8_t *buf = malloc(n ? n : 1); \
+    if (!buf) \
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "node protocol: message of %zu bytes", n); \
+    fn_pack(m, buf); \
+    *out = buf; \
+    *size = n; \
     return CV_OK;
 
-cv_result cv_node_pack_client(const Corvid__ClientMessage *m, uint8_t **out, size_t *size) {
+cv_result cv_node_pack_client(const Corvid__ClientMessage *m, uint8_t **out, size_t *size){
     PACK_BODY(corvid__client_message__get_packed_size, corvid__client_message__pack, m)
 }
 

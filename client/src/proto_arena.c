@@ -50,8 +50,7 @@ static void arena_free(void *self, void *ptr) {
 }
 
 void proto_arena_init(proto_arena *arena) {
-    arena->allocator = (ProtobufCAllocator){ .alloc = arena_alloc, .free = arena_free,
-                                             .allocator_data = arena };
+    arena->allocator = (ProtobufCAllocator){ .alloc = arena_alloc, .free = arena_free, .allocator_data = arena };
     arena->blocks = NULL;
     arena->handed_out = 0;
     arena->limit = 0;

@@ -17,11 +17,11 @@ typedef struct proto_arena_block proto_arena_block;
 
 typedef struct proto_arena {
     ProtobufCAllocator allocator;
-    proto_arena_block *blocks;   /* newest first; only the newest has room */
-    size_t handed_out;           /* bytes given out since the last reset */
+    proto_arena_block *blocks; /* newest first; only the newest has room */
+    size_t handed_out;         /* bytes given out since the last reset */
     size_t limit;
-    bool over_limit;             /* an allocation was refused for the limit ... */
-    bool out_of_memory;          /* ... or failed in malloc, since the last reset */
+    bool over_limit;    /* an allocation was refused for the limit ... */
+    bool out_of_memory; /* ... or failed in malloc, since the last reset */
 } proto_arena;
 
 void proto_arena_init(proto_arena *arena);

@@ -9,7 +9,8 @@ static _Thread_local char last_error[CV_ERROR_MESSAGE_MAX];
 
 const char *cv_result_name(cv_result r) {
     switch (r) {
-#define CV_RESULT_NAME(name, value, text) case name: return #name;
+#define CV_RESULT_NAME(name, value, text) \
+    case name: return #name;
         CV_RESULT_TABLE(CV_RESULT_NAME)
 #undef CV_RESULT_NAME
     }
@@ -18,7 +19,8 @@ const char *cv_result_name(cv_result r) {
 
 const char *cv_result_string(cv_result r) {
     switch (r) {
-#define CV_RESULT_TEXT(name, value, text) case name: return text;
+#define CV_RESULT_TEXT(name, value, text) \
+    case name: return text;
         CV_RESULT_TABLE(CV_RESULT_TEXT)
 #undef CV_RESULT_TEXT
     }
@@ -30,7 +32,7 @@ const char *cv_last_error(void) { return last_error; }
 void cv_clear_error(void) { last_error[0] = '\0'; }
 
 cv_result cv_verror(cv_result code, const char *fmt, va_list ap) {
-    char message[sizeof(last_error)];   /* the arguments may quote last_error itself */
+    char message[sizeof(last_error)]; /* the arguments may quote last_error itself */
     vsnprintf(message, sizeof(message), fmt, ap);
     snprintf(last_error, sizeof(last_error), "%s", message);
     /* Process-wide on purpose: the environment is the process's. Read once,

@@ -17,18 +17,18 @@ static uint32_t to_small_float(float f, int mbits) {
         return (0x1Fu << mbits) | 1u;
     if (f <= 0.0f)
         return 0;
-    uint32_t max = (0x1Eu << mbits) | ((1u << mbits) - 1);   /* largest finite */
+    uint32_t max = (0x1Eu << mbits) | ((1u << mbits) - 1); /* largest finite */
     int e;
-    float m = frexpf(f, &e);          /* f = m * 2^e, m in [0.5, 1) */
-    int exp = e - 1 + 15;             /* biased exponent of 1.xxx form */
+    float m = frexpf(f, &e); /* f = m * 2^e, m in [0.5, 1) */
+    int exp = e - 1 + 15;    /* biased exponent of 1.xxx form */
     if (exp >= 0x1F)
         return isinf(f) ? (0x1Fu << mbits) : max;
-    if (exp <= 0) {                   /* denormal: value = mant * 2^(-14 - mbits) */
+    if (exp <= 0) { /* denormal: value = mant * 2^(-14 - mbits) */
         float mant = ldexpf(f, 14 + mbits);
         return (uint32_t)lrintf(mant);
     }
     uint32_t mant = (uint32_t)lrintf((m * 2.0f - 1.0f) * (float)(1u << mbits));
-    uint32_t v = ((uint32_t)exp << mbits) + mant;   /* mantissa carry bumps the exponent */
+    uint32_t v = ((uint32_t)exp << mbits) + mant; /* mantissa carry bumps the exponent */
     return v > max ? max : v;
 }
 
@@ -77,13 +77,9 @@ void cv_texel_encode(cv_format format, const float c[4], void *out) {
         }
         break;
     }
-    case CV_FORMAT_RGBA32F:
-        memcpy(o, c, 16);
-        break;
+    case CV_FORMAT_RGBA32F: memcpy(o, c, 16); break;
     case CV_FORMAT_R32F:
-    case CV_FORMAT_D32F:
-        memcpy(o, c, 4);
-        break;
+    case CV_FORMAT_D32F: memcpy(o, c, 4); break;
     case CV_FORMAT_R32_UINT: {
         uint32_t u = c[0] > 0.0f ? (uint32_t)c[0] : 0u;
         memcpy(o, &u, 4);
@@ -94,7 +90,6 @@ void cv_texel_encode(cv_format format, const float c[4], void *out) {
         memcpy(o, &packed, 4);
         break;
     }
-    default:
-        break;
+    default: break;
     }
 }

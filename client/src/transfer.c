@@ -17,7 +17,7 @@
 #include "device_internal.h"
 #include "transfer_link.h"
 
-#define CHUNK_BYTES (4u << 20)   /* bench_transfer measures this size (bench/README.md) */
+#define CHUNK_BYTES (4u << 20) /* bench_transfer measures this size (bench/README.md) */
 _Static_assert((uint64_t)CV_MAX_TEXTURE_DIM * 16 <= CHUNK_BYTES, "a texture row fits one staging slot");
 
 static double now_ms(void) {
@@ -62,11 +62,11 @@ typedef struct pipeline {
     uint64_t chunks;
     pthread_mutex_t lock;
     pthread_cond_t changed;
-    uint64_t filled;      /* chunks read so far */
-    uint64_t emptied;     /* chunks written so far */
+    uint64_t filled;  /* chunks read so far */
+    uint64_t emptied; /* chunks written so far */
     cv_result read_result;
     char read_error[512];
-    bool stop;            /* the writer failed: the reader must stop */
+    bool stop; /* the writer failed: the reader must stop */
     double read_ms;
 } pipeline;
 
@@ -74,7 +74,7 @@ static void *reader(void *arg) {
     pipeline *p = arg;
     for (uint64_t i = 0; i < p->chunks; i++) {
         pthread_mutex_lock(&p->lock);
-        while (i >= p->emptied + 2 && !p->stop)   /* both slots hold unwritten chunks */
+        while (i >= p->emptied + 2 && !p->stop) /* both slots hold unwritten chunks */
             pthread_cond_wait(&p->changed, &p->lock);
         bool stop = p->stop;
         pthread_mutex_unlock(&p->lock);
@@ -103,7 +103,7 @@ static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transf
     pipeline p = { .io = io, .job = job, .chunks = chunks };
     double t0 = now_ms(), write_ms = 0.0;
     cv_result r = CV_OK;
-    if (chunks == 1) {   /* nothing to overlap */
+    if (chunks == 1) { /* nothing to overlap */
         r = io(job, 0, 0, true);
         double t1 = now_ms();
         p.read_ms = t1 - t0;
@@ -155,12 +155,12 @@ typedef struct job {
     cv_device *src, *dst;
     uint64_t src_id, dst_id;
     bool texture;
-    uint64_t src_offset, dst_offset, size;    /* buffers */
-    cv_rect src_rect;                          /* textures */
+    uint64_t src_offset, dst_offset, size; /* buffers */
+    cv_rect src_rect;                      /* textures */
     uint32_t dst_x, dst_y, rows_per_chunk;
     uint64_t chunk_bytes, row_bytes;
-    uint8_t *host[2];                          /* STAGED: the slots */
-    transfer_link link;                        /* SHARED, HOST_IMPORT */
+    uint8_t *host[2];   /* STAGED: the slots */
+    transfer_link link; /* SHARED, HOST_IMPORT */
 } job;
 
 /* Chunk i as a buffer range (offset from the start of the transfer, size) or as rows. */
@@ -180,7 +180,8 @@ static cv_result staged_chunk(void *arg, uint64_t i, uint32_t slot, bool read) {
     chunk_extent(j, i, &at, &n, &first, &rows);
     if (j->texture)
         return read ? cv_device_read_texture(j->src, (cv_texture){ j->src_id },
-                                             (cv_rect){ j->src_rect.x, j->src_rect.y + first, j->src_rect.width, rows },
+                                             (cv_rect){ j->src_rect.x, j->src_rect.y + first, j->src_rect.width,
+                                                        rows },
                                              j->host[slot])
                     : cv_device_write_texture(j->dst, (cv_texture){ j->dst_id },
                                               (cv_rect){ j->dst_x, j->dst_y + first, j->src_rect.width, rows },
@@ -266,18 +267,26 @@ cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_
     if (r != CV_OK)
         return r;
     if (sd.type != CV_HANDLE_BUFFER || dd.type != CV_HANDLE_BUFFER)
-        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "transfer: cv_transfer_buffer needs buffer handles, got a %s "
-                        "on '%s' and a %s on '%s'", cv_handle_type_name(sd.type), cv_device_label(src),
-                        cv_handle_type_name(dd.type), cv_device_label(dst));
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE,
+                        "transfer: cv_transfer_buffer needs buffer handles, got a %s "
+                        "on '%s' and a %s on '%s'",
+                        cv_handle_type_name(sd.type), cv_device_label(src), cv_handle_type_name(dd.type),
+                        cv_device_label(dst));
     if (size == 0 || src_offset > sd.buffer.size || size > sd.buffer.size - src_offset ||
         dst_offset > dd.buffer.size || size > dd.buffer.size - dst_offset)
         return cv_error(CV_ERROR_OUT_OF_RANGE,
-                        "transfer of %llu bytes from '%s'+%llu (%llu bytes) to '%s'+%llu (%llu bytes) is out of range",
+                        "transfer of %llu bytes from '%s'+%llu (%llu bytes) to '%s'+%llu (%llu bytes) is out of "
+                        "range",
                         (unsigned long long)size, sd.buffer.label, (unsigned long long)src_offset,
                         (unsigned long long)sd.buffer.size, dd.buffer.label, (unsigned long long)dst_offset,
                         (unsigned long long)dd.buffer.size);
-    job j = { .src = src, .dst = dst, .src_id = src_buffer.id, .dst_id = dst_buffer.id, .src_offset = src_offset,
-              .dst_offset = dst_offset, .size = size };
+    job j = { .src = src,
+              .dst = dst,
+              .src_id = src_buffer.id,
+              .dst_id = dst_buffer.id,
+              .src_offset = src_offset,
+              .dst_offset = dst_offset,
+              .size = size };
     return run_job(&j, stats);
 }
 
@@ -286,9 +295,10 @@ cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect sr
     if (!src || !dst)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_transfer_texture: NULL device");
     if (!cv_device_has(src, cv_any(src_texture)) || !cv_device_has(dst, cv_any(dst_texture)))
-        return cv_error(CV_ERROR_NOT_LOADED, "transfer: texture 0x%016llx not loaded on '%s' or 0x%016llx not on '%s'",
-                        (unsigned long long)src_texture.id, cv_device_label(src),
-                        (unsigned long long)dst_texture.id, cv_device_label(dst));
+        return cv_error(CV_ERROR_NOT_LOADED,
+                        "transfer: texture 0x%016llx not loaded on '%s' or 0x%016llx not on '%s'",
+                        (unsigned long long)src_texture.id, cv_device_label(src), (unsigned long long)dst_texture.id,
+                        cv_device_label(dst));
     cv_resource_desc sd, dd;
     cv_result r = cv_context_describe(cv_device_context(src), cv_any(src_texture), &sd);
     if (r == CV_OK)
@@ -296,9 +306,11 @@ cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect sr
     if (r != CV_OK)
         return r;
     if (sd.type != CV_HANDLE_TEXTURE || dd.type != CV_HANDLE_TEXTURE)
-        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "transfer: cv_transfer_texture needs texture handles, got a %s "
-                        "on '%s' and a %s on '%s'", cv_handle_type_name(sd.type), cv_device_label(src),
-                        cv_handle_type_name(dd.type), cv_device_label(dst));
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE,
+                        "transfer: cv_transfer_texture needs texture handles, got a %s "
+                        "on '%s' and a %s on '%s'",
+                        cv_handle_type_name(sd.type), cv_device_label(src), cv_handle_type_name(dd.type),
+                        cv_device_label(dst));
     if (sd.texture.format != dd.texture.format)
         return cv_error(CV_ERROR_FORMAT_MISMATCH, "transfer: '%s' is %s but '%s' is %s", sd.texture.label,
                         cv_format_name(sd.texture.format), dd.texture.label, cv_format_name(dd.texture.format));
@@ -307,13 +319,21 @@ cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect sr
         src_rect.height > sd.texture.height - src_rect.y || dst_x > dd.texture.width ||
         src_rect.width > dd.texture.width - dst_x || dst_y > dd.texture.height ||
         src_rect.height > dd.texture.height - dst_y)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "transfer of %ux%u from '%s' (%ux%u) at (%u,%u) to '%s' (%ux%u) at "
-                        "(%u,%u) is out of range", src_rect.width, src_rect.height, sd.texture.label,
-                        sd.texture.width, sd.texture.height, src_rect.x, src_rect.y, dd.texture.label,
-                        dd.texture.width, dd.texture.height, dst_x, dst_y);
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "transfer of %ux%u from '%s' (%ux%u) at (%u,%u) to '%s' (%ux%u) at "
+                        "(%u,%u) is out of range",
+                        src_rect.width, src_rect.height, sd.texture.label, sd.texture.width, sd.texture.height,
+                        src_rect.x, src_rect.y, dd.texture.label, dd.texture.width, dd.texture.height, dst_x, dst_y);
     uint64_t row = (uint64_t)src_rect.width * cv_format_bytes(sd.texture.format);
-    job j = { .src = src, .dst = dst, .src_id = src_texture.id, .dst_id = dst_texture.id, .texture = true,
-              .src_rect = src_rect, .dst_x = dst_x, .dst_y = dst_y, .row_bytes = row,
+    job j = { .src = src,
+              .dst = dst,
+              .src_id = src_texture.id,
+              .dst_id = dst_texture.id,
+              .texture = true,
+              .src_rect = src_rect,
+              .dst_x = dst_x,
+              .dst_y = dst_y,
+              .row_bytes = row,
               .size = row * src_rect.height };
     return run_job(&j, stats);
 }

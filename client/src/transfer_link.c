@@ -17,7 +17,7 @@
 #define STAGING_BYTES (2 * SLOT_BYTES)
 
 static pthread_mutex_t link_lock = PTHREAD_MUTEX_INITIALIZER;
-static void *host_region;        /* STAGING_BYTES at host_alignment; never unmapped */
+static void *host_region; /* STAGING_BYTES at host_alignment; never unmapped */
 static uint64_t host_alignment;
 
 static cv_result host_memory(uint64_t alignment, void **out) {
@@ -33,7 +33,7 @@ static cv_result host_memory(uint64_t alignment, void **out) {
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "transfer: %llu bytes of host memory to import into devices",
                         (unsigned long long)span);
     char *aligned = (char *)(((uintptr_t)raw + alignment - 1) / alignment * alignment);
-    memset(aligned, 0, STAGING_BYTES);   /* fault every page in now, once */
+    memset(aligned, 0, STAGING_BYTES); /* fault every page in now, once */
     host_region = aligned;
     host_alignment = alignment;
     *out = aligned;

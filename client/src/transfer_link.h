@@ -8,9 +8,9 @@
 
 /* Two slots of slot_bytes each, at offsets 0 and slot_bytes of both stagings. */
 typedef struct transfer_link {
-    void *src_staging, *dst_staging;   /* the backends' objects for the one memory */
+    void *src_staging, *dst_staging; /* the backends' objects for the one memory */
     uint64_t slot_bytes;
-    bool held;                         /* the link lock is held (transfer_link_release drops it) */
+    bool held; /* the link lock is held (transfer_link_release drops it) */
 } transfer_link;
 
 /* Gets the stagings of the pair for a SHARED or HOST_IMPORT path that

@@ -83,7 +83,8 @@ static bool pair_can(cv_device *src, cv_device *dst, cv_transfer_path path, char
             return false;
         }
         if (memcmp(a.driver_uuid, b.driver_uuid, 16) != 0 || memcmp(a.device_uuid, b.device_uuid, 16) != 0) {
-            snprintf(why, cap, "they are different adapters or drivers (driverUUID/deviceUUID differ), and memory "
+            snprintf(why, cap,
+                     "they are different adapters or drivers (driverUUID/deviceUUID differ), and memory "
                      "is shared only within one (VK_KHR_external_memory_fd, opaque fd)");
             return false;
         }
@@ -108,11 +109,12 @@ cv_result cv_transfer_choose_path(cv_device *src, cv_device *dst, cv_transfer_pa
     if (mode == CV_TRANSFER_AUTO) {
         *out = pair_can(src, dst, CV_TRANSFER_SHARED, why, sizeof(why))        ? CV_TRANSFER_SHARED
                : pair_can(src, dst, CV_TRANSFER_HOST_IMPORT, why, sizeof(why)) ? CV_TRANSFER_HOST_IMPORT
-                                                                                : CV_TRANSFER_STAGED;
+                                                                               : CV_TRANSFER_STAGED;
         return CV_OK;
     }
     if (mode != CV_TRANSFER_STAGED && !pair_can(src, dst, mode, why, sizeof(why)))
-        return cv_error(CV_ERROR_UNSUPPORTED, "transfer from device '%s' to device '%s': the %s path is forced but %s",
+        return cv_error(CV_ERROR_UNSUPPORTED,
+                        "transfer from device '%s' to device '%s': the %s path is forced but %s",
                         cv_device_label(src), cv_device_label(dst), cv_transfer_path_name(mode), why);
     *out = mode;
     return CV_OK;

@@ -18,22 +18,22 @@
 typedef struct validator {
     cv_device *dev;
     const cv_command_list *list;
-    uint32_t index;                  /* current command */
+    uint32_t index; /* current command */
     const cv_command *cmd;
     /* current render pass targets */
     const cv_device_resource *color[CV_MAX_COLOR_TARGETS];
     const cv_device_resource *depth;
 } validator;
 
-__attribute__((format(printf, 3, 4)))
-static cv_result fail(const validator *v, cv_result code, const char *fmt, ...) {
+__attribute__((format(printf, 3, 4))) static cv_result fail(const validator *v, cv_result code, const char *fmt,
+                                                            ...) {
     char detail[CV_ERROR_MESSAGE_MAX];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(detail, sizeof(detail), fmt, ap);
     va_end(ap);
-    return cv_error(code, "device '%s': command %u (%s): %s", v->dev->label, v->index,
-                    cv_command_name(v->cmd->type), detail);
+    return cv_error(code, "device '%s': command %u (%s): %s", v->dev->label, v->index, cv_command_name(v->cmd->type),
+                    detail);
 }
 
 /* *out is always written (NULL on failure): callers chain `if (r == CV_OK) r = need(...)`
@@ -44,7 +44,7 @@ static cv_result need(const validator *v, uint64_t id, cv_handle_type type, cons
     cv_result code = cv_device_require(v->dev, id, type, field, &s);
     *out = code == CV_OK ? s : NULL;
     if (code != CV_OK)
-        return fail(v, code, "%s", cv_last_error());   /* fail() formats into its own buffer first */
+        return fail(v, code, "%s", cv_last_error()); /* fail() formats into its own buffer first */
     return CV_OK;
 }
 
@@ -55,8 +55,8 @@ static bool range_ok(uint64_t offset, uint64_t size, uint64_t total) {
 static cv_result buffer_range(const validator *v, const cv_device_resource *b, const char *field, uint64_t offset,
                               uint64_t size) {
     if (!range_ok(offset, size, b->desc.buffer.size))
-        return fail(v, CV_ERROR_OUT_OF_RANGE, "%s: %llu bytes at offset %llu exceed buffer '%s' of %llu bytes",
-                    field, (unsigned long long)size, (unsigned long long)offset, b->desc.buffer.label,
+        return fail(v, CV_ERROR_OUT_OF_RANGE, "%s: %llu bytes at offset %llu exceed buffer '%s' of %llu bytes", field,
+                    (unsigned long long)size, (unsigned long long)offset, b->desc.buffer.label,
                     (unsigned long long)b->desc.buffer.size);
     return CV_OK;
 }
@@ -67,8 +67,8 @@ static cv_result texture_rect(const validator *v, const cv_device_resource *t, c
     if (w == 0 || h == 0)
         return fail(v, CV_ERROR_OUT_OF_RANGE, "%s: empty region %ux%u", field, w, h);
     if (!range_ok(x, w, d->width) || !range_ok(y, h, d->height))
-        return fail(v, CV_ERROR_OUT_OF_RANGE, "%s: region %ux%u at (%u,%u) exceeds texture '%s' of %ux%u", field,
-                    w, h, x, y, d->label, d->width, d->height);
+        return fail(v, CV_ERROR_OUT_OF_RANGE, "%s: region %ux%u at (%u,%u) exceeds texture '%s' of %ux%u", field, w,
+                    h, x, y, d->label, d->width, d->height);
     return CV_OK;
 }
 
@@ -158,7 +158,7 @@ static cv_result check_dispatch(validator *v, const cv_dispatch_cmd *c) {
     for (int i = 0; i < 3; i++)
         if (g[i] == 0 || g[i] > v->dev->info.max_dispatch[i])
             return fail(v, CV_ERROR_OUT_OF_RANGE, "group count %c = %u outside 1..%u", "xyz"[i], g[i],
-                        v->dev->info.max_dispatch[i]);
+                        v -> dev -> info.max_dispatch[i]);
     return CV_OK;
 }
 
@@ -206,8 +206,8 @@ static cv_result check_begin_render_pass(validator *v, const cv_begin_render_pas
         if (!(d->usage & CV_TEXTURE_USAGE_DEPTH_TARGET))
             return fail(v, CV_ERROR_USAGE_MISMATCH, "depth: texture '%s' lacks depth target usage", d->label);
         if (d->width != first->width || d->height != first->height)
-            return fail(v, CV_ERROR_FORMAT_MISMATCH, "depth: %ux%u differs from color0's %ux%u", d->width,
-                        d->height, first->width, first->height);
+            return fail(v, CV_ERROR_FORMAT_MISMATCH, "depth: %ux%u differs from color0's %ux%u", d->width, d->height,
+                        first->width, first->height);
     }
     return CV_OK;
 }

@@ -10,9 +10,7 @@ void exr_capture_error(exr_const_context_t ctxt, exr_result_t code, const char *
     snprintf(captured, sizeof captured, "%s", msg != NULL ? msg : exr_get_error_code_as_string(code));
 }
 
-void exr_clear_captured_error(void) {
-    captured[0] = '\0';
-}
+void exr_clear_captured_error(void) { captured[0] = '\0'; }
 
 cv_result exr_fail(cv_result code, const char *path, const char *what, exr_result_t rv) {
     const char *detail = captured[0] != '\0' ? captured : exr_get_default_error_message(rv);
@@ -21,17 +19,13 @@ cv_result exr_fail(cv_result code, const char *path, const char *what, exr_resul
 
 cv_result exr_read_result(exr_result_t rv, int read_errno) {
     switch (rv) {
-    case EXR_ERR_OUT_OF_MEMORY:
-        return CV_ERROR_OUT_OF_MEMORY;
-    case EXR_ERR_FILE_ACCESS:
-        return CV_ERROR_IO;
+    case EXR_ERR_OUT_OF_MEMORY: return CV_ERROR_OUT_OF_MEMORY;
+    case EXR_ERR_FILE_ACCESS: return CV_ERROR_IO;
     case EXR_ERR_READ_IO:
         /* A short read (the file ends early) is a truncated file, not an
          * I/O failure; only a failing read call sets read_errno. */
         return read_errno != 0 ? CV_ERROR_IO : CV_ERROR_MALFORMED;
-    case EXR_ERR_FEATURE_NOT_IMPLEMENTED:
-        return CV_ERROR_UNSUPPORTED;
-    default:
-        return CV_ERROR_MALFORMED;
+    case EXR_ERR_FEATURE_NOT_IMPLEMENTED: return CV_ERROR_UNSUPPORTED;
+    default: return CV_ERROR_MALFORMED;
     }
 }

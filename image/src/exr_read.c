@@ -17,11 +17,11 @@
 typedef struct exr_file {
     int fd;
     int64_t size;
-    int read_errno;   /* set by a failing pread, 0 otherwise */
+    int read_errno; /* set by a failing pread, 0 otherwise */
 } exr_file;
 
-static int64_t read_at(exr_const_context_t ctxt, void *user, void *buffer, uint64_t size,
-                       uint64_t offset, exr_stream_error_func_ptr_t error_cb) {
+static int64_t read_at(exr_const_context_t ctxt, void *user, void *buffer, uint64_t size, uint64_t offset,
+                       exr_stream_error_func_ptr_t error_cb) {
     (void)ctxt;
     (void)error_cb;
     exr_file *file = user;
@@ -58,8 +58,7 @@ static cv_exr_compression compression_of(exr_compression_t c) {
 
 /* Checks that the only part is a scanline image of HALF/FLOAT channels at full
  * resolution, and allocates the image's planes. */
-static cv_result prepare_image(const char *path, exr_context_t ctx, const exr_file *file,
-                               cv_exr_image *img) {
+static cv_result prepare_image(const char *path, exr_context_t ctx, const exr_file *file, cv_exr_image *img) {
     int parts = 0;
     exr_storage_t storage;
     exr_attr_box2i_t window;
@@ -67,8 +66,7 @@ static cv_result prepare_image(const char *path, exr_context_t ctx, const exr_fi
     const exr_attr_chlist_t *channels = NULL;
     exr_result_t rv = exr_get_count(ctx, &parts);
     if (rv == EXR_ERR_SUCCESS && parts != 1)
-        return cv_error(CV_ERROR_UNSUPPORTED, "%s: %d parts (only single-part files are read)", path,
-                        parts);
+        return cv_error(CV_ERROR_UNSUPPORTED, "%s: %d parts (only single-part files are read)", path, parts);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_get_storage(ctx, 0, &storage);
     if (rv == EXR_ERR_SUCCESS && storage != EXR_STORAGE_SCANLINE)
@@ -86,24 +84,26 @@ static cv_result prepare_image(const char *path, exr_context_t ctx, const exr_fi
     int64_t width = (int64_t)window.max.x - window.min.x + 1;
     int64_t height = (int64_t)window.max.y - window.min.y + 1;
     if (width < 1 || height < 1 || width > UINT32_MAX || height > UINT32_MAX)
-        return cv_error(CV_ERROR_MALFORMED, "%s: data window %lldx%lld is empty or too large", path,
-                        (long long)width, (long long)height);
+        return cv_error(CV_ERROR_MALFORMED, "%s: data window %lldx%lld is empty or too large", path, (long long)width,
+                        (long long)height);
     if (channels->num_channels < 1)
         return cv_error(CV_ERROR_MALFORMED, "%s: no channels", path);
     for (int i = 0; i < channels->num_channels; i++) {
         const exr_attr_chlist_entry_t *e = &channels->entries[i];
         if (e->pixel_type != EXR_PIXEL_HALF && e->pixel_type != EXR_PIXEL_FLOAT)
-            return cv_error(CV_ERROR_UNSUPPORTED, "%s: channel '%s' holds UINT data (only HALF and "
-                            "FLOAT are read)", path, e->name.str);
+            return cv_error(CV_ERROR_UNSUPPORTED,
+                            "%s: channel '%s' holds UINT data (only HALF and "
+                            "FLOAT are read)",
+                            path, e->name.str);
         if (e->x_sampling != 1 || e->y_sampling != 1)
-            return cv_error(CV_ERROR_UNSUPPORTED, "%s: channel '%s' is subsampled %dx%d", path,
-                            e->name.str, e->x_sampling, e->y_sampling);
+            return cv_error(CV_ERROR_UNSUPPORTED, "%s: channel '%s' is subsampled %dx%d", path, e->name.str,
+                            e->x_sampling, e->y_sampling);
     }
 
     size_t pixels = (size_t)width * (size_t)height;
     if (pixels > SIZE_MAX / sizeof(float))
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s: %lldx%lld pixels do not fit in memory", path,
-                        (long long)width, (long long)height);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s: %lldx%lld pixels do not fit in memory", path, (long long)width,
+                        (long long)height);
     img->width = (uint32_t)width;
     img->height = (uint32_t)height;
     img->compression = compression_of(compression);
@@ -118,8 +118,8 @@ static cv_result prepare_image(const char *path, exr_context_t ctx, const exr_fi
         ch->name = strdup(e->name.str);
         ch->pixels = malloc(pixels * sizeof(float));
         if (ch->name == NULL || ch->pixels == NULL)
-            return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s: channel '%s' of %lldx%lld floats", path,
-                            e->name.str, (long long)width, (long long)height);
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s: channel '%s' of %lldx%lld floats", path, e->name.str,
+                            (long long)width, (long long)height);
     }
     return CV_OK;
 }
@@ -149,8 +149,7 @@ static exr_result_t bind_chunk(exr_decode_pipeline_t *dec, cv_exr_image *img, in
     return EXR_ERR_SUCCESS;
 }
 
-static cv_result read_chunks(const char *path, exr_context_t ctx, const exr_file *file,
-                             cv_exr_image *img) {
+static cv_result read_chunks(const char *path, exr_context_t ctx, const exr_file *file, cv_exr_image *img) {
     exr_attr_box2i_t window;
     int32_t chunk_count = 0, lines = 0;
     exr_result_t rv = exr_get_data_window(ctx, 0, &window);
@@ -163,8 +162,7 @@ static cv_result read_chunks(const char *path, exr_context_t ctx, const exr_file
         exr_chunk_info_t chunk;
         rv = exr_read_scanline_chunk_info(ctx, 0, window.min.y + c * lines, &chunk);
         if (rv == EXR_ERR_SUCCESS)
-            rv = c == 0 ? exr_decoding_initialize(ctx, 0, &chunk, &dec)
-                        : exr_decoding_update(ctx, 0, &chunk, &dec);
+            rv = c == 0 ? exr_decoding_initialize(ctx, 0, &chunk, &dec) : exr_decoding_update(ctx, 0, &chunk, &dec);
         if (rv == EXR_ERR_SUCCESS)
             rv = bind_chunk(&dec, img, chunk.start_y - window.min.y);
         if (rv == EXR_ERR_SUCCESS && c == 0)

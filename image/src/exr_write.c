@@ -15,8 +15,8 @@
 typedef struct exr_source {
     char name[CV_EXR_MAX_NAME + 1];
     cv_exr_type type;
-    const float *first;      /* sample of pixel (0, 0) */
-    uint32_t stride;         /* floats from one pixel's sample to the next's */
+    const float *first; /* sample of pixel (0, 0) */
+    uint32_t stride;    /* floats from one pixel's sample to the next's */
 } exr_source;
 
 typedef struct exr_sources {
@@ -28,29 +28,29 @@ static cv_result add_layer_sources(const char *path, uint32_t index, const cv_ex
                                    exr_sources *sources) {
     const char *prefix = layer->name != NULL ? layer->name : "";
     if (layer->channel_count == 0 || layer->channel_count > CV_EXR_MAX_LAYER_CHANNELS)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u '%s': channel_count %u is outside 1..%u",
-                        path, index, prefix, layer->channel_count, CV_EXR_MAX_LAYER_CHANNELS);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u '%s': channel_count %u is outside 1..%u", path,
+                        index, prefix, layer->channel_count, CV_EXR_MAX_LAYER_CHANNELS);
     if (layer->type != CV_EXR_HALF && layer->type != CV_EXR_FLOAT)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u '%s': type %d is neither HALF nor FLOAT",
-                        path, index, prefix, (int)layer->type);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u '%s': type %d is neither HALF nor FLOAT", path,
+                        index, prefix, (int)layer->type);
     if (sources->count + layer->channel_count > CV_EXR_MAX_CHANNELS)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u '%s': more than %u channels in all",
-                        path, index, prefix, CV_EXR_MAX_CHANNELS);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u '%s': more than %u channels in all", path, index,
+                        prefix, CV_EXR_MAX_CHANNELS);
     for (uint32_t c = 0; c < layer->channel_count; c++) {
         const char *channel = layer->channels[c];
         if (channel == NULL || channel[0] == '\0')
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u '%s': channels[%u] has no name",
-                            path, index, prefix, c);
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u '%s': channels[%u] has no name", path, index,
+                            prefix, c);
         exr_source *s = &sources->list[sources->count];
         int n = snprintf(s->name, sizeof s->name, "%s%s%s", prefix, prefix[0] ? "." : "", channel);
         if (n < 0 || (size_t)n >= sizeof s->name)
             return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                            "%s: layer %u: channel name '%s%s%s' is longer than %d characters",
-                            path, index, prefix, prefix[0] ? "." : "", channel, CV_EXR_MAX_NAME);
+                            "%s: layer %u: channel name '%s%s%s' is longer than %d characters", path, index, prefix,
+                            prefix[0] ? "." : "", channel, CV_EXR_MAX_NAME);
         for (uint32_t k = 0; k < sources->count; k++) {
             if (strcmp(sources->list[k].name, s->name) == 0)
-                return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u: channel '%s' appears twice",
-                                path, index, s->name);
+                return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: layer %u: channel '%s' appears twice", path, index,
+                                s->name);
         }
         if (layer->interleaved != NULL) {
             s->first = layer->interleaved + c;
@@ -58,8 +58,8 @@ static cv_result add_layer_sources(const char *path, uint32_t index, const cv_ex
         } else {
             if (layer->planes[c] == NULL)
                 return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                                "%s: layer %u '%s': neither interleaved nor planes[%u] is given",
-                                path, index, prefix, c);
+                                "%s: layer %u '%s': neither interleaved nor planes[%u] is given", path, index, prefix,
+                                c);
             s->first = layer->planes[c];
             s->stride = 1;
         }
@@ -76,10 +76,9 @@ static cv_result check_desc(const char *path, const cv_exr_desc *desc, exr_sourc
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: desc is NULL", path);
     if (desc->width == 0 || desc->width > CV_MAX_TEXTURE_DIM || desc->height == 0 ||
         desc->height > CV_MAX_TEXTURE_DIM)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: size %ux%u is outside 1..%u per side", path,
-                        desc->width, desc->height, CV_MAX_TEXTURE_DIM);
-    if (desc->compression != CV_EXR_ZIP && desc->compression != CV_EXR_PIZ &&
-        desc->compression != CV_EXR_NONE)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: size %ux%u is outside 1..%u per side", path, desc->width,
+                        desc->height, CV_MAX_TEXTURE_DIM);
+    if (desc->compression != CV_EXR_ZIP && desc->compression != CV_EXR_PIZ && desc->compression != CV_EXR_NONE)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: compression %d is not ZIP, PIZ or NONE", path,
                         (int)desc->compression);
     if (desc->layer_count == 0 || desc->layers == NULL)
@@ -110,8 +109,8 @@ static const exr_source *find_source(const exr_sources *sources, const char *nam
 }
 
 /* Points the encoder's channels (in the file's order) at this chunk's rows. */
-static exr_result_t bind_chunk(exr_encode_pipeline_t *enc, const exr_sources *sources,
-                               uint32_t width, int32_t first_row) {
+static exr_result_t bind_chunk(exr_encode_pipeline_t *enc, const exr_sources *sources, uint32_t width,
+                               int32_t first_row) {
     for (int16_t i = 0; i < enc->channel_count; i++) {
         exr_coding_channel_info_t *ch = &enc->channels[i];
         const exr_source *s = find_source(sources, ch->channel_name);
@@ -157,19 +156,17 @@ static cv_result write_chunks(const char *path, exr_context_t ctx, int part, uin
     return CV_OK;
 }
 
-static cv_result define_part(const char *path, exr_context_t ctx, const cv_exr_desc *desc,
-                             const exr_sources *sources, int *part) {
+static cv_result define_part(const char *path, exr_context_t ctx, const cv_exr_desc *desc, const exr_sources *sources,
+                             int *part) {
     exr_result_t rv = exr_add_part(ctx, NULL, EXR_STORAGE_SCANLINE, part);
     if (rv == EXR_ERR_SUCCESS)
-        rv = exr_initialize_required_attr_simple(ctx, *part, (int32_t)desc->width,
-                                                 (int32_t)desc->height,
+        rv = exr_initialize_required_attr_simple(ctx, *part, (int32_t)desc->width, (int32_t)desc->height,
                                                  exr_compression_of(desc->compression));
     /* The perceptual hint only steers lossy compressions, which we never use;
      * logarithmic is what other writers put by default. */
     for (uint32_t i = 0; i < sources->count && rv == EXR_ERR_SUCCESS; i++) {
         const exr_source *s = &sources->list[i];
-        rv = exr_add_channel(ctx, *part, s->name,
-                             s->type == CV_EXR_HALF ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
+        rv = exr_add_channel(ctx, *part, s->name, s->type == CV_EXR_HALF ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
                              EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     }
     if (rv == EXR_ERR_SUCCESS)

@@ -14,7 +14,7 @@
 struct cv_file_set {
     uint32_t count;
     struct {
-        char *path, *temp;   /* temp is NULL once renamed into place */
+        char *path, *temp; /* temp is NULL once renamed into place */
     } files[CV_FILE_SET_MAX];
 };
 

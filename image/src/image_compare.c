@@ -12,14 +12,16 @@ typedef struct diff_sums {
     uint64_t pixels_over;
 } diff_sums;
 
-static cv_result check_args(const void *a, const void *b, uint32_t width, uint32_t height,
-                            uint32_t channels, const cv_image_diff *out) {
+static cv_result check_args(const void *a, const void *b, uint32_t width, uint32_t height, uint32_t channels,
+                            const cv_image_diff *out) {
     if (a == NULL || b == NULL || out == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "image compare: %s is NULL",
-                        a == NULL ? "a" : b == NULL ? "b" : "out");
+                        a == NULL   ? "a"
+                        : b == NULL ? "b"
+                                    : "out");
     if (width == 0 || height == 0 || channels == 0)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "image compare: %ux%u pixels of %u channels is empty",
-                        width, height, channels);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "image compare: %ux%u pixels of %u channels is empty", width,
+                        height, channels);
     return CV_OK;
 }
 
@@ -30,8 +32,7 @@ static bool add_value(diff_sums *sums, double diff, double tolerance) {
     return diff > tolerance;
 }
 
-static void finish(const diff_sums *sums, uint64_t pixels, uint32_t channels, double peak,
-                   cv_image_diff *out) {
+static void finish(const diff_sums *sums, uint64_t pixels, uint32_t channels, double peak, cv_image_diff *out) {
     double mse = sums->sum_squares / ((double)pixels * channels);
     *out = (cv_image_diff){
         .max_abs = sums->max_abs,
@@ -42,8 +43,8 @@ static void finish(const diff_sums *sums, uint64_t pixels, uint32_t channels, do
     };
 }
 
-cv_result cv_image_compare_u8(const uint8_t *a, const uint8_t *b, uint32_t width, uint32_t height,
-                              uint32_t channels, uint32_t tolerance, cv_image_diff *out) {
+cv_result cv_image_compare_u8(const uint8_t *a, const uint8_t *b, uint32_t width, uint32_t height, uint32_t channels,
+                              uint32_t tolerance, cv_image_diff *out) {
     cv_result r = check_args(a, b, width, height, channels, out);
     if (r != CV_OK)
         return r;
@@ -68,16 +69,14 @@ static double float_diff(float x, float y) {
     return isnan(d) ? INFINITY : d;
 }
 
-cv_result cv_image_compare_f32(const float *a, const float *b, uint32_t width, uint32_t height,
-                               uint32_t channels, double tolerance, double peak,
-                               cv_image_diff *out) {
+cv_result cv_image_compare_f32(const float *a, const float *b, uint32_t width, uint32_t height, uint32_t channels,
+                               double tolerance, double peak, cv_image_diff *out) {
     cv_result r = check_args(a, b, width, height, channels, out);
     if (r != CV_OK)
         return r;
     if (!(tolerance >= 0.0) || !(peak > 0.0) || !isfinite(peak))
         return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "image compare: tolerance %g must be >= 0 and peak %g finite and > 0",
-                        tolerance, peak);
+                        "image compare: tolerance %g must be >= 0 and peak %g finite and > 0", tolerance, peak);
     diff_sums sums = { 0 };
     uint64_t pixels = (uint64_t)width * height;
     for (uint64_t i = 0; i < pixels; i++) {

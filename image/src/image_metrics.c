@@ -8,8 +8,8 @@ static int usable(const float *a, const float *b, const uint8_t *mask, size_t i)
     return (!mask || mask[i]) && isfinite(a[i]) && isfinite(b[i]);
 }
 
-cv_result cv_image_metrics_f32(const float *a, const float *b, const uint8_t *mask, uint32_t width,
-                               uint32_t height, double peak, cv_image_metrics *out) {
+cv_result cv_image_metrics_f32(const float *a, const float *b, const uint8_t *mask, uint32_t width, uint32_t height,
+                               double peak, cv_image_metrics *out) {
     if (!a || !b || !out || width == 0 || height == 0 || !isfinite(peak) || peak <= 0.0)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_image_metrics_f32: NULL image, zero size or peak not > 0");
     cv_image_metrics m = { .ssim = NAN };
@@ -48,8 +48,9 @@ cv_result cv_image_metrics_f32(const float *a, const float *b, const uint8_t *ma
         for (uint32_t y = 0; y < height; y++)
             for (uint32_t x = 0; x < width; x++)
                 sat[(size_t)(y + 1) * (width + 1) + x + 1] = ok[(size_t)y * width + x] +
-                    sat[(size_t)y * (width + 1) + x + 1] + sat[(size_t)(y + 1) * (width + 1) + x] -
-                    sat[(size_t)y * (width + 1) + x];
+                                                             sat[(size_t)y * (width + 1) + x + 1] +
+                                                             sat[(size_t)(y + 1) * (width + 1) + x] -
+                                                             sat[(size_t)y * (width + 1) + x];
         for (uint32_t y = 0; y + w <= height; y++)
             for (uint32_t x = 0; x + w <= width; x++) {
                 uint32_t count = sat[(size_t)(y + w) * (width + 1) + x + w] - sat[(size_t)y * (width + 1) + x + w] -

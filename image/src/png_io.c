@@ -13,16 +13,14 @@
 #include "corvid/types.h"
 #include "temp_file.h"
 
-cv_result cv_png_write(const char *path, uint32_t width, uint32_t height, uint32_t channels,
-                       const uint8_t *pixels) {
+cv_result cv_png_write(const char *path, uint32_t width, uint32_t height, uint32_t channels, const uint8_t *pixels) {
     if (path == NULL || path[0] == '\0')
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "png: no path given");
     if (width == 0 || width > CV_MAX_TEXTURE_DIM || height == 0 || height > CV_MAX_TEXTURE_DIM)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: size %ux%u is outside 1..%u per side", path,
-                        width, height, CV_MAX_TEXTURE_DIM);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: size %ux%u is outside 1..%u per side", path, width, height,
+                        CV_MAX_TEXTURE_DIM);
     if (channels != 3 && channels != 4)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: %u channels (3 for RGB or 4 for RGBA)", path,
-                        channels);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: %u channels (3 for RGB or 4 for RGBA)", path, channels);
     if (pixels == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: pixels is NULL", path);
 
@@ -39,7 +37,9 @@ cv_result cv_png_write(const char *path, uint32_t width, uint32_t height, uint32
         free(temp);
         return r;
     }
-    png_image image = { .version = PNG_IMAGE_VERSION, .width = width, .height = height,
+    png_image image = { .version = PNG_IMAGE_VERSION,
+                        .width = width,
+                        .height = height,
                         .format = channels == 4 ? PNG_FORMAT_RGBA : PNG_FORMAT_RGB };
     bool encoded = png_image_write_to_stdio(&image, f, 0, pixels, 0, NULL) != 0;
     bool flushed = encoded && fflush(f) == 0 && ferror(f) == 0;
@@ -98,8 +98,10 @@ cv_result cv_png_read(const char *path, cv_png_image *out) {
         free(pixels);
         return r;
     }
-    *out = (cv_png_image){ .width = image.width, .height = image.height,
-                           .channels = PNG_IMAGE_PIXEL_CHANNELS(image.format), .pixels = pixels };
+    *out = (cv_png_image){ .width = image.width,
+                           .height = image.height,
+                           .channels = PNG_IMAGE_PIXEL_CHANNELS(image.format),
+                           .pixels = pixels };
     return CV_OK;
 }
 

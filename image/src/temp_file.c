@@ -28,8 +28,7 @@ cv_result image_temp_create(const char *path, char **temp, int *fd) {
         if (errno != EEXIST)
             break;
     }
-    cv_result r = cv_error(CV_ERROR_IO, "%s: cannot create a temporary file beside it: %s", path,
-                           strerror(errno));
+    cv_result r = cv_error(CV_ERROR_IO, "%s: cannot create a temporary file beside it: %s", path, strerror(errno));
     free(name);
     return r;
 }

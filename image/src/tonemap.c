@@ -29,9 +29,7 @@ float cv_srgb_encode(float linear) {
     return linear <= 0.0031308f ? 12.92f * linear : 1.055f * powf(linear, 1.0f / 2.4f) - 0.055f;
 }
 
-uint8_t cv_srgb_encode8(float linear) {
-    return (uint8_t)lrintf(cv_srgb_encode(linear) * 255.0f);
-}
+uint8_t cv_srgb_encode8(float linear) { return (uint8_t)lrintf(cv_srgb_encode(linear) * 255.0f); }
 
 static uint8_t alpha8(float a) {
     if (!(a > 0.0f))
@@ -39,21 +37,20 @@ static uint8_t alpha8(float a) {
     return a >= 1.0f ? 255 : (uint8_t)lrintf(a * 255.0f);
 }
 
-cv_result cv_tonemap_to_srgb8(const cv_tonemap_desc *desc, const float *in, uint32_t in_channels,
-                              uint32_t width, uint32_t height, uint8_t *out,
-                              uint32_t out_channels) {
+cv_result cv_tonemap_to_srgb8(const cv_tonemap_desc *desc, const float *in, uint32_t in_channels, uint32_t width,
+                              uint32_t height, uint8_t *out, uint32_t out_channels) {
     if (desc == NULL || in == NULL || out == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "tonemap: %s is NULL",
-                        desc == NULL ? "desc" : in == NULL ? "in" : "out");
+                        desc == NULL ? "desc"
+                        : in == NULL ? "in"
+                                     : "out");
     if (!isfinite(desc->exposure))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "tonemap: exposure %g is not finite",
-                        (double)desc->exposure);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "tonemap: exposure %g is not finite", (double)desc->exposure);
     if (desc->curve != CV_TONEMAP_ACES && desc->curve != CV_TONEMAP_REINHARD)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "tonemap: curve %d is neither ACES nor REINHARD",
                         (int)desc->curve);
     if ((in_channels != 3 && in_channels != 4) || (out_channels != 3 && out_channels != 4))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "tonemap: %u input and %u output channels (each must be 3 or 4)",
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "tonemap: %u input and %u output channels (each must be 3 or 4)",
                         in_channels, out_channels);
     if (width == 0 || height == 0)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "tonemap: size %ux%u is empty", width, height);

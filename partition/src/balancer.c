@@ -11,19 +11,16 @@
 
 cv_result cv_balancer_init(cv_balancer *b, const cv_balancer_desc *desc) {
     if (b == NULL || desc == NULL)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: %s is NULL",
-                        b == NULL ? "balancer" : "desc");
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: %s is NULL", b == NULL ? "balancer" : "desc");
     if (desc->device_count == 0 || desc->device_count > CV_MAX_DEVICES)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: device_count %u is outside 1..%u",
-                        desc->device_count, CV_MAX_DEVICES);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: device_count %u is outside 1..%u", desc->device_count,
+                        CV_MAX_DEVICES);
     double smoothing = desc->smoothing == 0.0 ? DEFAULT_SMOOTHING : desc->smoothing;
     if (!(smoothing > 0.0 && smoothing <= 1.0))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: smoothing %g is outside (0, 1]",
-                        desc->smoothing);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: smoothing %g is outside (0, 1]", desc->smoothing);
     double min_share = desc->min_share == 0.0 ? DEFAULT_MIN_SHARE : desc->min_share;
     if (!(min_share > 0.0 && min_share <= 1.0))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: min_share %g is outside (0, 1]",
-                        desc->min_share);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: min_share %g is outside (0, 1]", desc->min_share);
     memset(b, 0, sizeof *b);
     b->device_count = desc->device_count;
     b->smoothing = smoothing;
@@ -86,8 +83,7 @@ void cv_balancer_shares(const cv_balancer *b, double *shares) {
     apply_floor(shares, n, b->min_share / n);
 }
 
-cv_result cv_balancer_split(const cv_balancer *b, uint32_t width, uint32_t tile,
-                            cv_partition *out) {
+cv_result cv_balancer_split(const cv_balancer *b, uint32_t width, uint32_t tile, cv_partition *out) {
     if (b == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: balancer is NULL");
     double shares[CV_MAX_DEVICES];
@@ -129,10 +125,11 @@ cv_result cv_balancer_split(const cv_balancer *b, uint32_t width, uint32_t tile,
 cv_result cv_balancer_update(cv_balancer *b, const cv_partition *used, const double *ms) {
     if (b == NULL || used == NULL || ms == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: %s is NULL",
-                        b == NULL ? "balancer" : used == NULL ? "partition" : "ms");
+                        b == NULL      ? "balancer"
+                        : used == NULL ? "partition"
+                                       : "ms");
     if (used->device_count != b->device_count)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "balancer: partition has %u devices, balancer has %u",
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: partition has %u devices, balancer has %u",
                         used->device_count, b->device_count);
     cv_result r = cv_partition_validate(used);
     if (r != CV_OK)
@@ -141,8 +138,7 @@ cv_result cv_balancer_update(cv_balancer *b, const cv_partition *used, const dou
     double samples[CV_MAX_DEVICES];
     for (uint32_t d = 0; d < b->device_count; d++) {
         if (!isfinite(ms[d]) || ms[d] < 0.0)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                            "balancer: ms[%u] = %g (must be finite and >= 0)", d, ms[d]);
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "balancer: ms[%u] = %g (must be finite and >= 0)", d, ms[d]);
         uint32_t columns = used->ranges[d].width;
         if (columns == 0)
             continue;
@@ -150,7 +146,8 @@ cv_result cv_balancer_update(cv_balancer *b, const cv_partition *used, const dou
         if (!isfinite(speed))
             return cv_error(CV_ERROR_INVALID_ARGUMENT,
                             "balancer: ms[%u] = %g for %u columns (a device that did work "
-                            "must report a time > 0)", d, ms[d], columns);
+                            "must report a time > 0)",
+                            d, ms[d], columns);
         samples[d] = speed;
     }
 
@@ -159,9 +156,7 @@ cv_result cv_balancer_update(cv_balancer *b, const cv_partition *used, const dou
             continue;
         /* The first sample replaces the prior instead of averaging with it:
          * there was no measurement to keep. */
-        b->speed[d] = b->measured[d]
-                          ? (1.0 - b->smoothing) * b->speed[d] + b->smoothing * samples[d]
-                          : samples[d];
+        b->speed[d] = b->measured[d] ? (1.0 - b->smoothing) * b->speed[d] + b->smoothing * samples[d] : samples[d];
         b->measured[d] = true;
     }
     b->last = *used;

@@ -20,24 +20,22 @@ const char *cv_mgpu_transfer_name(cv_mgpu_transfer rule) {
 }
 
 static void add_copy(cv_mgpu_copy_plan *plan, uint32_t src, uint32_t dst, cv_column_range columns) {
-    plan->copies[plan->count++] =
-        (cv_mgpu_copy){ .src_device = src, .dst_device = dst, .columns = columns };
+    plan->copies[plan->count++] = (cv_mgpu_copy){ .src_device = src, .dst_device = dst, .columns = columns };
 }
 
-cv_result cv_mgpu_plan_copies(const cv_partition *p, uint32_t primary, cv_mgpu_policy policy,
-                              cv_mgpu_transfer rule, cv_mgpu_copy_plan *out) {
+cv_result cv_mgpu_plan_copies(const cv_partition *p, uint32_t primary, cv_mgpu_policy policy, cv_mgpu_transfer rule,
+                              cv_mgpu_copy_plan *out) {
     if (out == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "copy plan: out is NULL");
     cv_result r = cv_partition_validate(p);
     if (r != CV_OK)
         return r;
     if (primary >= p->device_count)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "copy plan: primary device %u of %u devices",
-                        primary, p->device_count);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "copy plan: primary device %u of %u devices", primary,
+                        p->device_count);
     if (policy != CV_MGPU_PRIMARY_ONLY && policy != CV_MGPU_ALL_DEVICES)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "copy plan: unknown policy %d", (int)policy);
-    if (rule != CV_MGPU_ISOLATED_TO_ISOLATED && rule != CV_MGPU_MULTICAST &&
-        rule != CV_MGPU_PRIMARY_TO_ISOLATED)
+    if (rule != CV_MGPU_ISOLATED_TO_ISOLATED && rule != CV_MGPU_MULTICAST && rule != CV_MGPU_PRIMARY_TO_ISOLATED)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "copy plan: unknown transfer rule %d", (int)rule);
     if (rule == CV_MGPU_MULTICAST && policy == CV_MGPU_ALL_DEVICES)
         return cv_error(CV_ERROR_INVALID_ARGUMENT,

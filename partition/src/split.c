@@ -6,8 +6,8 @@
 
 static cv_result check_shape(uint32_t width, uint32_t tile, uint32_t device_count) {
     if (device_count == 0 || device_count > CV_MAX_DEVICES)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: device_count %u is outside 1..%u",
-                        device_count, CV_MAX_DEVICES);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: device_count %u is outside 1..%u", device_count,
+                        CV_MAX_DEVICES);
     if (width == 0)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: width is 0 (nothing to split)");
     if (tile == 0)
@@ -19,13 +19,12 @@ static cv_result sum_weights(const double *weights, uint32_t device_count, doubl
     double sum = 0.0;
     for (uint32_t d = 0; d < device_count; d++) {
         if (!isfinite(weights[d]) || weights[d] < 0.0)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                            "partition: weights[%u] = %g (must be finite and >= 0)", d, weights[d]);
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: weights[%u] = %g (must be finite and >= 0)", d,
+                            weights[d]);
         sum += weights[d];
     }
     if (!(sum > 0.0) || !isfinite(sum))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "partition: weights sum to %g (must be finite and > 0)", sum);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: weights sum to %g (must be finite and > 0)", sum);
     *total = sum;
     return CV_OK;
 }
@@ -39,8 +38,8 @@ static uint32_t snap_boundary(double ideal, uint32_t tile, uint32_t width) {
     return (uint32_t)tiles * tile;
 }
 
-cv_result cv_partition_split(uint32_t width, uint32_t tile, uint32_t device_count,
-                             const double *weights, cv_partition *out) {
+cv_result cv_partition_split(uint32_t width, uint32_t tile, uint32_t device_count, const double *weights,
+                             cv_partition *out) {
     if (out == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: out is NULL");
     cv_result r = check_shape(width, tile, device_count);
@@ -60,7 +59,7 @@ cv_result cv_partition_split(uint32_t width, uint32_t tile, uint32_t device_coun
         if (d + 1 < device_count) {
             cumulative += weights != NULL ? weights[d] : 1.0;
             end = snap_boundary((double)width * cumulative / total, tile, width);
-            if (end < start)  /* rounding of the running sum must never step back */
+            if (end < start) /* rounding of the running sum must never step back */
                 end = start;
         }
         p.ranges[d] = (cv_column_range){ .x = start, .width = end - start };
@@ -86,17 +85,15 @@ cv_result cv_partition_validate(const cv_partition *p) {
                             d, range->x, (unsigned long long)at);
         if (range->width > 0 && range->x % p->tile != 0)
             return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                            "partition: ranges[%u] starts at column %u, not a multiple of tile %u",
-                            d, range->x, p->tile);
+                            "partition: ranges[%u] starts at column %u, not a multiple of tile %u", d, range->x,
+                            p->tile);
         at += range->width;
         if (at > p->width)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                            "partition: ranges[%u] ends at column %llu, past width %u", d,
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: ranges[%u] ends at column %llu, past width %u", d,
                             (unsigned long long)at, p->width);
     }
     if (at != p->width)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "partition: ranges end at column %llu, short of width %u",
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "partition: ranges end at column %llu, short of width %u",
                         (unsigned long long)at, p->width);
     return CV_OK;
 }

@@ -43,19 +43,13 @@ void render_camera_view_proj(const cv_camera *camera, float aspect, float near_p
     cross3(s, f, u);
     const float *e = camera->position;
     float view[16] = {
-        s[0], u[0], -f[0], 0,
-        s[1], u[1], -f[1], 0,
-        s[2], u[2], -f[2], 0,
-        -dot3(s, e), -dot3(u, e), dot3(f, e), 1,
+        s[0], u[0], -f[0], 0, s[1], u[1], -f[1], 0, s[2], u[2], -f[2], 0, -dot3(s, e), -dot3(u, e), dot3(f, e), 1,
     };
     float t = 1.0f / tanf(camera->vertical_fov * 0.5f);
     float range = far_plane - near_plane;
     /* Vulkan: clip y points down, depth maps [near, far] to [0, 1]. */
     float proj[16] = {
-        t / aspect, 0, 0, 0,
-        0, -t, 0, 0,
-        0, 0, -far_plane / range, -1,
-        0, 0, -far_plane * near_plane / range, 0,
+        t / aspect, 0, 0, 0, 0, -t, 0, 0, 0, 0, -far_plane / range, -1, 0, 0, -far_plane * near_plane / range, 0,
     };
     multiply(proj, view, view_proj);
 }

@@ -19,12 +19,12 @@ typedef struct reference_job {
     const cv_scene *scene;
     cv_trace_target target;
     const render_scene_data *data;
-    const uint64_t *first_vertex;   /* per instance: its first vertex in data->vertices */
+    const uint64_t *first_vertex; /* per instance: its first vertex in data->vertices */
     cv_render_settings s;
     cv_camera camera;
     uint32_t samples;
     cv_render_output *out;
-    uint32_t next_row;              /* guarded by lock */
+    uint32_t next_row; /* guarded by lock */
     pthread_mutex_t lock;
 } reference_job;
 
@@ -71,13 +71,15 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
     cv_render_output *out = j->out;
     /* The camera ray through the pixel centre (render_camera_view_proj's frame). */
     float f[3] = { cam->target[0] - cam->position[0], cam->target[1] - cam->position[1],
-                   cam->target[2] - cam->position[2] }, r[3], u[3];
+                   cam->target[2] - cam->position[2] },
+          r[3], u[3];
     normalize3(f);
     cross3(f, cam->up, r);
     normalize3(r);
     cross3(r, f, u);
     float th = tanf(cam->vertical_fov * 0.5f), aspect = (float)j->s.width / (float)j->s.height;
-    float sx = ((x + 0.5f) / j->s.width * 2.0f - 1.0f) * th * aspect, sy = (1.0f - (y + 0.5f) / j->s.height * 2.0f) * th;
+    float sx = ((x + 0.5f) / j->s.width * 2.0f - 1.0f) * th * aspect,
+          sy = (1.0f - (y + 0.5f) / j->s.height * 2.0f) * th;
     float d[3] = { f[0] + r[0] * sx + u[0] * sy, f[1] + r[1] * sx + u[1] * sy, f[2] + r[2] * sx + u[2] * sy };
     normalize3(d);
     cv_ray ray = { { cam->position[0], cam->position[1], cam->position[2] }, 0.0f, { d[0], d[1], d[2] }, INFINITY };
@@ -99,30 +101,36 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
     normalize3(n);
     cross3(e1, e2, ng);
     normalize3(ng);
-    float nsum[3] = { v[0].normal[0] + v[1].normal[0] + v[2].normal[0], v[0].normal[1] + v[1].normal[1] + v[2].normal[1],
+    float nsum[3] = { v[0].normal[0] + v[1].normal[0] + v[2].normal[0],
+                      v[0].normal[1] + v[1].normal[1] + v[2].normal[1],
                       v[0].normal[2] + v[1].normal[2] + v[2].normal[2] };
     if (dot3(ng, nsum) < 0.0f)
-        for (int k = 0; k < 3; k++) ng[k] = -ng[k];
-    if (dot3(ng, d) > 0.0f)   /* the camera's side, as render.gbuffer */
-        for (int k = 0; k < 3; k++) ng[k] = -ng[k], n[k] = -n[k];
+        for (int k = 0; k < 3; k++)
+            ng[k] = -ng[k];
+    if (dot3(ng, d) > 0.0f) /* the camera's side, as render.gbuffer */
+        for (int k = 0; k < 3; k++)
+            ng[k] = -ng[k], n[k] = -n[k];
     float bias = data->diagonal * 2e-5f, origin[3];
     for (int k = 0; k < 3; k++)
         origin[k] = p[k] + ng[k] * bias;
     uint64_t rng = ((uint64_t)(y * j->s.width + x) << 20) ^ 0x5EEDull;
-    float to_sun[3] = { -data->sun_direction[0], -data->sun_direction[1], -data->sun_direction[2] }, st[3], sb[3], nt[3], nb[3];
+    float to_sun[3] = { -data->sun_direction[0], -data->sun_direction[1], -data->sun_direction[2] }, st[3], sb[3],
+          nt[3], nb[3];
     basis(to_sun, st, sb);
     basis(n, nt, nb);
     float cone = j->s.sun_cone_degrees * REF_PI / 180.0f, sun = 0.0f, ao = 0.0f;
     for (uint32_t sample = 0; sample < j->samples; sample++) {
         float a = next_float(&rng), b = next_float(&rng);
-        float ct = 1.0f - a * (1.0f - cosf(cone)), stt = sqrtf(fmaxf(0.0f, 1.0f - ct * ct)), ph = 2.0f * REF_PI * b, dir[3];
+        float ct = 1.0f - a * (1.0f - cosf(cone)), stt = sqrtf(fmaxf(0.0f, 1.0f - ct * ct)), ph = 2.0f * REF_PI * b,
+              dir[3];
         for (int k = 0; k < 3; k++)
             dir[k] = st[k] * cosf(ph) * stt + sb[k] * sinf(ph) * stt + to_sun[k] * ct;
         normalize3(dir);
         if (dot3(dir, n) > 0.0f && dot3(dir, ng) > 0.0f && !occluded(j, origin, dir, 1e30f))
             sun += 1.0f;
         for (uint32_t k2 = 0; k2 < j->s.ao_samples; k2++) {
-            float c = next_float(&rng), e = next_float(&rng), rr = sqrtf(c), an = 2.0f * REF_PI * e, z = sqrtf(fmaxf(0.0f, 1.0f - c));
+            float c = next_float(&rng), e = next_float(&rng), rr = sqrtf(c), an = 2.0f * REF_PI * e,
+                  z = sqrtf(fmaxf(0.0f, 1.0f - c));
             for (int k = 0; k < 3; k++)
                 dir[k] = nt[k] * rr * cosf(an) + nb[k] * rr * sinf(an) + n[k] * z;
             normalize3(dir);
@@ -181,15 +189,19 @@ static void *reference_worker(void *arg) {
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out) {
     if (!scene || !bvh || !out || samples == 0 || samples > 65536)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_render_reference: need a scene, its BVH, an output and "
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "cv_render_reference: need a scene, its BVH, an output and "
                         "1..65536 samples");
-    reference_job j = { .scene = scene, .target = { .flat = bvh, .layout = CV_BVH_LAYOUT_NODE2 },
-                        .s = cv_render_settings_resolve(settings, scene), .samples = samples, .out = out };
+    reference_job j = { .scene = scene,
+                        .target = { .flat = bvh, .layout = CV_BVH_LAYOUT_NODE2 },
+                        .s = cv_render_settings_resolve(settings, scene),
+                        .samples = samples,
+                        .out = out };
     if (j.s.width > CV_MAX_TEXTURE_DIM || j.s.height > CV_MAX_TEXTURE_DIM || j.s.ao_samples > 32)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "cv_render_reference: %ux%u, %u AO samples (limits %u, 32)",
-                        j.s.width, j.s.height, j.s.ao_samples, CV_MAX_TEXTURE_DIM);
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "cv_render_reference: %ux%u, %u AO samples (limits %u, 32)", j.s.width,
+                        j.s.height, j.s.ao_samples, CV_MAX_TEXTURE_DIM);
     j.camera = j.s.camera < cv_scene_camera_count(scene) ? *cv_scene_camera(scene, j.s.camera)
-                                                          : cv_scene_framing_camera(scene);
+                                                         : cv_scene_framing_camera(scene);
     render_scene_data data;
     cv_result res = render_scene_data_build(scene, &data);
     if (res != CV_OK)

@@ -21,11 +21,28 @@ static const char *pipeline_names[PIPE_COUNT] = {
 };
 
 /* Size-dependent textures; `everywhere` ones are loaded on every device. */
-enum { TEX_POSITION, TEX_NORMAL, TEX_VISIBILITY, TEX_DEPTH, TEX_HISTORY, TEX_PING, TEX_PONG, TEX_RADIANCE,
-       TEX_ALBEDO, TEX_COUNT };
-static const struct { cv_format format; uint32_t usage; bool everywhere; const char *label; } texture_info[TEX_COUNT] = {
-    [TEX_POSITION] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, true, "gbuffer position" },
-    [TEX_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, true, "gbuffer normal" },
+enum {
+    TEX_POSITION,
+    TEX_NORMAL,
+    TEX_VISIBILITY,
+    TEX_DEPTH,
+    TEX_HISTORY,
+    TEX_PING,
+    TEX_PONG,
+    TEX_RADIANCE,
+    TEX_ALBEDO,
+    TEX_COUNT
+};
+static const struct {
+    cv_format format;
+    uint32_t usage;
+    bool everywhere;
+    const char *label;
+} texture_info[TEX_COUNT] = {
+    [TEX_POSITION] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, true,
+                       "gbuffer position" },
+    [TEX_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, true,
+                     "gbuffer normal" },
     [TEX_VISIBILITY] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, true, "visibility" },
     [TEX_DEPTH] = { CV_FORMAT_D32F, CV_TEXTURE_USAGE_DEPTH_TARGET, false, "depth" },
     [TEX_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "visibility history" },
@@ -49,15 +66,15 @@ struct cv_renderer {
     cv_buffer vertices, materials, lights;
     cv_accel accel;
     cv_pipeline pipelines[PIPE_COUNT];
-    uint32_t width, height;                 /* of the textures below; 0 = none yet */
+    uint32_t width, height; /* of the textures below; 0 = none yet */
     cv_texture textures[TEX_COUNT];
     double upload_ms;
     /* The frame as a render graph (rebuilt when the size, the filter
      * iterations or the ray buffers' size change). */
     cv_graph *graph;
     uint32_t graph_iterations;
-    uint32_t graph_frames;                  /* frames of this render call: the filter's history length */
-    uint64_t graph_rays;                    /* rays the ray and hit buffers hold */
+    uint32_t graph_frames; /* frames of this render call: the filter's history length */
+    uint64_t graph_rays;   /* rays the ray and hit buffers hold */
     cv_graph_resource tex[TEX_COUNT], buf[BUF_COUNT];
     cv_graph_pass gbuffer_pass, filter_pass, composite_pass;
     /* What the passes record this frame (set before each bake, read by the
@@ -65,7 +82,7 @@ struct cv_renderer {
     cv_render_settings settings;
     cv_camera camera;
     uint32_t frame;
-    uint64_t band_limit;                    /* most rays per band on every device */
+    uint64_t band_limit; /* most rays per band on every device */
 };
 
 /* Frames a single-device render keeps submitted ahead of the one it waits for:
@@ -122,9 +139,10 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
     uint64_t vertex_bytes = r->data.vertex_count * sizeof(render_vertex);
     for (uint32_t d = 0; d < device_count && res == CV_OK; d++)
         if (vertex_bytes > cv_device_get_info(devices[d])->max_storage_buffer_range)
-            res = cv_error(CV_ERROR_LIMIT_EXCEEDED, "renderer: %llu bytes of vertices exceed device '%s''s storage "
-                           "buffer range of %llu bytes; use a smaller scene", (unsigned long long)vertex_bytes,
-                           cv_device_label(devices[d]),
+            res = cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                           "renderer: %llu bytes of vertices exceed device '%s''s storage "
+                           "buffer range of %llu bytes; use a smaller scene",
+                           (unsigned long long)vertex_bytes, cv_device_label(devices[d]),
                            (unsigned long long)cv_device_get_info(devices[d])->max_storage_buffer_range);
     if (res == CV_OK)
         res = upload_buffer(r, r->data.vertices, vertex_bytes, "scene vertices", &r->vertices);
@@ -136,8 +154,10 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
                             &r->lights);
     /* Immutable scene data goes to every device once (the multicast rule). */
     if (res == CV_OK)
-        res = cv_accel_create(r->ctx, &(cv_accel_desc){ .triangle_count = bvh->tri_count,
-                                                         .node_count = bvh->node2_count, .label = "scene" },
+        res = cv_accel_create(r->ctx,
+                              &(cv_accel_desc){ .triangle_count = bvh->tri_count,
+                                                .node_count = bvh->node2_count,
+                                                .label = "scene" },
                               &r->accel);
     if (res == CV_OK)
         res = load_everywhere(r, cv_any(r->accel));
@@ -202,8 +222,9 @@ static cv_result ensure_targets(cv_renderer *r, uint32_t width, uint32_t height)
     destroy_targets(r);
     cv_result res = CV_OK;
     for (int t = 0; t < TEX_COUNT && res == CV_OK; t++) {
-        cv_texture_desc desc = { .width = width, .height = height, .format = texture_info[t].format,
-                                 .usage = texture_info[t].usage };
+        cv_texture_desc desc = {
+            .width = width, .height = height, .format = texture_info[t].format, .usage = texture_info[t].usage
+        };
         strncpy(desc.label, texture_info[t].label, sizeof(desc.label) - 1);
         res = cv_texture_create(r->ctx, &desc, &r->textures[t]);
         if (res == CV_OK)
@@ -225,18 +246,29 @@ static uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size
 static void record_gbuffer(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
     cv_renderer *r = user;
     const cv_camera *camera = &r->camera;
-    struct { float view_proj[16]; float camera[4]; } push;
+    struct {
+        float view_proj[16];
+        float camera[4];
+    } push;
     float near_plane = r->data.diagonal * 1e-4f, far_plane = r->data.diagonal * 4.0f;
     render_camera_view_proj(camera, (float)r->width / (float)r->height, near_plane, far_plane, push.view_proj);
     memcpy(push.camera, camera->position, sizeof(camera->position));
-    push.camera[3] = 1.0f / far_plane;   /* render.gbuffer writes depth = view depth / far */
+    push.camera[3] = 1.0f / far_plane; /* render.gbuffer writes depth = view depth / far */
     cv_binding b = bind_buffer(cv_graph_buffer(pc, r->buf[BUF_VERTICES]));
-    cv_cmd_begin_render_pass(l, pc->queue, &(cv_begin_render_pass_args){
-        .color0 = cv_graph_texture(pc, r->tex[TEX_POSITION]), .color1 = cv_graph_texture(pc, r->tex[TEX_NORMAL]),
-        .depth = cv_graph_texture(pc, r->tex[TEX_DEPTH]), .clear = 1, .clear_depth = 1.0f });
-    cv_cmd_draw(l, pc->queue, &(cv_draw_args){ .pipeline = r->pipelines[PIPE_GBUFFER], .bindings = &b,
-                                               .bindings_count = 1, .push = &push, .push_size = sizeof(push),
-                                               .vertex_count = (uint32_t)r->data.vertex_count, .instance_count = 1 });
+    cv_cmd_begin_render_pass(l, pc->queue,
+                             &(cv_begin_render_pass_args){ .color0 = cv_graph_texture(pc, r->tex[TEX_POSITION]),
+                                                           .color1 = cv_graph_texture(pc, r->tex[TEX_NORMAL]),
+                                                           .depth = cv_graph_texture(pc, r->tex[TEX_DEPTH]),
+                                                           .clear = 1,
+                                                           .clear_depth = 1.0f });
+    cv_cmd_draw(l, pc->queue,
+                &(cv_draw_args){ .pipeline = r->pipelines[PIPE_GBUFFER],
+                                 .bindings = &b,
+                                 .bindings_count = 1,
+                                 .push = &push,
+                                 .push_size = sizeof(push),
+                                 .vertex_count = (uint32_t)r->data.vertex_count,
+                                 .instance_count = 1 });
     cv_cmd_end_render_pass(l, pc->queue, &(cv_end_render_pass_args){ 0 });
 }
 
@@ -284,34 +316,61 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
             uint32_t frame;
             float ao_radius, bias;
             uint32_t y0;
-        } raygen = { cols.x, cols.width, h, s->ao_samples,
+        } raygen = { cols.x,
+                     cols.width,
+                     h,
+                     s->ao_samples,
                      { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
                        s->sun_cone_degrees * 3.14159265f / 180.0f },
-                     s->first_frame + r->frame, s->ao_radius, r->data.diagonal * 2e-5f, y0 };
-        struct { uint32_t x0, width, height, ao_samples, y0, pad[3]; } resolve = { cols.x, cols.width, h,
-                                                                                  s->ao_samples, y0, { 0 } };
-        cv_cmd_dispatch(l, pc->queue, &(cv_dispatch_args){
-            .pipeline = r->pipelines[PIPE_RAYGEN], .bindings = gen, .bindings_count = 3, .push = &raygen,
-            .push_size = sizeof(raygen), .groups_x = groups(cols.width, 8), .groups_y = groups(h, 8),
-            .groups_z = 1 });
-        cv_cmd_trace_rays(l, pc->queue, &(cv_trace_rays_args){ .accel = r->accel, .rays = rays, .hits = hits,
-                                                               .count = (uint32_t)count, .flags = CV_TRACE_ANY_HIT });
-        cv_cmd_dispatch(l, pc->queue, &(cv_dispatch_args){
-            .pipeline = r->pipelines[PIPE_RESOLVE], .bindings = res_b, .bindings_count = 3, .push = &resolve,
-            .push_size = sizeof(resolve), .groups_x = groups(cols.width, 8), .groups_y = groups(h, 8),
-            .groups_z = 1 });
+                     s->first_frame + r->frame,
+                     s->ao_radius,
+                     r->data.diagonal * 2e-5f,
+                     y0 };
+        struct {
+            uint32_t x0, width, height, ao_samples, y0, pad[3];
+        } resolve = { cols.x, cols.width, h, s->ao_samples, y0, { 0 } };
+        cv_cmd_dispatch(l, pc->queue,
+                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_RAYGEN],
+                                             .bindings = gen,
+                                             .bindings_count = 3,
+                                             .push = &raygen,
+                                             .push_size = sizeof(raygen),
+                                             .groups_x = groups(cols.width, 8),
+                                             .groups_y = groups(h, 8),
+                                             .groups_z = 1 });
+        cv_cmd_trace_rays(
+            l, pc->queue,
+            &(cv_trace_rays_args){
+                .accel = r->accel, .rays = rays, .hits = hits, .count = (uint32_t)count, .flags = CV_TRACE_ANY_HIT });
+        cv_cmd_dispatch(l, pc->queue,
+                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_RESOLVE],
+                                             .bindings = res_b,
+                                             .bindings_count = 3,
+                                             .push = &resolve,
+                                             .push_size = sizeof(resolve),
+                                             .groups_x = groups(cols.width, 8),
+                                             .groups_y = groups(h, 8),
+                                             .groups_z = 1 });
     }
 }
 
 /* Pass 'accumulate' (primary): this frame's visibility into the running mean. */
 static void record_accumulate(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
     cv_renderer *r = user;
-    struct { uint32_t width, height, frame, pad; } push = { r->width, r->height, r->frame, 0 };
+    struct {
+        uint32_t width, height, frame, pad;
+    } push = { r->width, r->height, r->frame, 0 };
     cv_binding b[2] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_VISIBILITY])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_HISTORY])) };
-    cv_cmd_dispatch(l, pc->queue, &(cv_dispatch_args){
-        .pipeline = r->pipelines[PIPE_ACCUMULATE], .bindings = b, .bindings_count = 2, .push = &push,
-        .push_size = sizeof(push), .groups_x = groups(r->width, 8), .groups_y = groups(r->height, 8), .groups_z = 1 });
+    cv_cmd_dispatch(l, pc->queue,
+                    &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_ACCUMULATE],
+                                         .bindings = b,
+                                         .bindings_count = 2,
+                                         .push = &push,
+                                         .push_size = sizeof(push),
+                                         .groups_x = groups(r->width, 8),
+                                         .groups_y = groups(r->height, 8),
+                                         .groups_z = 1 });
 }
 
 /* The texture holding the final visibility after `iterations` filter steps. */
@@ -334,15 +393,26 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
             uint32_t width, height, step, frames;
             float position_sigma, sigma_l, converged_variance;
             uint32_t flags;
-        } push = { r->width, r->height, 1u << i, frames, r->data.diagonal * 0.01f, FILTER_SIGMA_L,
-                   FILTER_CONVERGED_STD * FILTER_CONVERGED_STD, (i == 0 ? 1u : 0u) | (i + 1 == iterations ? 2u : 0u) };
+        } push = { r->width,
+                   r->height,
+                   1u << i,
+                   frames,
+                   r->data.diagonal * 0.01f,
+                   FILTER_SIGMA_L,
+                   FILTER_CONVERGED_STD * FILTER_CONVERGED_STD,
+                   (i == 0 ? 1u : 0u) | (i + 1 == iterations ? 2u : 0u) };
         cv_binding b[5] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
                             bind_texture(r->textures[src]), bind_texture(r->textures[dst]),
                             bind_texture(r->textures[TEX_HISTORY]) };
-        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
-            .pipeline = r->pipelines[PIPE_FILTER], .bindings = b, .bindings_count = 5, .push = &push,
-            .push_size = sizeof(push), .groups_x = groups(r->width, 8), .groups_y = groups(r->height, 8),
-            .groups_z = 1 });
+        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_FILTER],
+                                             .bindings = b,
+                                             .bindings_count = 5,
+                                             .push = &push,
+                                             .push_size = sizeof(push),
+                                             .groups_x = groups(r->width, 8),
+                                             .groups_y = groups(r->height, 8),
+                                             .groups_z = 1 });
     }
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }
@@ -351,18 +421,31 @@ static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_lis
     struct {
         float sun[4], sun_color[4], sky[4];
         uint32_t width, height, material_count, light_count;
-    } push = { { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2], r->data.sun_irradiance },
+    } push = { { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
+                 r->data.sun_irradiance },
                { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
                { 0.12f, 0.15f, 0.2f, 0.0f },
-               r->width, r->height, r->data.material_count, r->data.light_count };
-    cv_binding b[7] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
-                        bind_texture(r->textures[filtered_texture(iterations)]), bind_buffer(r->materials),
-                        bind_texture(r->textures[TEX_RADIANCE]), bind_texture(r->textures[TEX_ALBEDO]),
+               r->width,
+               r->height,
+               r->data.material_count,
+               r->data.light_count };
+    cv_binding b[7] = { bind_texture(r->textures[TEX_POSITION]),
+                        bind_texture(r->textures[TEX_NORMAL]),
+                        bind_texture(r->textures[filtered_texture(iterations)]),
+                        bind_buffer(r->materials),
+                        bind_texture(r->textures[TEX_RADIANCE]),
+                        bind_texture(r->textures[TEX_ALBEDO]),
                         bind_buffer(r->lights) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "composite" });
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){
-        .pipeline = r->pipelines[PIPE_COMPOSITE], .bindings = b, .bindings_count = 7, .push = &push,
-        .push_size = sizeof(push), .groups_x = groups(r->width, 8), .groups_y = groups(r->height, 8), .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_COMPOSITE],
+                                         .bindings = b,
+                                         .bindings_count = 7,
+                                         .push = &push,
+                                         .push_size = sizeof(push),
+                                         .groups_x = groups(r->width, 8),
+                                         .groups_y = groups(r->height, 8),
+                                         .groups_z = 1 });
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }
 
@@ -383,10 +466,14 @@ static void pass_composite(const cv_graph_pass_context *pc, cv_command_list *l, 
 
 cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene) {
     cv_render_settings s = in ? *in : (cv_render_settings){ 0 };
-    if (!s.width) s.width = 640;
-    if (!s.height) s.height = 360;
-    if (!s.frames) s.frames = 4;
-    if (!s.ao_samples) s.ao_samples = 4;
+    if (!s.width)
+        s.width = 640;
+    if (!s.height)
+        s.height = 360;
+    if (!s.frames)
+        s.frames = 4;
+    if (!s.ao_samples)
+        s.ao_samples = 4;
     if (s.ao_radius <= 0.0f) {
         float lo[3], hi[3];
         cv_scene_bounds(scene, lo, hi);
@@ -394,12 +481,18 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
                         (hi[2] - lo[2]) * (hi[2] - lo[2]));
         s.ao_radius = d * 0.02f;
     }
-    if (s.sun_cone_degrees == 0.0f) s.sun_cone_degrees = 1.5f;
-    if (s.sun_cone_degrees < 0.0f) s.sun_cone_degrees = 0.0f;
-    if (!s.tile) s.tile = 8;
-    if (s.filter_iterations == 0) s.filter_iterations = 3;
-    if (s.filter_iterations < 0) s.filter_iterations = 0;
-    if (!s.band_rays) s.band_rays = CV_RENDER_BAND_RAYS;
+    if (s.sun_cone_degrees == 0.0f)
+        s.sun_cone_degrees = 1.5f;
+    if (s.sun_cone_degrees < 0.0f)
+        s.sun_cone_degrees = 0.0f;
+    if (!s.tile)
+        s.tile = 8;
+    if (s.filter_iterations == 0)
+        s.filter_iterations = 3;
+    if (s.filter_iterations < 0)
+        s.filter_iterations = 0;
+    if (!s.band_rays)
+        s.band_rays = CV_RENDER_BAND_RAYS;
     return s;
 }
 
@@ -417,9 +510,12 @@ static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_outp
     cv_device *p = r->devices[0];
     cv_rect all = { 0, 0, r->width, r->height };
     cv_result res = cv_device_read_texture(p, r->textures[TEX_RADIANCE], all, out->radiance);
-    if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_ALBEDO], all, out->albedo);
-    if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_NORMAL], all, out->normal);
-    if (res == CV_OK) res = cv_device_read_texture(p, r->textures[TEX_POSITION], all, out->position);
+    if (res == CV_OK)
+        res = cv_device_read_texture(p, r->textures[TEX_ALBEDO], all, out->albedo);
+    if (res == CV_OK)
+        res = cv_device_read_texture(p, r->textures[TEX_NORMAL], all, out->normal);
+    if (res == CV_OK)
+        res = cv_device_read_texture(p, r->textures[TEX_POSITION], all, out->position);
     /* The G-buffer's w packs the geometric normal (render_gbuffer.frag); the output says 1. */
     for (size_t i = 3; res == CV_OK && i < n; i += 4)
         out->position[i] = out->position[i] != 0.0f ? 1.0f : 0.0f;
@@ -447,7 +543,8 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     destroy_graph(r);
     for (uint32_t d = 0; d < r->count; d++)
         if (rays * CV_RAY_BYTES > cv_device_get_info(r->devices[d])->max_storage_buffer_range)
-            return cv_error(CV_ERROR_LIMIT_EXCEEDED, "renderer: %llu rays (%llu bytes) exceed device '%s''s storage "
+            return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                            "renderer: %llu rays (%llu bytes) exceed device '%s''s storage "
                             "buffer range; use fewer AO samples, a smaller image or more devices",
                             (unsigned long long)rays, (unsigned long long)(rays * CV_RAY_BYTES),
                             cv_device_label(r->devices[d]));
@@ -460,9 +557,12 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     r->graph_rays = rays;
     for (int t = 0; t < TEX_COUNT && res == CV_OK; t++)
         res = cv_graph_import_texture(g, r->textures[t], &r->tex[t]);
-    if (res == CV_OK) res = cv_graph_import_buffer(g, r->vertices, 0, &r->buf[BUF_VERTICES]);
-    if (res == CV_OK) res = cv_graph_import_buffer(g, r->materials, 0, &r->buf[BUF_MATERIALS]);
-    if (res == CV_OK) res = cv_graph_import_buffer(g, r->lights, 0, &r->buf[BUF_LIGHTS]);
+    if (res == CV_OK)
+        res = cv_graph_import_buffer(g, r->vertices, 0, &r->buf[BUF_VERTICES]);
+    if (res == CV_OK)
+        res = cv_graph_import_buffer(g, r->materials, 0, &r->buf[BUF_MATERIALS]);
+    if (res == CV_OK)
+        res = cv_graph_import_buffer(g, r->lights, 0, &r->buf[BUF_LIGHTS]);
     if (res == CV_OK)
         res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_RAY_BYTES, .label = "rays" }, 0,
                                      &r->buf[BUF_RAYS]);
@@ -471,9 +571,14 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
                                      &r->buf[BUF_HITS]);
     cv_graph_pass p = { 0 };
 #define PASS(name, queue, policy, fn) \
-    if (res == CV_OK) res = cv_graph_add_pass(g, &(cv_graph_pass_desc){ name, queue, policy, fn, r }, &p)
-#define READ(res_, access) if (res == CV_OK) res = cv_graph_read(g, p, res_, access)
-#define WRITE(res_, access) if (res == CV_OK) res = cv_graph_write(g, p, res_, access, CV_GRAPH_TRANSFER_AUTO)
+    if (res == CV_OK) \
+    res = cv_graph_add_pass(g, &(cv_graph_pass_desc){ name, queue, policy, fn, r }, &p)
+#define READ(res_, access) \
+    if (res == CV_OK) \
+    res = cv_graph_read(g, p, res_, access)
+#define WRITE(res_, access) \
+    if (res == CV_OK) \
+    res = cv_graph_write(g, p, res_, access, CV_GRAPH_TRANSFER_AUTO)
     /* The G-buffer, on the first frame (the camera is still); the trace on
      * other devices reads it, so it is multicast. */
     PASS("gbuffer", CV_QUEUE_GRAPHICS, CV_MGPU_PRIMARY_ONLY, record_gbuffer);
@@ -520,9 +625,12 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
 #undef WRITE
     /* The accumulation carries over from frame to frame: an output, so the
      * accumulate is kept on frames without the composite. */
-    if (res == CV_OK) res = cv_graph_output(g, r->tex[TEX_HISTORY]);
-    if (res == CV_OK) res = cv_graph_output(g, r->tex[TEX_RADIANCE]);
-    if (res == CV_OK) res = cv_graph_output(g, r->tex[TEX_ALBEDO]);
+    if (res == CV_OK)
+        res = cv_graph_output(g, r->tex[TEX_HISTORY]);
+    if (res == CV_OK)
+        res = cv_graph_output(g, r->tex[TEX_RADIANCE]);
+    if (res == CV_OK)
+        res = cv_graph_output(g, r->tex[TEX_ALBEDO]);
     if (res != CV_OK)
         destroy_graph(r);
     return res;
@@ -548,11 +656,15 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot) {
      * the last frame's columns. */
     cv_partition part;
     cv_result res = cv_graph_get_partition(r->graph, &part);
-    if (res == CV_OK) res = enable_passes(r, true, true);
-    if (res == CV_OK) res = cv_graph_bake(r->graph, &(cv_graph_bake_desc){ .width = part.width, .tile = part.tile,
-                                                                          .partition = &part });
-    if (res == CV_OK && text) res = cv_graph_dump_text(r->graph, text);
-    if (res == CV_OK && dot) res = cv_graph_dump_dot(r->graph, dot);
+    if (res == CV_OK)
+        res = enable_passes(r, true, true);
+    if (res == CV_OK)
+        res = cv_graph_bake(r->graph,
+                            &(cv_graph_bake_desc){ .width = part.width, .tile = part.tile, .partition = &part });
+    if (res == CV_OK && text)
+        res = cv_graph_dump_text(r->graph, text);
+    if (res == CV_OK && dot)
+        res = cv_graph_dump_dot(r->graph, dot);
     return res;
 }
 
@@ -563,11 +675,13 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     cv_render_settings s = cv_render_settings_resolve(settings, r->scene);
     if (s.width > CV_MAX_TEXTURE_DIM || s.height > CV_MAX_TEXTURE_DIM || s.ao_samples > 32 || s.frames > 4096 ||
         s.filter_iterations > 8 || s.first_frame > (1u << 24))
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations, "
-                        "first frame %u (limits %u, 32, 4096, 8, 2^24)", s.width, s.height, s.ao_samples, s.frames,
-                        s.filter_iterations, s.first_frame, CV_MAX_TEXTURE_DIM);
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations, "
+                        "first frame %u (limits %u, 32, 4096, 8, 2^24)",
+                        s.width, s.height, s.ao_samples, s.frames, s.filter_iterations, s.first_frame,
+                        CV_MAX_TEXTURE_DIM);
     r->camera = s.camera < cv_scene_camera_count(r->scene) ? *cv_scene_camera(r->scene, s.camera)
-                                                            : cv_scene_framing_camera(r->scene);
+                                                           : cv_scene_framing_camera(r->scene);
     r->settings = s;
     r->graph_frames = s.frames;
     cv_result res = ensure_targets(r, s.width, s.height);
@@ -578,7 +692,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     cv_render_stats st = { .device_count = r->count, .frames = s.frames, .upload_ms = r->upload_ms };
     cv_graph_timing timings[64];
     double frames_start = now_ms();
-    uint64_t accumulated[IN_FLIGHT_FRAMES] = { 0 };   /* the primary's last ticket of recent frames */
+    uint64_t accumulated[IN_FLIGHT_FRAMES] = { 0 }; /* the primary's last ticket of recent frames */
     for (uint32_t f = 0; f < s.frames && res == CV_OK; f++) {
         bool last = f + 1 == s.frames;
         r->frame = f;
@@ -613,10 +727,12 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                 st.transfer_ms += t->ms;
             } else if (strcmp(t->name, "trace") == 0 && t->device < r->count) {
                 cv_column_range cols = part.ranges[t->device];
-                double ms = t->ms > 0.0 ? t->ms : frame_wall;   /* no GPU timing: the frame's wall time */
-                st.devices[t->device] = (cv_render_device_stats){
-                    .columns = cols, .rays = (uint64_t)cols.width * r->height * (1 + s.ao_samples), .trace_ms = ms,
-                    .ms_per_column = ms / cols.width };
+                double ms = t->ms > 0.0 ? t->ms : frame_wall; /* no GPU timing: the frame's wall time */
+                st.devices[t->device] = (cv_render_device_stats){ .columns = cols,
+                                                                  .rays = (uint64_t)cols.width * r->height *
+                                                                          (1 + s.ao_samples),
+                                                                  .trace_ms = ms,
+                                                                  .ms_per_column = ms / cols.width };
             }
         }
         for (uint32_t d = 0; d < r->count && res == CV_OK; d++)

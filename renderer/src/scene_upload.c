@@ -28,7 +28,10 @@ static void transform_normal(const float m[3][3], const float n[3], float out[3]
             out[r] /= l;
 }
 
-typedef struct welded { float p[3]; uint32_t index; } welded;
+typedef struct welded {
+    float p[3];
+    uint32_t index;
+} welded;
 
 static int compare_welded(const void *a, const void *b) {
     const welded *x = a, *y = b;
@@ -81,7 +84,7 @@ static bool mesh_closed(const cv_mesh *mesh, bool *ok) {
         for (int k = 0; k < 3; k++) {
             uint32_t a = canon[mesh->indices[3 * t + k]], b = canon[mesh->indices[3 * t + (k + 1) % 3]];
             if (a == b)
-                closed = false;   /* degenerate: no winding to trust */
+                closed = false; /* degenerate: no winding to trust */
             edges[3 * (size_t)t + k] = (uint64_t)a << 32 | b;
         }
     if (closed)

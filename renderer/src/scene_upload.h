@@ -11,7 +11,7 @@ typedef struct render_vertex {
     float position[3];
     uint32_t material;
     float normal[3];
-    float closed;               /* 1: the mesh is closed (its back faces are never seen), else 0 */
+    float closed; /* 1: the mesh is closed (its back faces are never seen), else 0 */
 } render_vertex;
 
 /* Matches render_composite.comp's Material (32 bytes, std430). */
@@ -33,9 +33,9 @@ typedef struct render_scene_data {
     uint64_t vertex_count;
     render_material *materials;
     uint32_t material_count;
-    render_light *lights;       /* point lights; at least one entry (intensity 0 if none) */
-    uint32_t light_count;       /* real point lights */
-    float sun_direction[3];     /* unit, the way light travels */
+    render_light *lights;   /* point lights; at least one entry (intensity 0 if none) */
+    uint32_t light_count;   /* real point lights */
+    float sun_direction[3]; /* unit, the way light travels */
     float sun_color[3];
     float sun_irradiance;
     float bounds_min[3], bounds_max[3];

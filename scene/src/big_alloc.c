@@ -6,8 +6,7 @@
 
 #define HUGE_PAGE ((size_t)2 << 20)
 
-void *cvs_big_alloc(size_t size)
-{
+void *cvs_big_alloc(size_t size) {
     if (size < 4 * HUGE_PAGE)
         return malloc(size ? size : 1);
     void *p = NULL;

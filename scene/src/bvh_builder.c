@@ -24,7 +24,7 @@
 
 typedef struct task {
     uint32_t node, begin, end, depth;
-    float cmin[3], cmax[3];     /* centroid bounds of refs[begin, end) */
+    float cmin[3], cmax[3]; /* centroid bounds of refs[begin, end) */
 } task;
 
 typedef struct task_stack {
@@ -39,22 +39,21 @@ typedef struct builder {
     cv_bvh_build_options opt;
     pthread_mutex_t lock;
     pthread_cond_t cond;
-    task_stack shared;          /* guarded by lock */
-    uint32_t busy;              /* tasks taken and not finished; guarded by lock */
-    atomic_bool failed;         /* an allocation failed: stop early, report OOM */
+    task_stack shared;  /* guarded by lock */
+    uint32_t busy;      /* tasks taken and not finished; guarded by lock */
+    atomic_bool failed; /* an allocation failed: stop early, report OOM */
 } builder;
 
 typedef struct split {
     bool valid;
     int axis;
-    uint32_t bin;               /* refs with bin < this go left */
-    float cost;                 /* scaled by the parent's area (no division) */
+    uint32_t bin; /* refs with bin < this go left */
+    float cost;   /* scaled by the parent's area (no division) */
     float lmin[3], lmax[3], rmin[3], rmax[3];
 } split;
 
-cv_result cvs_bvh_options_resolve(const cv_bvh_build_options *in, cv_bvh_build_options *out)
-{
-    cv_bvh_build_options o = in ? *in : (cv_bvh_build_options){0};
+cv_result cvs_bvh_options_resolve(const cv_bvh_build_options *in, cv_bvh_build_options *out) {
+    cv_bvh_build_options o = in ? *in : (cv_bvh_build_options){ 0 };
     if (o.bin_count == 0)
         o.bin_count = 16;
     if (o.max_leaf_size == 0)
@@ -67,36 +66,35 @@ cv_result cvs_bvh_options_resolve(const cv_bvh_build_options *in, cv_bvh_build_o
     if (o.bin_count < 2 || o.bin_count > MAX_BINS)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "BVH options: bin_count %u not in 2..%u", o.bin_count, MAX_BINS);
     if (o.max_leaf_size > CV_BVH_MAX_LEAF_SIZE)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "BVH options: max_leaf_size %u not in 1..%u",
-                        o.max_leaf_size, CV_BVH_MAX_LEAF_SIZE);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "BVH options: max_leaf_size %u not in 1..%u", o.max_leaf_size,
+                        CV_BVH_MAX_LEAF_SIZE);
     if (!(o.traversal_cost > 0.0f) || !(o.intersection_cost > 0.0f) || o.traversal_cost > 1e6f ||
         o.intersection_cost > 1e6f)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "BVH options: costs %g (traversal) and %g (intersection) "
-                        "must be in (0, 1e6]", (double)o.traversal_cost, (double)o.intersection_cost);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "BVH options: costs %g (traversal) and %g (intersection) "
+                        "must be in (0, 1e6]",
+                        (double)o.traversal_cost, (double)o.intersection_cost);
     *out = o;
     return CV_OK;
 }
 
 static inline float centroid(const cvs_prim_ref *r, int axis) { return (r->min[axis] + r->max[axis]) * 0.5f; }
 
-static inline void box_empty(float min[3], float max[3])
-{
+static inline void box_empty(float min[3], float max[3]) {
     for (int k = 0; k < 3; k++) {
         min[k] = INFINITY;
         max[k] = -INFINITY;
     }
 }
 
-static inline void box_grow_box(float min[3], float max[3], const float bmin[3], const float bmax[3])
-{
+static inline void box_grow_box(float min[3], float max[3], const float bmin[3], const float bmax[3]) {
     for (int k = 0; k < 3; k++) {
         min[k] = bmin[k] < min[k] ? bmin[k] : min[k];
         max[k] = bmax[k] > max[k] ? bmax[k] : max[k];
     }
 }
 
-static inline void box_grow_centroid(float min[3], float max[3], const cvs_prim_ref *r)
-{
+static inline void box_grow_centroid(float min[3], float max[3], const cvs_prim_ref *r) {
     for (int k = 0; k < 3; k++) {
         float c = centroid(r, k);
         min[k] = c < min[k] ? c : min[k];
@@ -105,24 +103,21 @@ static inline void box_grow_centroid(float min[3], float max[3], const cvs_prim_
 }
 
 /* Bin of a centroid; identical arithmetic in binning and partitioning. */
-static inline uint32_t bin_of(float c, float cmin, float scale, uint32_t bins)
-{
+static inline uint32_t bin_of(float c, float cmin, float scale, uint32_t bins) {
     int b = (int)((c - cmin) * scale);
     return b < 0 ? 0u : (uint32_t)b >= bins ? bins - 1 : (uint32_t)b;
 }
 
 /* 0 when the axis cannot be binned: no extent, or one so small that the
  * scale overflows (which would turn bin indices into inf/NaN casts). */
-static inline float bin_scale(const task *t, int axis, uint32_t bins)
-{
+static inline float bin_scale(const task *t, int axis, uint32_t bins) {
     float extent = t->cmax[axis] - t->cmin[axis];
     float scale = extent > 0.0f ? (float)bins * 0.99999f / extent : 0.0f;
     return isfinite(scale) ? scale : 0.0f;
 }
 
 /* Bins for a node: fewer than primitives would only cost time. */
-static inline uint32_t node_bins(const builder *b, const task *t)
-{
+static inline uint32_t node_bins(const builder *b, const task *t) {
     uint32_t n = t->end - t->begin;
     return n < 2 ? 2 : n < b->opt.bin_count ? n : b->opt.bin_count;
 }
@@ -133,16 +128,14 @@ typedef struct bin {
     float lo[4], hi[4];
 } bin;
 
-static inline void bin_empty(bin *b)
-{
+static inline void bin_empty(bin *b) {
     for (int k = 0; k < 4; k++) {
         b->lo[k] = INFINITY;
         b->hi[k] = -INFINITY;
     }
 }
 
-static inline void bin_grow(bin *b, const float lo[4], const float hi[4])
-{
+static inline void bin_grow(bin *b, const float lo[4], const float hi[4]) {
     for (int k = 0; k < 4; k++) {
         b->lo[k] = lo[k] < b->lo[k] ? lo[k] : b->lo[k];
         b->hi[k] = hi[k] > b->hi[k] ? hi[k] : b->hi[k];
@@ -151,8 +144,7 @@ static inline void bin_grow(bin *b, const float lo[4], const float hi[4])
 
 static inline float bin_area(const bin *b) { return cvs_half_area(b->lo, b->hi); }
 
-static split find_split(const builder *b, const task *t)
-{
+static split find_split(const builder *b, const task *t) {
     const uint32_t bins = node_bins(b, t);
     /* Two sets of bins, for even and odd references: neighbours often fall
      * in the same bin, and one set would chain every update to the last.
@@ -161,7 +153,7 @@ static split find_split(const builder *b, const task *t)
     uint32_t count[2][3][MAX_BINS];
     bin box[2][3][MAX_BINS];
     float scale[3];
-    split best = {.valid = false};
+    split best = { .valid = false };
     for (int a = 0; a < 3; a++) {
         scale[a] = bin_scale(t, a, bins);
         for (uint32_t i = 0; i < bins; i++) {
@@ -242,8 +234,7 @@ static split find_split(const builder *b, const task *t)
 
 /* In-place partition by bin; returns the first right index and fills the
  * children's centroid bounds. */
-static uint32_t partition_bins(builder *b, const task *t, const split *s, task *left, task *right)
-{
+static uint32_t partition_bins(builder *b, const task *t, const split *s, task *left, task *right) {
     const int a = s->axis;
     const uint32_t bins = node_bins(b, t);
     const float scale = bin_scale(t, a, bins);
@@ -269,8 +260,7 @@ static uint32_t partition_bins(builder *b, const task *t, const split *s, task *
 /* Reorders refs[begin, end) so that the k-th smallest centroid along axis is
  * at k and everything before it is not larger (quickselect, median-of-three
  * pivots: deterministic). */
-static void select_kth(cvs_prim_ref *refs, uint32_t begin, uint32_t end, uint32_t k, int axis)
-{
+static void select_kth(cvs_prim_ref *refs, uint32_t begin, uint32_t end, uint32_t k, int axis) {
     while (end - begin > 1) {
         uint32_t mid = begin + (end - begin) / 2;
         float a = centroid(&refs[begin], axis), m = centroid(&refs[mid], axis), z = centroid(&refs[end - 1], axis);
@@ -300,8 +290,7 @@ static void select_kth(cvs_prim_ref *refs, uint32_t begin, uint32_t end, uint32_
     }
 }
 
-static void child_bounds(const builder *b, task *c, float min[3], float max[3])
-{
+static void child_bounds(const builder *b, task *c, float min[3], float max[3]) {
     box_empty(min, max);
     box_empty(c->cmin, c->cmax);
     for (uint32_t i = c->begin; i < c->end; i++) {
@@ -310,8 +299,7 @@ static void child_bounds(const builder *b, task *c, float min[3], float max[3])
     }
 }
 
-static uint32_t ceil_log2(uint32_t n)
-{
+static uint32_t ceil_log2(uint32_t n) {
     uint32_t l = 0;
     while ((1ull << l) < n)
         l++;
@@ -319,12 +307,11 @@ static uint32_t ceil_log2(uint32_t n)
 }
 
 /* Splits the task's node or makes it a leaf; returns true with two child tasks. */
-static bool process(builder *b, const task *t, task out[2])
-{
+static bool process(builder *b, const task *t, task out[2]) {
     cvs_tree_node *node = &b->nodes[t->node];
     const uint32_t n = t->end - t->begin;
     const cv_bvh_build_options *o = &b->opt;
-    split s = {.valid = false};
+    split s = { .valid = false };
     bool halve = t->depth + ceil_log2(n) >= CV_BVH_MAX_DEPTH;
     if (n > 1 && !halve)
         s = find_split(b, t);
@@ -336,8 +323,8 @@ static bool process(builder *b, const task *t, task out[2])
         node->count = n;
         return false;
     }
-    task left = {.begin = t->begin, .depth = t->depth + 1};
-    task right = {.end = t->end, .depth = t->depth + 1};
+    task left = { .begin = t->begin, .depth = t->depth + 1 };
+    task right = { .end = t->end, .depth = t->depth + 1 };
     uint32_t child = atomic_fetch_add(&b->node_count, 2);
     cvs_tree_node *l = &b->nodes[child], *r = &b->nodes[child + 1];
     if (s.valid) {
@@ -368,8 +355,7 @@ static bool process(builder *b, const task *t, task out[2])
     return true;
 }
 
-static bool stack_push(task_stack *s, const task *t)
-{
+static bool stack_push(task_stack *s, const task *t) {
     if (s->count == s->cap) {
         uint32_t cap = s->cap ? s->cap * 2 : 64;
         task *p = realloc(s->items, cap * sizeof(task));
@@ -382,8 +368,7 @@ static bool stack_push(task_stack *s, const task *t)
     return true;
 }
 
-static void share(builder *b, const task *t, task_stack *local)
-{
+static void share(builder *b, const task *t, task_stack *local) {
     pthread_mutex_lock(&b->lock);
     bool ok = stack_push(&b->shared, t);
     if (ok)
@@ -394,8 +379,7 @@ static void share(builder *b, const task *t, task_stack *local)
 }
 
 /* Builds the subtree of `t`, sharing big child subtrees when other threads exist. */
-static void run_subtree(builder *b, const task *t, task_stack *local, bool threaded)
-{
+static void run_subtree(builder *b, const task *t, task_stack *local, bool threaded) {
     local->count = 0;
     if (!stack_push(local, t)) {
         atomic_store(&b->failed, true);
@@ -414,10 +398,9 @@ static void run_subtree(builder *b, const task *t, task_stack *local, bool threa
     }
 }
 
-static void *worker(void *arg)
-{
+static void *worker(void *arg) {
     builder *b = arg;
-    task_stack local = {0};
+    task_stack local = { 0 };
     for (;;) {
         pthread_mutex_lock(&b->lock);
         while (b->shared.count == 0 && b->busy > 0)
@@ -443,8 +426,7 @@ static void *worker(void *arg)
     return NULL;
 }
 
-static void run_threads(builder *b, const task *root)
-{
+static void run_threads(builder *b, const task *root) {
     pthread_mutex_init(&b->lock, NULL);
     pthread_cond_init(&b->cond, NULL);
     if (!stack_push(&b->shared, root)) {
@@ -466,12 +448,11 @@ static void run_threads(builder *b, const task *root)
     pthread_mutex_destroy(&b->lock);
 }
 
-cv_result cvs_tree_build(cvs_prim_ref *refs, uint32_t count, const cv_bvh_build_options *opt, cvs_tree *out)
-{
+cv_result cvs_tree_build(cvs_prim_ref *refs, uint32_t count, const cv_bvh_build_options *opt, cvs_tree *out) {
     memset(out, 0, sizeof *out);
     if (count == 0)
         return CV_OK;
-    builder b = {.refs = refs, .opt = *opt};
+    builder b = { .refs = refs, .opt = *opt };
     /* A binary tree with count leaves at most has 2 * count - 1 nodes; the
      * untouched tail of the allocation is never paged in. */
     b.nodes = cvs_big_alloc(((size_t)2 * count) * sizeof(cvs_tree_node));
@@ -483,12 +464,12 @@ cv_result cvs_tree_build(cvs_prim_ref *refs, uint32_t count, const cv_bvh_build_
     }
     atomic_init(&b.node_count, 1);
     atomic_init(&b.failed, false);
-    task root = {.node = 0, .begin = 0, .end = count, .depth = 0};
+    task root = { .node = 0, .begin = 0, .end = count, .depth = 0 };
     child_bounds(&b, &root, b.nodes[0].min, b.nodes[0].max);
     if (count >= CVS_BVH_PARALLEL_MIN && opt->thread_count > 1) {
         run_threads(&b, &root);
     } else {
-        task_stack local = {0};
+        task_stack local = { 0 };
         run_subtree(&b, &root, &local, false);
         free(local.items);
     }
@@ -506,8 +487,7 @@ cv_result cvs_tree_build(cvs_prim_ref *refs, uint32_t count, const cv_bvh_build_
     return CV_OK;
 }
 
-void cvs_tree_free(cvs_tree *tree)
-{
+void cvs_tree_free(cvs_tree *tree) {
     free(tree->nodes);
     free(tree->prim_ids);
     memset(tree, 0, sizeof *tree);

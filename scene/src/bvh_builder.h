@@ -25,15 +25,15 @@ typedef struct cvs_prim_ref {
 
 typedef struct cvs_tree_node {
     float min[3];
-    uint32_t index;     /* interior: left child (right = index + 1); leaf: first primitive */
+    uint32_t index; /* interior: left child (right = index + 1); leaf: first primitive */
     float max[3];
-    uint32_t count;     /* leaf: primitive count (>= 1); interior: 0 */
+    uint32_t count; /* leaf: primitive count (>= 1); interior: 0 */
 } cvs_tree_node;
 
 typedef struct cvs_tree {
-    cvs_tree_node *nodes;       /* root at 0 */
+    cvs_tree_node *nodes; /* root at 0 */
     uint32_t node_count;
-    uint32_t *prim_ids;         /* ids in leaf order; a leaf covers [index, index + count) */
+    uint32_t *prim_ids; /* ids in leaf order; a leaf covers [index, index + count) */
     uint32_t prim_count;
 } cvs_tree;
 
@@ -42,13 +42,11 @@ cv_result cvs_bvh_options_resolve(const cv_bvh_build_options *in, cv_bvh_build_o
 
 /* Builds a tree over refs[0..count) (reordered in place; count may be 0, giving
  * an empty tree). Fails only on allocation (CV_ERROR_OUT_OF_MEMORY). */
-cv_result cvs_tree_build(cvs_prim_ref *refs, uint32_t count, const cv_bvh_build_options *opt,
-                         cvs_tree *out);
+cv_result cvs_tree_build(cvs_prim_ref *refs, uint32_t count, const cv_bvh_build_options *opt, cvs_tree *out);
 void cvs_tree_free(cvs_tree *tree);
 
 /* Surface-area measure used by the SAH (half the box's surface area). */
-static inline float cvs_half_area(const float min[3], const float max[3])
-{
+static inline float cvs_half_area(const float min[3], const float max[3]) {
     float dx = max[0] - min[0], dy = max[1] - min[1], dz = max[2] - min[2];
     return dx * dy + dy * dz + dz * dx;
 }

@@ -12,12 +12,12 @@
 typedef void (*prim_bounds_fn)(const void *ctx, uint32_t prim, float min[3], float max[3]);
 
 typedef struct tree_view {
-    const char *what;                   /* "flat BVH", "BLAS of mesh 3", "TLAS" */
+    const char *what; /* "flat BVH", "BLAS of mesh 3", "TLAS" */
     const cv_bvh_node *nodes;
-    uint32_t node_first, node_count;    /* absolute region of the skip layout */
+    uint32_t node_first, node_count; /* absolute region of the skip layout */
     const cv_bvh_node2 *nodes2;
     uint32_t node2_first, node2_count;
-    uint32_t prim_first, prim_count;    /* absolute range of the primitive array */
+    uint32_t prim_first, prim_count; /* absolute range of the primitive array */
     prim_bounds_fn bounds;
     const void *ctx;
     const cv_bvh_build_options *opt;
@@ -31,14 +31,13 @@ typedef struct leaf {
 typedef struct walk {
     leaf *leaves;
     uint32_t leaf_count;
-    uint8_t *seen;              /* nodes (skip walk), then reused for node2s */
+    uint8_t *seen; /* nodes (skip walk), then reused for node2s */
     uint8_t *prim_seen;
     uint32_t *stack;
     uint32_t *depth;
 } walk;
 
-static bool inside(const float imin[3], const float imax[3], const float omin[3], const float omax[3])
-{
+static bool inside(const float imin[3], const float imax[3], const float omin[3], const float omax[3]) {
     for (int k = 0; k < 3; k++)
         if (!(imin[k] >= omin[k] && imax[k] <= omax[k]))
             return false;
@@ -46,8 +45,7 @@ static bool inside(const float imin[3], const float imax[3], const float omin[3]
 }
 
 static cv_result check_leaf(const tree_view *v, walk *w, uint32_t first, uint32_t count, const float *min,
-                            const float *max, const char *where, uint32_t node)
-{
+                            const float *max, const char *where, uint32_t node) {
     if (count > v->opt->max_leaf_size)
         return cv_error(CV_ERROR_MALFORMED, "%s: %s %u is a leaf of %u primitives, the limit is %u", v->what, where,
                         node, count, v->opt->max_leaf_size);
@@ -68,8 +66,7 @@ static cv_result check_leaf(const tree_view *v, walk *w, uint32_t first, uint32_
 }
 
 /* Skip layout: structure, containment, leaves; fills the report. */
-static cv_result walk_skip(const tree_view *v, walk *w, cv_bvh_report *rep)
-{
+static cv_result walk_skip(const tree_view *v, walk *w, cv_bvh_report *rep) {
     const uint32_t end = v->node_first + v->node_count;
     const cv_bvh_node *root = &v->nodes[v->node_first];
     if (root->skip != -1)
@@ -94,7 +91,7 @@ static cv_result walk_skip(const tree_view *v, walk *w, cv_bvh_report *rep)
             cv_result r = check_leaf(v, w, first, count, n->bmin, n->bmax, "node", i);
             if (r != CV_OK)
                 return r;
-            w->leaves[w->leaf_count++] = (leaf){first, count, n->bmin, n->bmax};
+            w->leaves[w->leaf_count++] = (leaf){ first, count, n->bmin, n->bmax };
             rep->leaf_count++;
             rep->max_leaf_size = count > rep->max_leaf_size ? count : rep->max_leaf_size;
             leaf_area += (double)count * cvs_half_area(n->bmin, n->bmax);
@@ -106,12 +103,13 @@ static cv_result walk_skip(const tree_view *v, walk *w, cv_bvh_report *rep)
             return cv_error(CV_ERROR_MALFORMED, "%s: interior node %u is the last node", v->what, i);
         int32_t right = v->nodes[left].skip;
         if (right < (int32_t)v->node_first || (uint32_t)right >= end)
-            return cv_error(CV_ERROR_MALFORMED, "%s: right child of node %u (skip of node %u) is %d, outside the tree",
-                            v->what, i, left, right);
+            return cv_error(CV_ERROR_MALFORMED,
+                            "%s: right child of node %u (skip of node %u) is %d, outside the tree", v->what, i, left,
+                            right);
         if (v->nodes[right].skip != n->skip)
             return cv_error(CV_ERROR_MALFORMED, "%s: node %u skips to %d but its right child %d skips to %d", v->what,
                             i, n->skip, right, v->nodes[right].skip);
-        const uint32_t kids[2] = {(uint32_t)right, left};
+        const uint32_t kids[2] = { (uint32_t)right, left };
         for (int k = 0; k < 2; k++) {
             const cv_bvh_node *c = &v->nodes[kids[k]];
             if (!inside(c->bmin, c->bmax, n->bmin, n->bmax))
@@ -124,8 +122,8 @@ static cv_result walk_skip(const tree_view *v, walk *w, cv_bvh_report *rep)
         }
     }
     if (rep->node_count != v->node_count)
-        return cv_error(CV_ERROR_MALFORMED, "%s: %u of %u nodes are reachable from the root", v->what, rep->node_count,
-                        v->node_count);
+        return cv_error(CV_ERROR_MALFORMED, "%s: %u of %u nodes are reachable from the root", v->what,
+                        rep->node_count, v->node_count);
     for (uint32_t p = 0; p < v->prim_count; p++)
         if (!w->prim_seen[p])
             return cv_error(CV_ERROR_MALFORMED, "%s: primitive %u is in no leaf", v->what, v->prim_first + p);
@@ -139,8 +137,7 @@ static cv_result walk_skip(const tree_view *v, walk *w, cv_bvh_report *rep)
 /* Items of the two-child walk: a node, or a leaf child met in order. */
 #define ITEM_LEAF 0x80000000u
 
-static cv_result walk_node2(const tree_view *v, walk *w)
-{
+static cv_result walk_node2(const tree_view *v, walk *w) {
     const uint32_t end = v->node2_first + v->node2_count;
     uint32_t expected = v->node_count == 1 ? 1 : (v->node_count - 1) / 2;
     if (v->node2_count != expected)
@@ -168,13 +165,15 @@ static cv_result walk_node2(const tree_view *v, walk *w)
             leaf_index++;
             if (!l || l->first != (link & ~CV_BVH_LEAF_BIT) || l->count != count ||
                 memcmp(l->min, min, 3 * sizeof(float)) || memcmp(l->max, max, 3 * sizeof(float)))
-                return cv_error(CV_ERROR_MALFORMED, "%s: leaf %u of the two-child layout (node %u) differs from the "
-                                "skip layout's", v->what, leaf_index - 1, node);
+                return cv_error(CV_ERROR_MALFORMED,
+                                "%s: leaf %u of the two-child layout (node %u) differs from the "
+                                "skip layout's",
+                                v->what, leaf_index - 1, node);
             continue;
         }
         const cv_bvh_node2 *n = &v->nodes2[item];
-        const uint32_t links[2] = {n->a_link, n->b_link};
-        const float *mins[2] = {n->a_min, n->b_min}, *maxs[2] = {n->a_max, n->b_max};
+        const uint32_t links[2] = { n->a_link, n->b_link };
+        const float *mins[2] = { n->a_min, n->b_min }, *maxs[2] = { n->a_max, n->b_max };
         for (int c = 1; c >= 0; c--) {
             if (links[c] & CV_BVH_LEAF_BIT) {
                 w->stack[top++] = ITEM_LEAF | (item * 2 + (uint32_t)c);
@@ -187,9 +186,12 @@ static cv_result walk_node2(const tree_view *v, walk *w)
             if (w->seen[k - v->node2_first]++)
                 return cv_error(CV_ERROR_MALFORMED, "%s: two-child node %u is reached twice", v->what, k);
             const cv_bvh_node2 *kid = &v->nodes2[k];
-            if (!inside(kid->a_min, kid->a_max, mins[c], maxs[c]) || !inside(kid->b_min, kid->b_max, mins[c], maxs[c]))
-                return cv_error(CV_ERROR_MALFORMED, "%s: a child box of two-child node %u is outside its box in node "
-                                "%u", v->what, k, item);
+            if (!inside(kid->a_min, kid->a_max, mins[c], maxs[c]) ||
+                !inside(kid->b_min, kid->b_max, mins[c], maxs[c]))
+                return cv_error(CV_ERROR_MALFORMED,
+                                "%s: a child box of two-child node %u is outside its box in node "
+                                "%u",
+                                v->what, k, item);
             w->stack[top++] = k;
         }
     }
@@ -199,8 +201,7 @@ static cv_result walk_node2(const tree_view *v, walk *w)
     return CV_OK;
 }
 
-static cv_result check_tree(const tree_view *v, cv_bvh_report *rep)
-{
+static cv_result check_tree(const tree_view *v, cv_bvh_report *rep) {
     memset(rep, 0, sizeof *rep);
     if (v->node_count == 0) {
         if (v->prim_count || v->node2_count)
@@ -231,21 +232,22 @@ static cv_result check_tree(const tree_view *v, cv_bvh_report *rep)
     return r;
 }
 
-static void tri_bounds(const void *ctx, uint32_t prim, float min[3], float max[3])
-{
+static void tri_bounds(const void *ctx, uint32_t prim, float min[3], float max[3]) {
     cvs_tri_bounds(&((const cv_bvh_tri *)ctx)[prim], min, max);
 }
 
-cv_result cv_bvh_check(const cv_bvh *bvh, cv_bvh_report *report)
-{
+cv_result cv_bvh_check(const cv_bvh *bvh, cv_bvh_report *report) {
     if (!bvh)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_bvh_check: bvh is NULL");
     tree_view v = {
         .what = "flat BVH",
-        .nodes = bvh->nodes, .node_count = bvh->node_count,
-        .nodes2 = bvh->nodes2, .node2_count = bvh->node2_count,
+        .nodes = bvh->nodes,
+        .node_count = bvh->node_count,
+        .nodes2 = bvh->nodes2,
+        .node2_count = bvh->node2_count,
         .prim_count = bvh->tri_count,
-        .bounds = tri_bounds, .ctx = bvh->tris,
+        .bounds = tri_bounds,
+        .ctx = bvh->tris,
         .opt = &bvh->options,
     };
     cv_bvh_report rep;
@@ -260,19 +262,18 @@ typedef struct tlas_ctx {
     const cv_scene *scene;
 } tlas_ctx;
 
-static void instance_bounds(const void *ctx, uint32_t prim, float min[3], float max[3])
-{
+static void instance_bounds(const void *ctx, uint32_t prim, float min[3], float max[3]) {
     const tlas_ctx *c = ctx;
     const cv_bvh_instance *rec = &c->bvh->instances[prim];
     const cv_bvh_node *root = &c->bvh->blas_nodes[c->bvh->meshes[rec->mesh].node_first];
     cvs_instance_bounds(cv_scene_instance(c->scene, rec->instance)->transform, root->bmin, root->bmax, min, max);
 }
 
-static cv_result check_instances(const cv_scene_bvh *bvh, const cv_scene *scene)
-{
+static cv_result check_instances(const cv_scene_bvh *bvh, const cv_scene *scene) {
     uint32_t n = cv_scene_instance_count(scene);
     if (bvh->instance_count != n)
-        return cv_error(CV_ERROR_MALFORMED, "TLAS: %u instance records for %u scene instances", bvh->instance_count, n);
+        return cv_error(CV_ERROR_MALFORMED, "TLAS: %u instance records for %u scene instances", bvh->instance_count,
+                        n);
     uint8_t *seen = calloc((size_t)n + 1, 1);
     if (!seen)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "TLAS: no memory to check %u instances", n);
@@ -290,22 +291,23 @@ static cv_result check_instances(const cv_scene_bvh *bvh, const cv_scene *scene)
                          rec->instance);
         else if (!cv_transform_invert(cv_scene_instance(scene, rec->instance)->transform, inverse) ||
                  memcmp(inverse, rec->world_to_object, sizeof inverse) != 0)
-            r = cv_error(CV_ERROR_MALFORMED, "TLAS: record %u is not the inverse of instance %u's transform "
-                         "(moved since the TLAS was built?)", k, rec->instance);
+            r = cv_error(CV_ERROR_MALFORMED,
+                         "TLAS: record %u is not the inverse of instance %u's transform "
+                         "(moved since the TLAS was built?)",
+                         k, rec->instance);
     }
     free(seen);
     return r;
 }
 
 cv_result cv_scene_bvh_check(const cv_scene_bvh *bvh, const cv_scene *scene, cv_bvh_report *tlas_report,
-                             cv_bvh_report *blas_report)
-{
+                             cv_bvh_report *blas_report) {
     if (!bvh || !scene)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_bvh_check: bvh or scene is NULL");
     if (bvh->mesh_count != cv_scene_mesh_count(scene))
         return cv_error(CV_ERROR_MALFORMED, "two-level BVH: %u BLASes for %u meshes", bvh->mesh_count,
                         cv_scene_mesh_count(scene));
-    cv_bvh_report blas = {0}, one;
+    cv_bvh_report blas = { 0 }, one;
     double weighted_sah = 0.0;
     cv_result r = CV_OK;
     char what[48];
@@ -314,10 +316,16 @@ cv_result cv_scene_bvh_check(const cv_scene_bvh *bvh, const cv_scene *scene, cv_
         snprintf(what, sizeof what, "BLAS of mesh %u", m);
         tree_view v = {
             .what = what,
-            .nodes = bvh->blas_nodes, .node_first = g->node_first, .node_count = g->node_count,
-            .nodes2 = bvh->blas_nodes2, .node2_first = g->node2_first, .node2_count = g->node2_count,
-            .prim_first = g->tri_first, .prim_count = g->tri_count,
-            .bounds = tri_bounds, .ctx = bvh->blas_tris,
+            .nodes = bvh->blas_nodes,
+            .node_first = g->node_first,
+            .node_count = g->node_count,
+            .nodes2 = bvh->blas_nodes2,
+            .node2_first = g->node2_first,
+            .node2_count = g->node2_count,
+            .prim_first = g->tri_first,
+            .prim_count = g->tri_count,
+            .bounds = tri_bounds,
+            .ctx = bvh->blas_tris,
             .opt = &bvh->options,
         };
         r = check_tree(&v, &one);
@@ -332,13 +340,16 @@ cv_result cv_scene_bvh_check(const cv_scene_bvh *bvh, const cv_scene *scene, cv_
     if (r == CV_OK)
         r = check_instances(bvh, scene);
     if (r == CV_OK) {
-        tlas_ctx ctx = {bvh, scene};
+        tlas_ctx ctx = { bvh, scene };
         tree_view v = {
             .what = "TLAS",
-            .nodes = bvh->tlas_nodes, .node_count = bvh->tlas_node_count,
-            .nodes2 = bvh->tlas_nodes2, .node2_count = bvh->tlas_node2_count,
+            .nodes = bvh->tlas_nodes,
+            .node_count = bvh->tlas_node_count,
+            .nodes2 = bvh->tlas_nodes2,
+            .node2_count = bvh->tlas_node2_count,
             .prim_count = bvh->instance_count,
-            .bounds = instance_bounds, .ctx = &ctx,
+            .bounds = instance_bounds,
+            .ctx = &ctx,
             .opt = &bvh->options,
         };
         r = check_tree(&v, &one);

@@ -12,16 +12,15 @@
 
 typedef struct flat_ctx {
     const cv_scene *scene;
-    uint64_t *first;            /* first world triangle of each instance, plus the total */
+    uint64_t *first; /* first world triangle of each instance, plus the total */
     uint32_t instance_count;
     cvs_prim_ref *refs;
-    const uint32_t *order;      /* world triangle ids in leaf order */
+    const uint32_t *order; /* world triangle ids in leaf order */
     cv_bvh_tri *tris;
 } flat_ctx;
 
 /* Instance holding world triangle g: the last i with first[i] <= g. */
-static uint32_t instance_of(const flat_ctx *c, uint64_t g)
-{
+static uint32_t instance_of(const flat_ctx *c, uint64_t g) {
     uint32_t lo = 0, hi = c->instance_count;
     while (hi - lo > 1) {
         uint32_t mid = lo + (hi - lo) / 2;
@@ -33,8 +32,7 @@ static uint32_t instance_of(const flat_ctx *c, uint64_t g)
     return lo;
 }
 
-static cv_bvh_tri world_tri(const flat_ctx *c, uint32_t g)
-{
+static cv_bvh_tri world_tri(const flat_ctx *c, uint32_t g) {
     uint32_t inst = instance_of(c, g);
     uint32_t tri = (uint32_t)(g - c->first[inst]);
     float v[3][3];
@@ -42,8 +40,7 @@ static cv_bvh_tri world_tri(const flat_ctx *c, uint32_t g)
     return cv_bvh_tri_make(v, tri, inst);
 }
 
-static void make_refs(void *ctx, size_t begin, size_t end, uint32_t worker)
-{
+static void make_refs(void *ctx, size_t begin, size_t end, uint32_t worker) {
     (void)worker;
     const flat_ctx *c = ctx;
     for (size_t g = begin; g < end; g++) {
@@ -55,16 +52,14 @@ static void make_refs(void *ctx, size_t begin, size_t end, uint32_t worker)
     }
 }
 
-static void make_tris(void *ctx, size_t begin, size_t end, uint32_t worker)
-{
+static void make_tris(void *ctx, size_t begin, size_t end, uint32_t worker) {
     (void)worker;
     const flat_ctx *c = ctx;
     for (size_t k = begin; k < end; k++)
         c->tris[k] = world_tri(c, c->order[k]);
 }
 
-void cv_bvh_destroy(cv_bvh *bvh)
-{
+void cv_bvh_destroy(cv_bvh *bvh) {
     if (!bvh)
         return;
     free(bvh->nodes);
@@ -73,8 +68,7 @@ void cv_bvh_destroy(cv_bvh *bvh)
     free(bvh);
 }
 
-cv_result cv_bvh_build_flat(const cv_scene *scene, const cv_bvh_build_options *options, cv_bvh **out)
-{
+cv_result cv_bvh_build_flat(const cv_scene *scene, const cv_bvh_build_options *options, cv_bvh **out) {
     if (!scene || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_bvh_build_flat: scene or out is NULL");
     cv_bvh_build_options opt;
@@ -86,7 +80,7 @@ cv_result cv_bvh_build_flat(const cv_scene *scene, const cv_bvh_build_options *o
         return cv_error(CV_ERROR_LIMIT_EXCEEDED, "cv_bvh_build_flat: %llu world triangles, the limit is %u",
                         (unsigned long long)total, CV_BVH_MAX_PRIMITIVES);
     const uint32_t n = (uint32_t)total;
-    flat_ctx c = {.scene = scene, .instance_count = cv_scene_instance_count(scene)};
+    flat_ctx c = { .scene = scene, .instance_count = cv_scene_instance_count(scene) };
     cv_bvh *bvh = calloc(1, sizeof *bvh);
     c.first = malloc(((size_t)c.instance_count + 1) * sizeof(uint64_t));
     c.refs = cvs_big_alloc((size_t)n * sizeof(cvs_prim_ref));

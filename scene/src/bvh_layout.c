@@ -12,8 +12,7 @@
  * denormal, and denormal box coordinates make every slab test of a ray
  * starting on such a plane (a floor at y = 0) take a microcode assist,
  * ~100x slower on x86. */
-static inline float ulp_down(float x)
-{
+static inline float ulp_down(float x) {
     if (fabsf(x) < 1e-30f)
         return -1e-30f;
     uint32_t u;
@@ -25,8 +24,7 @@ static inline float ulp_down(float x)
 
 static inline float ulp_up(float x) { return -ulp_down(-x); }
 
-void cvs_tri_bounds(const cv_bvh_tri *t, float min[3], float max[3])
-{
+void cvs_tri_bounds(const cv_bvh_tri *t, float min[3], float max[3]) {
     for (int k = 0; k < 3; k++) {
         float a = t->v0[k], b = t->v0[k] + t->e1[k], c = t->v0[k] + t->e2[k];
         float lo = a < b ? a : b, hi = a > b ? a : b;
@@ -37,15 +35,13 @@ void cvs_tri_bounds(const cv_bvh_tri *t, float min[3], float max[3])
     }
 }
 
-void cvs_instance_bounds(const float m[3][4], const float omin[3], const float omax[3], float min[3],
-                         float max[3])
-{
+void cvs_instance_bounds(const float m[3][4], const float omin[3], const float omax[3], float min[3], float max[3]) {
     for (int k = 0; k < 3; k++) {
         min[k] = INFINITY;
         max[k] = -INFINITY;
     }
     for (int c = 0; c < 8; c++) {
-        const float p[3] = {(c & 1) ? omax[0] : omin[0], (c & 2) ? omax[1] : omin[1], (c & 4) ? omax[2] : omin[2]};
+        const float p[3] = { (c & 1) ? omax[0] : omin[0], (c & 2) ? omax[1] : omin[1], (c & 4) ? omax[2] : omin[2] };
         for (int k = 0; k < 3; k++) {
             float w = m[k][0] * p[0] + m[k][1] * p[1] + m[k][2] * p[2] + m[k][3];
             min[k] = w < min[k] ? w : min[k];
@@ -61,15 +57,13 @@ void cvs_instance_bounds(const float m[3][4], const float omin[3], const float o
 
 uint32_t cvs_layout_node_count(const cvs_tree *tree) { return tree->node_count; }
 
-uint32_t cvs_layout_node2_count(const cvs_tree *tree)
-{
+uint32_t cvs_layout_node2_count(const cvs_tree *tree) {
     return tree->node_count <= 1 ? tree->node_count : (tree->node_count - 1) / 2;
 }
 
 /* Node count of every subtree; children have larger indices than parents,
  * so one reverse pass suffices. */
-static uint32_t *subtree_sizes(const cvs_tree *tree)
-{
+static uint32_t *subtree_sizes(const cvs_tree *tree) {
     uint32_t *size = malloc((size_t)tree->node_count * sizeof(uint32_t));
     if (!size)
         return NULL;
@@ -85,11 +79,10 @@ typedef struct slot {
 } slot;
 
 static void emit_skip(const cvs_tree *tree, const uint32_t *size, cv_bvh_node *out, uint32_t node_base,
-                      uint32_t prim_base)
-{
+                      uint32_t prim_base) {
     slot stack[CV_BVH_MAX_DEPTH + 2];
     uint32_t top = 0, total = size[0];
-    stack[top++] = (slot){0, 0};
+    stack[top++] = (slot){ 0, 0 };
     while (top > 0) {
         slot s = stack[--top];
         const cvs_tree_node *n = &tree->nodes[s.node];
@@ -102,16 +95,15 @@ static void emit_skip(const cvs_tree *tree, const uint32_t *size, cv_bvh_node *o
             o->info = cv_bvh_leaf_info(prim_base + n->index, n->count);
         } else {
             o->info = CV_BVH_INTERIOR;
-            stack[top++] = (slot){n->index + 1, s.out + 1 + size[n->index]};
-            stack[top++] = (slot){n->index, s.out + 1};
+            stack[top++] = (slot){ n->index + 1, s.out + 1 + size[n->index] };
+            stack[top++] = (slot){ n->index, s.out + 1 };
         }
     }
 }
 
 /* One child of a two-child node: its box and link. */
 static void emit_child(const cvs_tree_node *c, uint32_t interior_index, uint32_t prim_base, float min[3],
-                       float max[3], uint32_t *link, uint32_t *count)
-{
+                       float max[3], uint32_t *link, uint32_t *count) {
     memcpy(min, c->min, 3 * sizeof(float));
     memcpy(max, c->max, 3 * sizeof(float));
     if (c->count) {
@@ -124,8 +116,7 @@ static void emit_child(const cvs_tree_node *c, uint32_t interior_index, uint32_t
 }
 
 static void emit_node2(const cvs_tree *tree, const uint32_t *size, cv_bvh_node2 *out, uint32_t node2_base,
-                       uint32_t prim_base)
-{
+                       uint32_t prim_base) {
     const cvs_tree_node *root = &tree->nodes[0];
     if (root->count) {
         /* A single leaf: it becomes child a; child b is an empty leaf. */
@@ -138,7 +129,7 @@ static void emit_node2(const cvs_tree *tree, const uint32_t *size, cv_bvh_node2 
     }
     slot stack[CV_BVH_MAX_DEPTH + 2];
     uint32_t top = 0;
-    stack[top++] = (slot){0, 0};
+    stack[top++] = (slot){ 0, 0 };
     while (top > 0) {
         slot s = stack[--top];
         const cvs_tree_node *n = &tree->nodes[s.node];
@@ -148,15 +139,14 @@ static void emit_node2(const cvs_tree *tree, const uint32_t *size, cv_bvh_node2 
         emit_child(l, node2_base + l_out, prim_base, o->a_min, o->a_max, &o->a_link, &o->a_count);
         emit_child(r, node2_base + r_out, prim_base, o->b_min, o->b_max, &o->b_link, &o->b_count);
         if (!r->count)
-            stack[top++] = (slot){n->index + 1, r_out};
+            stack[top++] = (slot){ n->index + 1, r_out };
         if (!l->count)
-            stack[top++] = (slot){n->index, l_out};
+            stack[top++] = (slot){ n->index, l_out };
     }
 }
 
-cv_result cvs_layout_emit(const cvs_tree *tree, cv_bvh_node *out_nodes, uint32_t node_base,
-                          cv_bvh_node2 *out_nodes2, uint32_t node2_base, uint32_t prim_base)
-{
+cv_result cvs_layout_emit(const cvs_tree *tree, cv_bvh_node *out_nodes, uint32_t node_base, cv_bvh_node2 *out_nodes2,
+                          uint32_t node2_base, uint32_t prim_base) {
     if (tree->node_count == 0)
         return CV_OK;
     uint32_t *size = subtree_sizes(tree);
@@ -168,8 +158,7 @@ cv_result cvs_layout_emit(const cvs_tree *tree, cv_bvh_node *out_nodes, uint32_t
     return CV_OK;
 }
 
-static void tri_range_bounds(const cv_bvh_tri *tris, uint32_t first, uint32_t count, float min[3], float max[3])
-{
+static void tri_range_bounds(const cv_bvh_tri *tris, uint32_t first, uint32_t count, float min[3], float max[3]) {
     for (int k = 0; k < 3; k++) {
         min[k] = INFINITY;
         max[k] = -INFINITY;
@@ -185,8 +174,7 @@ static void tri_range_bounds(const cv_bvh_tri *tris, uint32_t first, uint32_t co
 }
 
 static void union_into(float min[3], float max[3], const float amin[3], const float amax[3], const float bmin[3],
-                       const float bmax[3])
-{
+                       const float bmax[3]) {
     for (int k = 0; k < 3; k++) {
         min[k] = amin[k] < bmin[k] ? amin[k] : bmin[k];
         max[k] = amax[k] > bmax[k] ? amax[k] : bmax[k];
@@ -194,8 +182,7 @@ static void union_into(float min[3], float max[3], const float amin[3], const fl
 }
 
 static void refit_child2(const cv_bvh_node2 *nodes2, const cv_bvh_tri *tris, uint32_t link, uint32_t count,
-                         float min[3], float max[3])
-{
+                         float min[3], float max[3]) {
     if (link & CV_BVH_LEAF_BIT) {
         if (count)
             tri_range_bounds(tris, link & ~CV_BVH_LEAF_BIT, count, min, max);
@@ -206,8 +193,7 @@ static void refit_child2(const cv_bvh_node2 *nodes2, const cv_bvh_tri *tris, uin
 }
 
 void cvs_layout_refit(cv_bvh_node *nodes, uint32_t first, uint32_t count, cv_bvh_node2 *nodes2, uint32_t first2,
-                      uint32_t count2, const cv_bvh_tri *tris)
-{
+                      uint32_t count2, const cv_bvh_tri *tris) {
     for (uint32_t i = first + count; i-- > first;) {
         cv_bvh_node *n = &nodes[i];
         if (n->info != CV_BVH_INTERIOR) {
@@ -229,9 +215,8 @@ void cvs_layout_refit(cv_bvh_node *nodes, uint32_t first, uint32_t count, cv_bvh
     }
 }
 
-cv_bvh_tri cv_bvh_tri_make(const float v[3][3], uint32_t prim, uint32_t instance)
-{
-    cv_bvh_tri t = {.prim = prim, .instance = instance, .pad = 0};
+cv_bvh_tri cv_bvh_tri_make(const float v[3][3], uint32_t prim, uint32_t instance) {
+    cv_bvh_tri t = { .prim = prim, .instance = instance, .pad = 0 };
     for (int k = 0; k < 3; k++) {
         t.v0[k] = v[0][k];
         t.e1[k] = v[1][k] - v[0][k];

@@ -22,20 +22,18 @@ typedef struct tlas {
     uint32_t instance_count;
 } tlas;
 
-static cv_bvh_tri mesh_tri(const cv_mesh *m, uint32_t t)
-{
+static cv_bvh_tri mesh_tri(const cv_mesh *m, uint32_t t) {
     float v[3][3];
     for (int k = 0; k < 3; k++)
         memcpy(v[k], &m->positions[3 * m->indices[3 * t + k]], sizeof v[k]);
     return cv_bvh_tri_make(v, t, CV_BVH_INVALID);
 }
 
-static cv_result build_mesh_tree(const cv_mesh *m, uint32_t index, const cv_bvh_build_options *opt, cvs_tree *tree)
-{
+static cv_result build_mesh_tree(const cv_mesh *m, uint32_t index, const cv_bvh_build_options *opt, cvs_tree *tree) {
     cvs_prim_ref *refs = malloc((size_t)m->triangle_count * sizeof(cvs_prim_ref));
     if (!refs)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "BLAS of mesh %u ('%s'): no memory for %u triangle boxes",
-                        index, m->name, m->triangle_count);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "BLAS of mesh %u ('%s'): no memory for %u triangle boxes", index,
+                        m->name, m->triangle_count);
     for (uint32_t t = 0; t < m->triangle_count; t++) {
         cv_bvh_tri tri = mesh_tri(m, t);
         cvs_tri_bounds(&tri, refs[t].min, refs[t].max);
@@ -47,8 +45,7 @@ static cv_result build_mesh_tree(const cv_mesh *m, uint32_t index, const cv_bvh_
     return r;
 }
 
-static void tlas_free(tlas *t)
-{
+static void tlas_free(tlas *t) {
     free(t->nodes);
     free(t->nodes2);
     free(t->instances);
@@ -57,8 +54,7 @@ static void tlas_free(tlas *t)
 
 /* Builds a TLAS over the scene's instances, given each mesh's BLAS root box. */
 static cv_result tlas_build(const cv_scene *scene, const cv_bvh_blas_range *ranges, const box *roots,
-                            const cv_bvh_build_options *opt, tlas *out)
-{
+                            const cv_bvh_build_options *opt, tlas *out) {
     memset(out, 0, sizeof *out);
     uint32_t n = cv_scene_instance_count(scene);
     if (n == 0)
@@ -68,8 +64,7 @@ static cv_result tlas_build(const cv_scene *scene, const cv_bvh_blas_range *rang
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "TLAS: no memory for %u instance boxes", n);
     for (uint32_t i = 0; i < n; i++) {
         const cv_instance *inst = cv_scene_instance(scene, i);
-        cvs_instance_bounds(inst->transform, roots[inst->mesh].min, roots[inst->mesh].max, refs[i].min,
-                            refs[i].max);
+        cvs_instance_bounds(inst->transform, roots[inst->mesh].min, roots[inst->mesh].max, refs[i].min, refs[i].max);
         refs[i].id = i;
         refs[i].pad = 0;
     }
@@ -105,8 +100,7 @@ static cv_result tlas_build(const cv_scene *scene, const cv_bvh_blas_range *rang
     return r;
 }
 
-static void tlas_install(cv_scene_bvh *bvh, tlas *t)
-{
+static void tlas_install(cv_scene_bvh *bvh, tlas *t) {
     free(bvh->tlas_nodes);
     free(bvh->tlas_nodes2);
     free(bvh->instances);
@@ -119,8 +113,7 @@ static void tlas_install(cv_scene_bvh *bvh, tlas *t)
 }
 
 /* Root boxes of all BLASes, as they are now. */
-static box *root_boxes(const cv_scene_bvh *bvh)
-{
+static box *root_boxes(const cv_scene_bvh *bvh) {
     box *roots = malloc((size_t)bvh->mesh_count * sizeof(box) + 1);
     if (!roots)
         return NULL;
@@ -139,8 +132,7 @@ typedef struct mesh_jobs {
     cv_result *results;
 } mesh_jobs;
 
-static void build_small_meshes(void *ctx, size_t begin, size_t end, uint32_t worker)
-{
+static void build_small_meshes(void *ctx, size_t begin, size_t end, uint32_t worker) {
     (void)worker;
     mesh_jobs *j = ctx;
     for (size_t m = begin; m < end; m++) {
@@ -152,11 +144,11 @@ static void build_small_meshes(void *ctx, size_t begin, size_t end, uint32_t wor
 
 /* Small meshes are built side by side, one thread each; big ones one after
  * the other with all threads. Trees do not depend on either. */
-static cv_result build_mesh_trees(const cv_scene *scene, const cv_bvh_build_options *opt, cvs_tree *trees)
-{
+static cv_result build_mesh_trees(const cv_scene *scene, const cv_bvh_build_options *opt, cvs_tree *trees) {
     uint32_t n = cv_scene_mesh_count(scene);
-    mesh_jobs j = {.scene = scene, .one_thread = *opt, .trees = trees,
-                   .results = calloc((size_t)n + 1, sizeof(cv_result))};
+    mesh_jobs j = {
+        .scene = scene, .one_thread = *opt, .trees = trees, .results = calloc((size_t)n + 1, sizeof(cv_result))
+    };
     if (!j.results)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "two-level BVH: no memory for %u mesh builds", n);
     j.one_thread.thread_count = 1;
@@ -166,7 +158,7 @@ static cv_result build_mesh_trees(const cv_scene *scene, const cv_bvh_build_opti
         const cv_mesh *mesh = cv_scene_mesh(scene, m);
         if (mesh->triangle_count >= CVS_BVH_PARALLEL_MIN)
             r = build_mesh_tree(mesh, m, opt, &trees[m]);
-        else if (j.results[m] != CV_OK)     /* the worker's message stayed on its thread */
+        else if (j.results[m] != CV_OK) /* the worker's message stayed on its thread */
             r = cv_error(j.results[m], "BLAS of mesh %u ('%s'): out of memory for %u triangles", m, mesh->name,
                          mesh->triangle_count);
     }
@@ -174,8 +166,7 @@ static cv_result build_mesh_trees(const cv_scene *scene, const cv_bvh_build_opti
     return r;
 }
 
-void cv_scene_bvh_destroy(cv_scene_bvh *bvh)
-{
+void cv_scene_bvh_destroy(cv_scene_bvh *bvh) {
     if (!bvh)
         return;
     free(bvh->blas_nodes);
@@ -189,8 +180,7 @@ void cv_scene_bvh_destroy(cv_scene_bvh *bvh)
 }
 
 /* Lays out every mesh's tree into the concatenated BLAS arrays. */
-static cv_result install_blases(cv_scene_bvh *bvh, const cv_scene *scene, const cvs_tree *trees)
-{
+static cv_result install_blases(cv_scene_bvh *bvh, const cv_scene *scene, const cvs_tree *trees) {
     uint64_t nodes = 0, nodes2 = 0, tris = 0;
     for (uint32_t m = 0; m < bvh->mesh_count; m++) {
         cv_bvh_blas_range *g = &bvh->meshes[m];
@@ -229,8 +219,7 @@ static cv_result install_blases(cv_scene_bvh *bvh, const cv_scene *scene, const 
     return CV_OK;
 }
 
-cv_result cv_scene_bvh_build(const cv_scene *scene, const cv_bvh_build_options *options, cv_scene_bvh **out)
-{
+cv_result cv_scene_bvh_build(const cv_scene *scene, const cv_bvh_build_options *options, cv_scene_bvh **out) {
     if (!scene || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_bvh_build: scene or out is NULL");
     cv_bvh_build_options opt;
@@ -265,8 +254,7 @@ cv_result cv_scene_bvh_build(const cv_scene *scene, const cv_bvh_build_options *
     return CV_OK;
 }
 
-static cv_result check_meshes_match(const cv_scene_bvh *bvh, const cv_scene *scene)
-{
+static cv_result check_meshes_match(const cv_scene_bvh *bvh, const cv_scene *scene) {
     if (cv_scene_mesh_count(scene) != bvh->mesh_count)
         return cv_error(CV_ERROR_BAD_STATE, "two-level BVH has %u BLASes, the scene now has %u meshes: build anew",
                         bvh->mesh_count, cv_scene_mesh_count(scene));
@@ -277,8 +265,7 @@ static cv_result check_meshes_match(const cv_scene_bvh *bvh, const cv_scene *sce
     return CV_OK;
 }
 
-cv_result cv_scene_bvh_rebuild_top(cv_scene_bvh *bvh, const cv_scene *scene)
-{
+cv_result cv_scene_bvh_rebuild_top(cv_scene_bvh *bvh, const cv_scene *scene) {
     if (!bvh || !scene)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_bvh_rebuild_top: bvh or scene is NULL");
     cv_result r = check_meshes_match(bvh, scene);
@@ -295,8 +282,7 @@ cv_result cv_scene_bvh_rebuild_top(cv_scene_bvh *bvh, const cv_scene *scene)
     return r;
 }
 
-cv_result cv_scene_bvh_refit_mesh(cv_scene_bvh *bvh, const cv_scene *scene, uint32_t mesh)
-{
+cv_result cv_scene_bvh_refit_mesh(cv_scene_bvh *bvh, const cv_scene *scene, uint32_t mesh) {
     if (!bvh || !scene)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_bvh_refit_mesh: bvh or scene is NULL");
     if (mesh >= bvh->mesh_count)

@@ -66,8 +66,10 @@ static cv_result glb_json(const char *path, FILE *f, uint64_t file_size, char **
         uint32_t chunk = le32(h), type = le32(h + 4);
         uint64_t rest = length - at - GLB_CHUNK_HEADER;
         if (chunk > rest)
-            return cv_error(CV_ERROR_MALFORMED, "%s: truncated or corrupt GLB: chunk %llu claims %u bytes, only "
-                            "%llu follow", path, (unsigned long long)index, chunk, (unsigned long long)rest);
+            return cv_error(CV_ERROR_MALFORMED,
+                            "%s: truncated or corrupt GLB: chunk %llu claims %u bytes, only "
+                            "%llu follow",
+                            path, (unsigned long long)index, chunk, (unsigned long long)rest);
         if (index == 0 && type != GLB_CHUNK_JSON)
             return cv_error(CV_ERROR_MALFORMED, "%s: corrupt GLB: the first chunk is not JSON", path);
         if (index == 0)
@@ -107,8 +109,8 @@ typedef struct graph {
     const char *path;
     const cJSON *nodes;
     int count;
-    uint8_t *state;      /* 0 unseen, 1 on the current path, 2 expanded */
-    uint64_t *expanded;  /* instances of the subtree of each node, saturated past the limit */
+    uint8_t *state;     /* 0 unseen, 1 on the current path, 2 expanded */
+    uint64_t *expanded; /* instances of the subtree of each node, saturated past the limit */
 } graph;
 
 static uint64_t add_saturated(uint64_t a, uint64_t b) {
@@ -132,8 +134,8 @@ static cv_result expand(graph *g, int n, int depth) {
     cJSON_ArrayForEach(child, children) {
         double v = cJSON_IsNumber(child) ? child->valuedouble : -1.0;
         if (!(v >= 0.0 && v < g->count && v == (int)v))
-            return cv_error(CV_ERROR_MALFORMED, "%s: node %d has a child that is not a node index in 0..%d",
-                            g->path, n, g->count - 1);
+            return cv_error(CV_ERROR_MALFORMED, "%s: node %d has a child that is not a node index in 0..%d", g->path,
+                            n, g->count - 1);
         cv_result r = expand(g, (int)v, depth + 1);
         if (r != CV_OK)
             return r;
@@ -182,9 +184,10 @@ static cv_result check_nodes(const char *path, const cJSON *root) {
             total = is_child[n] ? total : add_saturated(total, g.expanded[n]);
     }
     if (r == CV_OK && total > IMPORT_MAX_NODE_INSTANCES)
-        r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: the node graph expands to more than %u node instances (a node "
-                     "referenced from several parents is copied for each); the limit is %u", path,
-                     IMPORT_MAX_NODE_INSTANCES, IMPORT_MAX_NODE_INSTANCES);
+        r = cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                     "%s: the node graph expands to more than %u node instances (a node "
+                     "referenced from several parents is copied for each); the limit is %u",
+                     path, IMPORT_MAX_NODE_INSTANCES, IMPORT_MAX_NODE_INSTANCES);
     free(g.state);
     free(g.expanded);
     free(is_child);
@@ -217,8 +220,10 @@ static cv_result parse_failure(const char *path, const char *json, size_t size, 
     if (first == size || json[first] != '{')
         return cv_error(CV_ERROR_MALFORMED, "%s: invalid glTF: not a JSON object", path);
     if (ends_open(json, size))
-        return cv_error(CV_ERROR_MALFORMED, "%s: truncated glTF: its JSON ends early (%zu bytes, brackets or a "
-                        "string left open)", path, size);
+        return cv_error(CV_ERROR_MALFORMED,
+                        "%s: truncated glTF: its JSON ends early (%zu bytes, brackets or a "
+                        "string left open)",
+                        path, size);
     size_t offset = at && at >= json && at <= json + size ? (size_t)(at - json) : size;
     return cv_error(CV_ERROR_MALFORMED, "%s: invalid glTF: its JSON does not parse at byte %zu of %zu", path, offset,
                     size);

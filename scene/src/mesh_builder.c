@@ -11,8 +11,7 @@
 
 void cvs_mb_init(cvs_mesh_builder *b) { memset(b, 0, sizeof *b); }
 
-void cvs_mb_free(cvs_mesh_builder *b)
-{
+void cvs_mb_free(cvs_mesh_builder *b) {
     free(b->positions);
     free(b->normals);
     free(b->uvs);
@@ -20,8 +19,7 @@ void cvs_mb_free(cvs_mesh_builder *b)
     memset(b, 0, sizeof *b);
 }
 
-static bool reserve_vertex(cvs_mesh_builder *b)
-{
+static bool reserve_vertex(cvs_mesh_builder *b) {
     if (b->vertex_count < b->vertex_cap)
         return true;
     uint32_t cap = b->vertex_cap ? b->vertex_cap * 2 : 64;
@@ -40,8 +38,7 @@ static bool reserve_vertex(cvs_mesh_builder *b)
     return true;
 }
 
-uint32_t cvs_mb_vertex(cvs_mesh_builder *b, const float p[3], const float n[3], float u, float v)
-{
+uint32_t cvs_mb_vertex(cvs_mesh_builder *b, const float p[3], const float n[3], float u, float v) {
     if (b->failed || !reserve_vertex(b)) {
         b->failed = true;
         return 0;
@@ -54,8 +51,7 @@ uint32_t cvs_mb_vertex(cvs_mesh_builder *b, const float p[3], const float n[3], 
     return i;
 }
 
-void cvs_mb_triangle(cvs_mesh_builder *b, uint32_t a, uint32_t c, uint32_t d)
-{
+void cvs_mb_triangle(cvs_mesh_builder *b, uint32_t a, uint32_t c, uint32_t d) {
     if (b->failed)
         return;
     if (b->triangle_count == b->triangle_cap) {
@@ -74,9 +70,8 @@ void cvs_mb_triangle(cvs_mesh_builder *b, uint32_t a, uint32_t c, uint32_t d)
     t[2] = d;
 }
 
-void cvs_mb_flat_polygon(cvs_mesh_builder *b, const float (*pts)[3], int count)
-{
-    float e1[3], e2[3], n[3], centroid[3] = {0, 0, 0};
+void cvs_mb_flat_polygon(cvs_mesh_builder *b, const float (*pts)[3], int count) {
+    float e1[3], e2[3], n[3], centroid[3] = { 0, 0, 0 };
     v3_sub(e1, pts[1], pts[0]);
     v3_sub(e2, pts[2], pts[0]);
     v3_cross(n, e1, e2);
@@ -103,11 +98,10 @@ void cvs_mb_flat_polygon(cvs_mesh_builder *b, const float (*pts)[3], int count)
     }
 }
 
-cv_result cvs_mb_add_to_scene(cvs_mesh_builder *b, cv_scene *scene, const char *name, uint32_t *out_index)
-{
+cv_result cvs_mb_add_to_scene(cvs_mesh_builder *b, cv_scene *scene, const char *name, uint32_t *out_index) {
     if (b->failed)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "procedural mesh '%s': out of memory after %u vertices",
-                        name, b->vertex_count);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "procedural mesh '%s': out of memory after %u vertices", name,
+                        b->vertex_count);
     cv_mesh_desc d = {
         .positions = b->positions,
         .normals = b->smooth ? NULL : b->normals,
@@ -122,20 +116,19 @@ cv_result cvs_mb_add_to_scene(cvs_mesh_builder *b, cv_scene *scene, const char *
 
 void cvs_shape_box(cvs_mesh_builder *b) { cvs_shape_beveled_box(b, 0.0f); }
 
-void cvs_shape_beveled_box(cvs_mesh_builder *b, float bevel)
-{
+void cvs_shape_beveled_box(cvs_mesh_builder *b, float bevel) {
     const float h = 0.5f, in = 0.5f - bevel;
     /* Six faces, each the square at distance h along +-axis. */
     for (int axis = 0; axis < 3; axis++) {
         for (int s = -1; s <= 1; s += 2) {
             float q[4][3];
-            const float corners[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+            const float corners[4][2] = { { -1, -1 }, { 1, -1 }, { 1, 1 }, { -1, 1 } };
             for (int i = 0; i < 4; i++) {
                 q[i][axis] = (float)s * h;
                 q[i][(axis + 1) % 3] = corners[i][0] * in;
                 q[i][(axis + 2) % 3] = corners[i][1] * in;
             }
-            cvs_mb_flat_polygon(b, (const float (*)[3])q, 4);
+            cvs_mb_flat_polygon(b, (const float(*)[3])q, 4);
         }
     }
     if (bevel <= 0.0f)
@@ -152,23 +145,22 @@ void cvs_shape_beveled_box(cvs_mesh_builder *b, float bevel)
                     q[i][a1] = (float)s1 * (on_face1 ? h : in);
                     q[i][a2] = (float)s2 * (on_face1 ? in : h);
                 }
-                cvs_mb_flat_polygon(b, (const float (*)[3])q, 4);
+                cvs_mb_flat_polygon(b, (const float(*)[3])q, 4);
             }
         }
     }
     /* Eight corner triangles. */
     for (int c = 0; c < 8; c++) {
-        float s[3] = {(c & 1) ? 1.0f : -1.0f, (c & 2) ? 1.0f : -1.0f, (c & 4) ? 1.0f : -1.0f};
+        float s[3] = { (c & 1) ? 1.0f : -1.0f, (c & 2) ? 1.0f : -1.0f, (c & 4) ? 1.0f : -1.0f };
         float t[3][3];
         for (int k = 0; k < 3; k++)
             for (int j = 0; j < 3; j++)
                 t[k][j] = s[j] * (j == k ? h : in);
-        cvs_mb_flat_polygon(b, (const float (*)[3])t, 3);
+        cvs_mb_flat_polygon(b, (const float(*)[3])t, 3);
     }
 }
 
-void cvs_shape_sphere(cvs_mesh_builder *b, uint32_t slices, uint32_t stacks)
-{
+void cvs_shape_sphere(cvs_mesh_builder *b, uint32_t slices, uint32_t stacks) {
     uint32_t base = b->vertex_count;
     for (uint32_t i = 0; i <= stacks; i++) {
         double theta = CVS_PI * (double)i / (double)stacks;
@@ -178,7 +170,7 @@ void cvs_shape_sphere(cvs_mesh_builder *b, uint32_t slices, uint32_t stacks)
             double phi = 2.0 * CVS_PI * (double)(j % slices) / (double)slices;
             double sp, cp;
             cvs_sincos(phi, &sp, &cp);
-            float n[3] = {(float)(st * cp), (float)ct, (float)(st * sp)};
+            float n[3] = { (float)(st * cp), (float)ct, (float)(st * sp) };
             float p[3];
             v3_scale(p, n, 0.5f);
             cvs_mb_vertex(b, p, n, (float)j / (float)slices, (float)i / (float)stacks);
@@ -198,31 +190,35 @@ void cvs_shape_sphere(cvs_mesh_builder *b, uint32_t slices, uint32_t stacks)
 
 /* A body of revolution around y from y = -0.5 (radius 0.5) to y = 0.5
  * (radius top_radius), with flat caps; hard edges between the sides. */
-static void revolve(cvs_mesh_builder *b, uint32_t segments, float top_radius)
-{
+static void revolve(cvs_mesh_builder *b, uint32_t segments, float top_radius) {
     for (uint32_t j = 0; j < segments; j++) {
         double p0s, p0c, p1s, p1c;
         cvs_sincos(2.0 * CVS_PI * j / segments, &p0s, &p0c);
         cvs_sincos(2.0 * CVS_PI * (j + 1) / segments, &p1s, &p1c);
-        float bot0[3] = {0.5f * (float)p0c, -0.5f, 0.5f * (float)p0s};
-        float bot1[3] = {0.5f * (float)p1c, -0.5f, 0.5f * (float)p1s};
-        float top0[3] = {top_radius * (float)p0c, 0.5f, top_radius * (float)p0s};
-        float top1[3] = {top_radius * (float)p1c, 0.5f, top_radius * (float)p1s};
-        float centre_bot[3] = {0.0f, -0.5f, 0.0f}, centre_top[3] = {0.0f, 0.5f, 0.0f};
+        float bot0[3] = { 0.5f * (float)p0c, -0.5f, 0.5f * (float)p0s };
+        float bot1[3] = { 0.5f * (float)p1c, -0.5f, 0.5f * (float)p1s };
+        float top0[3] = { top_radius * (float)p0c, 0.5f, top_radius * (float)p0s };
+        float top1[3] = { top_radius * (float)p1c, 0.5f, top_radius * (float)p1s };
+        float centre_bot[3] = { 0.0f, -0.5f, 0.0f }, centre_top[3] = { 0.0f, 0.5f, 0.0f };
         if (top_radius > 0.0f) {
-            const float side[4][3] = {{bot0[0], bot0[1], bot0[2]}, {bot1[0], bot1[1], bot1[2]},
-                                      {top1[0], top1[1], top1[2]}, {top0[0], top0[1], top0[2]}};
+            const float side[4][3] = { { bot0[0], bot0[1], bot0[2] },
+                                       { bot1[0], bot1[1], bot1[2] },
+                                       { top1[0], top1[1], top1[2] },
+                                       { top0[0], top0[1], top0[2] } };
             cvs_mb_flat_polygon(b, side, 4);
-            const float cap[3][3] = {{centre_top[0], centre_top[1], centre_top[2]},
-                                     {top0[0], top0[1], top0[2]}, {top1[0], top1[1], top1[2]}};
+            const float cap[3][3] = { { centre_top[0], centre_top[1], centre_top[2] },
+                                      { top0[0], top0[1], top0[2] },
+                                      { top1[0], top1[1], top1[2] } };
             cvs_mb_flat_polygon(b, cap, 3);
         } else {
-            const float side[3][3] = {{bot0[0], bot0[1], bot0[2]}, {bot1[0], bot1[1], bot1[2]},
-                                      {top0[0], top0[1], top0[2]}};
+            const float side[3][3] = { { bot0[0], bot0[1], bot0[2] },
+                                       { bot1[0], bot1[1], bot1[2] },
+                                       { top0[0], top0[1], top0[2] } };
             cvs_mb_flat_polygon(b, side, 3);
         }
-        const float cap[3][3] = {{centre_bot[0], centre_bot[1], centre_bot[2]},
-                                 {bot0[0], bot0[1], bot0[2]}, {bot1[0], bot1[1], bot1[2]}};
+        const float cap[3][3] = { { centre_bot[0], centre_bot[1], centre_bot[2] },
+                                  { bot0[0], bot0[1], bot0[2] },
+                                  { bot1[0], bot1[1], bot1[2] } };
         cvs_mb_flat_polygon(b, cap, 3);
     }
 }
@@ -230,8 +226,7 @@ static void revolve(cvs_mesh_builder *b, uint32_t segments, float top_radius)
 void cvs_shape_cylinder(cvs_mesh_builder *b, uint32_t segments) { revolve(b, segments, 0.5f); }
 void cvs_shape_cone(cvs_mesh_builder *b, uint32_t segments) { revolve(b, segments, 0.0f); }
 
-void cvs_shape_blob(cvs_mesh_builder *b, uint32_t triangle_count, uint64_t seed)
-{
+void cvs_shape_blob(cvs_mesh_builder *b, uint32_t triangle_count, uint64_t seed) {
     uint32_t slices = 3;
     while ((uint64_t)slices * slices < triangle_count)
         slices++;
@@ -247,7 +242,7 @@ void cvs_shape_blob(cvs_mesh_builder *b, uint32_t triangle_count, uint64_t seed)
         pp[k] = cvs_rng_range(&rng, 0.0f, 6.2831853f);
     }
     b->smooth = true;
-    const float up[3] = {0.0f, 1.0f, 0.0f};
+    const float up[3] = { 0.0f, 1.0f, 0.0f };
     uint32_t base = b->vertex_count;
     for (uint32_t i = 0; i <= stacks; i++) {
         double theta = CVS_PI * (double)i / (double)stacks;
@@ -263,12 +258,12 @@ void cvs_shape_blob(cvs_mesh_builder *b, uint32_t triangle_count, uint64_t seed)
                 double s1 = cvs_sinf(ft[k] * theta + pt[k]), s2 = cvs_sinf(fp[k] * phi + pp[k]);
                 r += amp[k] * s1 * s2;
             }
-            float p[3] = {(float)(r * st * cp), (float)(r * ct), (float)(r * st * sp)};
+            float p[3] = { (float)(r * st * cp), (float)(r * ct), (float)(r * st * sp) };
             cvs_mb_vertex(b, p, up, (float)j / (float)slices, (float)i / (float)stacks);
         }
     }
     /* Vertex of ring i (1..stacks-1), slice j; the poles are single vertices. */
-#define RING(i, j) (base + 1 + ((i) - 1) * slices + ((j) % slices))
+#define RING(i, j) (base + 1 + ((i)-1) * slices + ((j) % slices))
     uint32_t north = base, south = base + 1 + (stacks - 1) * slices;
     uint32_t emitted = 0;
     for (uint32_t i = 0; i < stacks && emitted < triangle_count; i++) {

@@ -13,8 +13,8 @@ typedef struct cvs_mesh_builder {
     uint32_t *indices;
     uint32_t vertex_count, vertex_cap;
     uint32_t triangle_count, triangle_cap;
-    bool smooth;        /* normals left to cv_scene_add_mesh (area-weighted) */
-    bool failed;        /* an allocation failed; reported by cvs_mb_add_to_scene */
+    bool smooth; /* normals left to cv_scene_add_mesh (area-weighted) */
+    bool failed; /* an allocation failed; reported by cvs_mb_add_to_scene */
 } cvs_mesh_builder;
 
 void cvs_mb_init(cvs_mesh_builder *b);

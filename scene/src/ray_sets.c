@@ -16,18 +16,15 @@ static const char *const kind_names[CV_RAY_KIND_COUNT] = {
     "primary", "shadow", "ao_short", "ao_long", "diffuse", "reflection", "random",
 };
 
-const char *cv_ray_kind_name(cv_ray_kind kind)
-{
+const char *cv_ray_kind_name(cv_ray_kind kind) {
     return (unsigned)kind < CV_RAY_KIND_COUNT ? kind_names[kind] : "unknown";
 }
 
-bool cv_ray_kind_is_occlusion(cv_ray_kind kind)
-{
+bool cv_ray_kind_is_occlusion(cv_ray_kind kind) {
     return kind == CV_RAYS_SHADOW || kind == CV_RAYS_AO_SHORT || kind == CV_RAYS_AO_LONG;
 }
 
-void cv_ray_set_free(cv_ray_set *set)
-{
+void cv_ray_set_free(cv_ray_set *set) {
     if (!set)
         return;
     free(set->rays);
@@ -36,9 +33,8 @@ void cv_ray_set_free(cv_ray_set *set)
 }
 
 /* The descriptor with defaults filled in. */
-static cv_ray_set_desc resolve(const cv_scene *scene, const cv_ray_set_desc *in, cv_camera *camera_storage)
-{
-    cv_ray_set_desc d = in ? *in : (cv_ray_set_desc){0};
+static cv_ray_set_desc resolve(const cv_scene *scene, const cv_ray_set_desc *in, cv_camera *camera_storage) {
+    cv_ray_set_desc d = in ? *in : (cv_ray_set_desc){ 0 };
     if (!d.width)
         d.width = 256;
     if (!d.height)
@@ -65,8 +61,7 @@ static cv_ray_set_desc resolve(const cv_scene *scene, const cv_ray_set_desc *in,
     return d;
 }
 
-static cv_result make_primary(const cv_ray_set_desc *d, cv_ray_set *out)
-{
+static cv_result make_primary(const cv_ray_set_desc *d, cv_ray_set *out) {
     const cv_camera *c = d->camera;
     float fwd[3], right[3], up[3];
     v3_sub(fwd, c->target, c->position);
@@ -108,15 +103,13 @@ static cv_result make_primary(const cv_ray_set_desc *d, cv_ray_set *out)
 }
 
 /* A unit vector uniform on the sphere. */
-static void uniform_sphere(cvs_rng *rng, float out[3])
-{
+static void uniform_sphere(cvs_rng *rng, float out[3]) {
     double z = 1.0 - 2.0 * cvs_rng_float(rng), r = sqrt(fmax(0.0, 1.0 - z * z)), s, c;
     cvs_sincos(2.0 * CVS_PI * cvs_rng_float(rng), &s, &c);
     v3_set(out, (float)(r * c), (float)(r * s), (float)z);
 }
 
-static cv_result make_random(const cv_scene *scene, const cv_ray_set_desc *d, cv_ray_set *out)
-{
+static cv_result make_random(const cv_scene *scene, const cv_ray_set_desc *d, cv_ray_set *out) {
     float bmin[3], bmax[3], ext[3];
     cv_scene_bounds(scene, bmin, bmax);
     v3_sub(ext, bmax, bmin);
@@ -136,16 +129,17 @@ static cv_result make_random(const cv_scene *scene, const cv_ray_set_desc *d, cv
     return CV_OK;
 }
 
-cv_result cv_ray_set_make(const cv_scene *scene, cv_ray_kind kind, const cv_ray_set_desc *desc, cv_ray_set *out)
-{
+cv_result cv_ray_set_make(const cv_scene *scene, cv_ray_kind kind, const cv_ray_set_desc *desc, cv_ray_set *out) {
     if (!scene || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_ray_set_make: scene or out is NULL");
     if (kind != CV_RAYS_PRIMARY && kind != CV_RAYS_RANDOM)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_ray_set_make: %s rays need primary hits "
-                        "(cv_ray_set_make_secondary)", cv_ray_kind_name(kind));
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "cv_ray_set_make: %s rays need primary hits "
+                        "(cv_ray_set_make_secondary)",
+                        cv_ray_kind_name(kind));
     cv_camera cam;
     cv_ray_set_desc d = resolve(scene, desc, &cam);
-    cv_ray_set set = {.kind = kind};
+    cv_ray_set set = { .kind = kind };
     cv_result r = kind == CV_RAYS_PRIMARY ? make_primary(&d, &set) : make_random(scene, &d, &set);
     if (r == CV_OK)
         *out = set;
@@ -153,16 +147,15 @@ cv_result cv_ray_set_make(const cv_scene *scene, cv_ray_kind kind, const cv_ray_
 }
 
 /* Cosine-weighted direction around unit n (Duff et al.'s orthonormal basis). */
-static void cosine_hemisphere(cvs_rng *rng, const float n[3], float out[3])
-{
+static void cosine_hemisphere(cvs_rng *rng, const float n[3], float out[3]) {
     float u1 = cvs_rng_float(rng), u2 = cvs_rng_float(rng);
     double s, c;
     cvs_sincos(2.0 * CVS_PI * u2, &s, &c);
     float r = sqrtf(u1), x = r * (float)c, y = r * (float)s, z = sqrtf(fmaxf(0.0f, 1.0f - u1));
     float sign = copysignf(1.0f, n[2]);
     float a = -1.0f / (sign + n[2]), b = n[0] * n[1] * a;
-    const float t[3] = {1.0f + sign * n[0] * n[0] * a, sign * b, -sign * n[0]};
-    const float bt[3] = {b, sign + n[1] * n[1] * a, -n[1]};
+    const float t[3] = { 1.0f + sign * n[0] * n[0] * a, sign * b, -sign * n[0] };
+    const float bt[3] = { b, sign + n[1] * n[1] * a, -n[1] };
     float d[3];
     v3_scale(d, n, z);
     v3_madd(d, d, t, x);
@@ -171,8 +164,7 @@ static void cosine_hemisphere(cvs_rng *rng, const float n[3], float out[3])
 }
 
 cv_result cv_ray_set_make_secondary(const cv_scene *scene, cv_ray_kind kind, const cv_ray_set_desc *desc,
-                                    const cv_ray_set *primary, const cv_hit *hits, cv_ray_set *out)
-{
+                                    const cv_ray_set *primary, const cv_hit *hits, cv_ray_set *out) {
     if (!scene || !primary || !out || (primary->count && (!primary->rays || !hits)))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_ray_set_make_secondary: scene, primary, hits or out is NULL");
     if (kind == CV_RAYS_PRIMARY || kind == CV_RAYS_RANDOM || (unsigned)kind >= CV_RAY_KIND_COUNT)
@@ -183,12 +175,14 @@ cv_result cv_ray_set_make_secondary(const cv_scene *scene, cv_ray_kind kind, con
             continue;
         const cv_instance *inst = cv_scene_instance(scene, hits[i].instance);
         if (!inst || hits[i].triangle >= cv_scene_mesh(scene, inst->mesh)->triangle_count)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_ray_set_make_secondary: hit %u names instance %u triangle "
-                            "%u, not in the scene", i, hits[i].instance, hits[i].triangle);
+            return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                            "cv_ray_set_make_secondary: hit %u names instance %u triangle "
+                            "%u, not in the scene",
+                            i, hits[i].instance, hits[i].triangle);
     }
     cv_camera cam;
     cv_ray_set_desc d = resolve(scene, desc, &cam);
-    cv_ray_set set = {.kind = kind, .rays = malloc((size_t)primary->count * sizeof(cv_ray) + 1)};
+    cv_ray_set set = { .kind = kind, .rays = malloc((size_t)primary->count * sizeof(cv_ray) + 1) };
     if (!set.rays)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s rays: no memory for %u rays", cv_ray_kind_name(kind),
                         primary->count);
@@ -224,9 +218,7 @@ cv_result cv_ray_set_make_secondary(const cv_scene *scene, cv_ray_kind kind, con
             r->tmax = d.ao_short_length;
             break;
         case CV_RAYS_AO_LONG:
-        case CV_RAYS_DIFFUSE:
-            cosine_hemisphere(&rng, n, r->dir);
-            break;
+        case CV_RAYS_DIFFUSE: cosine_hemisphere(&rng, n, r->dir); break;
         default: {
             float refl[3];
             v3_madd(refl, in->dir, n, -2.0f * v3_dot(in->dir, n));

@@ -33,8 +33,7 @@ typedef struct importer {
 } importer;
 
 /* Re-raises the scene's last error prefixed with the file (and node) name. */
-static cv_result wrap_error(cv_result code, const char *path, const char *node)
-{
+static cv_result wrap_error(cv_result code, const char *path, const char *node) {
     char msg[512];
     snprintf(msg, sizeof msg, "%s", cv_last_error());
     return cv_error(code, "%s: %s%s%s", path, node, *node ? ": " : "", msg);
@@ -42,8 +41,7 @@ static cv_result wrap_error(cv_result code, const char *path, const char *node)
 
 static float clamp01(float x) { return x < 0.0f ? 0.0f : x > 1.0f ? 1.0f : x; }
 
-static bool get_float(const struct aiMaterial *m, const char *key, unsigned type, unsigned index, float *out)
-{
+static bool get_float(const struct aiMaterial *m, const char *key, unsigned type, unsigned index, float *out) {
     ai_real v;
     unsigned int max = 1;
     if (aiGetMaterialFloatArray(m, key, type, index, &v, &max) != AI_SUCCESS || max < 1 || !isfinite(v))
@@ -52,8 +50,7 @@ static bool get_float(const struct aiMaterial *m, const char *key, unsigned type
     return true;
 }
 
-static bool get_color(const struct aiMaterial *m, const char *key, unsigned type, unsigned index, float out[3])
-{
+static bool get_color(const struct aiMaterial *m, const char *key, unsigned type, unsigned index, float out[3]) {
     struct aiColor4D c;
     if (aiGetMaterialColor(m, key, type, index, &c) != AI_SUCCESS || !isfinite(c.r) || !isfinite(c.g) ||
         !isfinite(c.b))
@@ -62,8 +59,7 @@ static bool get_color(const struct aiMaterial *m, const char *key, unsigned type
     return true;
 }
 
-static cv_material convert_material(const struct aiMaterial *m)
-{
+static cv_material convert_material(const struct aiMaterial *m) {
     cv_material out = cv_material_default();
     float f;
     if (!get_color(m, AI_MATKEY_BASE_COLOR, out.base_color))
@@ -71,7 +67,7 @@ static cv_material convert_material(const struct aiMaterial *m)
     if (get_float(m, AI_MATKEY_ROUGHNESS_FACTOR, &f))
         out.roughness = f;
     else if (get_float(m, AI_MATKEY_SHININESS, &f) && f > 0.0f)
-        out.roughness = sqrtf(2.0f / (f + 2.0f));   /* Blinn-Phong exponent to GGX alpha, as perceptual */
+        out.roughness = sqrtf(2.0f / (f + 2.0f)); /* Blinn-Phong exponent to GGX alpha, as perceptual */
     if (get_float(m, AI_MATKEY_METALLIC_FACTOR, &f))
         out.metalness = f;
     if (get_color(m, AI_MATKEY_COLOR_EMISSIVE, out.emission) && get_float(m, AI_MATKEY_EMISSIVE_INTENSITY, &f))
@@ -92,8 +88,7 @@ static cv_material convert_material(const struct aiMaterial *m)
     return out;
 }
 
-static bool all_finite3(const struct aiVector3D *v, unsigned n)
-{
+static bool all_finite3(const struct aiVector3D *v, unsigned n) {
     for (unsigned i = 0; i < n; i++)
         if (!isfinite(v[i].x) || !isfinite(v[i].y) || !isfinite(v[i].z))
             return false;
@@ -101,8 +96,7 @@ static bool all_finite3(const struct aiVector3D *v, unsigned n)
 }
 
 /* One assimp mesh, its triangles only; *out = UINT32_MAX when it has none. */
-static cv_result convert_mesh(importer *im, unsigned index, uint32_t *out)
-{
+static cv_result convert_mesh(importer *im, unsigned index, uint32_t *out) {
     const struct aiMesh *am = im->ai->mMeshes[index];
     *out = UINT32_MAX;
     uint32_t tris = 0;
@@ -166,21 +160,22 @@ done:
     return r;
 }
 
-static void to_transform(const struct aiMatrix4x4 *m, float t[3][4])
-{
-    const float rows[3][4] = {{m->a1, m->a2, m->a3, m->a4}, {m->b1, m->b2, m->b3, m->b4}, {m->c1, m->c2, m->c3, m->c4}};
+static void to_transform(const struct aiMatrix4x4 *m, float t[3][4]) {
+    const float rows[3][4] = { { m->a1, m->a2, m->a3, m->a4 },
+                               { m->b1, m->b2, m->b3, m->b4 },
+                               { m->c1, m->c2, m->c3, m->c4 } };
     memcpy(t, rows, sizeof rows);
 }
 
-static cv_result walk_nodes(importer *im, const struct aiNode *node, const float parent[3][4], int depth)
-{
+static cv_result walk_nodes(importer *im, const struct aiNode *node, const float parent[3][4], int depth) {
     if (depth > MAX_NODE_DEPTH)
         return cv_error(CV_ERROR_MALFORMED, "%s: node tree deeper than %d levels (node '%s')", im->path,
                         MAX_NODE_DEPTH, node->mName.data);
     /* Formats that share nodes between parents expand to one instance per path. */
     if (++im->node_instances > IMPORT_MAX_NODE_INSTANCES)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: the node tree expands to more than %u node instances (node '%s')",
-                        im->path, IMPORT_MAX_NODE_INSTANCES, node->mName.data);
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "%s: the node tree expands to more than %u node instances (node '%s')", im->path,
+                        IMPORT_MAX_NODE_INSTANCES, node->mName.data);
     float local[3][4], world[3][4], inv[3][4];
     to_transform(&node->mTransformation, local);
     cv_transform_multiply(parent, local, world);
@@ -188,8 +183,8 @@ static cv_result walk_nodes(importer *im, const struct aiNode *node, const float
     for (unsigned i = 0; i < node->mNumMeshes; i++) {
         unsigned am = node->mMeshes[i];
         if (am >= im->ai->mNumMeshes)
-            return cv_error(CV_ERROR_MALFORMED, "%s: node '%s' references mesh %u of %u", im->path,
-                            node->mName.data, am, im->ai->mNumMeshes);
+            return cv_error(CV_ERROR_MALFORMED, "%s: node '%s' references mesh %u of %u", im->path, node->mName.data,
+                            am, im->ai->mNumMeshes);
         if (im->mesh_map[am] == UINT32_MAX)
             continue;
         if (!invertible) {
@@ -200,7 +195,7 @@ static cv_result walk_nodes(importer *im, const struct aiNode *node, const float
         if (im->world_triangles > MAX_WORLD_TRIANGLES)
             return cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: the instances hold more than %llu triangles (node '%s')",
                             im->path, MAX_WORLD_TRIANGLES, node->mName.data);
-        cv_instance inst = {.mesh = im->mesh_map[am], .material = im->ai->mMeshes[am]->mMaterialIndex};
+        cv_instance inst = { .mesh = im->mesh_map[am], .material = im->ai->mMeshes[am]->mMaterialIndex };
         memcpy(inst.transform, world, sizeof world);
         cv_result r = cv_scene_add_instance(im->scene, &inst, NULL);
         if (r != CV_OK)
@@ -216,8 +211,7 @@ static cv_result walk_nodes(importer *im, const struct aiNode *node, const float
 
 /* World transform of the node called `name`; false if there is none. */
 static bool find_node(const struct aiNode *node, const char *name, const float parent[3][4], float out[3][4],
-                      int depth)
-{
+                      int depth) {
     float local[3][4], world[3][4];
     to_transform(&node->mTransformation, local);
     cv_transform_multiply(parent, local, world);
@@ -231,8 +225,7 @@ static bool find_node(const struct aiNode *node, const char *name, const float p
     return false;
 }
 
-static void transform_dir(const float t[3][4], const struct aiVector3D *d, float out[3])
-{
+static void transform_dir(const float t[3][4], const struct aiVector3D *d, float out[3]) {
     for (int k = 0; k < 3; k++)
         out[k] = t[k][0] * d->x + t[k][1] * d->y + t[k][2] * d->z;
 }
@@ -241,8 +234,7 @@ static void transform_dir(const float t[3][4], const struct aiVector3D *d, float
  * cameras: it stores yfov * aspect in mHorizontalFOV (documented as half the
  * horizontal angle), and copies the node's translation into mPosition,
  * which the node transform then applies a second time. */
-static bool is_gltf(const char *path)
-{
+static bool is_gltf(const char *path) {
     const char *dot = strrchr(path, '.');
     return dot && (strcasecmp(dot, ".gltf") == 0 || strcasecmp(dot, ".glb") == 0);
 }
@@ -250,8 +242,7 @@ static bool is_gltf(const char *path)
 /* Cameras and lights are placed by the node of the same name. Ones the file
  * places nowhere, or that are degenerate or orthographic, are skipped rather
  * than failing the import: they are optional. */
-static void convert_cameras_and_lights(importer *im)
-{
+static void convert_cameras_and_lights(importer *im) {
     float identity[3][4], world[3][4];
     cv_transform_identity(identity);
     const bool gltf = is_gltf(im->path);
@@ -260,7 +251,8 @@ static void convert_cameras_and_lights(importer *im)
         if (!find_node(im->ai->mRootNode, c->mName.data, identity, world, 0) || c->mHorizontalFOV <= 0.0f ||
             c->mOrthographicWidth > 0.0f)
             continue;
-        const float p[3] = {gltf ? 0.0f : c->mPosition.x, gltf ? 0.0f : c->mPosition.y, gltf ? 0.0f : c->mPosition.z};
+        const float p[3] = { gltf ? 0.0f : c->mPosition.x, gltf ? 0.0f : c->mPosition.y,
+                             gltf ? 0.0f : c->mPosition.z };
         float look[3];
         cv_camera cam;
         cv_transform_point(world, p, cam.position);
@@ -278,8 +270,8 @@ static void convert_cameras_and_lights(importer *im)
             continue;
         if (!find_node(im->ai->mRootNode, l->mName.data, identity, world, 0))
             continue;
-        cv_light light = {.type = l->mType == aiLightSource_DIRECTIONAL ? CV_LIGHT_DIRECTIONAL : CV_LIGHT_POINT};
-        const float p[3] = {l->mPosition.x, l->mPosition.y, l->mPosition.z};
+        cv_light light = { .type = l->mType == aiLightSource_DIRECTIONAL ? CV_LIGHT_DIRECTIONAL : CV_LIGHT_POINT };
+        const float p[3] = { l->mPosition.x, l->mPosition.y, l->mPosition.z };
         cv_transform_point(world, p, light.position);
         transform_dir(world, &l->mDirection, light.direction);
         /* assimp folds intensity into the color; split it back out. */
@@ -291,8 +283,7 @@ static void convert_cameras_and_lights(importer *im)
     }
 }
 
-static cv_result convert(importer *im)
-{
+static cv_result convert(importer *im) {
     const struct aiScene *ai = im->ai;
     for (unsigned i = 0; i < ai->mNumMaterials; i++) {
         cv_material m = convert_material(ai->mMaterials[i]);
@@ -316,9 +307,10 @@ static cv_result convert(importer *im)
             return r;
     }
     if (cv_scene_world_triangle_count(im->scene) == 0)
-        return cv_error(CV_ERROR_MALFORMED, "%s: no triangles to render (%u meshes, %u with triangles, %u "
-                        "instances%s)", im->path, ai->mNumMeshes, cv_scene_mesh_count(im->scene),
-                        cv_scene_instance_count(im->scene),
+        return cv_error(CV_ERROR_MALFORMED,
+                        "%s: no triangles to render (%u meshes, %u with triangles, %u "
+                        "instances%s)",
+                        im->path, ai->mNumMeshes, cv_scene_mesh_count(im->scene), cv_scene_instance_count(im->scene),
                         im->instances_skipped ? ", some hidden by singular transforms" : "");
     convert_cameras_and_lights(im);
     return CV_OK;
@@ -326,8 +318,7 @@ static cv_result convert(importer *im)
 
 /* Missing, unreadable, empty and non-regular files get their own codes
  * before assimp sees them (assimp reports them alike, or hangs on a FIFO). */
-static cv_result check_file(const char *path)
-{
+static cv_result check_file(const char *path) {
     struct stat st;
     if (stat(path, &st) != 0)
         return errno == ENOENT || errno == ENOTDIR
@@ -351,8 +342,7 @@ static cv_result check_file(const char *path)
     return CV_OK;
 }
 
-cv_result cv_scene_import(const char *path, cv_scene **out)
-{
+cv_result cv_scene_import(const char *path, cv_scene **out) {
     if (!path || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_import: path or out is NULL");
     cv_result r = check_file(path);
@@ -368,7 +358,7 @@ cv_result cv_scene_import(const char *path, cv_scene **out)
         aiReleaseImport(ai);
         return cv_error(CV_ERROR_MALFORMED, "%s: assimp imported an incomplete scene (no usable geometry)", path);
     }
-    importer im = {.path = path, .ai = ai};
+    importer im = { .path = path, .ai = ai };
     im.mesh_map = malloc(((size_t)ai->mNumMeshes + 1) * sizeof(uint32_t));
     if (!im.mesh_map) {
         aiReleaseImport(ai);

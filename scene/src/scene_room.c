@@ -28,9 +28,8 @@ typedef struct room_materials {
     uint32_t diffuse[6], metal[3], glass[2], emissive[2];
 } room_materials;
 
-static cv_result add_material(cv_scene *s, float r, float g, float b, float rough, float metal,
-                              float transmission, float emission, uint32_t *out)
-{
+static cv_result add_material(cv_scene *s, float r, float g, float b, float rough, float metal, float transmission,
+                              float emission, uint32_t *out) {
     cv_material m = cv_material_default();
     m.base_color[0] = r;
     m.base_color[1] = g;
@@ -43,14 +42,15 @@ static cv_result add_material(cv_scene *s, float r, float g, float b, float roug
     return cv_scene_add_material(s, &m, out);
 }
 
-static cv_result add_materials(cv_scene *s, room_materials *m)
-{
+static cv_result add_materials(cv_scene *s, room_materials *m) {
     static const float pastel[6][3] = {
-        {0.95f, 0.45f, 0.55f}, {0.98f, 0.80f, 0.30f}, {0.30f, 0.75f, 0.70f},
-        {0.35f, 0.50f, 0.90f}, {0.95f, 0.55f, 0.25f}, {0.90f, 0.90f, 0.88f},
+        { 0.95f, 0.45f, 0.55f }, { 0.98f, 0.80f, 0.30f }, { 0.30f, 0.75f, 0.70f },
+        { 0.35f, 0.50f, 0.90f }, { 0.95f, 0.55f, 0.25f }, { 0.90f, 0.90f, 0.88f },
     };
     static const float metal[3][4] = {
-        {1.00f, 0.78f, 0.34f, 0.25f}, {0.95f, 0.95f, 0.95f, 0.02f}, {0.95f, 0.64f, 0.54f, 0.35f},
+        { 1.00f, 0.78f, 0.34f, 0.25f },
+        { 0.95f, 0.95f, 0.95f, 0.02f },
+        { 0.95f, 0.64f, 0.54f, 0.35f },
     };
     cv_result r = add_material(s, 0.55f, 0.55f, 0.58f, 0.35f, 0, 0, 0, &m->floor);
     if (r == CV_OK)
@@ -73,9 +73,8 @@ static cv_result add_materials(cv_scene *s, room_materials *m)
     return r;
 }
 
-static cv_result add_shapes(cv_scene *s, uint32_t shapes[SHAPE_COUNT])
-{
-    static const char *names[SHAPE_COUNT] = {"box", "beveled_box", "sphere", "cylinder", "cone"};
+static cv_result add_shapes(cv_scene *s, uint32_t shapes[SHAPE_COUNT]) {
+    static const char *names[SHAPE_COUNT] = { "box", "beveled_box", "sphere", "cylinder", "cone" };
     cv_result r = CV_OK;
     for (int i = 0; i < SHAPE_COUNT && r == CV_OK; i++) {
         cvs_mesh_builder b;
@@ -94,19 +93,17 @@ static cv_result add_shapes(cv_scene *s, uint32_t shapes[SHAPE_COUNT])
 }
 
 /* An axis-aligned slab of the unit box from min to max. */
-static cv_result add_slab(cv_scene *s, uint32_t box, uint32_t material, float x0, float y0, float z0,
-                          float x1, float y1, float z1)
-{
-    const double q[4] = {0, 0, 0, 1};
-    const float scale[3] = {x1 - x0, y1 - y0, z1 - z0};
-    const float centre[3] = {0.5f * (x0 + x1), 0.5f * (y0 + y1), 0.5f * (z0 + z1)};
-    cv_instance inst = {.mesh = box, .material = material};
+static cv_result add_slab(cv_scene *s, uint32_t box, uint32_t material, float x0, float y0, float z0, float x1,
+                          float y1, float z1) {
+    const double q[4] = { 0, 0, 0, 1 };
+    const float scale[3] = { x1 - x0, y1 - y0, z1 - z0 };
+    const float centre[3] = { 0.5f * (x0 + x1), 0.5f * (y0 + y1), 0.5f * (z0 + z1) };
+    cv_instance inst = { .mesh = box, .material = material };
     cvs_transform_trs(inst.transform, q, scale, centre);
     return cv_scene_add_instance(s, &inst, NULL);
 }
 
-static cv_result add_structure(cv_scene *s, uint32_t box, const room_materials *m)
-{
+static cv_result add_structure(cv_scene *s, uint32_t box, const room_materials *m) {
     const float X = ROOM_X + WALL, Z = ROOM_Z + WALL, H = ROOM_H;
     /* The ceiling opening: x in [-3, 3], z in [-2, 1]. */
     const float ox0 = -3.0f, ox1 = 3.0f, oz0 = -2.0f, oz1 = 1.0f;
@@ -128,8 +125,7 @@ static cv_result add_structure(cv_scene *s, uint32_t box, const room_materials *
     return r;
 }
 
-static uint32_t pick_material(cvs_rng *rng, const room_materials *m)
-{
+static uint32_t pick_material(cvs_rng *rng, const room_materials *m) {
     uint32_t roll = cvs_rng_below(rng, 100);
     if (roll < 70)
         return m->diffuse[cvs_rng_below(rng, 6)];
@@ -140,14 +136,12 @@ static uint32_t pick_material(cvs_rng *rng, const room_materials *m)
     return m->emissive[cvs_rng_below(rng, 2)];
 }
 
-static cv_result add_props(cv_scene *s, cvs_rng *rng, const uint32_t shapes[SHAPE_COUNT],
-                           const room_materials *m)
-{
-    float pile[CELLS_X * CELLS_Z] = {0};
+static cv_result add_props(cv_scene *s, cvs_rng *rng, const uint32_t shapes[SHAPE_COUNT], const room_materials *m) {
+    float pile[CELLS_X * CELLS_Z] = { 0 };
     for (uint32_t n = 0; n < CV_ROOM_PROP_COUNT; n++) {
         uint32_t shape = cvs_rng_below(rng, SHAPE_COUNT);
         float size = cvs_rng_range(rng, 0.25f, 0.7f);
-        float scale[3] = {size, size, size};
+        float scale[3] = { size, size, size };
         if (shape == SHAPE_BOX || shape == SHAPE_BEVELED) {
             scale[0] *= cvs_rng_range(rng, 0.7f, 1.0f);
             scale[1] *= cvs_rng_range(rng, 0.5f, 1.4f);
@@ -163,8 +157,8 @@ static cv_result add_props(cv_scene *s, cvs_rng *rng, const uint32_t shapes[SHAP
         float jx = cvs_rng_range(rng, -0.08f, 0.08f), jz = cvs_rng_range(rng, -0.08f, 0.08f);
         double q[4];
         cvs_quat_yaw(q, cvs_rng_range(rng, 0.0f, 6.2831853f));
-        const float t[3] = {cx + jx, pile[cell] + 0.5f * scale[1], cz + jz};
-        cv_instance inst = {.mesh = shapes[shape], .material = pick_material(rng, m)};
+        const float t[3] = { cx + jx, pile[cell] + 0.5f * scale[1], cz + jz };
+        cv_instance inst = { .mesh = shapes[shape], .material = pick_material(rng, m) };
         cvs_transform_trs(inst.transform, q, scale, t);
         pile[cell] += scale[1];
         cv_result r = cv_scene_add_instance(s, &inst, NULL);
@@ -174,15 +168,16 @@ static cv_result add_props(cv_scene *s, cvs_rng *rng, const uint32_t shapes[SHAP
     return CV_OK;
 }
 
-static cv_result add_lights_and_camera(cv_scene *s)
-{
-    cv_light sun = {.type = CV_LIGHT_DIRECTIONAL, .direction = {0.35f, -1.0f, 0.25f},
-                    .color = {1.0f, 0.95f, 0.85f}, .intensity = 6.0f};
+static cv_result add_lights_and_camera(cv_scene *s) {
+    cv_light sun = { .type = CV_LIGHT_DIRECTIONAL,
+                     .direction = { 0.35f, -1.0f, 0.25f },
+                     .color = { 1.0f, 0.95f, 0.85f },
+                     .intensity = 6.0f };
     cv_result r = cv_scene_add_light(s, &sun, NULL);
-    const float pos[3][3] = {{-5.0f, 3.5f, -2.0f}, {5.0f, 3.5f, -2.0f}, {0.0f, 3.0f, 3.0f}};
-    const float col[3][3] = {{1.0f, 0.7f, 0.5f}, {0.5f, 0.7f, 1.0f}, {1.0f, 1.0f, 1.0f}};
+    const float pos[3][3] = { { -5.0f, 3.5f, -2.0f }, { 5.0f, 3.5f, -2.0f }, { 0.0f, 3.0f, 3.0f } };
+    const float col[3][3] = { { 1.0f, 0.7f, 0.5f }, { 0.5f, 0.7f, 1.0f }, { 1.0f, 1.0f, 1.0f } };
     for (int i = 0; i < 3 && r == CV_OK; i++) {
-        cv_light l = {.type = CV_LIGHT_POINT, .intensity = 20.0f};
+        cv_light l = { .type = CV_LIGHT_POINT, .intensity = 20.0f };
         for (int k = 0; k < 3; k++) {
             l.position[k] = pos[i][k];
             l.color[k] = col[i][k];
@@ -190,15 +185,16 @@ static cv_result add_lights_and_camera(cv_scene *s)
         r = cv_scene_add_light(s, &l, NULL);
     }
     if (r == CV_OK) {
-        cv_camera cam = {.position = {0.0f, 2.4f, 11.0f}, .target = {0.0f, 1.2f, 0.0f},
-                         .up = {0.0f, 1.0f, 0.0f}, .vertical_fov = 0.87266463f};
+        cv_camera cam = { .position = { 0.0f, 2.4f, 11.0f },
+                          .target = { 0.0f, 1.2f, 0.0f },
+                          .up = { 0.0f, 1.0f, 0.0f },
+                          .vertical_fov = 0.87266463f };
         r = cv_scene_add_camera(s, &cam, NULL);
     }
     return r;
 }
 
-cv_result cv_scene_make_room(uint32_t seed, cv_scene **out)
-{
+cv_result cv_scene_make_room(uint32_t seed, cv_scene **out) {
     if (!out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_make_room: out is NULL");
     cv_scene *s;

@@ -17,8 +17,7 @@
 #define STRESS_MATERIALS 6u
 #define STRESS_MAX_TRIANGLES (1ull << 31)
 
-static cv_result add_blob(cv_scene *s, uint32_t triangles, uint64_t seed, uint32_t *out)
-{
+static cv_result add_blob(cv_scene *s, uint32_t triangles, uint64_t seed, uint32_t *out) {
     cvs_mesh_builder b;
     cvs_mb_init(&b);
     cvs_shape_blob(&b, triangles, seed);
@@ -27,8 +26,7 @@ static cv_result add_blob(cv_scene *s, uint32_t triangles, uint64_t seed, uint32
     return r;
 }
 
-static cv_result add_materials(cv_scene *s, cvs_rng *rng)
-{
+static cv_result add_materials(cv_scene *s, cvs_rng *rng) {
     cv_result r = CV_OK;
     for (uint32_t i = 0; i < STRESS_MATERIALS && r == CV_OK; i++) {
         cv_material m = cv_material_default();
@@ -41,22 +39,23 @@ static cv_result add_materials(cv_scene *s, cvs_rng *rng)
     return r;
 }
 
-static cv_result add_camera_and_sun(cv_scene *s, float side)
-{
-    cv_light sun = {.type = CV_LIGHT_DIRECTIONAL, .direction = {-0.4f, -1.0f, -0.3f},
-                    .color = {1.0f, 1.0f, 1.0f}, .intensity = 5.0f};
+static cv_result add_camera_and_sun(cv_scene *s, float side) {
+    cv_light sun = { .type = CV_LIGHT_DIRECTIONAL,
+                     .direction = { -0.4f, -1.0f, -0.3f },
+                     .color = { 1.0f, 1.0f, 1.0f },
+                     .intensity = 5.0f };
     cv_result r = cv_scene_add_light(s, &sun, NULL);
     if (r != CV_OK)
         return r;
     /* The cube spans [-side/2, side/2]^3; look at it from the +z side, slightly above. */
-    cv_camera cam = {.position = {0.25f * side, 0.35f * side, 1.35f * side},
-                     .target = {0.0f, 0.0f, 0.0f}, .up = {0.0f, 1.0f, 0.0f},
-                     .vertical_fov = 0.87266463f};
+    cv_camera cam = { .position = { 0.25f * side, 0.35f * side, 1.35f * side },
+                      .target = { 0.0f, 0.0f, 0.0f },
+                      .up = { 0.0f, 1.0f, 0.0f },
+                      .vertical_fov = 0.87266463f };
     return cv_scene_add_camera(s, &cam, NULL);
 }
 
-static cv_result build(cv_scene *s, uint32_t seed, uint64_t total)
-{
+static cv_result build(cv_scene *s, uint32_t seed, uint64_t total) {
     cvs_rng rng = cvs_rng_make(seed, 0x57E55);
     uint64_t per = total / 256;
     uint32_t t = per < 16 ? 16u : per > 4096 ? 4096u : (uint32_t)per;
@@ -75,12 +74,12 @@ static cv_result build(cv_scene *s, uint32_t seed, uint64_t total)
     float side = (float)cvs_cbrt((double)instances / 0.35);
     for (uint64_t i = 0; i < instances && r == CV_OK; i++) {
         cvs_rng irng = cvs_rng_make(seed, 0x1000 + i);
-        cv_instance inst = {.mesh = i < full ? meshes[i % kinds] : meshes[BLOB_MESHES],
-                            .material = cvs_rng_below(&irng, STRESS_MATERIALS)};
+        cv_instance inst = { .mesh = i < full ? meshes[i % kinds] : meshes[BLOB_MESHES],
+                             .material = cvs_rng_below(&irng, STRESS_MATERIALS) };
         double q[4];
         cvs_quat_random(q, &irng);
         float sc = cvs_rng_range(&irng, 0.5f, 1.3f);
-        const float scale[3] = {sc, sc, sc};
+        const float scale[3] = { sc, sc, sc };
         float pos[3];
         for (int k = 0; k < 3; k++)
             pos[k] = cvs_rng_range(&irng, -0.5f, 0.5f) * side;
@@ -92,8 +91,7 @@ static cv_result build(cv_scene *s, uint32_t seed, uint64_t total)
     return r;
 }
 
-cv_result cv_scene_make_stress(uint32_t seed, uint64_t triangle_count, cv_scene **out)
-{
+cv_result cv_scene_make_stress(uint32_t seed, uint64_t triangle_count, cv_scene **out) {
     if (!out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_make_stress: out is NULL");
     if (triangle_count == 0 || triangle_count > STRESS_MAX_TRIANGLES)

@@ -27,36 +27,36 @@
 
 #include "corvid/sha256.h"
 
-#define OBJECT_NAME_SIZE (3 + CV_SHA256_HEX_SIZE)        /* "xx/" + 64 digits + NUL */
-#define TEMP_NAME_SIZE (CV_SHA256_HEX_SIZE + 24)         /* 64 digits + ".<n>" + NUL */
+#define OBJECT_NAME_SIZE (3 + CV_SHA256_HEX_SIZE) /* "xx/" + 64 digits + NUL */
+#define TEMP_NAME_SIZE (CV_SHA256_HEX_SIZE + 24)  /* 64 digits + ".<n>" + NUL */
 
 typedef enum entry_state {
-    ENTRY_UPLOADING,   /* in the table, not on the LRU list, its size reserved */
-    ENTRY_STORED,      /* in the table and on the LRU list, its size in bytes */
-    ENTRY_DROPPED,     /* found damaged while pinned: in neither, freed at the last unpin */
+    ENTRY_UPLOADING, /* in the table, not on the LRU list, its size reserved */
+    ENTRY_STORED,    /* in the table and on the LRU list, its size in bytes */
+    ENTRY_DROPPED,   /* found damaged while pinned: in neither, freed at the last unpin */
 } entry_state;
 
 typedef struct entry {
     uint8_t sha[32];
     uint64_t size;
-    struct timespec used;          /* last use */
-    struct timespec used_on_disk;  /* the blob file's mtime: `used`, or up to a second older */
+    struct timespec used;         /* last use */
+    struct timespec used_on_disk; /* the blob file's mtime: `used`, or up to a second older */
     uint32_t pins;
     entry_state state;
-    bool verified;                 /* content hashed since the store was opened */
-    struct entry *newer, *older;   /* LRU list */
+    bool verified;               /* content hashed since the store was opened */
+    struct entry *newer, *older; /* LRU list */
 } entry;
 
 struct cv_content_store {
     pthread_mutex_t lock;
     int dir_fd, objects_fd, tmp_fd, lock_fd;
     uint64_t max_bytes;
-    uint64_t reserved;             /* sizes of uploads in progress */
+    uint64_t reserved; /* sizes of uploads in progress */
     uint64_t seed;
-    entry **table;                 /* table_capacity slots, a power of two */
+    entry **table; /* table_capacity slots, a power of two */
     size_t table_capacity, table_count;
     entry *newest, *oldest;
-    struct timespec last_stamp;    /* uses get strictly increasing times */
+    struct timespec last_stamp; /* uses get strictly increasing times */
     uint64_t temp_counter;
     uint32_t live_uploads, live_blobs;
     cv_content_stats stats;
@@ -308,8 +308,9 @@ static read_outcome read_fd(int fd, uint64_t size, const char *hex, void **out) 
         if (n <= 0) {
             free(buffer);
             if (n == 0) {
-                cv_error(CV_ERROR_NOT_FOUND, "content store: blob %s: file ends at %" PRIu64 " of %" PRIu64
-                         " bytes; dropped", hex, done, size);
+                cv_error(CV_ERROR_NOT_FOUND,
+                         "content store: blob %s: file ends at %" PRIu64 " of %" PRIu64 " bytes; dropped", hex, done,
+                         size);
                 return READ_DAMAGED;
             }
             cv_error(CV_ERROR_IO, "content store: blob %s: read: %s", hex, strerror(errno));
@@ -344,8 +345,9 @@ static read_outcome load_blob(cv_content_store *s, const entry *e, bool verify, 
         return READ_FAILED;
     }
     if ((uint64_t)st.st_size != e->size) {
-        cv_error(CV_ERROR_NOT_FOUND, "content store: blob %s: file has %" PRIu64 " bytes, indexed with %" PRIu64
-                 "; dropped", hex, (uint64_t)st.st_size, e->size);
+        cv_error(CV_ERROR_NOT_FOUND,
+                 "content store: blob %s: file has %" PRIu64 " bytes, indexed with %" PRIu64 "; dropped", hex,
+                 (uint64_t)st.st_size, e->size);
         close(fd);
         return READ_DAMAGED;
     }
@@ -450,8 +452,7 @@ static cv_result scan_objects(cv_content_store *s, const char *dir, found_blob *
         const char *prefix = de->d_name;
         if (strcmp(prefix, ".") == 0 || strcmp(prefix, "..") == 0)
             continue;
-        int sub_fd = is_lower_hex(prefix, 2) ? openat(s->objects_fd, prefix, O_RDONLY | O_DIRECTORY | O_CLOEXEC)
-                                             : -1;
+        int sub_fd = is_lower_hex(prefix, 2) ? openat(s->objects_fd, prefix, O_RDONLY | O_DIRECTORY | O_CLOEXEC) : -1;
         DIR *sub = sub_fd < 0 ? NULL : fdopendir(sub_fd);
         if (sub == NULL) {
             if (sub_fd >= 0)
@@ -465,8 +466,7 @@ static cv_result scan_objects(cv_content_store *s, const char *dir, found_blob *
                 continue;
             found_blob b;
             struct stat st;
-            bool valid = is_lower_hex(name, 64) && memcmp(name, prefix, 2) == 0 &&
-                         cv_sha256_parse_hex(name, b.sha) &&
+            bool valid = is_lower_hex(name, 64) && memcmp(name, prefix, 2) == 0 && cv_sha256_parse_hex(name, b.sha) &&
                          fstatat(sub_fd, name, &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISREG(st.st_mode);
             if (!valid) {
                 remove_stray(sub_fd, name);
@@ -517,7 +517,7 @@ static void free_store(cv_content_store *s) {
     for (size_t i = 0; s->table && i < s->table_capacity; i++)
         free(s->table[i]);
     free(s->table);
-    int fds[] = { s->tmp_fd, s->objects_fd, s->dir_fd, s->lock_fd };   /* closing lock_fd unlocks */
+    int fds[] = { s->tmp_fd, s->objects_fd, s->dir_fd, s->lock_fd }; /* closing lock_fd unlocks */
     for (size_t i = 0; i < sizeof fds / sizeof fds[0]; i++) {
         if (fds[i] >= 0)
             close(fds[i]);
@@ -537,8 +537,7 @@ static cv_result open_dirs(cv_content_store *s, const char *dir) {
         return cv_error(CV_ERROR_IO, "content store '%s': open lock: %s", dir, strerror(errno));
     if (flock(s->lock_fd, LOCK_EX | LOCK_NB) != 0) {
         if (errno == EWOULDBLOCK)
-            return cv_error(CV_ERROR_BAD_STATE, "content store '%s': already open (by this or another process)",
-                            dir);
+            return cv_error(CV_ERROR_BAD_STATE, "content store '%s': already open (by this or another process)", dir);
         return cv_error(CV_ERROR_IO, "content store '%s': flock: %s", dir, strerror(errno));
     }
     cv_result r = open_subdir(s->dir_fd, dir, "objects", &s->objects_fd);
@@ -685,7 +684,7 @@ cv_result cv_content_store_get(cv_content_store *s, const uint8_t sha[32], cv_co
     pthread_mutex_unlock(&s->lock);
     if (m != READ_OK) {
         free(b);
-        return m == READ_DAMAGED ? CV_ERROR_NOT_FOUND : CV_ERROR_IO;   /* map_blob set the message */
+        return m == READ_DAMAGED ? CV_ERROR_NOT_FOUND : CV_ERROR_IO; /* map_blob set the message */
     }
     *b = (cv_content_blob){ .store = s, .entry = e, .data = data ? data : "", .size = e->size };
     *out = b;
@@ -721,15 +720,18 @@ cv_content_stats cv_content_store_stats(cv_content_store *s) {
 cv_result cv_content_upload_begin(cv_content_store *s, const uint8_t sha[32], uint64_t size,
                                   cv_content_upload **out) {
     if (s == NULL || sha == NULL || out == NULL)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: upload_begin needs a store, a hash and an out pointer");
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "content store: upload_begin needs a store, a hash and an out pointer");
     char hex[CV_SHA256_HEX_SIZE];
     cv_sha256_hex(sha, hex);
     if (size > s->max_bytes) {
         pthread_mutex_lock(&s->lock);
         s->stats.rejected++;
         pthread_mutex_unlock(&s->lock);
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "content store: blob %s of %" PRIu64
-                        " bytes is larger than the store's limit of %" PRIu64 " bytes", hex, size, s->max_bytes);
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "content store: blob %s of %" PRIu64 " bytes is larger than the store's limit of %" PRIu64
+                        " bytes",
+                        hex, size, s->max_bytes);
     }
     cv_content_upload *u = calloc(1, sizeof *u);
     entry *e = calloc(1, sizeof *e);
@@ -752,8 +754,9 @@ cv_result cv_content_upload_begin(cv_content_store *s, const uint8_t sha[32], ui
         r = cv_error(CV_ERROR_BAD_STATE, "content store: blob %s is being uploaded by another session", hex);
     } else if (!make_room(s, size)) {
         s->stats.rejected++;
-        r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "content store: no room for blob %s of %" PRIu64 " bytes: %" PRIu64
-                     " of the limit of %" PRIu64 " bytes are pinned or reserved by other uploads",
+        r = cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                     "content store: no room for blob %s of %" PRIu64 " bytes: %" PRIu64 " of the limit of %" PRIu64
+                     " bytes are pinned or reserved by other uploads",
                      hex, size, s->stats.bytes + s->reserved, s->max_bytes);
     } else if (!table_insert(s, e)) {
         r = cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: index entry for %s", hex);
@@ -797,13 +800,17 @@ cv_result cv_content_upload_begin(cv_content_store *s, const uint8_t sha[32], ui
 cv_result cv_content_upload_write(cv_content_upload *u, uint64_t offset, const void *data, size_t len) {
     if (u == NULL || (data == NULL && len > 0))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: upload_write needs an upload and data");
-    const char *name = u->temp_name;   /* "<hash>.<n>" */
+    const char *name = u->temp_name; /* "<hash>.<n>" */
     if (offset != u->received)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: upload of %.64s: chunk at offset %" PRIu64
-                        ", expected the next at %" PRIu64 " (chunks go in order)", name, offset, u->received);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "content store: upload of %.64s: chunk at offset %" PRIu64 ", expected the next at %" PRIu64
+                        " (chunks go in order)",
+                        name, offset, u->received);
     if (len > u->entry->size - u->received)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "content store: upload of %.64s: chunk of %zu bytes at %" PRIu64
-                        " runs past the blob's %" PRIu64 " bytes", name, len, offset, u->entry->size);
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "content store: upload of %.64s: chunk of %zu bytes at %" PRIu64
+                        " runs past the blob's %" PRIu64 " bytes",
+                        name, len, offset, u->entry->size);
     /* pwrite at the chunk's own offset: if it fails part way, a retry of the
      * same chunk overwrites whatever got written. */
     const uint8_t *p = data;
@@ -812,8 +819,8 @@ cv_result cv_content_upload_write(cv_content_upload *u, uint64_t offset, const v
         if (n < 0 && errno == EINTR)
             continue;
         if (n <= 0)
-            return cv_error(CV_ERROR_IO, "content store: upload of %.64s: writing %zu bytes at %" PRIu64 ": %s",
-                            name, len, offset, n < 0 ? strerror(errno) : "no progress");
+            return cv_error(CV_ERROR_IO, "content store: upload of %.64s: writing %zu bytes at %" PRIu64 ": %s", name,
+                            len, offset, n < 0 ? strerror(errno) : "no progress");
         done += (size_t)n;
     }
     cv_sha256_update(&u->sha, data, len);
@@ -854,8 +861,10 @@ cv_result cv_content_upload_finish(cv_content_upload *u) {
     char key_hex[CV_SHA256_HEX_SIZE];
     cv_sha256_hex(e->sha, key_hex);
     if (u->received != e->size) {
-        cv_result r = cv_error(CV_ERROR_BAD_STATE, "content store: upload of %s finished after %" PRIu64 " of its %"
-                               PRIu64 " bytes; nothing stored", key_hex, u->received, e->size);
+        cv_result r = cv_error(CV_ERROR_BAD_STATE,
+                               "content store: upload of %s finished after %" PRIu64 " of its %" PRIu64
+                               " bytes; nothing stored",
+                               key_hex, u->received, e->size);
         discard_upload(u, true);
         return r;
     }
@@ -864,8 +873,8 @@ cv_result cv_content_upload_finish(cv_content_upload *u) {
     if (r == CV_OK && memcmp(actual, e->sha, 32) != 0) {
         char actual_hex[CV_SHA256_HEX_SIZE];
         cv_sha256_hex(actual, actual_hex);
-        r = cv_error(CV_ERROR_HASH_MISMATCH, "content store: upload keyed %s has content hashing to %s; nothing stored",
-                     key_hex, actual_hex);
+        r = cv_error(CV_ERROR_HASH_MISMATCH,
+                     "content store: upload keyed %s has content hashing to %s; nothing stored", key_hex, actual_hex);
     }
     if (r == CV_OK && close(u->fd) != 0)
         r = cv_error(CV_ERROR_IO, "content store: upload of %s: close: %s", key_hex, strerror(errno));

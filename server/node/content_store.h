@@ -67,19 +67,19 @@
 #include "corvid/result.h"
 
 typedef struct cv_content_store cv_content_store;
-typedef struct cv_content_upload cv_content_upload;   /* one blob being received */
-typedef struct cv_content_blob cv_content_blob;       /* a pinned, readable blob */
+typedef struct cv_content_upload cv_content_upload; /* one blob being received */
+typedef struct cv_content_blob cv_content_blob;     /* a pinned, readable blob */
 
 typedef struct cv_content_stats {
-    uint64_t bytes;       /* stored blobs, reservations of uploads not included */
-    uint64_t entries;     /* stored blobs */
-    uint64_t hits;        /* has() answered true */
-    uint64_t misses;      /* has() answered false */
-    uint64_t evictions;   /* blobs removed to make room */
-    uint64_t uploads;     /* uploads finished and stored */
-    uint64_t rejected;    /* uploads refused for size or room at begin, or failed at finish
+    uint64_t bytes;     /* stored blobs, reservations of uploads not included */
+    uint64_t entries;   /* stored blobs */
+    uint64_t hits;      /* has() answered true */
+    uint64_t misses;    /* has() answered false */
+    uint64_t evictions; /* blobs removed to make room */
+    uint64_t uploads;   /* uploads finished and stored */
+    uint64_t rejected;  /* uploads refused for size or room at begin, or failed at finish
                              (incomplete, content not matching the key, I/O) */
-    uint64_t dropped;     /* blob files found damaged on use and removed */
+    uint64_t dropped;   /* blob files found damaged on use and removed */
     uint64_t max_bytes;
 } cv_content_stats;
 
@@ -102,8 +102,7 @@ bool cv_content_store_has(cv_content_store *s, const uint8_t sha[32]);
  * if stored (the caller skips the upload; counts as a use for the LRU);
  * CV_ERROR_BAD_STATE if another upload is receiving it; CV_ERROR_LIMIT_EXCEEDED
  * if size > max_bytes or pinned blobs and other uploads leave no room. */
-cv_result cv_content_upload_begin(cv_content_store *s, const uint8_t sha[32], uint64_t size,
-                                  cv_content_upload **out);
+cv_result cv_content_upload_begin(cv_content_store *s, const uint8_t sha[32], uint64_t size, cv_content_upload **out);
 /* Appends the next bytes: `offset` must equal the bytes received so far
  * (CV_ERROR_INVALID_ARGUMENT) and offset + len <= size (CV_ERROR_OUT_OF_RANGE).
  * On any error (CV_ERROR_IO included) the upload is unchanged and the same

@@ -4,7 +4,7 @@
 #include <stdlib.h>
 
 static uint32_t slot_for(uint64_t key, uint32_t capacity) {
-    key ^= key >> 33;   /* murmur3's 64-bit finaliser: ids differ mostly in low bits */
+    key ^= key >> 33; /* murmur3's 64-bit finaliser: ids differ mostly in low bits */
     key *= 0xff51afd7ed558ccdull;
     key ^= key >> 33;
     key *= 0xc4ceb9fe1a85ec53ull;

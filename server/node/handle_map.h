@@ -15,13 +15,13 @@
 #include "corvid/result.h"
 
 typedef struct cv_handle_map_entry {
-    uint64_t key;     /* client id; 0 = empty */
-    uint64_t value;   /* node id */
+    uint64_t key;   /* client id; 0 = empty */
+    uint64_t value; /* node id */
 } cv_handle_map_entry;
 
 typedef struct cv_handle_map {
     cv_handle_map_entry *entries;
-    uint32_t capacity;   /* power of two, or 0 */
+    uint32_t capacity; /* power of two, or 0 */
     uint32_t count;
 } cv_handle_map;
 

@@ -19,17 +19,17 @@ static const double pass_buckets[] = { 0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025
 
 typedef struct pass_histogram {
     char label[CV_LABEL_MAX];
-    uint64_t buckets[BUCKETS];   /* not cumulative; the text makes them so */
+    uint64_t buckets[BUCKETS]; /* not cumulative; the text makes them so */
     uint64_t count;
-    double sum;                  /* seconds */
+    double sum; /* seconds */
 } pass_histogram;
 
 struct cv_node_metrics {
     uint32_t device_count;
     atomic_int_fast64_t *device_bytes;
     atomic_uint_fast64_t node_loss_events;
-    pthread_mutex_t lock;        /* the histograms */
-    pass_histogram passes[CV_NODE_METRICS_MAX_PASSES + 1];   /* the last is "other" */
+    pthread_mutex_t lock;                                  /* the histograms */
+    pass_histogram passes[CV_NODE_METRICS_MAX_PASSES + 1]; /* the last is "other" */
     uint32_t pass_count;
 };
 
@@ -99,7 +99,7 @@ void cv_node_metrics_passes(cv_node_metrics *m, const cv_pass_timing *timings, u
     pthread_mutex_lock(&m->lock);
     for (uint32_t i = 0; i < count; i++) {
         char label[CV_LABEL_MAX];
-        snprintf(label, sizeof(label), "%s", timings[i].label);   /* a device's label may lack its NUL */
+        snprintf(label, sizeof(label), "%s", timings[i].label); /* a device's label may lack its NUL */
         double seconds = timings[i].duration_ms > 0 ? timings[i].duration_ms / 1000.0 : 0.0;
         pass_histogram *h = histogram_for(m, label);
         uint32_t b = 0;
@@ -117,7 +117,7 @@ void cv_node_metrics_passes(cv_node_metrics *m, const cv_pass_timing *timings, u
 
 typedef struct writer {
     char *buf;
-    size_t cap, len;   /* len counts what did not fit too */
+    size_t cap, len; /* len counts what did not fit too */
 } writer;
 
 static void emit(writer *w, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -173,15 +173,15 @@ size_t cv_node_metrics_text(cv_node *node, char *buf, size_t cap) {
            st.messages_in);
     scalar(&w, "corvid_node_submissions_total", "counter",
            "Command-list submissions (a frame is one or more), including failed ones.", st.submissions);
-    scalar(&w, "corvid_node_bytes_received_total", "counter", "Bytes of session messages received from clients.", st.bytes_in);
+    scalar(&w, "corvid_node_bytes_received_total", "counter", "Bytes of session messages received from clients.",
+           st.bytes_in);
     scalar(&w, "corvid_node_bytes_sent_total", "counter", "Bytes of session messages sent to clients.", st.bytes_out);
     scalar(&w, "corvid_node_cache_hits_total", "counter", "Content store lookups that found their blob.",
            st.cache_hits);
     scalar(&w, "corvid_node_cache_misses_total", "counter", "Content store lookups that did not.", st.cache_misses);
     scalar(&w, "corvid_node_cache_bytes", "gauge", "Bytes held by the content store.", st.cache_bytes);
     scalar(&w, "corvid_node_errors_total", "counter",
-           "Requests answered with an error, failed submissions and sessions ended with an error status.",
-           st.errors);
+           "Requests answered with an error, failed submissions and sessions ended with an error status.", st.errors);
 
     header(&w, "corvid_node_device_memory_bytes", "gauge",
            "Bytes of live resources (buffers, textures, acceleration structures) sessions hold on each node device.");

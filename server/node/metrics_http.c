@@ -41,7 +41,7 @@ static char *render(cv_node *node, size_t *size) {
             return buf;
         }
         free(buf);
-        cap = n + 1024;   /* a histogram may have grown between the two passes */
+        cap = n + 1024; /* a histogram may have grown between the two passes */
     }
     return NULL;
 }
@@ -53,12 +53,13 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     (void)upload_data;
     (void)req_cls;
     cv_metrics_server *server = cls;
-    if (*upload_data_size)   /* a body we do not want: drop it */
+    if (*upload_data_size) /* a body we do not want: drop it */
         *upload_data_size = 0;
     if (strcmp(method, MHD_HTTP_METHOD_GET) != 0 && strcmp(method, MHD_HTTP_METHOD_HEAD) != 0)
         return answer_text(conn, MHD_HTTP_METHOD_NOT_ALLOWED, "corvid-node metrics: only GET and HEAD\n");
     if (strcmp(url, "/metrics") != 0)
-        return answer_text(conn, MHD_HTTP_NOT_FOUND, "corvid-node metrics: not found (the metrics are at /metrics)\n");
+        return answer_text(conn, MHD_HTTP_NOT_FOUND,
+                           "corvid-node metrics: not found (the metrics are at /metrics)\n");
     size_t size = 0;
     char *text = render(server->node, &size);
     if (!text)
@@ -83,8 +84,8 @@ cv_result cv_metrics_server_start(cv_node *node, const char *address, int port, 
         address = "127.0.0.1";
     char port_text[8];
     snprintf(port_text, sizeof(port_text), "%d", port);
-    struct addrinfo hints = { .ai_flags = AI_NUMERICHOST | AI_NUMERICSERV | AI_PASSIVE,
-                              .ai_socktype = SOCK_STREAM }, *ai = NULL;
+    struct addrinfo hints = { .ai_flags = AI_NUMERICHOST | AI_NUMERICSERV | AI_PASSIVE, .ai_socktype = SOCK_STREAM },
+                    *ai = NULL;
     /* "[::1]" as well as "::1". */
     char host[64];
     size_t len = strlen(address);
@@ -94,8 +95,10 @@ cv_result cv_metrics_server_start(cv_node *node, const char *address, int port, 
         snprintf(host, sizeof(host), "%s", address);
     int gai = getaddrinfo(host, port_text, &hints, &ai);
     if (gai != 0)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "metrics: listen address '%s' is not a numeric IPv4 or IPv6 "
-                        "address (%s)", address, gai_strerror(gai));
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "metrics: listen address '%s' is not a numeric IPv4 or IPv6 "
+                        "address (%s)",
+                        address, gai_strerror(gai));
     cv_metrics_server *s = calloc(1, sizeof(*s));
     if (!s) {
         freeaddrinfo(ai);
@@ -105,16 +108,16 @@ cv_result cv_metrics_server_start(cv_node *node, const char *address, int port, 
     unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ERROR_LOG;
     if (ai->ai_family == AF_INET6)
         flags |= MHD_USE_IPv6;
-    s->daemon = MHD_start_daemon(flags, (uint16_t)port, NULL, NULL, on_request, s,
-                                 MHD_OPTION_SOCK_ADDR, ai->ai_addr,
-                                 MHD_OPTION_CONNECTION_LIMIT, (unsigned)32,
-                                 MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)10,
-                                 MHD_OPTION_END);
+    s->daemon = MHD_start_daemon(flags, (uint16_t)port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR, ai->ai_addr,
+                                 MHD_OPTION_CONNECTION_LIMIT, (unsigned)32, MHD_OPTION_CONNECTION_TIMEOUT,
+                                 (unsigned)10, MHD_OPTION_END);
     freeaddrinfo(ai);
     if (!s->daemon) {
         free(s);
-        return cv_error(CV_ERROR_IO, "metrics: cannot listen on %s port %d (in use, or not an address of this "
-                        "machine)", address, port);
+        return cv_error(CV_ERROR_IO,
+                        "metrics: cannot listen on %s port %d (in use, or not an address of this "
+                        "machine)",
+                        address, port);
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(s->daemon, MHD_DAEMON_INFO_BIND_PORT);
     s->port = info ? info->port : port;

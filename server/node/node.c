@@ -13,14 +13,19 @@
 #include "health.pb-c.h"
 #include "node_internal.h"
 
-enum { STATUS_OK = 0, STATUS_INVALID_ARGUMENT = 3, STATUS_NOT_FOUND = 5, STATUS_INTERNAL = 13,
-       STATUS_UNAUTHENTICATED = 16 };
+enum {
+    STATUS_OK = 0,
+    STATUS_INVALID_ARGUMENT = 3,
+    STATUS_NOT_FOUND = 5,
+    STATUS_INTERNAL = 13,
+    STATUS_UNAUTHENTICATED = 16
+};
 
 static const char *const stream_methods[] = { CV_NODE_METHOD_SESSION, NULL };
 static const char *const unary_methods[] = { CV_NODE_METHOD_INFO, CV_HEALTH_METHOD_CHECK, NULL };
 
 static void on_stream(cv_rpc_stream *stream, const char *method, void *user) {
-    (void)method;   /* the only stream method */
+    (void)method; /* the only stream method */
     cv_node_session_run(user, stream);
 }
 
@@ -59,8 +64,10 @@ static int on_call(const char *method, const char *peer, const cv_rpc_metadata *
     atomic_fetch_add(&node->unauthenticated, 1);
     if (node->config.log_sessions)
         fprintf(stderr, "corvid-node: refused %s from %s: %s\n", method, peer, why);
-    snprintf(message, cap, "unauthenticated: %s (this node needs its bearer token: the client reads it from the "
-             "file named by CORVID_NODE_TOKEN_FILE)", why);
+    snprintf(message, cap,
+             "unauthenticated: %s (this node needs its bearer token: the client reads it from the "
+             "file named by CORVID_NODE_TOKEN_FILE)",
+             why);
     return STATUS_UNAUTHENTICATED;
 }
 
@@ -92,7 +99,7 @@ bool cv_node_listen_is_local(const char *listen) {
     struct in6_addr v6;
     if (inet_pton(AF_INET6, host, &v6) == 1)
         return IN6_IS_ADDR_LOOPBACK(&v6) || (IN6_IS_ADDR_V4MAPPED(&v6) && v6.s6_addr[12] == 127);
-    return false;   /* "", "0.0.0.0", "::", a host name: reachable from elsewhere */
+    return false; /* "", "0.0.0.0", "::", a host name: reachable from elsewhere */
 }
 
 static int answer_info(cv_node *node, void **response, size_t *size, char *message, size_t cap) {
@@ -131,8 +138,8 @@ static int answer_info(cv_node *node, void **response, size_t *size, char *messa
 
 static int answer_health(cv_node *node, const void *request, size_t request_size, void **response, size_t *size,
                          char *message, size_t cap) {
-    Grpc__Health__V1__HealthCheckRequest *req =
-        grpc__health__v1__health_check_request__unpack(NULL, request_size, request);
+    Grpc__Health__V1__HealthCheckRequest *req = grpc__health__v1__health_check_request__unpack(NULL, request_size,
+                                                                                               request);
     if (!req) {
         snprintf(message, cap, "not a grpc.health.v1.HealthCheckRequest");
         return STATUS_INVALID_ARGUMENT;
@@ -202,7 +209,8 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     if (config->token && !config->token[0])
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "node: the token is empty");
     if (!config->token && !cv_node_listen_is_local(config->listen))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "node: listening on '%s', which is not loopback, needs a token "
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "node: listening on '%s', which is not loopback, needs a token "
                         "(corvid-node: --token-file FILE or CORVID_NODE_TOKEN_FILE, a file whose first line is the "
                         "token; clients read theirs from CORVID_NODE_TOKEN_FILE), or listen on 127.0.0.1",
                         config->listen);
@@ -249,8 +257,8 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         snprintf(node->name, sizeof(node->name), "corvid-node");
     node->config.name = node->name;
     node->config.listen = NULL;
-    node->config.cache_dir = NULL;   /* used only here, below */
-    node->config.token = NULL;       /* only its hash is kept */
+    node->config.cache_dir = NULL; /* used only here, below */
+    node->config.token = NULL;     /* only its hash is kept */
     node->config.tls_cert_file = node->config.tls_key_file = node->config.tls_client_ca_file = NULL;
     node->config.quota = node->quota;
 

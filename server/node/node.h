@@ -32,20 +32,20 @@ typedef struct cv_node cv_node;
 /* One device the node serves: a backend and the adapter to open on it. */
 typedef struct cv_node_device_spec {
     const cv_backend *backend;
-    char adapter[64];             /* as cv_device_desc.adapter ("" = backend default) */
-    char label[CV_LABEL_MAX];     /* the node's name for it ("gpu0") */
+    char adapter[64];         /* as cv_device_desc.adapter ("" = backend default) */
+    char label[CV_LABEL_MAX]; /* the node's name for it ("gpu0") */
 } cv_node_device_spec;
 
 /* What one session may hold at once (docs/node.md, "Security"). A request past a quota is refused with
  * CV_ERROR_LIMIT_EXCEEDED and a message naming the quota and its limit; it changes nothing and the session
  * goes on. 0 = the default. */
 typedef struct cv_node_quota {
-    uint64_t memory_bytes;   /* device memory created: buffer sizes + texture texels + acceleration structures
+    uint64_t memory_bytes; /* device memory created: buffer sizes + texture texels + acceleration structures
                                 [CV_NODE_DEFAULT_QUOTA_MEMORY] */
-    uint32_t resources;      /* live resources of every type, command lists included [CV_NODE_DEFAULT_QUOTA_RESOURCES] */
-    uint32_t inflight;       /* lists submitted and not yet completed [CV_NODE_DEFAULT_QUOTA_INFLIGHT], at most
+    uint32_t resources; /* live resources of every type, command lists included [CV_NODE_DEFAULT_QUOTA_RESOURCES] */
+    uint32_t inflight;  /* lists submitted and not yet completed [CV_NODE_DEFAULT_QUOTA_INFLIGHT], at most
                                 CV_NODE_MAX_QUOTA_INFLIGHT */
-    uint64_t upload_bytes;   /* bytes the session adds to the content store, over its life
+    uint64_t upload_bytes; /* bytes the session adds to the content store, over its life
                                 [CV_NODE_DEFAULT_QUOTA_UPLOAD] */
 } cv_node_quota;
 
@@ -56,16 +56,16 @@ typedef struct cv_node_quota {
 #define CV_NODE_DEFAULT_QUOTA_UPLOAD (8ull << 30)
 
 typedef struct cv_node_config {
-    const char *listen;               /* "host:port"; port 0 picks a free one */
-    const char *name;                 /* reported to clients; NULL = the host name */
+    const char *listen; /* "host:port"; port 0 picks a free one */
+    const char *name;   /* reported to clients; NULL = the host name */
     const cv_node_device_spec *devices;
-    uint32_t device_count;            /* 1..CV_MAX_DEVICES */
-    bool validation;                  /* API validation on session devices */
-    const char *cache_dir;            /* content store directory (created) */
-    uint64_t cache_bytes;             /* content store size limit; 0 = 4 GiB */
-    uint32_t idle_timeout_ms;         /* a session with no message for this long ends; 0 = 300 s */
-    uint32_t max_sessions;            /* concurrent sessions; 0 = 256 */
-    bool log_sessions;                /* one line per session start/end, per error and per refused call on stderr */
+    uint32_t device_count;    /* 1..CV_MAX_DEVICES */
+    bool validation;          /* API validation on session devices */
+    const char *cache_dir;    /* content store directory (created) */
+    uint64_t cache_bytes;     /* content store size limit; 0 = 4 GiB */
+    uint32_t idle_timeout_ms; /* a session with no message for this long ends; 0 = 300 s */
+    uint32_t max_sessions;    /* concurrent sessions; 0 = 256 */
+    bool log_sessions;        /* one line per session start/end, per error and per refused call on stderr */
 
     /* Security. token: NULL = none; else every Session stream and Info call must carry the initial metadata
        "authorization: Bearer <token>" (health checks stay open); others are refused with UNAUTHENTICATED and
@@ -73,8 +73,8 @@ typedef struct cv_node_config {
        listening on anything but loopback (127.0.0.0/8, ::1, localhost) or a unix: socket refuses to start
        without one. */
     const char *token;
-    const char *tls_cert_file, *tls_key_file;   /* TLS (PEM files): both or neither */
-    const char *tls_client_ca_file;             /* mutual TLS: clients need a certificate signed by this CA */
+    const char *tls_cert_file, *tls_key_file; /* TLS (PEM files): both or neither */
+    const char *tls_client_ca_file;           /* mutual TLS: clients need a certificate signed by this CA */
     cv_node_quota quota;
 } cv_node_config;
 
@@ -83,8 +83,8 @@ typedef struct cv_node_stats {
     uint64_t messages_in, bytes_in, bytes_out;
     uint64_t submissions, errors;
     uint64_t cache_hits, cache_misses, cache_bytes;
-    uint64_t unauthenticated;         /* calls refused for a missing or wrong token */
-    uint64_t quota_refusals;          /* requests refused by a session quota */
+    uint64_t unauthenticated; /* calls refused for a missing or wrong token */
+    uint64_t quota_refusals;  /* requests refused by a session quota */
 } cv_node_stats;
 
 /* True if `listen` ("host:port") is reachable from this machine only: 127.0.0.0/8, ::1, localhost, unix:. */

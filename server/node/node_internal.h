@@ -12,10 +12,10 @@
 #include "node.h"
 
 struct cv_node {
-    cv_node_config config;            /* pointers below are the node's own copies */
+    cv_node_config config; /* pointers below are the node's own copies */
     char name[256];
     cv_node_device_spec *devices;
-    cv_device_info *device_info;      /* probed at start */
+    cv_device_info *device_info; /* probed at start */
     cv_content_store *store;
     cv_rpc_server *server;
     atomic_bool draining;
@@ -24,9 +24,9 @@ struct cv_node {
     atomic_uint_fast64_t messages_in, bytes_in, bytes_out, submissions, errors;
     atomic_uint_fast64_t unauthenticated, quota_refusals;
     bool has_token;
-    uint8_t token_sha[32];            /* SHA-256 of the token; the token itself is not kept */
-    cv_node_quota quota;              /* defaults filled in */
-    cv_node_metrics *metrics;         /* what the counters above do not hold (metrics.h) */
+    uint8_t token_sha[32];    /* SHA-256 of the token; the token itself is not kept */
+    cv_node_quota quota;      /* defaults filled in */
+    cv_node_metrics *metrics; /* what the counters above do not hold (metrics.h) */
 };
 
 /* Runs one session on the calling thread until its stream ends. */

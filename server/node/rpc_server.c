@@ -14,8 +14,8 @@
 #include <string.h>
 #include <time.h>
 
-#define ACCEPT_SLOTS 4               /* calls requested at once */
-#define REFUSE_TIMEOUT_MS 1000       /* a refusal's status must be out by then, or the call is cancelled */
+#define ACCEPT_SLOTS 4         /* calls requested at once */
+#define REFUSE_TIMEOUT_MS 1000 /* a refusal's status must be out by then, or the call is cancelled */
 #define UNARY_REQUEST_TIMEOUT_MS 10000
 
 typedef struct accept_slot {
@@ -33,10 +33,10 @@ typedef struct handler {
     cv_rpc_server *server;
     pthread_t thread;
     bool has_thread;
-    const char *method;              /* the server's copy */
+    const char *method; /* the server's copy */
     bool is_stream;
-    cv_rpc_stream *stream;           /* stream handlers */
-    grpc_call *call;                 /* unary handlers */
+    cv_rpc_stream *stream; /* stream handlers */
+    grpc_call *call;       /* unary handlers */
     grpc_completion_queue *cq;
 } handler;
 
@@ -46,22 +46,22 @@ struct cv_rpc_server {
     int port;
     pthread_t acceptor;
     bool acceptor_started;
-    int shutdown_tag;                /* its address is the tag */
+    int shutdown_tag; /* its address is the tag */
     accept_slot slots[ACCEPT_SLOTS];
 
     pthread_mutex_t mu;
-    pthread_cond_t cond;             /* a handler finished */
+    pthread_cond_t cond; /* a handler finished */
     bool draining;
     bool shutting_down;
     uint32_t active_streams, active_unary, max_streams;
-    handler *live;                   /* running handlers */
-    handler *done;                   /* finished, to be joined */
+    handler *live; /* running handlers */
+    handler *done; /* finished, to be joined */
 
     void (*on_stream)(cv_rpc_stream *, const char *, void *);
     int (*on_unary)(const char *, const void *, size_t, void **, size_t *, char *, size_t, void *);
     int (*on_call)(const char *, const char *, const cv_rpc_metadata *, uint32_t, char *, size_t, void *);
     void *user;
-    char **stream_methods, **unary_methods;   /* NULL-terminated copies */
+    char **stream_methods, **unary_methods; /* NULL-terminated copies */
 };
 
 /* The one place where the server's credentials are made: plaintext, or TLS with the certificate and key files,
@@ -69,8 +69,10 @@ struct cv_rpc_server {
 static cv_result server_credentials(const cv_rpc_server_config *cfg, grpc_server_credentials **out) {
     if (!cfg->tls_cert_file && !cfg->tls_key_file) {
         if (cfg->tls_client_ca_file)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc server: a TLS client CA ('%s') without the server's "
-                            "certificate and key", cfg->tls_client_ca_file);
+            return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                            "rpc server: a TLS client CA ('%s') without the server's "
+                            "certificate and key",
+                            cfg->tls_client_ca_file);
         *out = grpc_insecure_server_credentials_create();
         return CV_OK;
     }
@@ -84,11 +86,11 @@ static cv_result server_credentials(const cv_rpc_server_config *cfg, grpc_server
     if (r == CV_OK && cfg->tls_client_ca_file)
         r = cv_rpc_read_pem_file(cfg->tls_client_ca_file, "TLS client CA", &ca);
     if (r == CV_OK) {
-        grpc_ssl_pem_key_cert_pair pair = {.private_key = key, .cert_chain = cert};
-        *out = grpc_ssl_server_credentials_create_ex(
-            ca, &pair, 1,
-            ca ? GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY : GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE,
-            NULL);
+        grpc_ssl_pem_key_cert_pair pair = { .private_key = key, .cert_chain = cert };
+        *out = grpc_ssl_server_credentials_create_ex(ca, &pair, 1,
+                                                     ca ? GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY
+                                                        : GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE,
+                                                     NULL);
         if (!*out)
             r = cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc server: gRPC refused the TLS files ('%s', '%s')",
                          cfg->tls_cert_file, cfg->tls_key_file);
@@ -124,7 +126,7 @@ static grpc_status_code admit(cv_rpc_server *s, accept_slot *slot, const char *m
         reason[cap - 1] = 0;
     }
     for (size_t i = 0; items && i < md->count; i++) {
-        if (items[i].value)   /* may be a secret */
+        if (items[i].value) /* may be a secret */
             memset((char *)items[i].value, 0, strlen(items[i].value));
         free((char *)items[i].key);
         free((char *)items[i].value);
@@ -135,7 +137,7 @@ static grpc_status_code admit(cv_rpc_server *s, accept_slot *slot, const char *m
 }
 
 static grpc_arg int_arg(const char *key, int value) {
-    grpc_arg a = {.type = GRPC_ARG_INTEGER, .key = (char *)key};
+    grpc_arg a = { .type = GRPC_ARG_INTEGER, .key = (char *)key };
     a.value.integer = value;
     return a;
 }
@@ -195,8 +197,9 @@ static bool request_call(cv_rpc_server *s, accept_slot *slot) {
 static void refuse(grpc_call *call, grpc_completion_queue *cq, grpc_status_code code, const char *message) {
     int cancelled = 0;
     grpc_slice details = grpc_slice_from_copied_string(message);
-    grpc_op ops[3] = {{.op = GRPC_OP_SEND_STATUS_FROM_SERVER}, {.op = GRPC_OP_RECV_CLOSE_ON_SERVER},
-                      {.op = GRPC_OP_SEND_INITIAL_METADATA}};
+    grpc_op ops[3] = { { .op = GRPC_OP_SEND_STATUS_FROM_SERVER },
+                       { .op = GRPC_OP_RECV_CLOSE_ON_SERVER },
+                       { .op = GRPC_OP_SEND_INITIAL_METADATA } };
     ops[0].data.send_status_from_server.status = code;
     ops[0].data.send_status_from_server.status_details = &details;
     ops[1].data.recv_close_on_server.cancelled = &cancelled;
@@ -262,7 +265,7 @@ static void *unary_main(void *arg) {
     handler *h = arg;
     cv_rpc_server *s = h->server;
     grpc_byte_buffer *request = NULL;
-    grpc_op first[2] = {{.op = GRPC_OP_SEND_INITIAL_METADATA}, {.op = GRPC_OP_RECV_MESSAGE}};
+    grpc_op first[2] = { { .op = GRPC_OP_SEND_INITIAL_METADATA }, { .op = GRPC_OP_RECV_MESSAGE } };
     first[1].data.recv_message.recv_message = &request;
     bool ok = grpc_call_start_batch(h->call, first, 2, (void *)1, NULL) == GRPC_CALL_OK &&
               unary_wait(h, UNARY_REQUEST_TIMEOUT_MS);
@@ -294,8 +297,9 @@ static void *unary_main(void *arg) {
         int cancelled = 0;
         grpc_slice details = grpc_slice_from_copied_string(message);
         grpc_byte_buffer *reply = code == GRPC_STATUS_OK ? cv_rpc_buffer_copy(response, response_size) : NULL;
-        grpc_op last[3] = {{.op = GRPC_OP_SEND_STATUS_FROM_SERVER}, {.op = GRPC_OP_RECV_CLOSE_ON_SERVER},
-                           {.op = GRPC_OP_SEND_MESSAGE}};
+        grpc_op last[3] = { { .op = GRPC_OP_SEND_STATUS_FROM_SERVER },
+                            { .op = GRPC_OP_RECV_CLOSE_ON_SERVER },
+                            { .op = GRPC_OP_SEND_MESSAGE } };
         last[0].data.send_status_from_server.status = code;
         last[0].data.send_status_from_server.status_details = &details;
         last[1].data.recv_close_on_server.cancelled = &cancelled;
@@ -374,7 +378,7 @@ static void dispatch(cv_rpc_server *s, accept_slot *slot) {
     int started = -1;
     if (h->is_stream) {
         if (cv_rpc_stream_create(call, cq, true, &h->stream) == CV_OK) {
-            call = NULL;   /* the stream owns call and queue now */
+            call = NULL; /* the stream owns call and queue now */
             cq = NULL;
             if (cv_rpc_stream_set_request_metadata(h->stream, &slot->metadata) == CV_OK)
                 started = pthread_create(&h->thread, NULL, stream_main, h);
@@ -392,10 +396,10 @@ static void dispatch(cv_rpc_server *s, accept_slot *slot) {
     }
     fprintf(stderr, "corvid rpc: cannot start a handler for '%s'\n", h->method);
     if (h->stream)
-        cv_rpc_stream_teardown(h->stream);   /* cancels the call */
+        cv_rpc_stream_teardown(h->stream); /* cancels the call */
     if (call)
         refuse(call, cq, GRPC_STATUS_RESOURCE_EXHAUSTED, "node cannot start a thread");
-    handler_done(h);   /* freed by the next reap; no thread to join */
+    handler_done(h); /* freed by the next reap; no thread to join */
 }
 
 /* Joins and frees finished handlers. */
@@ -506,7 +510,7 @@ cv_result cv_rpc_server_start(const cv_rpc_server_config *config, cv_rpc_server 
         /* Two servers must not silently share one port. */
         int_arg(GRPC_ARG_ALLOW_REUSEPORT, 0),
     };
-    grpc_channel_args server_args = {.num_args = sizeof args / sizeof args[0], .args = args};
+    grpc_channel_args server_args = { .num_args = sizeof args / sizeof args[0], .args = args };
 
     grpc_init();
     grpc_server_credentials *creds = NULL;
@@ -543,9 +547,7 @@ cv_result cv_rpc_server_start(const cv_rpc_server_config *config, cv_rpc_server 
     return CV_OK;
 }
 
-int cv_rpc_server_port(const cv_rpc_server *s) {
-    return s ? s->port : 0;
-}
+int cv_rpc_server_port(const cv_rpc_server *s) { return s ? s->port : 0; }
 
 void cv_rpc_server_drain(cv_rpc_server *s) {
     if (!s)
@@ -592,7 +594,7 @@ void cv_rpc_server_destroy(cv_rpc_server *s, uint32_t timeout_ms) {
     if (s->acceptor_started)
         pthread_join(s->acceptor, NULL);
     else
-        acceptor_main(s);   /* start failed to make the thread: drain here */
+        acceptor_main(s); /* start failed to make the thread: drain here */
 
     /* 4. Every handler returns (their calls are dead); join them. */
     pthread_mutex_lock(&s->mu);

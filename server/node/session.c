@@ -41,7 +41,7 @@ enum {
 
 typedef struct pending_submit {
     uint64_t client_ticket;
-    uint64_t node_ticket;    /* 0: the submit failed; result/message say why */
+    uint64_t node_ticket; /* 0: the submit failed; result/message say why */
     cv_result result;
     char message[256];
 } pending_submit;
@@ -60,15 +60,15 @@ typedef struct session {
     /* The blob being received, if any. */
     cv_content_upload *upload;
     uint8_t upload_sha[CV_SHA256_BYTES];
-    bool upload_skipping;             /* the store had it already, or the quota refused it: chunks are dropped */
-    bool upload_refused;              /* ... the quota refused it */
+    bool upload_skipping; /* the store had it already, or the quota refused it: chunks are dropped */
+    bool upload_refused;  /* ... the quota refused it */
     uint64_t upload_size;
 
     /* What the session holds, against the node's quotas (node->quota). */
-    uint64_t memory_bytes;            /* device memory of its live resources */
-    uint32_t resources;               /* live resources */
-    uint64_t uploaded_bytes;          /* added to the content store, over its life */
-    uint32_t inflight;                /* real submissions not yet reported (under lock) */
+    uint64_t memory_bytes;   /* device memory of its live resources */
+    uint32_t resources;      /* live resources */
+    uint64_t uploaded_bytes; /* added to the content store, over its life */
+    uint32_t inflight;       /* real submissions not yet reported (under lock) */
 
     uint64_t last_client_ticket;
 
@@ -77,8 +77,8 @@ typedef struct session {
     pthread_cond_t cond;
     pending_submit *pending;
     uint32_t pending_head, pending_count;
-    bool stopping;                    /* report what is pending, then stop */
-    atomic_bool abandon;              /* the client is gone: report nothing more */
+    bool stopping;       /* report what is pending, then stop */
+    atomic_bool abandon; /* the client is gone: report nothing more */
     bool watcher_started;
     pthread_t watcher;
 } session;
@@ -141,8 +141,7 @@ static void send_completed(session *s, const pending_submit *p) {
     Corvid__PassTiming items[32];
     Corvid__PassTiming *ptrs[32];
     uint32_t n = 0;
-    if (p->node_ticket && p->result == CV_OK &&
-        cv_device_timings(s->dev, p->node_ticket, timings, 32, &n) == CV_OK) {
+    if (p->node_ticket && p->result == CV_OK && cv_device_timings(s->dev, p->node_ticket, timings, 32, &n) == CV_OK) {
         for (uint32_t i = 0; i < n && i < 32; i++) {
             corvid__pass_timing__init(&items[i]);
             items[i].label = timings[i].label;
@@ -167,7 +166,7 @@ static void *watcher_main(void *arg) {
         while (!s->pending_count && !s->stopping)
             pthread_cond_wait(&s->cond, &s->lock);
         if (!s->pending_count || s->abandon)
-            break;   /* stopping with nothing left to report, or nobody to report to */
+            break; /* stopping with nothing left to report, or nobody to report to */
         pending_submit p = s->pending[s->pending_head];
         pthread_mutex_unlock(&s->lock);
         if (p.node_ticket) {
@@ -177,7 +176,7 @@ static void *watcher_main(void *arg) {
                 r = cv_device_wait(s->dev, p.node_ticket, 100ull * 1000 * 1000);
             } while (r == CV_ERROR_TIMEOUT && !s->abandon);
             if (r == CV_ERROR_TIMEOUT)
-                return NULL;   /* abandoned (the lock is not held here) */
+                return NULL; /* abandoned (the lock is not held here) */
             if (r != CV_OK) {
                 p.result = r;
                 snprintf(p.message, sizeof(p.message), "%s", cv_last_error());
@@ -216,13 +215,15 @@ static cv_result translate(session *s, uint64_t client_id, cv_handle_type type, 
     if (client_id == 0)
         return cv_error(CV_ERROR_INVALID_HANDLE, "%s: null handle", what);
     if (type != CV_HANDLE_NONE && cv_handle_type_of(client_id) != type)
-        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "%s: needs a %s handle, got a %s handle (0x%016" PRIx64 ")",
-                        what, cv_handle_type_name(type), cv_handle_type_name(cv_handle_type_of(client_id)), client_id);
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "%s: needs a %s handle, got a %s handle (0x%016" PRIx64 ")", what,
+                        cv_handle_type_name(type), cv_handle_type_name(cv_handle_type_of(client_id)), client_id);
     uint64_t id = cv_handle_map_get(&s->map, client_id);
     if (!id)
-        return cv_error(CV_ERROR_INVALID_HANDLE, "%s: %s handle 0x%016" PRIx64 " is unknown in this session "
-                        "(never created here, or destroyed)", what, cv_handle_type_name(cv_handle_type_of(client_id)),
-                        client_id);
+        return cv_error(CV_ERROR_INVALID_HANDLE,
+                        "%s: %s handle 0x%016" PRIx64
+                        " is unknown in this session "
+                        "(never created here, or destroyed)",
+                        what, cv_handle_type_name(cv_handle_type_of(client_id)), client_id);
     *out = id;
     return CV_OK;
 }
@@ -239,8 +240,11 @@ static uint64_t map_list_handle(uint64_t client_id, void *user) {
     uint64_t id = cv_handle_map_get(&st->s->map, client_id);
     if (!id && st->result == CV_OK) {
         st->result = CV_ERROR_INVALID_HANDLE;
-        snprintf(st->message, sizeof(st->message), "command %u: %s handle 0x%016" PRIx64 " is unknown in this "
-                 "session", st->command, cv_handle_type_name(cv_handle_type_of(client_id)), client_id);
+        snprintf(st->message, sizeof(st->message),
+                 "command %u: %s handle 0x%016" PRIx64
+                 " is unknown in this "
+                 "session",
+                 st->command, cv_handle_type_name(cv_handle_type_of(client_id)), client_id);
     }
     return id ? id : client_id;
 }
@@ -285,13 +289,17 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
                         m->id);
     const cv_node_quota *q = &s->node->quota;
     if (s->resources >= q->resources)
-        return quota_refuse(s, "create: the session holds %u resources, its limit (corvid-node --quota-resources "
-                            "%u)", s->resources, q->resources);
+        return quota_refuse(s,
+                            "create: the session holds %u resources, its limit (corvid-node --quota-resources "
+                            "%u)",
+                            s->resources, q->resources);
     uint64_t bytes = cv_node_resource_bytes(&desc);
     if (bytes > q->memory_bytes - s->memory_bytes)
-        return quota_refuse(s, "create of %" PRIu64 " bytes: the session holds %" PRIu64 " bytes of device memory "
-                            "of its limit of %" PRIu64 " (corvid-node --quota-memory %" PRIu64 ")", bytes,
-                            s->memory_bytes, q->memory_bytes, q->memory_bytes);
+        return quota_refuse(s,
+                            "create of %" PRIu64 " bytes: the session holds %" PRIu64
+                            " bytes of device memory "
+                            "of its limit of %" PRIu64 " (corvid-node --quota-memory %" PRIu64 ")",
+                            bytes, s->memory_bytes, q->memory_bytes, q->memory_bytes);
     cv_handle h = { 0 };
     switch (desc.type) {
     case CV_HANDLE_BUFFER: r = cv_buffer_create(s->ctx, &desc.buffer, (cv_buffer *)&h); break;
@@ -321,7 +329,7 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
 static cv_result do_destroy(session *s, const Corvid__DestroyResource *m) {
     uint64_t id;
     cv_result r = translate(s, m->id, CV_HANDLE_NONE, "destroy", &id);
-    cv_resource_desc desc = { .type = CV_HANDLE_CMDLIST };   /* lists have no description, and no bytes */
+    cv_resource_desc desc = { .type = CV_HANDLE_CMDLIST }; /* lists have no description, and no bytes */
     if (r == CV_OK && cv_handle_type_of(id) != CV_HANDLE_CMDLIST)
         r = cv_context_describe(s->ctx, (cv_handle){ id }, &desc);
     if (r == CV_OK)
@@ -377,8 +385,9 @@ static cv_result do_blob_chunk(session *s, const Corvid__BlobChunk *m) {
         bool abandoned = s->upload != NULL;
         end_upload(s);
         if (m->offset != 0)
-            return cv_error(CV_ERROR_OUT_OF_RANGE, "blob_chunk: first chunk of a blob at offset %" PRIu64
-                            " (must be 0)%s", m->offset, abandoned ? "; the previous upload was abandoned" : "");
+            return cv_error(CV_ERROR_OUT_OF_RANGE,
+                            "blob_chunk: first chunk of a blob at offset %" PRIu64 " (must be 0)%s", m->offset,
+                            abandoned ? "; the previous upload was abandoned" : "");
         r = cv_content_upload_begin(s->node->store, m->sha256.data, m->size, &s->upload);
         if (r == CV_ERROR_ALREADY_EXISTS) {
             s->upload = NULL;
@@ -397,16 +406,20 @@ static cv_result do_blob_chunk(session *s, const Corvid__BlobChunk *m) {
             s->upload_skipping = s->upload_refused = true;
             if (m->offset + m->data.len >= s->upload_size)
                 end_upload(s);
-            return quota_refuse(s, "upload of a %" PRIu64 "-byte blob: the session has sent %" PRIu64 " bytes to "
+            return quota_refuse(s,
+                                "upload of a %" PRIu64 "-byte blob: the session has sent %" PRIu64
+                                " bytes to "
                                 "the upload cache of its limit of %" PRIu64 " (corvid-node --quota-upload %" PRIu64
-                                ")", m->size, s->uploaded_bytes, limit, limit);
+                                ")",
+                                m->size, s->uploaded_bytes, limit, limit);
         }
         if (s->upload)
             s->uploaded_bytes += m->size;
     }
     if (m->size != s->upload_size)
-        return cv_error(CV_ERROR_MALFORMED, "blob_chunk: size %" PRIu64 " differs from the blob's first chunk (%"
-                        PRIu64 ")", m->size, s->upload_size);
+        return cv_error(CV_ERROR_MALFORMED,
+                        "blob_chunk: size %" PRIu64 " differs from the blob's first chunk (%" PRIu64 ")", m->size,
+                        s->upload_size);
     if (s->upload_skipping) {
         if (m->offset + m->data.len >= s->upload_size)
             end_upload(s);
@@ -466,8 +479,9 @@ static cv_result do_write_texture(session *s, const Corvid__WriteTexture *m) {
         return r;
     uint64_t want = (uint64_t)m->width * m->height * cv_format_bytes(desc.texture.format);
     if (m->data.len != want)
-        return cv_error(CV_ERROR_MALFORMED, "write_texture: %zu bytes of data for %ux%u texels of %s (%" PRIu64
-                        " bytes)", m->data.len, m->width, m->height, cv_format_name(desc.texture.format), want);
+        return cv_error(CV_ERROR_MALFORMED,
+                        "write_texture: %zu bytes of data for %ux%u texels of %s (%" PRIu64 " bytes)", m->data.len,
+                        m->width, m->height, cv_format_name(desc.texture.format), want);
     return cv_device_write_texture(s->dev, (cv_texture){ id }, (cv_rect){ m->x, m->y, m->width, m->height },
                                    m->data.data);
 }
@@ -486,10 +500,12 @@ static cv_result do_write_accel(session *s, const Corvid__WriteAccel *m) {
         r = get_blob(s, m->triangles_blob, "write_accel.triangles_blob", &tris);
     if (r == CV_OK && (cv_content_blob_size(nodes) != (uint64_t)desc.accel.node_count * CV_ACCEL_NODE_BYTES ||
                        cv_content_blob_size(tris) != (uint64_t)desc.accel.triangle_count * CV_ACCEL_TRIANGLE_BYTES))
-        r = cv_error(CV_ERROR_OUT_OF_RANGE, "write_accel: blobs of %" PRIu64 " and %" PRIu64 " bytes for %u nodes "
-                     "and %u triangles (%u and %u bytes each)", cv_content_blob_size(nodes),
-                     cv_content_blob_size(tris), desc.accel.node_count, desc.accel.triangle_count,
-                     CV_ACCEL_NODE_BYTES, CV_ACCEL_TRIANGLE_BYTES);
+        r = cv_error(CV_ERROR_OUT_OF_RANGE,
+                     "write_accel: blobs of %" PRIu64 " and %" PRIu64
+                     " bytes for %u nodes "
+                     "and %u triangles (%u and %u bytes each)",
+                     cv_content_blob_size(nodes), cv_content_blob_size(tris), desc.accel.node_count,
+                     desc.accel.triangle_count, CV_ACCEL_NODE_BYTES, CV_ACCEL_TRIANGLE_BYTES);
     if (r == CV_OK)
         r = cv_device_write_accel(s->dev, (cv_accel){ id }, cv_content_blob_data(nodes), cv_content_blob_data(tris));
     if (nodes)
@@ -499,7 +515,8 @@ static cv_result do_write_accel(session *s, const Corvid__WriteAccel *m) {
     return r;
 }
 
-static cv_result send_read_piece(session *s, uint64_t seq, uint64_t offset, const void *data, size_t size, bool last) {
+static cv_result send_read_piece(session *s, uint64_t seq, uint64_t offset, const void *data, size_t size,
+                                 bool last) {
     Corvid__ReadData piece = CORVID__READ_DATA__INIT;
     piece.offset = offset;
     piece.data.data = (uint8_t *)data;
@@ -528,8 +545,9 @@ static cv_result do_read_buffer(session *s, uint64_t seq, const Corvid__ReadBuff
     cv_resource_desc desc;
     r = cv_context_describe(s->ctx, (cv_handle){ id }, &desc);
     if (r == CV_OK && (m->offset > desc.buffer.size || m->size > desc.buffer.size - m->offset))
-        r = cv_error(CV_ERROR_OUT_OF_RANGE, "read_buffer: %" PRIu64 " bytes at offset %" PRIu64 " of buffer '%s' (%"
-                     PRIu64 " bytes)", m->size, m->offset, desc.buffer.label, desc.buffer.size);
+        r = cv_error(CV_ERROR_OUT_OF_RANGE,
+                     "read_buffer: %" PRIu64 " bytes at offset %" PRIu64 " of buffer '%s' (%" PRIu64 " bytes)",
+                     m->size, m->offset, desc.buffer.label, desc.buffer.size);
     for (uint64_t done = 0; r == CV_OK && done < m->size;) {
         uint64_t n = m->size - done < CV_NODE_CHUNK_BYTES ? m->size - done : CV_NODE_CHUNK_BYTES;
         r = cv_device_read_buffer(s->dev, (cv_buffer){ id }, m->offset + done, n, piece);
@@ -631,8 +649,11 @@ static cv_result do_submit(session *s, const Corvid__SubmitList *m) {
     pthread_mutex_unlock(&s->lock);
     uint32_t limit = s->node->quota.inflight;
     if (r == CV_OK && inflight >= limit)
-        r = quota_refuse(s, "submit of ticket %" PRIu64 ": the session has %u lists in flight, its limit "
-                         "(corvid-node --quota-inflight %u); wait for one to complete", m->ticket, inflight, limit);
+        r = quota_refuse(s,
+                         "submit of ticket %" PRIu64
+                         ": the session has %u lists in flight, its limit "
+                         "(corvid-node --quota-inflight %u); wait for one to complete",
+                         m->ticket, inflight, limit);
     if (r == CV_OK)
         r = cv_device_submit(s->dev, (cv_cmdlist){ id }, &p.node_ticket);
     if (r != CV_OK) {
@@ -709,26 +730,21 @@ static bool handle(session *s, const Corvid__ClientMessage *m, int *status) {
     }
     if ((m->msg_case == CORVID__CLIENT_MESSAGE__MSG_HELLO) != (s->dev == NULL)) {
         *status = STATUS_INVALID_ARGUMENT;
-        cv_error(CV_ERROR_BAD_STATE, s->dev ? "message %" PRIu64 ": a second hello" :
-                 "message %" PRIu64 ": the first message of a session must be hello", seq);
+        cv_error(CV_ERROR_BAD_STATE,
+                 s->dev ? "message %" PRIu64 ": a second hello"
+                        : "message %" PRIu64 ": the first message of a session must be hello",
+                 seq);
         return false;
     }
     switch (m->msg_case) {
-    case CORVID__CLIENT_MESSAGE__MSG_HELLO:
-        return do_hello(s, seq, m->hello, status) == CV_OK;
+    case CORVID__CLIENT_MESSAGE__MSG_HELLO: return do_hello(s, seq, m->hello, status) == CV_OK;
     case CORVID__CLIENT_MESSAGE__MSG_CREATE:
         r = do_create(s, m->create);
         send_reply(s, seq, r, r == CV_OK ? "" : cv_last_error());
         return true;
-    case CORVID__CLIENT_MESSAGE__MSG_DESTROY:
-        r = do_destroy(s, m->destroy);
-        break;
-    case CORVID__CLIENT_MESSAGE__MSG_BLOB_QUERY:
-        r = do_blob_query(s, seq, m->blob_query);
-        break;
-    case CORVID__CLIENT_MESSAGE__MSG_BLOB_CHUNK:
-        r = do_blob_chunk(s, m->blob_chunk);
-        break;
+    case CORVID__CLIENT_MESSAGE__MSG_DESTROY: r = do_destroy(s, m->destroy); break;
+    case CORVID__CLIENT_MESSAGE__MSG_BLOB_QUERY: r = do_blob_query(s, seq, m->blob_query); break;
+    case CORVID__CLIENT_MESSAGE__MSG_BLOB_CHUNK: r = do_blob_chunk(s, m->blob_chunk); break;
     case CORVID__CLIENT_MESSAGE__MSG_WRITE_BUFFER:
         r = do_write_buffer(s, m->write_buffer);
         if (m->write_buffer->source_case == CORVID__WRITE_BUFFER__SOURCE_BLOB) {
@@ -736,25 +752,17 @@ static bool handle(session *s, const Corvid__ClientMessage *m, int *status) {
             return true;
         }
         break;
-    case CORVID__CLIENT_MESSAGE__MSG_WRITE_TEXTURE:
-        r = do_write_texture(s, m->write_texture);
-        break;
+    case CORVID__CLIENT_MESSAGE__MSG_WRITE_TEXTURE: r = do_write_texture(s, m->write_texture); break;
     case CORVID__CLIENT_MESSAGE__MSG_WRITE_ACCEL:
         r = do_write_accel(s, m->write_accel);
         send_reply(s, seq, r, r == CV_OK ? "" : cv_last_error());
         return true;
-    case CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER:
-        r = do_read_buffer(s, seq, m->read_buffer);
-        break;
-    case CORVID__CLIENT_MESSAGE__MSG_READ_TEXTURE:
-        r = do_read_texture(s, seq, m->read_texture);
-        break;
-    case CORVID__CLIENT_MESSAGE__MSG_COMPILE:
-        r = do_compile(s, m->compile);
-        break;
+    case CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER: r = do_read_buffer(s, seq, m->read_buffer); break;
+    case CORVID__CLIENT_MESSAGE__MSG_READ_TEXTURE: r = do_read_texture(s, seq, m->read_texture); break;
+    case CORVID__CLIENT_MESSAGE__MSG_COMPILE: r = do_compile(s, m->compile); break;
     case CORVID__CLIENT_MESSAGE__MSG_SUBMIT:
         r = do_submit(s, m->submit);
-        if (r != CV_OK) {   /* a ticket out of sequence: the client is broken */
+        if (r != CV_OK) { /* a ticket out of sequence: the client is broken */
             *status = STATUS_INVALID_ARGUMENT;
             return false;
         }
@@ -788,7 +796,7 @@ static void session_finish(session *s) {
     stop_watcher(s, true);
     cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -(int64_t)s->memory_bytes);
     if (s->ctx)
-        cv_context_destroy(s->ctx);   /* waits for the device, frees every resource */
+        cv_context_destroy(s->ctx); /* waits for the device, frees every resource */
     cv_handle_map_finish(&s->map);
     proto_arena_finish(&s->arena);
     free(s->pending);
@@ -829,13 +837,13 @@ void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
             snprintf(why, sizeof(why), "session idle for %u ms: closed", idle);
             break;
         }
-        if (r != CV_OK) {   /* the client is gone: nobody to tell */
+        if (r != CV_OK) { /* the client is gone: nobody to tell */
             snprintf(why, sizeof(why), "connection lost: %s", cv_last_error());
             status = -1;
             break;
         }
         if (!data)
-            break;   /* the client closed its side: a clean end */
+            break; /* the client closed its side: a clean end */
         atomic_fetch_add(&node->messages_in, 1);
         atomic_fetch_add(&node->bytes_in, size);
         proto_arena_reset(&s->arena, UNPACK_BUDGET(size));

@@ -92,8 +92,8 @@ static void describe(vk_adapter *a, uint32_t index) {
     VkPhysicalDeviceFeatures2 f = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &f12 };
     if (info->api_version >= VK_API_VERSION_1_3)
         vkGetPhysicalDeviceFeatures2(a->physical, &f);
-    a->storage_without_format =
-        f.features.shaderStorageImageReadWithoutFormat && f.features.shaderStorageImageWriteWithoutFormat;
+    a->storage_without_format = f.features.shaderStorageImageReadWithoutFormat &&
+                                f.features.shaderStorageImageWriteWithoutFormat;
 
     const char *missing = NULL;
     if (info->api_version < VK_API_VERSION_1_3)
@@ -177,17 +177,17 @@ static void list_adapters(const vk_adapter *adapters, uint32_t count, char *buf,
         snprintf(buf, cap, "none");
 }
 
-cv_result vk_adapters_choose(const vk_adapter *adapters, uint32_t count, cv_vulkan_purpose purpose,
-                             uint32_t *index) {
+cv_result vk_adapters_choose(const vk_adapter *adapters, uint32_t count, cv_vulkan_purpose purpose, uint32_t *index) {
     uint32_t best = UINT32_MAX;
     for (uint32_t i = 0; i < count; i++)
-        if (adapters[i].info.usable && (best == UINT32_MAX || better(&adapters[i].info, &adapters[best].info, purpose)))
+        if (adapters[i].info.usable &&
+            (best == UINT32_MAX || better(&adapters[i].info, &adapters[best].info, purpose)))
             best = i;
     if (best == UINT32_MAX) {
         char names[512];
         list_adapters(adapters, count, names, sizeof(names));
-        return cv_error(CV_ERROR_NOT_FOUND, "vulkan: no usable adapter (Vulkan 1.3 with push descriptors); adapters: %s",
-                        names);
+        return cv_error(CV_ERROR_NOT_FOUND,
+                        "vulkan: no usable adapter (Vulkan 1.3 with push descriptors); adapters: %s", names);
     }
     *index = best;
     return CV_OK;

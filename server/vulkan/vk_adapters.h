@@ -10,10 +10,10 @@
 typedef struct vk_adapter {
     VkPhysicalDevice physical;
     cv_vulkan_adapter_info info;
-    uint32_t graphics_family;     /* graphics + compute */
-    uint32_t compute_family;      /* compute without graphics, or VK_NO_FAMILY */
-    uint32_t copy_family;         /* transfer only, or VK_NO_FAMILY */
-    bool storage_without_format;  /* shaderStorageImageRead/WriteWithoutFormat */
+    uint32_t graphics_family;    /* graphics + compute */
+    uint32_t compute_family;     /* compute without graphics, or VK_NO_FAMILY */
+    uint32_t copy_family;        /* transfer only, or VK_NO_FAMILY */
+    bool storage_without_format; /* shaderStorageImageRead/WriteWithoutFormat */
 } vk_adapter;
 
 /* All adapters of an instance (malloc'ed array; free() it). */
@@ -21,7 +21,6 @@ cv_result vk_adapters_enumerate(const vk_instance *inst, vk_adapter **out, uint3
 /* Index of the adapter a spec names (see cv_vulkan_find_adapter). */
 cv_result vk_adapters_resolve(const vk_adapter *adapters, uint32_t count, const char *spec, uint32_t *index);
 /* Index of the best usable adapter for a purpose, or CV_ERROR_NOT_FOUND. */
-cv_result vk_adapters_choose(const vk_adapter *adapters, uint32_t count, cv_vulkan_purpose purpose,
-                             uint32_t *index);
+cv_result vk_adapters_choose(const vk_adapter *adapters, uint32_t count, cv_vulkan_purpose purpose, uint32_t *index);
 
 #endif

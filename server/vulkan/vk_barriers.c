@@ -5,7 +5,7 @@
 #include "vk_barriers.h"
 
 struct vk_track {
-    uint64_t id;                        /* 0 = empty slot */
+    uint64_t id; /* 0 = empty slot */
     VkBuffer buffer;
     VkImage image;
     VkImageAspectFlags aspect;
@@ -15,7 +15,7 @@ struct vk_track {
     VkAccessFlags2 write_access;
     VkPipelineStageFlags2 visible_stages; /* stages and accesses the last write is visible to */
     VkAccessFlags2 visible_access;
-    VkPipelineStageFlags2 read_stages;  /* reads since the last write */
+    VkPipelineStageFlags2 read_stages; /* reads since the last write */
 };
 
 void vk_tracker_init(vk_tracker *t) { memset(t, 0, sizeof(*t)); }
@@ -98,8 +98,9 @@ static vk_track *state_of(vk_tracker *t, const vk_use *u) {
     while (t->slots[i].id)
         i = (i + 1) & (t->capacity - 1);
     s = &t->slots[i];
-    *s = (vk_track){ .id = u->id, .buffer = u->buffer, .image = u->image, .aspect = u->aspect,
-                     .layout = VK_IMAGE_LAYOUT_GENERAL };
+    *s = (vk_track){
+        .id = u->id, .buffer = u->buffer, .image = u->image, .aspect = u->aspect, .layout = VK_IMAGE_LAYOUT_GENERAL
+    };
     t->count++;
     return s;
 }
@@ -139,9 +140,8 @@ static VkImageMemoryBarrier2 image_barrier(const vk_track *s, VkPipelineStageFla
     };
 }
 
-static void add_barrier(vk_tracker *t, const vk_track *s, VkPipelineStageFlags2 src_stages,
-                        VkAccessFlags2 src_access, VkPipelineStageFlags2 dst_stages, VkAccessFlags2 dst_access,
-                        VkImageLayout new_layout) {
+static void add_barrier(vk_tracker *t, const vk_track *s, VkPipelineStageFlags2 src_stages, VkAccessFlags2 src_access,
+                        VkPipelineStageFlags2 dst_stages, VkAccessFlags2 dst_access, VkImageLayout new_layout) {
     /* A transition with nothing to wait for still has to follow the work
      * before it (a hint barrier or the previous submission): chain on all. */
     if (!src_stages)
@@ -149,8 +149,8 @@ static void add_barrier(vk_tracker *t, const vk_track *s, VkPipelineStageFlags2 
     if (s->image) {
         if (reserve(t, (void **)&t->image_barriers, t->image_barrier_count, &t->image_barrier_capacity,
                     sizeof(*t->image_barriers)))
-            t->image_barriers[t->image_barrier_count++] =
-                image_barrier(s, src_stages, src_access, dst_stages, dst_access, new_layout);
+            t->image_barriers[t->image_barrier_count++] = image_barrier(s, src_stages, src_access, dst_stages,
+                                                                        dst_access, new_layout);
         return;
     }
     if (reserve(t, (void **)&t->buffer_barriers, t->buffer_barrier_count, &t->buffer_barrier_capacity,
@@ -279,8 +279,8 @@ void vk_tracker_end_segment(vk_tracker *t, VkCommandBuffer cmd, bool to_host) {
     for (uint32_t i = 0; i < t->capacity; i++) {
         vk_track *s = &t->slots[i];
         if (s->id && s->image && s->layout != VK_IMAGE_LAYOUT_GENERAL)
-            add_barrier(t, s, s->write_stages | s->read_stages, s->write_access,
-                        VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, 0, VK_IMAGE_LAYOUT_GENERAL);
+            add_barrier(t, s, s->write_stages | s->read_stages, s->write_access, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                        0, VK_IMAGE_LAYOUT_GENERAL);
     }
     /* The semaphore signalled after this segment orders later GPU work; the
      * host, which reads mapped memory after waiting, needs its own dependency. */
@@ -297,7 +297,8 @@ void vk_tracker_end_segment(vk_tracker *t, VkCommandBuffer cmd, bool to_host) {
 bool vk_tracker_has_prologue(const vk_tracker *t) { return t->prologue_count > 0; }
 
 void vk_tracker_record_prologue(vk_tracker *t, VkCommandBuffer cmd) {
-    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO, .imageMemoryBarrierCount = t->prologue_count,
+    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
+                             .imageMemoryBarrierCount = t->prologue_count,
                              .pImageMemoryBarriers = t->prologue };
     vkCmdPipelineBarrier2(cmd, &dep);
     t->barriers_emitted++;

@@ -19,21 +19,21 @@
 #include "vk_common.h"
 
 typedef struct vk_use {
-    uint64_t id;                    /* the resource's handle */
-    VkBuffer buffer;                /* one of buffer / image */
+    uint64_t id;     /* the resource's handle */
+    VkBuffer buffer; /* one of buffer / image */
     VkImage image;
     VkImageAspectFlags aspect;
     VkPipelineStageFlags2 stages;
     VkAccessFlags2 reads, writes;
-    VkImageLayout layout;           /* images */
+    VkImageLayout layout; /* images */
 } vk_use;
 
 typedef struct vk_track vk_track;
 
 typedef struct vk_tracker {
-    vk_track *slots;                /* open addressing on id */
+    vk_track *slots; /* open addressing on id */
     uint32_t capacity, count;
-    vk_use *uses;                   /* the current command's uses, one per resource */
+    vk_use *uses; /* the current command's uses, one per resource */
     uint32_t use_count, use_capacity;
     VkBufferMemoryBarrier2 *buffer_barriers;
     uint32_t buffer_barrier_count, buffer_barrier_capacity;
@@ -41,7 +41,7 @@ typedef struct vk_tracker {
     uint32_t image_barrier_count, image_barrier_capacity;
     VkImageMemoryBarrier2 *prologue;
     uint32_t prologue_count, prologue_capacity;
-    uint32_t barriers_emitted;      /* vkCmdPipelineBarrier2 calls, for tests and stats */
+    uint32_t barriers_emitted; /* vkCmdPipelineBarrier2 calls, for tests and stats */
     bool out_of_memory;
 } vk_tracker;
 

@@ -22,11 +22,11 @@ typedef struct compiler {
     vk_tracker tracker;
     VkCommandBuffer cmd;
     const vk_queue *queue;
-    const vk_pipeline *bound[2];           /* [compute, graphics] */
-    const vk_pipeline *pushed_for[2];      /* pipeline whose bindings were pushed last */
+    const vk_pipeline *bound[2];      /* [compute, graphics] */
+    const vk_pipeline *pushed_for[2]; /* pipeline whose bindings were pushed last */
     cv_binding pushed[2][CV_MAX_BINDINGS];
     bool in_render_pass;
-    cv_vulkan_trace_path trace_path;       /* chosen before recording when the list traces rays */
+    cv_vulkan_trace_path trace_path; /* chosen before recording when the list traces rays */
 } compiler;
 
 /* ---- lookups (the list was validated: every handle is loaded and typed) --------- */
@@ -46,15 +46,20 @@ static bool is_depth_texture(const compiler *c, uint64_t id) {
 static void use_buffer(compiler *c, uint64_t id, VkPipelineStageFlags2 stages, VkAccessFlags2 reads,
                        VkAccessFlags2 writes) {
     const vk_buffer *b = object_of(c, id);
-    vk_tracker_use(&c->tracker, &(vk_use){ .id = id, .buffer = b->buffer, .stages = stages, .reads = reads,
-                                           .writes = writes });
+    vk_tracker_use(&c->tracker,
+                   &(vk_use){ .id = id, .buffer = b->buffer, .stages = stages, .reads = reads, .writes = writes });
 }
 
 static void use_texture(compiler *c, uint64_t id, VkPipelineStageFlags2 stages, VkAccessFlags2 reads,
                         VkAccessFlags2 writes, VkImageLayout layout) {
     const vk_texture *t = object_of(c, id);
-    vk_tracker_use(&c->tracker, &(vk_use){ .id = id, .image = t->image, .aspect = t->aspect, .stages = stages,
-                                           .reads = reads, .writes = writes, .layout = layout });
+    vk_tracker_use(&c->tracker, &(vk_use){ .id = id,
+                                           .image = t->image,
+                                           .aspect = t->aspect,
+                                           .stages = stages,
+                                           .reads = reads,
+                                           .writes = writes,
+                                           .layout = layout });
 }
 
 /* Declares the uses of a dispatch's or draw's bindings, as the shaders use them. */
@@ -98,7 +103,8 @@ static void bind_and_push(compiler *c, const vk_pipeline *p, const cv_binding *b
         VkDescriptorImageInfo images[CV_MAX_BINDINGS];
         for (uint32_t i = 0; i < n; i++) {
             cv_binding_kind kind = p->info->bindings[i];
-            writes[i] = (VkWriteDescriptorSet){ .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstBinding = i,
+            writes[i] = (VkWriteDescriptorSet){ .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                                .dstBinding = i,
                                                 .descriptorCount = 1 };
             if (kind == CV_BINDING_STORAGE_BUFFER || kind == CV_BINDING_UNIFORM_BUFFER) {
                 const vk_buffer *buf = object_of(c, b[i].resource.id);
@@ -150,10 +156,16 @@ static void record_dispatch_indirect(compiler *c, const cv_dispatch_indirect_cmd
 
 static void record_trace_rays(compiler *c, const cv_trace_rays_cmd *d) {
     vk_trace_job job = {
-        .accel = object_of(c, d->accel.id), .accel_key = d->accel.id,
-        .rays = object_of(c, d->rays.id), .rays_key = d->rays.id, .rays_offset = d->rays_offset,
-        .hits = object_of(c, d->hits.id), .hits_key = d->hits.id, .hits_offset = d->hits_offset,
-        .count = d->count, .flags = d->flags,
+        .accel = object_of(c, d->accel.id),
+        .accel_key = d->accel.id,
+        .rays = object_of(c, d->rays.id),
+        .rays_key = d->rays.id,
+        .rays_offset = d->rays_offset,
+        .hits = object_of(c, d->hits.id),
+        .hits_key = d->hits.id,
+        .hits_offset = d->hits_offset,
+        .count = d->count,
+        .flags = d->flags,
     };
     vk_trace_record(c->bd, c->trace_path, &c->tracker, c->cmd, &job);
     /* It bound a pipeline of its own: the next dispatch binds and pushes again. */
@@ -255,8 +267,7 @@ static void record_draw_indexed(compiler *c, const cv_draw_indexed_cmd *d) {
     bind_and_push(c, p, cv_list_bindings(c->list, d->bindings), d->push);
     const vk_buffer *ib = object_of(c, d->index_buffer.id);
     vkCmdBindIndexBuffer(c->cmd, ib->buffer, d->index_offset, VK_INDEX_TYPE_UINT32);
-    vkCmdDrawIndexed(c->cmd, d->index_count, d->instance_count, d->first_index, d->vertex_offset,
-                     d->first_instance);
+    vkCmdDrawIndexed(c->cmd, d->index_count, d->instance_count, d->first_index, d->vertex_offset, d->first_instance);
 }
 
 static void record_copy_buffer(compiler *c, const cv_copy_buffer_cmd *d) {
@@ -270,7 +281,8 @@ static void record_copy_buffer(compiler *c, const cv_copy_buffer_cmd *d) {
 
 static void record_copy_texture(compiler *c, const cv_copy_texture_cmd *d) {
     use_texture(c, d->src.id, TRANSFER_STAGE, VK_ACCESS_2_TRANSFER_READ_BIT, 0, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
-    use_texture(c, d->dst.id, TRANSFER_STAGE, 0, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    use_texture(c, d->dst.id, TRANSFER_STAGE, 0, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
     vk_tracker_apply(&c->tracker, c->cmd);
     const vk_texture *src = object_of(c, d->src.id), *dst = object_of(c, d->dst.id);
     VkImageCopy region = {
@@ -296,7 +308,8 @@ static VkBufferImageCopy buffer_image_region(const vk_texture *t, uint64_t offse
 
 static void record_copy_buffer_to_texture(compiler *c, const cv_copy_buffer_to_texture_cmd *d) {
     use_buffer(c, d->src.id, TRANSFER_STAGE, VK_ACCESS_2_TRANSFER_READ_BIT, 0);
-    use_texture(c, d->dst.id, TRANSFER_STAGE, 0, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    use_texture(c, d->dst.id, TRANSFER_STAGE, 0, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
     vk_tracker_apply(&c->tracker, c->cmd);
     const vk_buffer *src = object_of(c, d->src.id);
     const vk_texture *dst = object_of(c, d->dst.id);

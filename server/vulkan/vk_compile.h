@@ -15,7 +15,7 @@
 
 typedef struct vk_segment {
     vk_queue_slot slot;
-    VkCommandBuffer prologue;          /* first layout transitions, or VK_NULL_HANDLE */
+    VkCommandBuffer prologue; /* first layout transitions, or VK_NULL_HANDLE */
     VkCommandBuffer body;
 } vk_segment;
 
@@ -23,7 +23,7 @@ typedef struct vk_compiled {
     vk_segment *segments;
     uint32_t segment_count;
     vk_timestamps timestamps;
-    uint32_t barrier_count;            /* pipeline barriers recorded, for stats */
+    uint32_t barrier_count; /* pipeline barriers recorded, for stats */
 } vk_compiled;
 
 cv_result vk_compile_list(cv_backend_device *bd, cv_device *dev, const cv_command_list *list, vk_compiled **out);

@@ -148,13 +148,13 @@ static cv_result create_vk_device(cv_backend_device *bd) {
     if (bd->external_fd)
         bd->get_memory_fd = (PFN_vkGetMemoryFdKHR)vkGetDeviceProcAddr(bd->device, "vkGetMemoryFdKHR");
     if (bd->external_host)
-        bd->get_host_pointer_properties = (PFN_vkGetMemoryHostPointerPropertiesEXT)vkGetDeviceProcAddr(
-            bd->device, "vkGetMemoryHostPointerPropertiesEXT");
+        bd->get_host_pointer_properties = (PFN_vkGetMemoryHostPointerPropertiesEXT)
+            vkGetDeviceProcAddr(bd->device, "vkGetMemoryHostPointerPropertiesEXT");
     bd->external_fd = bd->external_fd && bd->get_memory_fd;
     bd->external_host = bd->external_host && bd->get_host_pointer_properties;
 
-    bd->cmd_push_descriptor_set =
-        (PFN_vkCmdPushDescriptorSetKHR)vkGetDeviceProcAddr(bd->device, "vkCmdPushDescriptorSetKHR");
+    bd->cmd_push_descriptor_set = (PFN_vkCmdPushDescriptorSetKHR)vkGetDeviceProcAddr(bd->device,
+                                                                                     "vkCmdPushDescriptorSetKHR");
     if (!bd->cmd_push_descriptor_set)
         return cv_error(CV_ERROR_UNSUPPORTED, "vulkan: vkCmdPushDescriptorSetKHR missing on '%s'", a->info.name);
     return CV_OK;
@@ -201,11 +201,14 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     r = pick_adapter(bd->instance, desc->adapter, &bd->adapter);
     if (r == CV_OK) {
         VkPhysicalDeviceExternalMemoryHostPropertiesEXT host = {
-            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_MEMORY_HOST_PROPERTIES_EXT };
-        VkPhysicalDeviceIDProperties ids = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES,
-                                             .pNext = offers(bd->adapter.physical,
-                                                             VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME) ? &host : NULL };
-        VkPhysicalDeviceProperties2 props2 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &ids };
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_MEMORY_HOST_PROPERTIES_EXT
+        };
+        VkPhysicalDeviceIDProperties ids = {
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES,
+            .pNext = offers(bd->adapter.physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME) ? &host : NULL
+        };
+        VkPhysicalDeviceProperties2 props2 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2,
+                                               .pNext = &ids };
         vkGetPhysicalDeviceProperties2(bd->adapter.physical, &props2);
         const VkPhysicalDeviceProperties *props = &props2.properties;
         bd->limits = props->limits;
@@ -270,6 +273,8 @@ void vk_device_name(const cv_backend_device *bd, VkObjectType type, uint64_t han
     char name[CV_LABEL_MAX];
     snprintf(name, sizeof(name), "%s", label);
     VkDebugUtilsObjectNameInfoEXT info = { .sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT,
-                                           .objectType = type, .objectHandle = handle, .pObjectName = name };
+                                           .objectType = type,
+                                           .objectHandle = handle,
+                                           .pObjectName = name };
     bd->instance->set_object_name(bd->device, &info);
 }

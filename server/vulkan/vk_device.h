@@ -31,8 +31,8 @@ typedef struct vk_queue {
     VkQueue queue;
     uint32_t family;
     VkQueueFlags flags;
-    uint64_t timestamp_mask;     /* valid bits of timestamps; 0 = no timestamps */
-    VkCommandPool pool;          /* command buffers of compiled lists */
+    uint64_t timestamp_mask; /* valid bits of timestamps; 0 = no timestamps */
+    VkCommandPool pool;      /* command buffers of compiled lists */
 } vk_queue;
 
 struct cv_backend_device {
@@ -42,11 +42,11 @@ struct cv_backend_device {
     VkDevice device;
     vk_queue queues[VK_SLOT_COUNT];
     vk_queue_slot slot_of_type[CV_QUEUE_TYPE_COUNT];
-    uint32_t families[VK_SLOT_COUNT];   /* distinct families in use, for shared resources */
+    uint32_t families[VK_SLOT_COUNT]; /* distinct families in use, for shared resources */
     uint32_t family_count;
 
-    VkSemaphore ticket;          /* timeline; its value is the highest finished ticket */
-    VkSemaphore chain;           /* timeline linking the segments of one submission */
+    VkSemaphore ticket; /* timeline; its value is the highest finished ticket */
+    VkSemaphore chain;  /* timeline linking the segments of one submission */
     uint64_t chain_value;
 
     VkCommandPool immediate_pool;
@@ -57,22 +57,22 @@ struct cv_backend_device {
     uint32_t pending_count, pending_capacity;
 
     vk_memory memory;
-    bool ray_tracing;                /* VK_KHR_ray_tracing_pipeline and acceleration structures enabled */
-    vk_tracer *tracer;               /* the trace paths and the choice between them (vk_trace.h) */
+    bool ray_tracing;  /* VK_KHR_ray_tracing_pipeline and acceleration structures enabled */
+    vk_tracer *tracer; /* the trace paths and the choice between them (vk_trace.h) */
     PFN_vkCmdPushDescriptorSetKHR cmd_push_descriptor_set;
     double timestamp_period_ns;
     char label[CV_LABEL_MAX];
 
     /* Cross-device links (vk_link.h): what the device enabled, and its stagings. */
-    bool external_fd;                /* VK_KHR_external_memory_fd */
-    bool external_host;              /* VK_EXT_external_memory_host */
+    bool external_fd;   /* VK_KHR_external_memory_fd */
+    bool external_host; /* VK_EXT_external_memory_host */
     VkDeviceSize host_import_alignment;
     uint8_t driver_uuid[VK_UUID_SIZE], device_uuid[VK_UUID_SIZE];
     PFN_vkGetMemoryFdKHR get_memory_fd;
     PFN_vkGetMemoryHostPointerPropertiesEXT get_host_pointer_properties;
-    struct vk_staging *links;   /* cached stagings, linked */
+    struct vk_staging *links; /* cached stagings, linked */
 
-    atomic_uint buffers, images, samplers, pipelines;   /* live objects, for stats */
+    atomic_uint buffers, images, samplers, pipelines; /* live objects, for stats */
 };
 
 cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out);

@@ -124,7 +124,8 @@ static void transition(VkCommandBuffer cmd, const vk_texture *t, VkImageLayout f
         .image = t->image,
         .subresourceRange = { t->aspect, 0, 1, 0, 1 },
     };
-    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO, .imageMemoryBarrierCount = 1,
+    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
+                             .imageMemoryBarrierCount = 1,
                              .pImageMemoryBarriers = &barrier };
     vkCmdPipelineBarrier2(cmd, &dep);
 }
@@ -163,8 +164,7 @@ static cv_result texture_rows(cv_backend_device *bd, vk_texture *t, VkBuffer buf
     return vk_immediate_end(bd);
 }
 
-static cv_result texture_transfer(cv_backend_device *bd, vk_texture *t, cv_rect rect, const void *data,
-                                  void *out) {
+static cv_result texture_transfer(cv_backend_device *bd, vk_texture *t, cv_rect rect, const void *data, void *out) {
     VkDeviceSize row_bytes = (VkDeviceSize)rect.width * t->texel_bytes;
     uint32_t rows_per_chunk = (uint32_t)min_size(rect.height, STAGING_MAX / row_bytes ? STAGING_MAX / row_bytes : 1);
     staging s = { 0 };

@@ -6,8 +6,7 @@
 
 #include "vk_resources.h"
 
-cv_result vk_host_buffer_write(cv_backend_device *bd, vk_buffer *b, uint64_t offset, uint64_t size,
-                               const void *data);
+cv_result vk_host_buffer_write(cv_backend_device *bd, vk_buffer *b, uint64_t offset, uint64_t size, const void *data);
 cv_result vk_host_buffer_read(cv_backend_device *bd, vk_buffer *b, uint64_t offset, uint64_t size, void *out);
 /* Texture data is tightly packed rows of rect.width texels. */
 cv_result vk_host_texture_write(cv_backend_device *bd, vk_texture *t, cv_rect rect, const void *data);

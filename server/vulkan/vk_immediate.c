@@ -56,7 +56,8 @@ static void record_pending(cv_backend_device *bd, VkCommandBuffer cmd) {
                 .subresourceRange = { t->aspect, 0, 1, 0, 1 },
             };
         }
-        VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO, .imageMemoryBarrierCount = n,
+        VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
+                                 .imageMemoryBarrierCount = n,
                                  .pImageMemoryBarriers = barriers };
         vkCmdPipelineBarrier2(cmd, &dep);
     }
@@ -86,7 +87,8 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
         .dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT,
         .dstAccessMask = VK_ACCESS_2_HOST_READ_BIT | VK_ACCESS_2_HOST_WRITE_BIT,
     };
-    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO, .memoryBarrierCount = 1,
+    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
+                             .memoryBarrierCount = 1,
                              .pMemoryBarriers = &to_host };
     vkCmdPipelineBarrier2(bd->immediate_cmd, &dep);
     VkResult vr = vkEndCommandBuffer(bd->immediate_cmd);
@@ -96,23 +98,31 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
      * work after the writes of every finished list (a memory dependency). */
     uint64_t finished = 0;
     vkGetSemaphoreCounterValue(bd->device, bd->ticket, &finished);
-    VkSemaphoreSubmitInfo wait = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO, .semaphore = bd->ticket,
-                                   .value = finished, .stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT };
+    VkSemaphoreSubmitInfo wait = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO,
+                                   .semaphore = bd->ticket,
+                                   .value = finished,
+                                   .stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT };
     VkSemaphoreSubmitInfo signal = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO,
-                                     .semaphore = bd->immediate, .value = bd->immediate_value + 1,
+                                     .semaphore = bd->immediate,
+                                     .value = bd->immediate_value + 1,
                                      .stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT };
     VkCommandBufferSubmitInfo cmd_info = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO,
                                            .commandBuffer = bd->immediate_cmd };
     VkSubmitInfo2 submit = { .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2,
-                             .waitSemaphoreInfoCount = 1, .pWaitSemaphoreInfos = &wait,
-                             .commandBufferInfoCount = 1, .pCommandBufferInfos = &cmd_info,
-                             .signalSemaphoreInfoCount = 1, .pSignalSemaphoreInfos = &signal };
+                             .waitSemaphoreInfoCount = 1,
+                             .pWaitSemaphoreInfos = &wait,
+                             .commandBufferInfoCount = 1,
+                             .pCommandBufferInfos = &cmd_info,
+                             .signalSemaphoreInfoCount = 1,
+                             .pSignalSemaphoreInfos = &signal };
     vr = vkQueueSubmit2(bd->queues[VK_SLOT_GRAPHICS].queue, 1, &submit, VK_NULL_HANDLE);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkQueueSubmit2 (immediate, device '%s')", bd->label);
     bd->immediate_value++;
-    VkSemaphoreWaitInfo wait_info = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_WAIT_INFO, .semaphoreCount = 1,
-                                      .pSemaphores = &bd->immediate, .pValues = &bd->immediate_value };
+    VkSemaphoreWaitInfo wait_info = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_WAIT_INFO,
+                                      .semaphoreCount = 1,
+                                      .pSemaphores = &bd->immediate,
+                                      .pValues = &bd->immediate_value };
     vr = vkWaitSemaphores(bd->device, &wait_info, UINT64_MAX);
     return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkWaitSemaphores (immediate, device '%s')", bd->label);
 }

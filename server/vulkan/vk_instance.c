@@ -21,7 +21,7 @@
 static const char VALIDATION_LAYER[] = "VK_LAYER_KHRONOS_validation";
 
 static pthread_mutex_t instances_lock = PTHREAD_MUTEX_INITIALIZER;
-static vk_instance instances[2];   /* [validation] */
+static vk_instance instances[2]; /* [validation] */
 
 static atomic_uint message_errors;
 static atomic_uint message_warnings;
@@ -41,8 +41,8 @@ static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlag
     (void)user;
     bool error = severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
     /* Loader chatter (type GENERAL) is printed but does not count against a run. */
-    bool counted = types & (VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
-                            VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT);
+    bool counted = types &
+                   (VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT);
     if (counted)
         atomic_fetch_add(error ? &message_errors : &message_warnings, 1u);
     fprintf(stderr, "corvid vulkan %s%s: %s\n", error ? "error" : "warning", counted ? "" : " (loader)",
@@ -91,8 +91,7 @@ static cv_result create_instance(vk_instance *inst, bool validation) {
         .sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT,
         .messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
                            VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT,
-        .messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
-                       VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+        .messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                        VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT,
         .pfnUserCallback = on_message,
     };
@@ -119,9 +118,8 @@ static cv_result create_instance(vk_instance *inst, bool validation) {
         return vk_fail(vr, "vkCreateInstance (Vulkan 1.3%s)", validation ? ", validation layer" : "");
     inst->validation = validation;
     if (validation) {
-        PFN_vkCreateDebugUtilsMessengerEXT create_messenger =
-            (PFN_vkCreateDebugUtilsMessengerEXT)vkGetInstanceProcAddr(inst->instance,
-                                                                      "vkCreateDebugUtilsMessengerEXT");
+        PFN_vkCreateDebugUtilsMessengerEXT create_messenger = (PFN_vkCreateDebugUtilsMessengerEXT)
+            vkGetInstanceProcAddr(inst->instance, "vkCreateDebugUtilsMessengerEXT");
         messenger_info.pNext = NULL;
         vr = create_messenger ? create_messenger(inst->instance, &messenger_info, NULL, &inst->messenger)
                               : VK_ERROR_EXTENSION_NOT_PRESENT;
@@ -130,21 +128,20 @@ static cv_result create_instance(vk_instance *inst, bool validation) {
             inst->instance = VK_NULL_HANDLE;
             return vk_fail(vr, "vkCreateDebugUtilsMessengerEXT");
         }
-        inst->set_object_name = (PFN_vkSetDebugUtilsObjectNameEXT)vkGetInstanceProcAddr(
-            inst->instance, "vkSetDebugUtilsObjectNameEXT");
-        inst->cmd_begin_label = (PFN_vkCmdBeginDebugUtilsLabelEXT)vkGetInstanceProcAddr(
-            inst->instance, "vkCmdBeginDebugUtilsLabelEXT");
-        inst->cmd_end_label = (PFN_vkCmdEndDebugUtilsLabelEXT)vkGetInstanceProcAddr(
-            inst->instance, "vkCmdEndDebugUtilsLabelEXT");
+        inst->set_object_name = (PFN_vkSetDebugUtilsObjectNameEXT)
+            vkGetInstanceProcAddr(inst->instance, "vkSetDebugUtilsObjectNameEXT");
+        inst->cmd_begin_label = (PFN_vkCmdBeginDebugUtilsLabelEXT)
+            vkGetInstanceProcAddr(inst->instance, "vkCmdBeginDebugUtilsLabelEXT");
+        inst->cmd_end_label = (PFN_vkCmdEndDebugUtilsLabelEXT)vkGetInstanceProcAddr(inst->instance,
+                                                                                    "vkCmdEndDebugUtilsLabelEXT");
     }
     return CV_OK;
 }
 
 static void destroy_instance(vk_instance *inst) {
     if (inst->messenger) {
-        PFN_vkDestroyDebugUtilsMessengerEXT destroy_messenger =
-            (PFN_vkDestroyDebugUtilsMessengerEXT)vkGetInstanceProcAddr(inst->instance,
-                                                                       "vkDestroyDebugUtilsMessengerEXT");
+        PFN_vkDestroyDebugUtilsMessengerEXT destroy_messenger = (PFN_vkDestroyDebugUtilsMessengerEXT)
+            vkGetInstanceProcAddr(inst->instance, "vkDestroyDebugUtilsMessengerEXT");
         destroy_messenger(inst->instance, inst->messenger, NULL);
     }
     vkDestroyInstance(inst->instance, NULL);

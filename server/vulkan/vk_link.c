@@ -12,12 +12,12 @@
 typedef struct vk_staging {
     struct vk_staging *next;
     cv_staging_kind kind;
-    uint64_t key;                /* EXPORT, IMPORT */
-    void *host;                  /* HOST */
+    uint64_t key; /* EXPORT, IMPORT */
+    void *host;   /* HOST */
     VkBuffer buffer;
     VkDeviceMemory memory;
     VkDeviceSize size;
-    uint32_t memory_type;        /* EXPORT: what an importer must allocate */
+    uint32_t memory_type; /* EXPORT: what an importer must allocate */
     VkDeviceSize allocation_size;
 } vk_staging;
 
@@ -73,9 +73,9 @@ static void cache_add(cv_backend_device *bd, vk_staging *s) {
 
 static vk_staging *cache_find(cv_backend_device *bd, const cv_staging_desc *d) {
     for (vk_staging *s = bd->links; s; s = s->next) {
-        bool match = d->kind == CV_STAGING_HOST ? s->kind == CV_STAGING_HOST && s->host == d->host
-                   : d->kind == CV_STAGING_EXPORT ? s->kind == CV_STAGING_EXPORT
-                                                  : s->kind != CV_STAGING_HOST && s->key == d->key;
+        bool match = d->kind == CV_STAGING_HOST     ? s->kind == CV_STAGING_HOST && s->host == d->host
+                     : d->kind == CV_STAGING_EXPORT ? s->kind == CV_STAGING_EXPORT
+                                                    : s->kind != CV_STAGING_HOST && s->key == d->key;
         if (match && s->size >= d->size)
             return s;
     }
@@ -86,7 +86,8 @@ static vk_staging *cache_find(cv_backend_device *bd, const cv_staging_desc *d) {
 static cv_result check_external(cv_backend_device *bd, VkExternalMemoryHandleTypeFlagBits type, bool export,
                                 bool *dedicated) {
     VkPhysicalDeviceExternalBufferInfo info = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_BUFFER_INFO,
-                                                .usage = usage, .handleType = type };
+                                                .usage = usage,
+                                                .handleType = type };
     VkExternalBufferProperties props = { .sType = VK_STRUCTURE_TYPE_EXTERNAL_BUFFER_PROPERTIES };
     vkGetPhysicalDeviceExternalBufferProperties(bd->adapter.physical, &info, &props);
     VkExternalMemoryFeatureFlags f = props.externalMemoryProperties.externalMemoryFeatures;
@@ -131,8 +132,11 @@ static cv_result staging_create(cv_backend_device *bd, cv_staging_desc *d, vk_st
     s->host = d->host;
     VkExternalMemoryBufferCreateInfo ext = { .sType = VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_BUFFER_CREATE_INFO,
                                              .handleTypes = type };
-    VkBufferCreateInfo info = { .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO, .pNext = &ext, .size = d->size,
-                                .usage = usage, .sharingMode = VK_SHARING_MODE_EXCLUSIVE };
+    VkBufferCreateInfo info = { .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
+                                .pNext = &ext,
+                                .size = d->size,
+                                .usage = usage,
+                                .sharingMode = VK_SHARING_MODE_EXCLUSIVE };
     VkResult vr = vkCreateBuffer(bd->device, &info, NULL, &s->buffer);
     if (vr != VK_SUCCESS) {
         free(s);
@@ -144,11 +148,15 @@ static cv_result staging_create(cv_backend_device *bd, cv_staging_desc *d, vk_st
     VkMemoryDedicatedAllocateInfo ded = { .sType = VK_STRUCTURE_TYPE_MEMORY_DEDICATED_ALLOCATE_INFO,
                                           .buffer = s->buffer };
     VkExportMemoryAllocateInfo exp = { .sType = VK_STRUCTURE_TYPE_EXPORT_MEMORY_ALLOCATE_INFO,
-                                       .pNext = dedicated ? &ded : NULL, .handleTypes = type };
+                                       .pNext = dedicated ? &ded : NULL,
+                                       .handleTypes = type };
     VkImportMemoryFdInfoKHR imp_fd = { .sType = VK_STRUCTURE_TYPE_IMPORT_MEMORY_FD_INFO_KHR,
-                                       .pNext = dedicated ? &ded : NULL, .handleType = type, .fd = d->fd };
+                                       .pNext = dedicated ? &ded : NULL,
+                                       .handleType = type,
+                                       .fd = d->fd };
     VkImportMemoryHostPointerInfoEXT imp_host = { .sType = VK_STRUCTURE_TYPE_IMPORT_MEMORY_HOST_POINTER_INFO_EXT,
-                                                  .handleType = type, .pHostPointer = d->host };
+                                                  .handleType = type,
+                                                  .pHostPointer = d->host };
     VkMemoryAllocateInfo alloc = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO, .allocationSize = req.size };
     uint32_t mem_type = UINT32_MAX;
     const char *why = "no memory type fits";
@@ -159,7 +167,9 @@ static cv_result staging_create(cv_backend_device *bd, cv_staging_desc *d, vk_st
         alloc.pNext = &imp_fd;
         alloc.allocationSize = d->allocation_size;
         mem_type = d->memory_type < 32 && (req.memoryTypeBits & (1u << d->memory_type)) &&
-                           d->allocation_size >= req.size ? d->memory_type : UINT32_MAX;
+                           d->allocation_size >= req.size
+                       ? d->memory_type
+                       : UINT32_MAX;
         why = "the exported memory's type or size does not fit the buffer";
     } else {
         VkMemoryHostPointerPropertiesEXT hp = { .sType = VK_STRUCTURE_TYPE_MEMORY_HOST_POINTER_PROPERTIES_EXT };
@@ -182,7 +192,7 @@ static cv_result staging_create(cv_backend_device *bd, cv_staging_desc *d, vk_st
     if (vr == VK_SUCCESS)
         vr = vkBindBufferMemory(bd->device, s->buffer, s->memory, 0);
     if (vr != VK_SUCCESS) {
-        if (s->memory)   /* an import that succeeded owns the fd: freeing the memory closes it */
+        if (s->memory) /* an import that succeeded owns the fd: freeing the memory closes it */
             vkFreeMemory(bd->device, s->memory, NULL);
         vkDestroyBuffer(bd->device, s->buffer, NULL);
         bool fd_taken = s->memory && d->kind == CV_STAGING_IMPORT;
@@ -190,11 +200,14 @@ static cv_result staging_create(cv_backend_device *bd, cv_staging_desc *d, vk_st
         if (fd_taken)
             d->fd = -1;
         return vk_fail(vr, "vkAllocateMemory/vkBindBufferMemory (transfer staging of %llu bytes, %s, device '%s')",
-                       (unsigned long long)d->size, d->kind == CV_STAGING_EXPORT ? "exported"
-                       : d->kind == CV_STAGING_IMPORT ? "imported fd" : "imported host memory", bd->label);
+                       (unsigned long long)d->size,
+                       d->kind == CV_STAGING_EXPORT   ? "exported"
+                       : d->kind == CV_STAGING_IMPORT ? "imported fd"
+                                                      : "imported host memory",
+                       bd->label);
     }
     if (d->kind == CV_STAGING_IMPORT) {
-        d->fd = -1;   /* Vulkan owns it now */
+        d->fd = -1; /* Vulkan owns it now */
         s->key = d->key;
     } else if (d->kind == CV_STAGING_EXPORT) {
         s->key = atomic_fetch_add(&next_key, 1);
@@ -224,7 +237,8 @@ cv_result vk_link_staging(cv_backend_device *bd, cv_staging_desc *d, void **out)
         created = true;
     }
     if (d->kind == CV_STAGING_EXPORT) {
-        VkMemoryGetFdInfoKHR info = { .sType = VK_STRUCTURE_TYPE_MEMORY_GET_FD_INFO_KHR, .memory = s->memory,
+        VkMemoryGetFdInfoKHR info = { .sType = VK_STRUCTURE_TYPE_MEMORY_GET_FD_INFO_KHR,
+                                      .memory = s->memory,
                                       .handleType = VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT };
         int fd = -1;
         VkResult vr = bd->get_memory_fd(bd->device, &info, &fd);
@@ -259,7 +273,8 @@ static void external_barrier(VkCommandBuffer cmd, const cv_backend_device *bd, V
         .offset = 0,
         .size = VK_WHOLE_SIZE,
     };
-    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO, .bufferMemoryBarrierCount = 1,
+    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
+                             .bufferMemoryBarrierCount = 1,
                              .pBufferMemoryBarriers = &b };
     vkCmdPipelineBarrier2(cmd, &dep);
 }

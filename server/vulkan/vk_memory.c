@@ -14,7 +14,9 @@
 
 #define DEFAULT_BLOCK_SIZE (64ull << 20)
 
-typedef struct free_range { VkDeviceSize offset, size; } free_range;
+typedef struct free_range {
+    VkDeviceSize offset, size;
+} free_range;
 
 struct vk_block {
     vk_block *next;
@@ -23,7 +25,7 @@ struct vk_block {
     uint32_t type;
     void *mapped;
     bool dedicated;
-    uint32_t live;              /* allocations in this block */
+    uint32_t live; /* allocations in this block */
     free_range *ranges;
     uint32_t range_count, range_capacity;
 };
@@ -98,14 +100,16 @@ static cv_result block_create(vk_memory *m, uint32_t type, vk_memory_kind kind, 
                                         .flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT };
     VkMemoryAllocateInfo info = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
                                   .pNext = m->device_address && kind == VK_MEMORY_LINEAR ? &flags : NULL,
-                                  .allocationSize = size, .memoryTypeIndex = type };
+                                  .allocationSize = size,
+                                  .memoryTypeIndex = type };
     VkResult vr = vkAllocateMemory(m->device, &info, NULL, &b->memory);
     if (vr != VK_SUCCESS) {
         free(b);
         uint32_t heap = m->properties.memoryTypes[type].heapIndex;
-        return vk_fail(vr, "vkAllocateMemory of %llu bytes (%s) for %s from heap %u of %llu bytes (memory type %u, "
-                       "%llu bytes already allocated on this device)", (unsigned long long)size,
-                       dedicated ? "a dedicated allocation" : "a shared block", what, heap,
+        return vk_fail(vr,
+                       "vkAllocateMemory of %llu bytes (%s) for %s from heap %u of %llu bytes (memory type %u, "
+                       "%llu bytes already allocated on this device)",
+                       (unsigned long long)size, dedicated ? "a dedicated allocation" : "a shared block", what, heap,
                        (unsigned long long)m->properties.memoryHeaps[heap].size, type,
                        (unsigned long long)m->block_bytes);
     }
@@ -229,9 +233,11 @@ cv_result vk_memory_alloc(vk_memory *m, const VkMemoryRequirements *req, VkMemor
         r = block_create(m, type, kind, dedicated ? req->size : m->block_size, dedicated, what, &block);
         if (r == CV_OK && !block_take(block, req->size, alignment, &offset)) {
             block_destroy(m, block);
-            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: %llu bytes (alignment %llu) for %s do not fit a new block "
-                         "of memory type %u (heap %u)", (unsigned long long)req->size,
-                         (unsigned long long)alignment, what, type, m->properties.memoryTypes[type].heapIndex);
+            r = cv_error(CV_ERROR_OUT_OF_MEMORY,
+                         "vulkan: %llu bytes (alignment %llu) for %s do not fit a new block "
+                         "of memory type %u (heap %u)",
+                         (unsigned long long)req->size, (unsigned long long)alignment, what, type,
+                         m->properties.memoryTypes[type].heapIndex);
         }
         if (r == CV_OK) {
             block->next = m->blocks[type][kind];
@@ -296,8 +302,9 @@ static VkMappedMemoryRange mapped_range(const vk_memory *m, const vk_allocation 
     VkDeviceSize end = align_up(a->offset + offset + size, m->atom);
     if (end > a->block->size)
         end = a->block->size;
-    return (VkMappedMemoryRange){ .sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE, .memory = a->memory,
-                                  .offset = start, .size = end - start };
+    return (VkMappedMemoryRange){
+        .sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE, .memory = a->memory, .offset = start, .size = end - start
+    };
 }
 
 void vk_memory_flush(vk_memory *m, const vk_allocation *a, VkDeviceSize offset, VkDeviceSize size) {

@@ -18,7 +18,7 @@ typedef struct vk_allocation {
     vk_block *block;
     VkDeviceMemory memory;
     VkDeviceSize offset, size;
-    void *mapped;              /* host pointer to offset, NULL if not host-visible */
+    void *mapped; /* host pointer to offset, NULL if not host-visible */
     bool coherent;
 } vk_allocation;
 
@@ -26,11 +26,11 @@ typedef struct vk_memory {
     VkDevice device;
     VkPhysicalDeviceMemoryProperties properties;
     VkDeviceSize block_size;
-    VkDeviceSize atom;         /* nonCoherentAtomSize */
-    bool device_address;       /* linear blocks allocated with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT
+    VkDeviceSize atom;   /* nonCoherentAtomSize */
+    bool device_address; /* linear blocks allocated with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT
                                   (set when the device enables bufferDeviceAddress) */
     pthread_mutex_t lock;
-    vk_block *blocks[VK_MAX_MEMORY_TYPES][2];   /* per type and kind, linked */
+    vk_block *blocks[VK_MAX_MEMORY_TYPES][2]; /* per type and kind, linked */
     uint32_t block_count, allocation_count;
     uint64_t block_bytes, allocated_bytes;
 } vk_memory;
@@ -42,8 +42,7 @@ void vk_memory_finish(vk_memory *m);
 /* Allocates for `req` from a memory type having all of `required` flags,
  * preferring types that have `preferred` and no flags beyond required|preferred. */
 cv_result vk_memory_alloc(vk_memory *m, const VkMemoryRequirements *req, VkMemoryPropertyFlags required,
-                          VkMemoryPropertyFlags preferred, vk_memory_kind kind, const char *what,
-                          vk_allocation *out);
+                          VkMemoryPropertyFlags preferred, vk_memory_kind kind, const char *what, vk_allocation *out);
 void vk_memory_free(vk_memory *m, vk_allocation *a);
 
 /* Makes host writes to a non-coherent mapping visible to the device, and

@@ -32,8 +32,8 @@ static cv_result load_stage(cv_backend_device *bd, vk_pipeline *p, shader_stage 
     size_t size = 0;
     const uint32_t *words = cv_shader_spirv(s->file, &size);
     if (!words)
-        return cv_error(CV_ERROR_NOT_FOUND, "pipeline '%s': shader '%s' is not among the embedded shaders", info->name,
-                        s->file ? s->file : "(none)");
+        return cv_error(CV_ERROR_NOT_FOUND, "pipeline '%s': shader '%s' is not among the embedded shaders",
+                        info->name, s->file ? s->file : "(none)");
     vk_spirv_info reflected;
     cv_result r = vk_spirv_reflect(words, size, s->file, &reflected);
     if (r != CV_OK)
@@ -49,18 +49,22 @@ static cv_result load_stage(cv_backend_device *bd, vk_pipeline *p, shader_stage 
         if (!b->used)
             continue;
         if (i >= info->binding_count)
-            return cv_error(CV_ERROR_BINDING_MISMATCH, "pipeline '%s': shader '%s' uses binding %u, the registry has %u",
-                            info->name, s->file, i, info->binding_count);
+            return cv_error(CV_ERROR_BINDING_MISMATCH,
+                            "pipeline '%s': shader '%s' uses binding %u, the registry has %u", info->name, s->file, i,
+                            info->binding_count);
         if (b->kind != info->bindings[i])
-            return cv_error(CV_ERROR_BINDING_MISMATCH, "pipeline '%s': shader '%s' declares binding %u as a %s, the "
-                            "registry as a %s", info->name, s->file, i, cv_binding_kind_name(b->kind),
+            return cv_error(CV_ERROR_BINDING_MISMATCH,
+                            "pipeline '%s': shader '%s' declares binding %u as a %s, the "
+                            "registry as a %s",
+                            info->name, s->file, i, cv_binding_kind_name(b->kind),
                             cv_binding_kind_name(info->bindings[i]));
         p->uses[i].stages |= s->pipeline_stage;
         p->uses[i].reads |= b->reads;
         p->uses[i].writes |= b->writes;
     }
     VkShaderModuleCreateInfo module_info = { .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
-                                             .codeSize = size, .pCode = words };
+                                             .codeSize = size,
+                                             .pCode = words };
     VkResult vr = vkCreateShaderModule(bd->device, &module_info, NULL, &s->module);
     return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkCreateShaderModule '%s'", s->file);
 }
@@ -99,8 +103,10 @@ static cv_result create_layouts(cv_backend_device *bd, vk_pipeline *p) {
 static cv_result create_compute(cv_backend_device *bd, vk_pipeline *p, shader_stage *s) {
     VkComputePipelineCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
-        .stage = { .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = s->stage,
-                   .module = s->module, .pName = "main" },
+        .stage = { .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                   .stage = s->stage,
+                   .module = s->module,
+                   .pName = "main" },
         .layout = p->layout,
     };
     VkResult vr = vkCreateComputePipelines(bd->device, VK_NULL_HANDLE, 1, &info, NULL, &p->pipeline);
@@ -130,15 +136,21 @@ static cv_result create_graphics(cv_backend_device *bd, vk_pipeline *p, shader_s
     VkPipelineShaderStageCreateInfo shader_infos[2];
     for (int i = 0; i < 2; i++)
         shader_infos[i] = (VkPipelineShaderStageCreateInfo){
-            .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = stages[i].stage,
-            .module = stages[i].module, .pName = "main" };
+            .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+            .stage = stages[i].stage,
+            .module = stages[i].module,
+            .pName = "main"
+        };
     VkPipelineVertexInputStateCreateInfo vertex_input = {
-        .sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO };
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO
+    };
     VkPipelineInputAssemblyStateCreateInfo assembly = {
         .sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO,
-        .topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST };
-    VkPipelineViewportStateCreateInfo viewport = {
-        .sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO, .viewportCount = 1, .scissorCount = 1 };
+        .topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST
+    };
+    VkPipelineViewportStateCreateInfo viewport = { .sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO,
+                                                   .viewportCount = 1,
+                                                   .scissorCount = 1 };
     VkPipelineRasterizationStateCreateInfo raster = {
         .sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO,
         .polygonMode = VK_POLYGON_MODE_FILL,
@@ -148,7 +160,8 @@ static cv_result create_graphics(cv_backend_device *bd, vk_pipeline *p, shader_s
     };
     VkPipelineMultisampleStateCreateInfo multisample = {
         .sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO,
-        .rasterizationSamples = VK_SAMPLE_COUNT_1_BIT };
+        .rasterizationSamples = VK_SAMPLE_COUNT_1_BIT
+    };
     VkPipelineDepthStencilStateCreateInfo depth_state = {
         .sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO,
         .depthTestEnable = depth,
@@ -161,9 +174,9 @@ static cv_result create_graphics(cv_backend_device *bd, vk_pipeline *p, shader_s
         .pAttachments = blend,
     };
     VkDynamicState dynamic[] = { VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR };
-    VkPipelineDynamicStateCreateInfo dynamic_state = {
-        .sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO, .dynamicStateCount = 2,
-        .pDynamicStates = dynamic };
+    VkPipelineDynamicStateCreateInfo dynamic_state = { .sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO,
+                                                       .dynamicStateCount = 2,
+                                                       .pDynamicStates = dynamic };
     VkGraphicsPipelineCreateInfo pipeline_info = {
         .sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO,
         .pNext = &rendering,
@@ -206,9 +219,10 @@ cv_result vk_pipeline_build(cv_backend_device *bd, const cv_pipeline_info *info,
     if (!info)
         return cv_error(CV_ERROR_UNKNOWN_PIPELINE, "vulkan: pipeline without a registry entry");
     if (info->push_constant_size % 4 || info->push_constant_size > bd->limits.maxPushConstantsSize)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "pipeline '%s': %u bytes of push constants (a multiple of 4, at most "
-                        "%u on '%s')", info->name, info->push_constant_size, bd->limits.maxPushConstantsSize,
-                        bd->adapter.info.name);
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "pipeline '%s': %u bytes of push constants (a multiple of 4, at most "
+                        "%u on '%s')",
+                        info->name, info->push_constant_size, bd->limits.maxPushConstantsSize, bd->adapter.info.name);
     vk_pipeline *p = calloc(1, sizeof(*p));
     if (!p)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: pipeline '%s'", info->name);

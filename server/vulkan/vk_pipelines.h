@@ -9,14 +9,14 @@
 
 /* How the pipeline's shaders use one binding slot (from SPIR-V reflection). */
 typedef struct vk_binding_use {
-    VkPipelineStageFlags2 stages;   /* 0 = no shader uses the slot */
+    VkPipelineStageFlags2 stages; /* 0 = no shader uses the slot */
     bool reads, writes;
 } vk_binding_use;
 
 struct vk_pipeline {
     const cv_pipeline_info *info;
     VkPipelineBindPoint bind_point;
-    VkShaderStageFlags stages;      /* for push constants */
+    VkShaderStageFlags stages; /* for push constants */
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout layout;
     VkPipeline pipeline;

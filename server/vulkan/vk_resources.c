@@ -78,7 +78,8 @@ cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBuffe
     }
     b->size = size;
     if (usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) {
-        VkBufferDeviceAddressInfo where = { .sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO, .buffer = b->buffer };
+        VkBufferDeviceAddressInfo where = { .sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO,
+                                            .buffer = b->buffer };
         b->address = vkGetBufferDeviceAddress(bd->device, &where);
     }
     vk_device_name(bd, VK_OBJECT_TYPE_BUFFER, (uint64_t)b->buffer, label);
@@ -101,7 +102,7 @@ void vk_buffer_destroy(cv_backend_device *bd, vk_buffer *b) {
 /* ---- textures ------------------------------------------------------------------ */
 
 typedef struct usage_need {
-    uint32_t usage;                  /* cv_texture_usage bit */
+    uint32_t usage; /* cv_texture_usage bit */
     VkImageUsageFlags vk_usage;
     VkFormatFeatureFlags feature;
     const char *name;
@@ -236,8 +237,8 @@ cv_result vk_sampler_create(cv_backend_device *bd, const cv_sampler_desc *desc, 
     if (!s)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: sampler '%s'", desc->label);
     VkFilter filter = desc->filter == CV_FILTER_NEAREST ? VK_FILTER_NEAREST : VK_FILTER_LINEAR;
-    VkSamplerAddressMode address =
-        desc->address == CV_ADDRESS_REPEAT ? VK_SAMPLER_ADDRESS_MODE_REPEAT : VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    VkSamplerAddressMode address = desc->address == CV_ADDRESS_REPEAT ? VK_SAMPLER_ADDRESS_MODE_REPEAT
+                                                                      : VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
     VkSamplerCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO,
         .magFilter = filter,

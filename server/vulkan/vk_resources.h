@@ -8,7 +8,7 @@ typedef struct vk_buffer {
     VkBuffer buffer;
     vk_allocation memory;
     VkDeviceSize size;
-    VkDeviceAddress address;     /* storage buffers: where kernels find it (trace_rays); else 0 */
+    VkDeviceAddress address; /* storage buffers: where kernels find it (trace_rays); else 0 */
 } vk_buffer;
 
 struct vk_texture {
@@ -18,7 +18,7 @@ struct vk_texture {
     VkFormat format;
     VkImageAspectFlags aspect;
     uint32_t width, height, texel_bytes;
-    bool pending;                /* awaiting its first layout transition (vk_immediate.h) */
+    bool pending; /* awaiting its first layout transition (vk_immediate.h) */
 };
 
 typedef struct vk_sampler {

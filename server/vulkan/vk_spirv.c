@@ -36,9 +36,9 @@ enum {
 };
 
 typedef struct id_info {
-    uint16_t opcode;               /* defining instruction of a type */
-    uint32_t operand;              /* pointer: pointee; image: Sampled operand */
-    uint32_t member_count;         /* struct */
+    uint16_t opcode;       /* defining instruction of a type */
+    uint32_t operand;      /* pointer: pointee; image: Sampled operand */
+    uint32_t member_count; /* struct */
     uint32_t members_non_writable, members_non_readable;
     uint32_t binding, set;
     bool has_binding, has_set, non_writable, non_readable, buffer_block;
@@ -57,7 +57,8 @@ static cv_result classify(const id_info *ids, uint32_t bound, uint32_t var, cons
     if (set != 0 || v->binding >= CV_MAX_BINDINGS)
         return cv_error(CV_ERROR_UNSUPPORTED, "shader '%s': binding (set %u, binding %u) outside set 0, slots 0..%u",
                         name, set, v->binding, CV_MAX_BINDINGS - 1);
-    uint32_t pointee = v->var_type < bound && ids[v->var_type].opcode == OP_TYPE_POINTER ? ids[v->var_type].operand : 0;
+    uint32_t pointee = v->var_type < bound && ids[v->var_type].opcode == OP_TYPE_POINTER ? ids[v->var_type].operand
+                                                                                         : 0;
     if (pointee == 0 || pointee >= bound)
         return cv_error(CV_ERROR_MALFORMED, "shader '%s': variable %u has no pointer type", name, var);
     const id_info *t = &ids[pointee];
@@ -158,8 +159,14 @@ cv_result vk_spirv_reflect(const uint32_t *words, size_t size_bytes, const char 
             if (id_ok && n >= 3) {
                 id_info *d = &ids[id];
                 switch (w[2]) {
-                case DEC_BINDING: d->has_binding = n >= 4; d->binding = n >= 4 ? w[3] : 0; break;
-                case DEC_DESCRIPTOR_SET: d->has_set = n >= 4; d->set = n >= 4 ? w[3] : 0; break;
+                case DEC_BINDING:
+                    d->has_binding = n >= 4;
+                    d->binding = n >= 4 ? w[3] : 0;
+                    break;
+                case DEC_DESCRIPTOR_SET:
+                    d->has_set = n >= 4;
+                    d->set = n >= 4 ? w[3] : 0;
+                    break;
                 case DEC_NON_WRITABLE: d->non_writable = true; break;
                 case DEC_NON_READABLE: d->non_readable = true; break;
                 case DEC_BUFFER_BLOCK: d->buffer_block = true; break;
@@ -176,8 +183,7 @@ cv_result vk_spirv_reflect(const uint32_t *words, size_t size_bytes, const char 
                     ids[id].members_non_readable++;
             }
             break;
-        default:
-            break;
+        default: break;
         }
         i += n;
     }

@@ -16,7 +16,7 @@ typedef struct vk_spirv_binding {
 } vk_spirv_binding;
 
 typedef struct vk_spirv_info {
-    bool has_local_size;           /* literal LocalSize (not specialised) */
+    bool has_local_size; /* literal LocalSize (not specialised) */
     uint32_t local_size[3];
     vk_spirv_binding bindings[CV_MAX_BINDINGS];
 } vk_spirv_info;

@@ -3,7 +3,9 @@
 #include "vk_submit.h"
 
 static VkSemaphoreSubmitInfo semaphore_info(VkSemaphore s, uint64_t value) {
-    return (VkSemaphoreSubmitInfo){ .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO, .semaphore = s, .value = value,
+    return (VkSemaphoreSubmitInfo){ .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO,
+                                    .semaphore = s,
+                                    .value = value,
                                     .stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT };
 }
 
@@ -25,13 +27,14 @@ cv_result vk_submit(cv_backend_device *bd, vk_compiled *c, uint64_t ticket) {
         } else {
             waits[wait_count++] = semaphore_info(bd->chain, bd->chain_value);
         }
-        VkSemaphoreSubmitInfo signal =
-            last ? semaphore_info(bd->ticket, ticket) : semaphore_info(bd->chain, bd->chain_value + 1);
+        VkSemaphoreSubmitInfo signal = last ? semaphore_info(bd->ticket, ticket)
+                                            : semaphore_info(bd->chain, bd->chain_value + 1);
         VkCommandBufferSubmitInfo buffers[2];
         uint32_t buffer_count = 0;
         if (seg->prologue)
             buffers[buffer_count++] = (VkCommandBufferSubmitInfo){
-                .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO, .commandBuffer = seg->prologue };
+                .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO, .commandBuffer = seg->prologue
+            };
         buffers[buffer_count++] = (VkCommandBufferSubmitInfo){ .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO,
                                                                .commandBuffer = seg->body };
         VkSubmitInfo2 submit = {
@@ -54,14 +57,17 @@ cv_result vk_submit(cv_backend_device *bd, vk_compiled *c, uint64_t ticket) {
 }
 
 cv_result vk_wait(cv_backend_device *bd, uint64_t ticket, uint64_t timeout_ns) {
-    VkSemaphoreWaitInfo info = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_WAIT_INFO, .semaphoreCount = 1,
-                                 .pSemaphores = &bd->ticket, .pValues = &ticket };
+    VkSemaphoreWaitInfo info = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_WAIT_INFO,
+                                 .semaphoreCount = 1,
+                                 .pSemaphores = &bd->ticket,
+                                 .pValues = &ticket };
     VkResult vr = vkWaitSemaphores(bd->device, &info, timeout_ns);
     if (vr == VK_TIMEOUT)
         return cv_error(CV_ERROR_TIMEOUT, "device '%s': ticket %llu not finished after %llu ns", bd->label,
                         (unsigned long long)ticket, (unsigned long long)timeout_ns);
-    return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkWaitSemaphores for ticket %llu on device '%s'",
-                                              (unsigned long long)ticket, bd->label);
+    return vr == VK_SUCCESS ? CV_OK
+                            : vk_fail(vr, "vkWaitSemaphores for ticket %llu on device '%s'",
+                                      (unsigned long long)ticket, bd->label);
 }
 
 uint64_t vk_completed(cv_backend_device *bd) {

@@ -27,7 +27,8 @@ cv_result vk_timestamps_init(cv_backend_device *bd, const cv_command_list *list,
     }
     ts->query_count = 1 + 2 * markers + points;
     VkQueryPoolCreateInfo info = { .sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
-                                   .queryType = VK_QUERY_TYPE_TIMESTAMP, .queryCount = ts->query_count };
+                                   .queryType = VK_QUERY_TYPE_TIMESTAMP,
+                                   .queryCount = ts->query_count };
     VkResult vr = vkCreateQueryPool(bd->device, &info, NULL, &ts->pool);
     if (vr != VK_SUCCESS) {
         vk_timestamps_finish(bd, ts);

@@ -10,17 +10,17 @@
 
 typedef struct vk_pass_record {
     char label[CV_LABEL_MAX];
-    uint32_t begin_query, end_query;   /* equal for a timestamp; VK_NO_QUERY if not recorded */
+    uint32_t begin_query, end_query; /* equal for a timestamp; VK_NO_QUERY if not recorded */
 } vk_pass_record;
 
 typedef struct vk_timestamps {
-    VkQueryPool pool;                  /* VK_NULL_HANDLE: the list has no markers or timestamps */
+    VkQueryPool pool; /* VK_NULL_HANDLE: the list has no markers or timestamps */
     uint32_t query_count, next_query;
     uint32_t start_query;
-    uint64_t mask;                     /* valid timestamp bits common to the queues used */
+    uint64_t mask; /* valid timestamp bits common to the queues used */
     vk_pass_record *passes;
     uint32_t pass_count;
-    uint32_t *open;                    /* passes begun and not yet ended */
+    uint32_t *open; /* passes begun and not yet ended */
     uint32_t open_count;
 } vk_timestamps;
 

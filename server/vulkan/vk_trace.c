@@ -15,11 +15,11 @@
 #include "vk_trace_rt.h"
 
 struct vk_tracer {
-    pthread_mutex_t lock;           /* mode is set by cv_vulkan_set_trace_path outside the device lock */
-    cv_vulkan_trace_path mode;      /* AUTO, COMPUTE or PIPELINE */
-    bool int64;                     /* shaderInt64, which the compute kernel needs */
-    vk_pipeline *compute;           /* built on first use */
-    vk_rt *rt;                      /* NULL: the adapter has no ray-tracing pipeline */
+    pthread_mutex_t lock;      /* mode is set by cv_vulkan_set_trace_path outside the device lock */
+    cv_vulkan_trace_path mode; /* AUTO, COMPUTE or PIPELINE */
+    bool int64;                /* shaderInt64, which the compute kernel needs */
+    vk_pipeline *compute;      /* built on first use */
+    vk_rt *rt;                 /* NULL: the adapter has no ray-tracing pipeline */
 };
 
 /* AUTO mode's measurement, per adapter index, shared by every device of the
@@ -73,8 +73,10 @@ static cv_result mode_from_environment(const cv_backend_device *bd, cv_vulkan_tr
     if (strcmp(env, "pipeline") != 0)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_TRACE_PATH='%s': expected compute, pipeline or auto", env);
     if (!bd->ray_tracing)
-        return cv_error(CV_ERROR_UNSUPPORTED, "CORVID_TRACE_PATH=pipeline: adapter '%s' has no ray-tracing pipeline "
-                        "(VK_KHR_ray_tracing_pipeline with VK_KHR_acceleration_structure)", bd->adapter.info.name);
+        return cv_error(CV_ERROR_UNSUPPORTED,
+                        "CORVID_TRACE_PATH=pipeline: adapter '%s' has no ray-tracing pipeline "
+                        "(VK_KHR_ray_tracing_pipeline with VK_KHR_acceleration_structure)",
+                        bd->adapter.info.name);
     *mode = CV_VULKAN_TRACE_PIPELINE;
     return CV_OK;
 }
@@ -174,8 +176,10 @@ cv_result vk_trace_prepare(cv_backend_device *bd, vk_accel *const *accels, uint3
 static cv_result array_buffer(cv_backend_device *bd, const cv_accel_desc *desc, uint64_t bytes, const char *part,
                               VkDeviceSize max_allocation, vk_buffer **out) {
     if (bytes > max_allocation)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "accel '%s': %llu bytes of %s exceed the %llu-byte allocation limit "
-                        "of '%s'", desc->label, (unsigned long long)bytes, part, (unsigned long long)max_allocation,
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "accel '%s': %llu bytes of %s exceed the %llu-byte allocation limit "
+                        "of '%s'",
+                        desc->label, (unsigned long long)bytes, part, (unsigned long long)max_allocation,
                         bd->adapter.info.name);
     cv_buffer_desc buffer = { .size = bytes, .usage = CV_BUFFER_USAGE_STORAGE };
     snprintf(buffer.label, sizeof(buffer.label), "%.30s %s", desc->label, part);
@@ -189,7 +193,9 @@ cv_result vk_accel_create(cv_backend_device *bd, const cv_accel_desc *desc, vk_a
     a->node_count = desc->node_count;
     a->triangle_count = desc->triangle_count;
     snprintf(a->label, sizeof(a->label), "%s", desc->label);
-    VkPhysicalDeviceMaintenance3Properties m3 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES };
+    VkPhysicalDeviceMaintenance3Properties m3 = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES
+    };
     VkPhysicalDeviceProperties2 props = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &m3 };
     vkGetPhysicalDeviceProperties2(bd->adapter.physical, &props);
     cv_result r = array_buffer(bd, desc, (uint64_t)desc->node_count * CV_ACCEL_NODE_BYTES, "nodes",
@@ -280,13 +286,21 @@ static uint64_t triangles_key(uint64_t accel_key) { return accel_key | (0x80ull 
 static void record_compute(cv_backend_device *bd, vk_tracker *tracker, VkCommandBuffer cmd, const vk_trace_job *job) {
     const VkPipelineStageFlags2 stage = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     const vk_accel *a = job->accel;
-    vk_tracker_use(tracker, &(vk_use){ .id = job->accel_key, .buffer = a->nodes->buffer, .stages = stage,
+    vk_tracker_use(tracker, &(vk_use){ .id = job->accel_key,
+                                       .buffer = a->nodes->buffer,
+                                       .stages = stage,
                                        .reads = VK_ACCESS_2_SHADER_STORAGE_READ_BIT });
-    vk_tracker_use(tracker, &(vk_use){ .id = triangles_key(job->accel_key), .buffer = a->triangles->buffer,
-                                       .stages = stage, .reads = VK_ACCESS_2_SHADER_STORAGE_READ_BIT });
-    vk_tracker_use(tracker, &(vk_use){ .id = job->rays_key, .buffer = job->rays->buffer, .stages = stage,
+    vk_tracker_use(tracker, &(vk_use){ .id = triangles_key(job->accel_key),
+                                       .buffer = a->triangles->buffer,
+                                       .stages = stage,
                                        .reads = VK_ACCESS_2_SHADER_STORAGE_READ_BIT });
-    vk_tracker_use(tracker, &(vk_use){ .id = job->hits_key, .buffer = job->hits->buffer, .stages = stage,
+    vk_tracker_use(tracker, &(vk_use){ .id = job->rays_key,
+                                       .buffer = job->rays->buffer,
+                                       .stages = stage,
+                                       .reads = VK_ACCESS_2_SHADER_STORAGE_READ_BIT });
+    vk_tracker_use(tracker, &(vk_use){ .id = job->hits_key,
+                                       .buffer = job->hits->buffer,
+                                       .stages = stage,
                                        .writes = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT });
     vk_tracker_apply(tracker, cmd);
 
@@ -321,7 +335,7 @@ void vk_trace_record(cv_backend_device *bd, cv_vulkan_trace_path path, vk_tracke
 /* ---- public queries ----------------------------------------------------------------- */
 
 static cv_result vulkan_device(cv_device *dev, const char *what, cv_backend_device **out) {
-    *out = NULL;   /* written on every path: callers test the result, which gcc -O3 cannot see through */
+    *out = NULL; /* written on every path: callers test the result, which gcc -O3 cannot see through */
     if (!dev)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: NULL device", what);
     if (strcmp(cv_device_get_info(dev)->backend, "vulkan") != 0)
@@ -359,8 +373,10 @@ cv_result cv_vulkan_set_trace_path(cv_device *dev, cv_vulkan_trace_path mode) {
     if (mode != CV_VULKAN_TRACE_AUTO && mode != CV_VULKAN_TRACE_COMPUTE && mode != CV_VULKAN_TRACE_PIPELINE)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_vulkan_set_trace_path: unknown mode %d", (int)mode);
     if (mode == CV_VULKAN_TRACE_PIPELINE && !bd->tracer->rt)
-        return cv_error(CV_ERROR_UNSUPPORTED, "cv_vulkan_set_trace_path: device '%s' ('%s') has no ray-tracing "
-                        "pipeline", cv_device_label(dev), bd->adapter.info.name);
+        return cv_error(CV_ERROR_UNSUPPORTED,
+                        "cv_vulkan_set_trace_path: device '%s' ('%s') has no ray-tracing "
+                        "pipeline",
+                        cv_device_label(dev), bd->adapter.info.name);
     pthread_mutex_lock(&bd->tracer->lock);
     bd->tracer->mode = mode;
     pthread_mutex_unlock(&bd->tracer->lock);

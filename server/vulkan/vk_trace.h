@@ -23,12 +23,12 @@
 typedef struct vk_rt_accel vk_rt_accel;
 
 typedef struct vk_accel {
-    vk_buffer *nodes;              /* node_count cv_bvh_node2 */
-    vk_buffer *triangles;          /* triangle_count cv_bvh_tri */
+    vk_buffer *nodes;     /* node_count cv_bvh_node2 */
+    vk_buffer *triangles; /* triangle_count cv_bvh_tri */
     uint32_t node_count, triangle_count;
     char label[CV_LABEL_MAX];
-    vk_rt_accel *rt;               /* the driver's structures; NULL until first needed */
-    bool rt_stale;                 /* rt does not hold the latest triangles */
+    vk_rt_accel *rt; /* the driver's structures; NULL until first needed */
+    bool rt_stale;   /* rt does not hold the latest triangles */
 } vk_accel;
 
 /* One trace_rays command as the paths record it. The keys name the buffers to

@@ -63,7 +63,7 @@ static double host_seconds(void) {
 }
 
 typedef struct measurement {
-    VkQueryPool pool;                 /* two timestamps, or VK_NULL_HANDLE: host clock */
+    VkQueryPool pool; /* two timestamps, or VK_NULL_HANDLE: host clock */
     vk_trace_job job;
 } measurement;
 
@@ -80,7 +80,8 @@ static cv_result run_round(cv_backend_device *bd, measurement *m, cv_vulkan_trac
                                 .dstStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                                 .dstAccessMask = VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT };
     vkCmdPipelineBarrier2(cmd, &(VkDependencyInfo){ .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
-                                                    .memoryBarrierCount = 1, .pMemoryBarriers = &before });
+                                                    .memoryBarrierCount = 1,
+                                                    .pMemoryBarriers = &before });
     if (m->pool) {
         vkCmdResetQueryPool(cmd, m->pool, 0, 2);
         vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, m->pool, 0);
@@ -141,16 +142,21 @@ cv_result vk_trace_calibrate(cv_backend_device *bd, vk_accel *a, const void *tri
     if (!rays)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: %u rays to measure the trace paths", count);
     make_rays(triangles, a->triangle_count, rays, count);
-    measurement m = { .job = { .accel = a, .accel_key = KEY_ACCEL, .rays_key = KEY_RAYS, .hits_key = KEY_HITS,
-                               .count = count } };
+    measurement m = {
+        .job = { .accel = a, .accel_key = KEY_ACCEL, .rays_key = KEY_RAYS, .hits_key = KEY_HITS, .count = count }
+    };
     vk_buffer *ray_buffer = NULL, *hit_buffer = NULL;
-    cv_result r = vk_buffer_create(bd, &(cv_buffer_desc){ .size = (uint64_t)count * CV_RAY_BYTES,
-                                                          .usage = CV_BUFFER_USAGE_STORAGE,
-                                                          .label = "trace measurement rays" }, &ray_buffer);
+    cv_result r = vk_buffer_create(bd,
+                                   &(cv_buffer_desc){ .size = (uint64_t)count * CV_RAY_BYTES,
+                                                      .usage = CV_BUFFER_USAGE_STORAGE,
+                                                      .label = "trace measurement rays" },
+                                   &ray_buffer);
     if (r == CV_OK)
-        r = vk_buffer_create(bd, &(cv_buffer_desc){ .size = (uint64_t)count * CV_HIT_BYTES,
-                                                    .usage = CV_BUFFER_USAGE_STORAGE,
-                                                    .label = "trace measurement hits" }, &hit_buffer);
+        r = vk_buffer_create(bd,
+                             &(cv_buffer_desc){ .size = (uint64_t)count * CV_HIT_BYTES,
+                                                .usage = CV_BUFFER_USAGE_STORAGE,
+                                                .label = "trace measurement hits" },
+                             &hit_buffer);
     if (r == CV_OK)
         r = vk_host_buffer_write(bd, ray_buffer, 0, ray_buffer->size, rays);
     free(rays);
@@ -164,7 +170,8 @@ cv_result vk_trace_calibrate(cv_backend_device *bd, vk_accel *a, const void *tri
         r = vk_trace_prepare_accel(bd, a);
     if (r == CV_OK && bd->queues[VK_SLOT_GRAPHICS].timestamp_mask && bd->timestamp_period_ns > 0) {
         VkQueryPoolCreateInfo info = { .sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
-                                       .queryType = VK_QUERY_TYPE_TIMESTAMP, .queryCount = 2 };
+                                       .queryType = VK_QUERY_TYPE_TIMESTAMP,
+                                       .queryCount = 2 };
         VkResult vr = vkCreateQueryPool(bd->device, &info, NULL, &m.pool);
         if (vr != VK_SUCCESS)
             r = vk_fail(vr, "vkCreateQueryPool (trace path measurement)");

@@ -15,7 +15,7 @@
 #include "vk_trace.h"
 
 typedef struct vk_trace_calibration {
-    uint32_t rays;                     /* per query */
+    uint32_t rays; /* per query */
     double compute_mrays, pipeline_mrays;
 } vk_trace_calibration;
 

@@ -32,7 +32,7 @@ struct vk_rt {
     VkPipeline pipeline;
     vk_buffer *sbt;
     VkStridedDeviceAddressRegionKHR raygen, miss, hit, callable;
-    vk_pipeline *expand;               /* trace_rt_vertices.comp, built on the first build */
+    vk_pipeline *expand; /* trace_rt_vertices.comp, built on the first build */
 };
 
 struct vk_rt_accel {
@@ -40,7 +40,7 @@ struct vk_rt_accel {
     vk_buffer *blas_storage, *tlas_storage;
     VkAccelerationStructureKHR blas, tlas;
     VkDeviceAddress blas_address, tlas_address;
-    VkDeviceSize scratch_bytes;        /* enough for either build */
+    VkDeviceSize scratch_bytes; /* enough for either build */
     char label[CV_LABEL_MAX];
 };
 
@@ -90,10 +90,13 @@ bool vk_rt_offered(VkPhysicalDevice physical) {
     if (found != VK_RT_EXTENSION_COUNT)
         return false;
     VkPhysicalDeviceRayTracingPipelineFeaturesKHR pipeline = {
-        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR };
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR
+    };
     VkPhysicalDeviceAccelerationStructureFeaturesKHR structures = {
-        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR, .pNext = &pipeline };
-    VkPhysicalDeviceFeatures2 features = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &structures };
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR, .pNext = &pipeline
+    };
+    VkPhysicalDeviceFeatures2 features = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2,
+                                           .pNext = &structures };
     vkGetPhysicalDeviceFeatures2(physical, &features);
     return structures.accelerationStructure && pipeline.rayTracingPipeline;
 }
@@ -120,8 +123,8 @@ cv_result vk_rt_create(cv_backend_device *bd, vk_rt **out) {
     }
     rt->structure_props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR;
     rt->pipeline_props = (VkPhysicalDeviceRayTracingPipelinePropertiesKHR){
-        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_PROPERTIES_KHR,
-        .pNext = &rt->structure_props };
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_PROPERTIES_KHR, .pNext = &rt->structure_props
+    };
     VkPhysicalDeviceProperties2 props = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2,
                                           .pNext = &rt->pipeline_props };
     vkGetPhysicalDeviceProperties2(bd->adapter.physical, &props);
@@ -158,7 +161,8 @@ static cv_result shader_module(cv_backend_device *bd, const char *file, VkShader
     const uint32_t *words = cv_shader_spirv(file, &size);
     if (!words)
         return cv_error(CV_ERROR_NOT_FOUND, "vulkan: shader '%s' is not among the embedded shaders", file);
-    VkShaderModuleCreateInfo info = { .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO, .codeSize = size,
+    VkShaderModuleCreateInfo info = { .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
+                                      .codeSize = size,
                                       .pCode = words };
     VkResult vr = vkCreateShaderModule(bd->device, &info, NULL, out);
     return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkCreateShaderModule '%s'", file);
@@ -167,7 +171,8 @@ static cv_result shader_module(cv_backend_device *bd, const char *file, VkShader
 static cv_result create_pipeline(cv_backend_device *bd, vk_rt *rt) {
     VkPushConstantRange push = { .stageFlags = RT_STAGES, .offset = 0, .size = sizeof(rt_push) };
     VkPipelineLayoutCreateInfo layout_info = { .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
-                                               .pushConstantRangeCount = 1, .pPushConstantRanges = &push };
+                                               .pushConstantRangeCount = 1,
+                                               .pPushConstantRanges = &push };
     VkResult vr = vkCreatePipelineLayout(bd->device, &layout_info, NULL, &rt->layout);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkCreatePipelineLayout (ray-tracing path)");
@@ -182,9 +187,12 @@ static cv_result create_pipeline(cv_backend_device *bd, vk_rt *rt) {
     if (r == CV_OK) {
         VkPipelineShaderStageCreateInfo stages[3];
         for (int i = 0; i < 3; i++)
-            stages[i] = (VkPipelineShaderStageCreateInfo){ .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                                                           .stage = stage_bits[i], .module = modules[i],
-                                                           .pName = "main" };
+            stages[i] = (VkPipelineShaderStageCreateInfo){
+                .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                .stage = stage_bits[i],
+                .module = modules[i],
+                .pName = "main"
+            };
         VkRayTracingShaderGroupCreateInfoKHR groups[3];
         for (uint32_t i = 0; i < 3; i++)
             groups[i] = (VkRayTracingShaderGroupCreateInfoKHR){
@@ -297,18 +305,20 @@ static VkAccelerationStructureBuildGeometryInfoKHR build_info(VkAccelerationStru
 }
 
 /* Creates one structure of `type` in a buffer of its own; returns its build scratch size. */
-static cv_result create_structure(cv_backend_device *bd, vk_rt *rt, vk_rt_accel *a, VkAccelerationStructureTypeKHR type,
-                                  uint32_t primitives, vk_buffer **storage, VkAccelerationStructureKHR *out,
-                                  VkDeviceAddress *address, VkDeviceSize *scratch) {
+static cv_result create_structure(cv_backend_device *bd, vk_rt *rt, vk_rt_accel *a,
+                                  VkAccelerationStructureTypeKHR type, uint32_t primitives, vk_buffer **storage,
+                                  VkAccelerationStructureKHR *out, VkDeviceAddress *address, VkDeviceSize *scratch) {
     bool bottom = type == VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR;
     VkAccelerationStructureGeometryKHR geometry = bottom ? triangle_geometry(0, primitives) : instance_geometry(0);
     VkAccelerationStructureBuildGeometryInfoKHR info = build_info(type, &geometry);
-    VkAccelerationStructureBuildSizesInfoKHR sizes = { .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR };
+    VkAccelerationStructureBuildSizesInfoKHR sizes = {
+        .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR
+    };
     rt->build_sizes(bd->device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &info, &primitives, &sizes);
     char label[CV_LABEL_MAX];
     snprintf(label, sizeof(label), "%.36s %s", a->label, bottom ? "blas" : "tlas");
-    cv_result r = rt_buffer(bd, sizes.accelerationStructureSize, VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR,
-                            256, label, storage);
+    cv_result r = rt_buffer(bd, sizes.accelerationStructureSize,
+                            VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR, 256, label, storage);
     if (r != CV_OK)
         return r;
     VkAccelerationStructureCreateInfoKHR create = {
@@ -322,7 +332,8 @@ static cv_result create_structure(cv_backend_device *bd, vk_rt *rt, vk_rt_accel 
         return vk_fail(vr, "vkCreateAccelerationStructureKHR '%s' (%llu bytes)", label,
                        (unsigned long long)sizes.accelerationStructureSize);
     VkAccelerationStructureDeviceAddressInfoKHR where = {
-        .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_DEVICE_ADDRESS_INFO_KHR, .accelerationStructure = *out };
+        .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_DEVICE_ADDRESS_INFO_KHR, .accelerationStructure = *out
+    };
     *address = rt->structure_address(bd->device, &where);
     *scratch = sizes.buildScratchSize;
     return CV_OK;
@@ -331,9 +342,11 @@ static cv_result create_structure(cv_backend_device *bd, vk_rt *rt, vk_rt_accel 
 cv_result vk_rt_accel_create(cv_backend_device *bd, vk_rt *rt, uint32_t triangle_count, const char *label,
                              vk_rt_accel **out) {
     if (triangle_count > rt->structure_props.maxPrimitiveCount)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "accel '%s': %u triangles exceed the %llu of a ray-tracing "
-                        "acceleration structure on '%s'", label, triangle_count,
-                        (unsigned long long)rt->structure_props.maxPrimitiveCount, bd->adapter.info.name);
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "accel '%s': %u triangles exceed the %llu of a ray-tracing "
+                        "acceleration structure on '%s'",
+                        label, triangle_count, (unsigned long long)rt->structure_props.maxPrimitiveCount,
+                        bd->adapter.info.name);
     vk_rt_accel *a = calloc(1, sizeof(*a));
     if (!a)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: ray-tracing structures of accel '%s'", label);
@@ -366,9 +379,13 @@ void vk_rt_accel_destroy(cv_backend_device *bd, vk_rt *rt, vk_rt_accel *a) {
 
 static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                            VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
-    VkMemoryBarrier2 barrier = { .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2, .srcStageMask = src_stage,
-                                 .srcAccessMask = src_access, .dstStageMask = dst_stage, .dstAccessMask = dst_access };
-    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO, .memoryBarrierCount = 1,
+    VkMemoryBarrier2 barrier = { .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                 .srcStageMask = src_stage,
+                                 .srcAccessMask = src_access,
+                                 .dstStageMask = dst_stage,
+                                 .dstAccessMask = dst_access };
+    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
+                             .memoryBarrierCount = 1,
                              .pMemoryBarriers = &barrier };
     vkCmdPipelineBarrier2(cmd, &dep);
 }
@@ -443,8 +460,8 @@ cv_result vk_rt_accel_build(cv_backend_device *bd, vk_rt *rt, vk_rt_accel *a, co
                    VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_BUILD_BIT_KHR, VK_ACCESS_2_SHADER_READ_BIT);
 
     VkAccelerationStructureGeometryKHR geometry = triangle_geometry(in.vertices->address, a->triangle_count);
-    VkAccelerationStructureBuildGeometryInfoKHR info =
-        build_info(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, &geometry);
+    VkAccelerationStructureBuildGeometryInfoKHR info = build_info(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR,
+                                                                  &geometry);
     info.dstAccelerationStructure = a->blas;
     info.scratchData.deviceAddress = in.scratch->address;
     VkAccelerationStructureBuildRangeInfoKHR range = { .primitiveCount = a->triangle_count };
@@ -454,7 +471,8 @@ cv_result vk_rt_accel_build(cv_backend_device *bd, vk_rt *rt, vk_rt_accel *a, co
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
                    VK_ACCESS_2_ACCELERATION_STRUCTURE_WRITE_BIT_KHR,
                    VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
-                   VK_ACCESS_2_ACCELERATION_STRUCTURE_READ_BIT_KHR | VK_ACCESS_2_ACCELERATION_STRUCTURE_WRITE_BIT_KHR);
+                   VK_ACCESS_2_ACCELERATION_STRUCTURE_READ_BIT_KHR |
+                       VK_ACCESS_2_ACCELERATION_STRUCTURE_WRITE_BIT_KHR);
     geometry = instance_geometry(in.instances->address);
     info = build_info(VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, &geometry);
     info.dstAccelerationStructure = a->tlas;
@@ -472,11 +490,17 @@ void vk_rt_record(vk_rt *rt, vk_tracker *tracker, VkCommandBuffer cmd, const vk_
                   uint64_t triangles_key) {
     const VkPipelineStageFlags2 stage = VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR;
     const vk_buffer *triangles = job->accel->triangles;
-    vk_tracker_use(tracker, &(vk_use){ .id = triangles_key, .buffer = triangles->buffer, .stages = stage,
+    vk_tracker_use(tracker, &(vk_use){ .id = triangles_key,
+                                       .buffer = triangles->buffer,
+                                       .stages = stage,
                                        .reads = VK_ACCESS_2_SHADER_STORAGE_READ_BIT });
-    vk_tracker_use(tracker, &(vk_use){ .id = job->rays_key, .buffer = job->rays->buffer, .stages = stage,
+    vk_tracker_use(tracker, &(vk_use){ .id = job->rays_key,
+                                       .buffer = job->rays->buffer,
+                                       .stages = stage,
                                        .reads = VK_ACCESS_2_SHADER_STORAGE_READ_BIT });
-    vk_tracker_use(tracker, &(vk_use){ .id = job->hits_key, .buffer = job->hits->buffer, .stages = stage,
+    vk_tracker_use(tracker, &(vk_use){ .id = job->hits_key,
+                                       .buffer = job->hits->buffer,
+                                       .stages = stage,
                                        .writes = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT });
     vk_tracker_apply(tracker, cmd);
 

@@ -15,7 +15,7 @@
 #include "corvid/image_exr.h"
 #include "scratch_dir.h"
 
-enum { W = 64, H = 48, UNCOVERED = 8 };   /* the left UNCOVERED columns are sky (depth +inf) */
+enum { W = 64, H = 48, UNCOVERED = 8 }; /* the left UNCOVERED columns are sky (depth +inf) */
 
 static const char *tool;
 
@@ -32,8 +32,8 @@ static double gaussian(void) { return sqrt(-2.0 * log(uniform())) * cos(6.283185
 static void write_frame(const char *path, uint32_t w, uint32_t h, float shadow_offset, double noise_sigma,
                         int with_ao) {
     size_t n = (size_t)w * h;
-    float *rgba = malloc(n * 4 * sizeof(float)), *depth = malloc(n * 4), *shadow = malloc(n * 4),
-          *ao = malloc(n * 4), *nx = malloc(n * 4), *ny = malloc(n * 4), *nz = malloc(n * 4);
+    float *rgba = malloc(n * 4 * sizeof(float)), *depth = malloc(n * 4), *shadow = malloc(n * 4), *ao = malloc(n * 4),
+          *nx = malloc(n * 4), *ny = malloc(n * 4), *nz = malloc(n * 4);
     for (size_t i = 0; i < n; i++) {
         uint32_t x = i % w, y = i / w;
         int covered = x >= UNCOVERED;
@@ -50,14 +50,20 @@ static void write_frame(const char *path, uint32_t w, uint32_t h, float shadow_o
     }
     cv_exr_layer layers[] = {
         { .channel_count = 4, .channels = { "R", "G", "B", "A" }, .type = CV_EXR_FLOAT, .interleaved = rgba },
-        { .name = "normal", .channel_count = 3, .channels = { "X", "Y", "Z" }, .type = CV_EXR_FLOAT,
+        { .name = "normal",
+          .channel_count = 3,
+          .channels = { "X", "Y", "Z" },
+          .type = CV_EXR_FLOAT,
           .planes = { nx, ny, nz } },
         { .name = "depth", .channel_count = 1, .channels = { "Z" }, .type = CV_EXR_FLOAT, .planes = { depth } },
         { .name = "shadow", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_FLOAT, .planes = { shadow } },
         { .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_FLOAT, .planes = { ao } },
     };
-    CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = w, .height = h, .compression = CV_EXR_ZIP,
-                                                .layer_count = with_ao ? 5 : 4, .layers = layers }));
+    CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = w,
+                                                .height = h,
+                                                .compression = CV_EXR_ZIP,
+                                                .layer_count = with_ao ? 5 : 4,
+                                                .layers = layers }));
     free(rgba), free(depth), free(shadow), free(ao), free(nx), free(ny), free(nz);
 }
 
@@ -117,7 +123,7 @@ int main(int argc, char **argv) {
     snprintf(e, sizeof e, "%s", scratch_path(0, "noao.exr"));
     write_frame(a, W, H, 0.0f, 0.0, 1);
     write_frame(b, W, H, 0.05f, 0.0, 1);
-    rng = 777u;   /* the same sequence as a.exr's (unused there), then noise */
+    rng = 777u; /* the same sequence as a.exr's (unused there), then noise */
     write_frame(c, W, H, 0.0f, 0.1, 1);
     write_frame(d, W / 2, H, 0.0f, 0.0, 1);
     write_frame(e, W, H, 0.0f, 0.0, 0);
@@ -129,14 +135,14 @@ int main(int argc, char **argv) {
     CHECK_EQ_INT((int)top_field("compared"), covered);
     CHECK_EQ_INT((int)top_field("covered_a"), covered);
     const char *rows[][2] = { { "radiance", "L" }, { "normal", "X" }, { "normal", "Y" }, { "normal", "Z" },
-                              { "depth", "Z" }, { "shadow", "Y" }, { "ao", "Y" } };
+                              { "depth", "Z" },    { "shadow", "Y" }, { "ao", "Y" } };
     for (int r = 0; r < 7; r++) {
         CHECK(field(rows[r][0], rows[r][1], "rmse") == 0.0);
         CHECK(field(rows[r][0], rows[r][1], "bias") == 0.0);
         CHECK(field(rows[r][0], rows[r][1], "ssim") == 1.0);
         CHECK_EQ_INT((int)field(rows[r][0], rows[r][1], "pixels"), covered);
     }
-    CHECK(!strstr(out_text, "\"albedo\""));   /* not in the files */
+    CHECK(!strstr(out_text, "\"albedo\"")); /* not in the files */
 
     /* Shadow + 0.05: bias 0.05 = RMSE; AO untouched. The table form says the same. */
     snprintf(args, sizeof args, "'%s' '%s' --json", a, b);
@@ -157,7 +163,7 @@ int main(int argc, char **argv) {
     fprintf(stderr, "noise sigma 0.1: RMSE %.5f, SSIM %.4f\n", rmse, field("ao", "Y", "ssim"));
     CHECK(fabs(rmse - 0.1) < 0.005);
     CHECK(field("ao", "Y", "ssim") < 0.9);
-    CHECK(isnan(field("shadow", "Y", "rmse")));   /* only the layer asked for */
+    CHECK(isnan(field("shadow", "Y", "rmse"))); /* only the layer asked for */
 
     /* Only layers in both: a file without AO compares the rest. */
     snprintf(args, sizeof args, "'%s' '%s' --json", a, e);
@@ -184,10 +190,11 @@ int main(int argc, char **argv) {
     CHECK_EQ_INT(run(args), 2);
     /* No layer in common: an EXR with only an unrelated channel. */
     float junk[W * H] = { 0 };
-    cv_exr_layer other = { .name = "specular", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF,
-                           .planes = { junk } };
-    CHECK_OK(cv_exr_write(scratch_path(2, "other.exr"), &(cv_exr_desc){ .width = W, .height = H,
-                                                                          .layer_count = 1, .layers = &other }));
+    cv_exr_layer other = {
+        .name = "specular", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { junk }
+    };
+    CHECK_OK(cv_exr_write(scratch_path(2, "other.exr"),
+                          &(cv_exr_desc){ .width = W, .height = H, .layer_count = 1, .layers = &other }));
     snprintf(args, sizeof args, "'%s' '%s'", a, scratch_path(2, "other.exr"));
     CHECK_EQ_INT(run(args), 2);
     CHECK(strstr(err_text, "no layer in common") != NULL);

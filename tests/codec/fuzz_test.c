@@ -21,10 +21,8 @@ static bool expected_failure(cv_result r) {
     case CV_ERROR_WRONG_HANDLE_TYPE:
     case CV_ERROR_QUEUE_MISMATCH:
     case CV_ERROR_BAD_STATE:
-    case CV_ERROR_INVALID_ARGUMENT:
-        return true;
-    default:
-        return false;
+    case CV_ERROR_INVALID_ARGUMENT: return true;
+    default: return false;
     }
 }
 
@@ -40,8 +38,7 @@ static size_t mutate(test_rng *r, const uint8_t *in, size_t size, uint8_t *out) 
     case 1: /* overwrite a byte with a length-ish or key-ish value */
         out[pos] = (uint8_t)test_rng_next(r);
         return size;
-    case 2: /* truncate */
-        return pos;
+    case 2: /* truncate */ return pos;
     case 3: { /* insert up to 8 random bytes */
         uint32_t n = 1 + test_rng_below(r, 8);
         memmove(out + pos + n, out + pos, size - pos);

@@ -11,8 +11,8 @@ static bool differ(const char *what, uint32_t index, const char *field) {
     return false;
 }
 
-static bool same_span_content(const cv_command_list *a, const cv_command_list *b, cv_span x, cv_span y,
-                              size_t elem, bool bindings) {
+static bool same_span_content(const cv_command_list *a, const cv_command_list *b, cv_span x, cv_span y, size_t elem,
+                              bool bindings) {
     if (x.size != y.size || x.offset != y.offset)
         return false;
     if (x.size == 0) /* the list may have no side array to point into */
@@ -23,7 +23,8 @@ static bool same_span_content(const cv_command_list *a, const cv_command_list *b
 }
 
 #define CMP_SCALAR(f) \
-    if (memcmp(&x->f, &y->f, sizeof(x->f)) != 0) return differ(what, i, #f);
+    if (memcmp(&x->f, &y->f, sizeof(x->f)) != 0) \
+        return differ(what, i, #f);
 #define CMP_U32(f) CMP_SCALAR(f)
 #define CMP_U64(f) CMP_SCALAR(f)
 #define CMP_I32(f) CMP_SCALAR(f)
@@ -34,10 +35,12 @@ static bool same_span_content(const cv_command_list *a, const cv_command_list *b
 #define CMP_ACCEL(f) CMP_SCALAR(f)
 #define CMP_ANY(f) CMP_SCALAR(f)
 #define CMP_BYTES(f) \
-    if (!same_span_content(a, b, x->f, y->f, 1, false)) return differ(what, i, #f);
+    if (!same_span_content(a, b, x->f, y->f, 1, false)) \
+        return differ(what, i, #f);
 #define CMP_STRING(f) CMP_BYTES(f)
 #define CMP_BINDINGS(f) \
-    if (!same_span_content(a, b, x->f, y->f, sizeof(cv_binding), true)) return differ(what, i, #f);
+    if (!same_span_content(a, b, x->f, y->f, sizeof(cv_binding), true)) \
+        return differ(what, i, #f);
 #define CMP_FIELD(num, TYPE, f) CMP_##TYPE(f)
 
 static bool commands_equal(const cv_command_list *a, const cv_command_list *b, uint32_t i, const char *what) {
@@ -47,18 +50,16 @@ static bool commands_equal(const cv_command_list *a, const cv_command_list *b, u
     if (ca->queue != cb->queue)
         return differ(what, i, "queue");
     switch (ca->type) {
-#define CMP_CASE(id, UPPER, lower, Camel, queues)                        \
-    case CV_CMD_##UPPER: {                                               \
-        const cv_##lower##_cmd *x = &ca->u.lower, *y = &cb->u.lower;     \
-        CV_FIELDS_##lower(CMP_FIELD)                                     \
-        (void)x;                                                         \
-        (void)y;                                                         \
-        break;                                                           \
+#define CMP_CASE(id, UPPER, lower, Camel, queues) \
+    case CV_CMD_##UPPER: { \
+        const cv_##lower##_cmd *x = &ca->u.lower, *y = &cb->u.lower; \
+        CV_FIELDS_##lower(CMP_FIELD)(void) x; \
+        (void)y; \
+        break; \
     }
         CV_COMMAND_TABLE(CMP_CASE)
 #undef CMP_CASE
-    default:
-        return differ(what, i, "type (unknown)");
+    default: return differ(what, i, "type (unknown)");
     }
     /* Recording zeroes each command before filling it, so the stored
      * commands must also be byte-identical, padding included. */

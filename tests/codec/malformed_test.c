@@ -50,7 +50,7 @@ static void expect_one(Corvid__Command *c, cv_result code, const char *needle, c
     expect_commands(&c, 1, code, needle, what);
 }
 
-static const uint64_t BUFFER = 0x1000000100000001ull;   /* buffer, generation 1, slot 1 */
+static const uint64_t BUFFER = 0x1000000100000001ull; /* buffer, generation 1, slot 1 */
 static const uint64_t TEXTURE = 0x2000000100000002ull;
 static const uint64_t PIPELINE = 0x4000000100000003ull;
 
@@ -198,7 +198,8 @@ static void test_sizes(void) {
     expect_one(&c3, CV_ERROR_LIMIT_EXCEEDED, "132 bytes of push constants, limit 128", "push too big");
 
     uint8_t *huge = calloc(CV_MAX_ENCODED_LIST + 1u, 1);
-    expect(huge, CV_MAX_ENCODED_LIST + 1u, CV_ERROR_LIMIT_EXCEEDED, "67108865 bytes, limit 67108864", "input too big");
+    expect(huge, CV_MAX_ENCODED_LIST + 1u, CV_ERROR_LIMIT_EXCEEDED, "67108865 bytes, limit 67108864",
+           "input too big");
     free(huge);
 }
 
@@ -206,17 +207,17 @@ static void test_sizes(void) {
  * the unpack arena refuses long before. */
 static void test_unpack_blowup(void) {
     enum { N = 100000 };
-    size_t inner = (size_t)N * 2;               /* each: key 0x12, length 0 */
+    size_t inner = (size_t)N * 2; /* each: key 0x12, length 0 */
     uint8_t *bytes = malloc(inner + 16);
     size_t p = 0;
     uint8_t head[16];
     size_t h = 0;
-    head[h++] = 0x0a;                            /* CommandList.commands */
-    size_t cmd_len = 1 + 3 + inner;              /* dispatch key + 3-byte length + body */
+    head[h++] = 0x0a;               /* CommandList.commands */
+    size_t cmd_len = 1 + 3 + inner; /* dispatch key + 3-byte length + body */
     head[h++] = (uint8_t)(cmd_len | 0x80);
     head[h++] = (uint8_t)((cmd_len >> 7) | 0x80);
     head[h++] = (uint8_t)(cmd_len >> 14);
-    head[h++] = 0x0a;                            /* Command.dispatch */
+    head[h++] = 0x0a; /* Command.dispatch */
     head[h++] = (uint8_t)(inner | 0x80);
     head[h++] = (uint8_t)((inner >> 7) | 0x80);
     head[h++] = (uint8_t)(inner >> 14);
@@ -264,8 +265,8 @@ static void test_structure(void) {
 
     begin.queue = CV_QUEUE_COMPUTE;
     Corvid__Command *wrong_queue[] = { &barrier, &begin };
-    expect_commands(wrong_queue, 2, CV_ERROR_QUEUE_MISMATCH, "command 1: begin_render_pass is not allowed on the compute",
-                    "pass on compute");
+    expect_commands(wrong_queue, 2, CV_ERROR_QUEUE_MISMATCH,
+                    "command 1: begin_render_pass is not allowed on the compute", "pass on compute");
 }
 
 /* More than CV_MAX_COMMANDS barriers, each 4 bytes on the wire. */
@@ -283,10 +284,10 @@ static void test_unknown_fields_are_skipped(void) {
     uint8_t *bytes;
     size_t size;
     CHECK_OK(cv_command_list_encode(&reference, &bytes, &size));
-    static const uint8_t extra[] = { 0x38, 0x05,                                      /* field 7 varint */
-                                     0x42, 0x02, 0xaa, 0xbb,                          /* field 8 bytes */
-                                     0x4d, 1, 2, 3, 4,                                /* field 9 fixed32 */
-                                     0x51, 1, 2, 3, 4, 5, 6, 7, 8 };                  /* field 10 fixed64 */
+    static const uint8_t extra[] = { 0x38, 0x05,                              /* field 7 varint */
+                                     0x42, 0x02, 0xaa, 0xbb,                  /* field 8 bytes */
+                                     0x4d, 1,    2,    3,    4,               /* field 9 fixed32 */
+                                     0x51, 1,    2,    3,    4, 5, 6, 7, 8 }; /* field 10 fixed64 */
     uint8_t *longer = malloc(size + sizeof(extra));
     memcpy(longer, extra, sizeof(extra));
     memcpy(longer + sizeof(extra), bytes, size);

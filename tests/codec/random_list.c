@@ -13,15 +13,13 @@ uint64_t test_rng_next(test_rng *rng) {
     return z ^ (z >> 31);
 }
 
-uint32_t test_rng_below(test_rng *rng, uint32_t n) {
-    return (uint32_t)(test_rng_next(rng) % n);
-}
+uint32_t test_rng_below(test_rng *rng, uint32_t n) { return (uint32_t)(test_rng_next(rng) % n); }
 
 static uint64_t random_handle(test_rng *r, cv_handle_type type) {
     if (type == CV_HANDLE_NONE || test_rng_below(r, 8) == 0)
         return 0;
-    return cv_handle_pack(type, 1 + test_rng_below(r, CV_HANDLE_TAG_MAX), 1 + test_rng_below(r, CV_HANDLE_GENERATION_MAX),
-                          (uint32_t)test_rng_next(r));
+    return cv_handle_pack(type, 1 + test_rng_below(r, CV_HANDLE_TAG_MAX),
+                          1 + test_rng_below(r, CV_HANDLE_GENERATION_MAX), (uint32_t)test_rng_next(r));
 }
 
 /* Any finite float bit pattern, denormals included. NaNs are left out because
@@ -55,7 +53,8 @@ static uint32_t random_bindings(test_rng *r, cv_binding out[CV_MAX_BINDINGS]) {
     for (uint32_t i = 0; i < n; i++) {
         cv_handle_type t = test_rng_below(r, 2) ? CV_HANDLE_BUFFER : CV_HANDLE_TEXTURE;
         out[i].resource.id = cv_handle_pack(t, 1 + test_rng_below(r, CV_HANDLE_TAG_MAX),
-                                            1 + test_rng_below(r, CV_HANDLE_GENERATION_MAX), (uint32_t)test_rng_next(r));
+                                            1 + test_rng_below(r, CV_HANDLE_GENERATION_MAX),
+                                            (uint32_t)test_rng_next(r));
         out[i].sampler.id = t == CV_HANDLE_TEXTURE ? random_handle(r, CV_HANDLE_SAMPLER) : 0;
         out[i].offset = test_rng_next(r);
         out[i].range = test_rng_next(r);
@@ -82,18 +81,18 @@ static cv_queue_type random_queue(test_rng *r, cv_command_type type) {
 #define GEN_ACCEL(f) a.f.id = random_handle(r, CV_HANDLE_ACCEL);
 #define GEN_ANY(f) a.f.id = random_handle(r, (cv_handle_type)test_rng_below(r, CV_HANDLE_TYPE_COUNT));
 /* Push constants and update data alike: up to the push limit, any length. */
-#define GEN_BYTES(f)                                                 \
-    uint8_t f##_buf[CV_MAX_PUSH_CONSTANTS];                          \
-    a.f##_size = test_rng_below(r, CV_MAX_PUSH_CONSTANTS + 1);       \
-    random_bytes(r, f##_buf, a.f##_size);                            \
+#define GEN_BYTES(f) \
+    uint8_t f##_buf[CV_MAX_PUSH_CONSTANTS]; \
+    a.f##_size = test_rng_below(r, CV_MAX_PUSH_CONSTANTS + 1); \
+    random_bytes(r, f##_buf, a.f##_size); \
     a.f = f##_buf;
-#define GEN_STRING(f)              \
-    char f##_buf[CV_LABEL_MAX];    \
-    random_label(r, f##_buf);      \
+#define GEN_STRING(f) \
+    char f##_buf[CV_LABEL_MAX]; \
+    random_label(r, f##_buf); \
     a.f = f##_buf;
-#define GEN_BINDINGS(f)                            \
-    cv_binding f##_buf[CV_MAX_BINDINGS];           \
-    a.f##_count = random_bindings(r, f##_buf);     \
+#define GEN_BINDINGS(f) \
+    cv_binding f##_buf[CV_MAX_BINDINGS]; \
+    a.f##_count = random_bindings(r, f##_buf); \
     a.f = f##_buf;
 #define GEN_FIELD(num, TYPE, f) GEN_##TYPE(f)
 
@@ -103,13 +102,12 @@ static void constrain_args(cv_command_type type, void *args) {
         ((cv_trace_rays_args *)args)->flags &= CV_TRACE_FLAGS_ALL;
 }
 
-#define GEN_COMMAND(id, UPPER, lower, Camel, queues)                             \
-    static cv_result gen_##lower(cv_command_list *list, test_rng *r) {           \
-        cv_##lower##_args a;                                                     \
-        memset(&a, 0, sizeof(a));                                                \
-        CV_FIELDS_##lower(GEN_FIELD)                                             \
-        constrain_args(CV_CMD_##UPPER, &a);                                      \
-        return cv_cmd_##lower(list, random_queue(r, CV_CMD_##UPPER), &a);        \
+#define GEN_COMMAND(id, UPPER, lower, Camel, queues) \
+    static cv_result gen_##lower(cv_command_list *list, test_rng *r) { \
+        cv_##lower##_args a; \
+        memset(&a, 0, sizeof(a)); \
+        CV_FIELDS_##lower(GEN_FIELD) constrain_args(CV_CMD_##UPPER, &a); \
+        return cv_cmd_##lower(list, random_queue(r, CV_CMD_##UPPER), &a); \
     }
 CV_COMMAND_TABLE(GEN_COMMAND)
 #undef GEN_COMMAND
@@ -128,18 +126,13 @@ static const cv_command_type all_types[] = {
 };
 #define TYPE_COUNT (sizeof(all_types) / sizeof(all_types[0]))
 
-static cv_command_type random_type(test_rng *r) {
-    return all_types[test_rng_below(r, TYPE_COUNT)];
-}
+static cv_command_type random_type(test_rng *r) { return all_types[test_rng_below(r, TYPE_COUNT)]; }
 
-static cv_result gen(cv_command_list *list, test_rng *r, cv_command_type type) {
-    return generators[type](list, r);
-}
+static cv_result gen(cv_command_list *list, test_rng *r, cv_command_type type) { return generators[type](list, r); }
 
 /* Commands valid inside a render pass besides draws. */
 static cv_result gen_in_pass(cv_command_list *list, test_rng *r) {
-    static const cv_command_type inside[] = { CV_CMD_DRAW, CV_CMD_DRAW_INDEXED, CV_CMD_BARRIER,
-                                              CV_CMD_TIMESTAMP };
+    static const cv_command_type inside[] = { CV_CMD_DRAW, CV_CMD_DRAW_INDEXED, CV_CMD_BARRIER, CV_CMD_TIMESTAMP };
     return gen(list, r, inside[test_rng_below(r, sizeof(inside) / sizeof(inside[0]))]);
 }
 
@@ -165,16 +158,14 @@ static cv_result gen_block(cv_command_list *list, test_rng *r, cv_command_type t
     case CV_CMD_BEGIN_RENDER_PASS:
     case CV_CMD_END_RENDER_PASS:
     case CV_CMD_DRAW:
-    case CV_CMD_DRAW_INDEXED:
-        return gen_render_pass(list, r, type);
+    case CV_CMD_DRAW_INDEXED: return gen_render_pass(list, r, type);
     case CV_CMD_BEGIN_MARKER:
     case CV_CMD_END_MARKER:
         res = gen(list, r, CV_CMD_BEGIN_MARKER);
         if (res == CV_OK && test_rng_below(r, 2))
             res = gen_block(list, r, random_type(r));
         return res == CV_OK ? gen(list, r, CV_CMD_END_MARKER) : res;
-    default:
-        return gen(list, r, type);
+    default: return gen(list, r, type);
     }
 }
 

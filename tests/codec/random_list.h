@@ -15,7 +15,9 @@
 
 #include "corvid/command_list.h"
 
-typedef struct test_rng { uint64_t state; } test_rng;
+typedef struct test_rng {
+    uint64_t state;
+} test_rng;
 
 uint64_t test_rng_next(test_rng *rng);
 /* Uniform in [0, n), n > 0. */

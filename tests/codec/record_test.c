@@ -80,39 +80,41 @@ static void test_size_limits(void) {
     cv_binding b[CV_MAX_BINDINGS + 1];
     for (int i = 0; i <= CV_MAX_BINDINGS; i++)
         b[i] = (cv_binding){ .resource = { BUF.id } };
-    CHECK_OK(cv_cmd_dispatch(&l, CV_QUEUE_COMPUTE,
-                             &(cv_dispatch_args){ .pipeline = PIPE, .bindings = b, .bindings_count = CV_MAX_BINDINGS }));
+    CHECK_OK(
+        cv_cmd_dispatch(&l, CV_QUEUE_COMPUTE,
+                        &(cv_dispatch_args){ .pipeline = PIPE, .bindings = b, .bindings_count = CV_MAX_BINDINGS }));
     CHECK_EQ_INT(l.binding_count, CV_MAX_BINDINGS);
     check_failed(&l,
                  cv_cmd_dispatch(&l, CV_QUEUE_COMPUTE,
-                                 &(cv_dispatch_args){ .pipeline = PIPE, .bindings = b,
-                                                      .bindings_count = CV_MAX_BINDINGS + 1 }),
+                                 &(cv_dispatch_args){
+                                     .pipeline = PIPE, .bindings = b, .bindings_count = CV_MAX_BINDINGS + 1 }),
                  CV_ERROR_LIMIT_EXCEEDED, 1, "17 bindings, limit 16");
     CHECK_EQ_INT(l.binding_count, CV_MAX_BINDINGS);
 
     static uint8_t data[CV_MAX_UPDATE_BYTES + 1];
     fresh(&l);
     CHECK_OK(cv_cmd_update_buffer(&l, CV_QUEUE_COPY,
-                                  &(cv_update_buffer_args){ .buffer = BUF, .data = data,
-                                                            .data_size = CV_MAX_UPDATE_BYTES }));
+                                  &(cv_update_buffer_args){
+                                      .buffer = BUF, .data = data, .data_size = CV_MAX_UPDATE_BYTES }));
     uint32_t data_size = l.data_size;
     check_failed(&l,
                  cv_cmd_update_buffer(&l, CV_QUEUE_COPY,
-                                      &(cv_update_buffer_args){ .buffer = BUF, .data = data,
-                                                                .data_size = CV_MAX_UPDATE_BYTES + 1 }),
+                                      &(cv_update_buffer_args){
+                                          .buffer = BUF, .data = data, .data_size = CV_MAX_UPDATE_BYTES + 1 }),
                  CV_ERROR_LIMIT_EXCEEDED, 1, "65537 bytes, limit 65536");
     CHECK_EQ_INT(l.data_size, data_size);
 
     /* Push constants are stored before the size rule is checked: the failed
      * call must take its bytes back out. */
     fresh(&l);
-    CHECK_OK(cv_cmd_dispatch(&l, CV_QUEUE_COMPUTE,
-                             &(cv_dispatch_args){ .pipeline = PIPE, .push = data, .push_size = CV_MAX_PUSH_CONSTANTS }));
+    CHECK_OK(
+        cv_cmd_dispatch(&l, CV_QUEUE_COMPUTE,
+                        &(cv_dispatch_args){ .pipeline = PIPE, .push = data, .push_size = CV_MAX_PUSH_CONSTANTS }));
     data_size = l.data_size;
     check_failed(&l,
                  cv_cmd_dispatch(&l, CV_QUEUE_COMPUTE,
-                                 &(cv_dispatch_args){ .pipeline = PIPE, .push = data,
-                                                      .push_size = CV_MAX_PUSH_CONSTANTS + 1 }),
+                                 &(cv_dispatch_args){
+                                     .pipeline = PIPE, .push = data, .push_size = CV_MAX_PUSH_CONSTANTS + 1 }),
                  CV_ERROR_LIMIT_EXCEEDED, 1, "129 bytes of push constants, limit 128");
     CHECK_EQ_INT(l.data_size, data_size);
     cv_command_list_finish(&l);
@@ -177,8 +179,8 @@ static void test_sticky_error(void) {
     fresh(&l);
     CHECK_OK(cv_cmd_barrier(&l, CV_QUEUE_COPY, &(cv_barrier_args){ { 0 } }));
     CHECK_OK(cv_cmd_timestamp(&l, CV_QUEUE_COPY, &(cv_timestamp_args){ .label = "t0" }));
-    check_failed(&l, cv_cmd_draw(&l, CV_QUEUE_COMPUTE, &(cv_draw_args){ .pipeline = PIPE }),
-                 CV_ERROR_QUEUE_MISMATCH, 2, "draw is not allowed on the compute queue");
+    check_failed(&l, cv_cmd_draw(&l, CV_QUEUE_COMPUTE, &(cv_draw_args){ .pipeline = PIPE }), CV_ERROR_QUEUE_MISMATCH,
+                 2, "draw is not allowed on the compute queue");
     uint32_t data_size = l.data_size, mask = l.queue_mask;
     /* Valid calls now return the first error and record nothing. */
     CHECK_RESULT(cv_cmd_timestamp(&l, CV_QUEUE_COPY, &(cv_timestamp_args){ .label = "later" }),
@@ -268,8 +270,7 @@ static void test_parallel_recording(void) {
         CHECK_OK(parallel[i].encoded);
         CHECK(parallel[i].list.count >= 3000);
         CHECK(lists_equal(&serial[i].list, &parallel[i].list, "parallel vs serial"));
-        CHECK(parallel[i].size == serial[i].size &&
-              memcmp(parallel[i].bytes, serial[i].bytes, serial[i].size) == 0);
+        CHECK(parallel[i].size == serial[i].size && memcmp(parallel[i].bytes, serial[i].bytes, serial[i].size) == 0);
         /* Different seeds really are different lists. */
         if (i > 0)
             CHECK(parallel[i].size != parallel[i - 1].size ||

@@ -76,8 +76,11 @@ static void test_limits_round_trip(void) {
     cv_command_list_begin(&list);
     cv_binding bindings[CV_MAX_BINDINGS];
     for (uint32_t i = 0; i < CV_MAX_BINDINGS; i++)
-        bindings[i] = (cv_binding){ { cv_handle_pack(CV_HANDLE_TEXTURE, CV_HANDLE_TAG_MAX, CV_HANDLE_GENERATION_MAX, CV_HANDLE_INDEX_MAX - i) },
-                                    { cv_handle_pack(CV_HANDLE_SAMPLER, 1, 1, i) }, UINT64_MAX - i, UINT64_MAX };
+        bindings[i] = (cv_binding){ { cv_handle_pack(CV_HANDLE_TEXTURE, CV_HANDLE_TAG_MAX, CV_HANDLE_GENERATION_MAX,
+                                                     CV_HANDLE_INDEX_MAX - i) },
+                                    { cv_handle_pack(CV_HANDLE_SAMPLER, 1, 1, i) },
+                                    UINT64_MAX - i,
+                                    UINT64_MAX };
     uint8_t push[CV_MAX_PUSH_CONSTANTS];
     for (uint32_t i = 0; i < sizeof(push); i++)
         push[i] = (uint8_t)(255 - i);
@@ -87,30 +90,44 @@ static void test_limits_round_trip(void) {
     char label[CV_LABEL_MAX];
     memset(label, '\xe2', sizeof(label) - 1);
     label[sizeof(label) - 1] = '\0';
-    cv_pipeline pipe = { cv_handle_pack(CV_HANDLE_PIPELINE, CV_HANDLE_TAG_MAX, CV_HANDLE_GENERATION_MAX, CV_HANDLE_INDEX_MAX) };
-    cv_buffer buf = { cv_handle_pack(CV_HANDLE_BUFFER, CV_HANDLE_TAG_MAX, CV_HANDLE_GENERATION_MAX, CV_HANDLE_INDEX_MAX) };
+    cv_pipeline pipe = { cv_handle_pack(CV_HANDLE_PIPELINE, CV_HANDLE_TAG_MAX, CV_HANDLE_GENERATION_MAX,
+                                        CV_HANDLE_INDEX_MAX) };
+    cv_buffer buf = { cv_handle_pack(CV_HANDLE_BUFFER, CV_HANDLE_TAG_MAX, CV_HANDLE_GENERATION_MAX,
+                                     CV_HANDLE_INDEX_MAX) };
     cv_texture tex = { cv_handle_pack(CV_HANDLE_TEXTURE, 1, 1, 0) };
 
     CHECK_OK(cv_cmd_begin_marker(&list, CV_QUEUE_GRAPHICS, &(cv_begin_marker_args){ .label = label }));
     CHECK_OK(cv_cmd_dispatch(&list, CV_QUEUE_COMPUTE,
-                             &(cv_dispatch_args){ .pipeline = pipe, .bindings = bindings,
-                                                  .bindings_count = CV_MAX_BINDINGS, .push = push,
-                                                  .push_size = sizeof(push), .groups_x = UINT32_MAX,
-                                                  .groups_y = 1, .groups_z = 0 }));
+                             &(cv_dispatch_args){ .pipeline = pipe,
+                                                  .bindings = bindings,
+                                                  .bindings_count = CV_MAX_BINDINGS,
+                                                  .push = push,
+                                                  .push_size = sizeof(push),
+                                                  .groups_x = UINT32_MAX,
+                                                  .groups_y = 1,
+                                                  .groups_z = 0 }));
     CHECK_OK(cv_cmd_update_buffer(&list, CV_QUEUE_COPY,
-                                  &(cv_update_buffer_args){ .buffer = buf, .offset = UINT64_MAX - 3,
-                                                            .data = update, .data_size = sizeof(update) }));
+                                  &(cv_update_buffer_args){ .buffer = buf,
+                                                            .offset = UINT64_MAX - 3,
+                                                            .data = update,
+                                                            .data_size = sizeof(update) }));
     CHECK_OK(cv_cmd_begin_render_pass(&list, CV_QUEUE_GRAPHICS,
-                                      &(cv_begin_render_pass_args){ .color0 = tex, .clear = 1, .clear_r = -1e-45f,
-                                                                    .clear_g = 1e-45f, .clear_b = 3.4e38f,
-                                                                    .clear_a = -1.5f, .clear_depth = 1.0f }));
+                                      &(cv_begin_render_pass_args){ .color0 = tex,
+                                                                    .clear = 1,
+                                                                    .clear_r = -1e-45f,
+                                                                    .clear_g = 1e-45f,
+                                                                    .clear_b = 3.4e38f,
+                                                                    .clear_a = -1.5f,
+                                                                    .clear_depth = 1.0f }));
     CHECK_OK(cv_cmd_draw_indexed(&list, CV_QUEUE_GRAPHICS,
-                                 &(cv_draw_indexed_args){ .pipeline = pipe, .index_buffer = buf,
-                                                          .index_count = 3, .vertex_offset = INT32_MIN,
+                                 &(cv_draw_indexed_args){ .pipeline = pipe,
+                                                          .index_buffer = buf,
+                                                          .index_count = 3,
+                                                          .vertex_offset = INT32_MIN,
                                                           .first_instance = UINT32_MAX }));
     CHECK_OK(cv_cmd_draw_indexed(&list, CV_QUEUE_GRAPHICS,
-                                 &(cv_draw_indexed_args){ .pipeline = pipe, .index_buffer = buf,
-                                                          .index_count = 3, .vertex_offset = -1 }));
+                                 &(cv_draw_indexed_args){
+                                     .pipeline = pipe, .index_buffer = buf, .index_count = 3, .vertex_offset = -1 }));
     CHECK_OK(cv_cmd_end_render_pass(&list, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 }));
     CHECK_OK(cv_cmd_end_marker(&list, CV_QUEUE_GRAPHICS, &(cv_end_marker_args){ 0 }));
     CHECK_OK(cv_command_list_end(&list));
@@ -151,7 +168,8 @@ static void test_negative_zero_arrives_as_zero(void) {
     cv_command_list_begin(&list);
     CHECK_OK(cv_cmd_clear_texture(&list, CV_QUEUE_COMPUTE,
                                   &(cv_clear_texture_args){ .texture = { cv_handle_pack(CV_HANDLE_TEXTURE, 1, 1, 1) },
-                                                            .r = -0.0f, .g = 0.5f }));
+                                                            .r = -0.0f,
+                                                            .g = 0.5f }));
     CHECK_OK(cv_command_list_end(&list));
     uint8_t *bytes;
     size_t size;
@@ -231,14 +249,14 @@ static void test_encode_refuses_unfinished_lists(void) {
     cv_command_list_init(&list);
     uint8_t *bytes = (uint8_t *)&list;
     size_t size = 77;
-    CHECK_RESULT(cv_command_list_encode(&list, &bytes, &size), CV_ERROR_BAD_STATE);   /* never recorded */
+    CHECK_RESULT(cv_command_list_encode(&list, &bytes, &size), CV_ERROR_BAD_STATE); /* never recorded */
     cv_command_list_begin(&list);
     CHECK_OK(cv_cmd_barrier(&list, CV_QUEUE_COPY, &(cv_barrier_args){ { 0 } }));
-    CHECK_RESULT(cv_command_list_encode(&list, &bytes, &size), CV_ERROR_BAD_STATE);   /* still recording */
+    CHECK_RESULT(cv_command_list_encode(&list, &bytes, &size), CV_ERROR_BAD_STATE); /* still recording */
     CHECK_RESULT(cv_cmd_draw(&list, CV_QUEUE_GRAPHICS, &(cv_draw_args){ 0 }), CV_ERROR_BAD_STATE);
     CHECK_RESULT(cv_command_list_end(&list), CV_ERROR_BAD_STATE);
-    CHECK_RESULT(cv_command_list_encode(&list, &bytes, &size), CV_ERROR_BAD_STATE);   /* ended with an error */
-    CHECK(bytes == (uint8_t *)&list && size == 77);                                    /* outputs untouched */
+    CHECK_RESULT(cv_command_list_encode(&list, &bytes, &size), CV_ERROR_BAD_STATE); /* ended with an error */
+    CHECK(bytes == (uint8_t *)&list && size == 77);                                 /* outputs untouched */
     cv_command_list_finish(&list);
 }
 
@@ -253,8 +271,9 @@ static void test_encode_size_limit(void) {
     for (int i = 0; i < 1023; i++)
         cv_cmd_update_buffer(&list, CV_QUEUE_COPY,
                              &(cv_update_buffer_args){ .buffer = buf, .data = update, .data_size = sizeof(update) });
-    cv_copy_buffer_args big = { .src = buf, .src_offset = UINT64_MAX, .dst = buf, .dst_offset = UINT64_MAX,
-                                .size = UINT64_MAX };
+    cv_copy_buffer_args big = {
+        .src = buf, .src_offset = UINT64_MAX, .dst = buf, .dst_offset = UINT64_MAX, .size = UINT64_MAX
+    };
     for (int i = 0; i < 2000; i++)
         cv_cmd_copy_buffer(&list, CV_QUEUE_COPY, &big);
     CHECK_OK(cv_command_list_end(&list));

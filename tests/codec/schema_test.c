@@ -36,7 +36,7 @@ typedef struct field_spec {
 
 /* One array per command, ended by a zero entry (so field-less commands work). */
 #define SPEC_ARRAY(id, UPPER, lower, Camel, queues) \
-    static const field_spec fields_##lower[] = { CV_FIELDS_##lower(SPEC_FIELD) { 0 } };
+    static const field_spec fields_##lower[] = { CV_FIELDS_##lower(SPEC_FIELD){ 0 } };
 CV_COMMAND_TABLE(SPEC_ARRAY)
 #undef SPEC_ARRAY
 
@@ -55,8 +55,11 @@ static const command_spec commands[] = {
 
 /* cv_binding's fields, which Binding must mirror. */
 static const field_spec binding_fields[] = {
-    { 1, "resource", SPEC_U64 }, { 2, "sampler", SPEC_U64 }, { 3, "offset", SPEC_U64 },
-    { 4, "range", SPEC_U64 },    { 0 },
+    { 1, "resource", SPEC_U64 },
+    { 2, "sampler", SPEC_U64 },
+    { 3, "offset", SPEC_U64 },
+    { 4, "range", SPEC_U64 },
+    { 0 },
 };
 _Static_assert(offsetof(cv_binding, resource) == 0 && offsetof(cv_binding, sampler) == 8 &&
                    offsetof(cv_binding, offset) == 16 && offsetof(cv_binding, range) == 24 &&
@@ -175,14 +178,24 @@ static void test_command_list_shape(void) {
 /* The checker itself: a spec list that differs from a message must fail. */
 static void test_checker_detects_drift(void) {
     int before = check_failures, count = check_count;
-    static const field_spec renamed[] = { { 1, "resource", SPEC_U64 }, { 2, "sampler", SPEC_U64 },
-                                          { 3, "offset", SPEC_U64 },   { 4, "size", SPEC_U64 }, { 0 } };
-    static const field_spec missing[] = { { 1, "resource", SPEC_U64 }, { 2, "sampler", SPEC_U64 },
-                                          { 3, "offset", SPEC_U64 },   { 0 } };
-    static const field_spec renumbered[] = { { 1, "resource", SPEC_U64 }, { 2, "sampler", SPEC_U64 },
-                                             { 3, "offset", SPEC_U64 },   { 5, "range", SPEC_U64 }, { 0 } };
-    static const field_spec retyped[] = { { 1, "resource", SPEC_U64 }, { 2, "sampler", SPEC_U64 },
-                                          { 3, "offset", SPEC_U64 },   { 4, "range", SPEC_U32 }, { 0 } };
+    static const field_spec renamed[] = { { 1, "resource", SPEC_U64 },
+                                          { 2, "sampler", SPEC_U64 },
+                                          { 3, "offset", SPEC_U64 },
+                                          { 4, "size", SPEC_U64 },
+                                          { 0 } };
+    static const field_spec missing[] = {
+        { 1, "resource", SPEC_U64 }, { 2, "sampler", SPEC_U64 }, { 3, "offset", SPEC_U64 }, { 0 }
+    };
+    static const field_spec renumbered[] = { { 1, "resource", SPEC_U64 },
+                                             { 2, "sampler", SPEC_U64 },
+                                             { 3, "offset", SPEC_U64 },
+                                             { 5, "range", SPEC_U64 },
+                                             { 0 } };
+    static const field_spec retyped[] = { { 1, "resource", SPEC_U64 },
+                                          { 2, "sampler", SPEC_U64 },
+                                          { 3, "offset", SPEC_U64 },
+                                          { 4, "range", SPEC_U32 },
+                                          { 0 } };
     const field_spec *drifted[] = { renamed, missing, renumbered, retyped };
     int detected = 0;
     fprintf(stderr, "(expected drift reports follow)\n");

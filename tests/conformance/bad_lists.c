@@ -10,30 +10,36 @@
 #include "conformance.h"
 #include "corvid/command_codec.h"
 
-#define U32S(...) (const uint32_t[]){ __VA_ARGS__ }
+#define U32S(...) \
+    (const uint32_t[]) { __VA_ARGS__ }
 
 static cv_binding buf_binding(cv_buffer b) { return (cv_binding){ .resource = cv_any(b) }; }
 static cv_binding tex_binding(cv_texture t) { return (cv_binding){ .resource = cv_any(t) }; }
 
 static void copy_out_of_range(world *w, cv_command_list *l) {
-    cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = w->small, .src_offset = 200, .dst = w->big,
-                                                               .size = 100 });
+    cv_cmd_copy_buffer(l, CV_QUEUE_COPY,
+                       &(cv_copy_buffer_args){ .src = w->small, .src_offset = 200, .dst = w->big, .size = 100 });
 }
 static void copy_overlap(world *w, cv_command_list *l) {
-    cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = w->big, .src_offset = 0, .dst = w->big,
-                                                               .dst_offset = 64, .size = 128 });
+    cv_cmd_copy_buffer(l, CV_QUEUE_COPY,
+                       &(cv_copy_buffer_args){
+                           .src = w->big, .src_offset = 0, .dst = w->big, .dst_offset = 64, .size = 128 });
 }
 static void copy_texture_formats(world *w, cv_command_list *l) {
-    cv_cmd_copy_texture(l, CV_QUEUE_COPY, &(cv_copy_texture_args){ .src = w->rgba8, .dst = w->rgba32f, .width = 4,
-                                                                 .height = 4 });
+    cv_cmd_copy_texture(l, CV_QUEUE_COPY,
+                        &(cv_copy_texture_args){ .src = w->rgba8, .dst = w->rgba32f, .width = 4, .height = 4 });
 }
 static void copy_texture_bounds(world *w, cv_command_list *l) {
-    cv_cmd_copy_texture(l, CV_QUEUE_COPY, &(cv_copy_texture_args){ .src = w->rgba8, .dst = w->rgba8_b, .dst_x = 10,
-                                                                 .width = 8, .height = 4 });
+    cv_cmd_copy_texture(l, CV_QUEUE_COPY,
+                        &(cv_copy_texture_args){
+                            .src = w->rgba8, .dst = w->rgba8_b, .dst_x = 10, .width = 8, .height = 4 });
 }
 static void buffer_to_texture_short(world *w, cv_command_list *l) {
-    cv_cmd_copy_buffer_to_texture(l, CV_QUEUE_COPY, &(cv_copy_buffer_to_texture_args){
-        .src = w->small, .dst = w->rgba8, .width = 16, .height = 16 });   /* needs 1024 bytes, has 256 */
+    cv_cmd_copy_buffer_to_texture(l, CV_QUEUE_COPY,
+                                  &(cv_copy_buffer_to_texture_args){ .src = w->small,
+                                                                     .dst = w->rgba8,
+                                                                     .width = 16,
+                                                                     .height = 16 }); /* needs 1024 bytes, has 256 */
 }
 static void not_loaded(world *w, cv_command_list *l) {
     cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = w->unloaded, .dst = w->big, .size = 16 });
@@ -43,80 +49,134 @@ static void stale(world *w, cv_command_list *l) {
 }
 static void dispatch_graphics_pipeline(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->triangle, .bindings = &b,
-                                                            .bindings_count = 1, .push = U32S(0, 0, 0, 0),
-                                                            .push_size = 16, .groups_x = 1, .groups_y = 1,
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->triangle,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = U32S(0, 0, 0, 0),
+                                         .push_size = 16,
+                                         .groups_x = 1,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
 }
 static void dispatch_binding_count(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->saxpy, .bindings = &b,
-                                                            .bindings_count = 1, .push = U32S(0, 0),
-                                                            .push_size = 8, .groups_x = 1, .groups_y = 1,
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->saxpy,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = U32S(0, 0),
+                                         .push_size = 8,
+                                         .groups_x = 1,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
 }
 static void dispatch_binding_kind(world *w, cv_command_list *l) {
     cv_binding b = tex_binding(w->rgba8);
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->fill, .bindings = &b,
-                                                            .bindings_count = 1, .push = U32S(0, 0),
-                                                            .push_size = 8, .groups_x = 1, .groups_y = 1,
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->fill,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = U32S(0, 0),
+                                         .push_size = 8,
+                                         .groups_x = 1,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
 }
 static void dispatch_push_size(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->fill, .bindings = &b,
-                                                            .bindings_count = 1, .push = U32S(0),
-                                                            .push_size = 4, .groups_x = 1, .groups_y = 1,
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->fill,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = U32S(0),
+                                         .push_size = 4,
+                                         .groups_x = 1,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
 }
 static void dispatch_zero_groups(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->fill, .bindings = &b,
-                                                            .bindings_count = 1, .push = U32S(0, 0),
-                                                            .push_size = 8, .groups_x = 0, .groups_y = 1,
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->fill,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = U32S(0, 0),
+                                         .push_size = 8,
+                                         .groups_x = 0,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
 }
 static void dispatch_too_many_groups(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    uint32_t limit = cv_device_get_info(w->dev)->max_dispatch[1];   /* 65535 on lavapipe and NVIDIA */
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->fill, .bindings = &b,
-                                                            .bindings_count = 1, .push = U32S(0, 0),
-                                                            .push_size = 8, .groups_x = 1,
-                                                            .groups_y = limit + 1, .groups_z = 1 });
+    uint32_t limit = cv_device_get_info(w->dev)->max_dispatch[1]; /* 65535 on lavapipe and NVIDIA */
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->fill,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = U32S(0, 0),
+                                         .push_size = 8,
+                                         .groups_x = 1,
+                                         .groups_y = limit + 1,
+                                         .groups_z = 1 });
 }
 static void storage_texture_without_usage(world *w, cv_command_list *l) {
     cv_binding b = tex_binding(w->sampled);
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->gradient, .bindings = &b,
-                                                            .bindings_count = 1, .push = U32S(16, 16),
-                                                            .push_size = 8, .groups_x = 2, .groups_y = 2,
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->gradient,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = U32S(16, 16),
+                                         .push_size = 8,
+                                         .groups_x = 2,
+                                         .groups_y = 2,
+                                         .groups_z = 1 });
 }
 static void indirect_without_usage(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_dispatch_indirect(l, CV_QUEUE_COMPUTE, &(cv_dispatch_indirect_args){
-        .pipeline = w->fill, .bindings = &b, .bindings_count = 1, .push = U32S(0, 0), .push_size = 8,
-        .args = w->small });
+    cv_cmd_dispatch_indirect(l, CV_QUEUE_COMPUTE,
+                             &(cv_dispatch_indirect_args){ .pipeline = w->fill,
+                                                           .bindings = &b,
+                                                           .bindings_count = 1,
+                                                           .push = U32S(0, 0),
+                                                           .push_size = 8,
+                                                           .args = w->small });
 }
 static void storage_binding_unaligned(world *w, cv_command_list *l) {
     cv_binding b = { .resource = cv_any(w->big), .offset = 100 };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->fill, .bindings = &b,
-                                                            .bindings_count = 1, .push = U32S(0, 0),
-                                                            .push_size = 8, .groups_x = 1, .groups_y = 1,
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->fill,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = U32S(0, 0),
+                                         .push_size = 8,
+                                         .groups_x = 1,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
 }
 static void sampled_without_sampler(world *w, cv_command_list *l) {
     cv_binding b[2] = { tex_binding(w->sampled), tex_binding(w->rgba8) };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->sample_copy, .bindings = b,
-                                                            .bindings_count = 2, .push = U32S(16, 16),
-                                                            .push_size = 8, .groups_x = 2, .groups_y = 2,
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->sample_copy,
+                                         .bindings = b,
+                                         .bindings_count = 2,
+                                         .push = U32S(16, 16),
+                                         .push_size = 8,
+                                         .groups_x = 2,
+                                         .groups_y = 2,
+                                         .groups_z = 1 });
 }
 static void draw_target_format(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
     cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){ .color0 = w->rgba8 });
-    cv_cmd_draw(l, CV_QUEUE_GRAPHICS, &(cv_draw_args){ .pipeline = w->triangle, .bindings = &b, .bindings_count = 1,
-                                                     .push = U32S(0, 0, 0, 0), .push_size = 16, .vertex_count = 3,
-                                                     .instance_count = 1 });   /* pipeline wants depth too */
+    cv_cmd_draw(l, CV_QUEUE_GRAPHICS,
+                &(cv_draw_args){ .pipeline = w->triangle,
+                                 .bindings = &b,
+                                 .bindings_count = 1,
+                                 .push = U32S(0, 0, 0, 0),
+                                 .push_size = 16,
+                                 .vertex_count = 3,
+                                 .instance_count = 1 }); /* pipeline wants depth too */
     cv_cmd_end_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 });
 }
 static void render_target_without_usage(world *w, cv_command_list *l) {
@@ -125,11 +185,18 @@ static void render_target_without_usage(world *w, cv_command_list *l) {
 }
 static void index_out_of_range(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){ .color0 = w->rgba8,
-                                                                               .depth = w->depth });
-    cv_cmd_draw_indexed(l, CV_QUEUE_GRAPHICS, &(cv_draw_indexed_args){
-        .pipeline = w->triangle, .bindings = &b, .bindings_count = 1, .push = U32S(0, 0, 0, 0), .push_size = 16,
-        .index_buffer = w->big, .index_offset = 65536 - 8, .index_count = 3, .instance_count = 1 });
+    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS,
+                             &(cv_begin_render_pass_args){ .color0 = w->rgba8, .depth = w->depth });
+    cv_cmd_draw_indexed(l, CV_QUEUE_GRAPHICS,
+                        &(cv_draw_indexed_args){ .pipeline = w->triangle,
+                                                 .bindings = &b,
+                                                 .bindings_count = 1,
+                                                 .push = U32S(0, 0, 0, 0),
+                                                 .push_size = 16,
+                                                 .index_buffer = w->big,
+                                                 .index_offset = 65536 - 8,
+                                                 .index_count = 3,
+                                                 .instance_count = 1 });
     cv_cmd_end_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 });
 }
 /* Offsets and counts whose sums or products pass 2^64 (or 2^32 for u32 counts):
@@ -143,140 +210,192 @@ static void indexed_draw(world *w, cv_command_list *l, const cv_draw_indexed_arg
     args.push = U32S(0, 0, 0, 0);
     args.push_size = 16;
     args.index_buffer = w->big;
-    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){ .color0 = w->rgba8,
-                                                                               .depth = w->depth });
+    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS,
+                             &(cv_begin_render_pass_args){ .color0 = w->rgba8, .depth = w->depth });
     cv_cmd_draw_indexed(l, CV_QUEUE_GRAPHICS, &args);
     cv_cmd_end_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 });
 }
 static void index_offset_wraps(world *w, cv_command_list *l) {
-    indexed_draw(w, l, &(cv_draw_indexed_args){ .index_offset = 0xFFFFFFFFFFFFFFFCull, .first_index = 1,
-                                                .index_count = 3, .instance_count = 1 });
+    indexed_draw(w, l,
+                 &(cv_draw_indexed_args){ .index_offset = 0xFFFFFFFFFFFFFFFCull,
+                                          .first_index = 1,
+                                          .index_count = 3,
+                                          .instance_count = 1 });
 }
 static void first_index_wraps(world *w, cv_command_list *l) {
-    indexed_draw(w, l, &(cv_draw_indexed_args){ .index_offset = UINT64_MAX - 4ull * UINT32_MAX + 1,
-                                                .first_index = UINT32_MAX, .index_count = 1,
-                                                .instance_count = 1 });
+    indexed_draw(w, l,
+                 &(cv_draw_indexed_args){ .index_offset = UINT64_MAX - 4ull * UINT32_MAX + 1,
+                                          .first_index = UINT32_MAX,
+                                          .index_count = 1,
+                                          .instance_count = 1 });
 }
 static void indexed_instances_wrap(world *w, cv_command_list *l) {
-    indexed_draw(w, l, &(cv_draw_indexed_args){ .index_count = 3, .instance_count = 2,
-                                                .first_instance = UINT32_MAX });
+    indexed_draw(w, l,
+                 &(cv_draw_indexed_args){ .index_count = 3, .instance_count = 2, .first_instance = UINT32_MAX });
 }
 static void vertices_wrap(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){ .color0 = w->rgba8,
-                                                                               .depth = w->depth });
-    cv_cmd_draw(l, CV_QUEUE_GRAPHICS, &(cv_draw_args){ .pipeline = w->triangle, .bindings = &b, .bindings_count = 1,
-                                                     .push = U32S(0, 0, 0, 0), .push_size = 16, .vertex_count = 3,
-                                                     .first_vertex = UINT32_MAX - 1, .instance_count = 1 });
+    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS,
+                             &(cv_begin_render_pass_args){ .color0 = w->rgba8, .depth = w->depth });
+    cv_cmd_draw(l, CV_QUEUE_GRAPHICS,
+                &(cv_draw_args){ .pipeline = w->triangle,
+                                 .bindings = &b,
+                                 .bindings_count = 1,
+                                 .push = U32S(0, 0, 0, 0),
+                                 .push_size = 16,
+                                 .vertex_count = 3,
+                                 .first_vertex = UINT32_MAX - 1,
+                                 .instance_count = 1 });
     cv_cmd_end_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 });
 }
 static void instances_wrap(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){ .color0 = w->rgba8,
-                                                                               .depth = w->depth });
-    cv_cmd_draw(l, CV_QUEUE_GRAPHICS, &(cv_draw_args){ .pipeline = w->triangle, .bindings = &b, .bindings_count = 1,
-                                                     .push = U32S(0, 0, 0, 0), .push_size = 16, .vertex_count = 3,
-                                                     .instance_count = 4, .first_instance = UINT32_MAX - 2 });
+    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS,
+                             &(cv_begin_render_pass_args){ .color0 = w->rgba8, .depth = w->depth });
+    cv_cmd_draw(l, CV_QUEUE_GRAPHICS,
+                &(cv_draw_args){ .pipeline = w->triangle,
+                                 .bindings = &b,
+                                 .bindings_count = 1,
+                                 .push = U32S(0, 0, 0, 0),
+                                 .push_size = 16,
+                                 .vertex_count = 3,
+                                 .instance_count = 4,
+                                 .first_instance = UINT32_MAX - 2 });
     cv_cmd_end_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 });
 }
 static void copy_offset_wraps(world *w, cv_command_list *l) {
-    cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = w->big, .src_offset = UINT64_MAX - 63,
-                                                               .dst = w->small, .size = 128 });
+    cv_cmd_copy_buffer(l, CV_QUEUE_COPY,
+                       &(cv_copy_buffer_args){
+                           .src = w->big, .src_offset = UINT64_MAX - 63, .dst = w->small, .size = 128 });
 }
 static void copy_dst_offset_wraps(world *w, cv_command_list *l) {
-    cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = w->big, .dst = w->small,
-                                                               .dst_offset = UINT64_MAX - 63, .size = 128 });
+    cv_cmd_copy_buffer(l, CV_QUEUE_COPY,
+                       &(cv_copy_buffer_args){
+                           .src = w->big, .dst = w->small, .dst_offset = UINT64_MAX - 63, .size = 128 });
 }
 static void clear_offset_wraps(world *w, cv_command_list *l) {
-    cv_cmd_clear_buffer(l, CV_QUEUE_COMPUTE, &(cv_clear_buffer_args){ .buffer = w->small,
-                                                                    .offset = UINT64_MAX - 15, .size = 32 });
+    cv_cmd_clear_buffer(l, CV_QUEUE_COMPUTE,
+                        &(cv_clear_buffer_args){ .buffer = w->small, .offset = UINT64_MAX - 15, .size = 32 });
 }
 static void update_offset_wraps(world *w, cv_command_list *l) {
-    cv_cmd_update_buffer(l, CV_QUEUE_COPY, &(cv_update_buffer_args){ .buffer = w->small, .offset = UINT64_MAX - 3,
-                                                                   .data = "abcdefgh", .data_size = 8 });
+    cv_cmd_update_buffer(l, CV_QUEUE_COPY,
+                         &(cv_update_buffer_args){
+                             .buffer = w->small, .offset = UINT64_MAX - 3, .data = "abcdefgh", .data_size = 8 });
 }
 static void binding_range_wraps(world *w, cv_command_list *l) {
     cv_binding b = { .resource = cv_any(w->big), .offset = 256, .range = UINT64_MAX - 255 };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = w->fill, .bindings = &b,
-                                                            .bindings_count = 1, .push = U32S(0, 0),
-                                                            .push_size = 8, .groups_x = 1, .groups_y = 1,
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = w->fill,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = U32S(0, 0),
+                                         .push_size = 8,
+                                         .groups_x = 1,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
 }
 static void indirect_offset_wraps(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_dispatch_indirect(l, CV_QUEUE_COMPUTE, &(cv_dispatch_indirect_args){
-        .pipeline = w->fill, .bindings = &b, .bindings_count = 1, .push = U32S(0, 0), .push_size = 8,
-        .args = w->big, .args_offset = UINT64_MAX - 7 });
+    cv_cmd_dispatch_indirect(l, CV_QUEUE_COMPUTE,
+                             &(cv_dispatch_indirect_args){ .pipeline = w->fill,
+                                                           .bindings = &b,
+                                                           .bindings_count = 1,
+                                                           .push = U32S(0, 0),
+                                                           .push_size = 8,
+                                                           .args = w->big,
+                                                           .args_offset = UINT64_MAX - 7 });
 }
 static void upload_offset_wraps(world *w, cv_command_list *l) {
-    cv_cmd_copy_buffer_to_texture(l, CV_QUEUE_COPY, &(cv_copy_buffer_to_texture_args){
-        .src = w->big, .src_offset = UINT64_MAX - 1023, .dst = w->rgba8, .width = 16, .height = 16 });
+    cv_cmd_copy_buffer_to_texture(
+        l, CV_QUEUE_COPY,
+        &(cv_copy_buffer_to_texture_args){
+            .src = w->big, .src_offset = UINT64_MAX - 1023, .dst = w->rgba8, .width = 16, .height = 16 });
 }
 static void download_offset_wraps(world *w, cv_command_list *l) {
-    cv_cmd_copy_texture_to_buffer(l, CV_QUEUE_COPY, &(cv_copy_texture_to_buffer_args){
-        .src = w->rgba8, .width = 16, .height = 16, .dst = w->big, .dst_offset = UINT64_MAX - 1023 });
+    cv_cmd_copy_texture_to_buffer(
+        l, CV_QUEUE_COPY,
+        &(cv_copy_texture_to_buffer_args){
+            .src = w->rgba8, .width = 16, .height = 16, .dst = w->big, .dst_offset = UINT64_MAX - 1023 });
 }
 static void texture_x_wraps(world *w, cv_command_list *l) {
-    cv_cmd_copy_texture(l, CV_QUEUE_COPY, &(cv_copy_texture_args){ .src = w->rgba8, .src_x = UINT32_MAX - 1,
-                                                                 .dst = w->rgba8_b, .width = 4, .height = 4 });
+    cv_cmd_copy_texture(l, CV_QUEUE_COPY,
+                        &(cv_copy_texture_args){
+                            .src = w->rgba8, .src_x = UINT32_MAX - 1, .dst = w->rgba8_b, .width = 4, .height = 4 });
 }
 static void texture_y_wraps(world *w, cv_command_list *l) {
-    cv_cmd_copy_texture(l, CV_QUEUE_COPY, &(cv_copy_texture_args){ .src = w->rgba8, .dst = w->rgba8_b,
-                                                                 .dst_y = UINT32_MAX - 1, .width = 4, .height = 4 });
+    cv_cmd_copy_texture(l, CV_QUEUE_COPY,
+                        &(cv_copy_texture_args){
+                            .src = w->rgba8, .dst = w->rgba8_b, .dst_y = UINT32_MAX - 1, .width = 4, .height = 4 });
 }
 static void trace_hits_offset_wraps(world *w, cv_command_list *l) {
-    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel, .rays = w->big,
-                                                                .hits = w->small, .hits_offset = UINT64_MAX - 255,
-                                                                .count = 4 });
+    cv_cmd_trace_rays(
+        l, CV_QUEUE_COMPUTE,
+        &(cv_trace_rays_args){
+            .accel = w->accel, .rays = w->big, .hits = w->small, .hits_offset = UINT64_MAX - 255, .count = 4 });
 }
 static void trace_rays_offset_wraps(world *w, cv_command_list *l) {
-    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel, .rays = w->big,
-                                                                .rays_offset = UINT64_MAX - 255, .hits = w->small,
-                                                                .count = 4 });
+    cv_cmd_trace_rays(
+        l, CV_QUEUE_COMPUTE,
+        &(cv_trace_rays_args){
+            .accel = w->accel, .rays = w->big, .rays_offset = UINT64_MAX - 255, .hits = w->small, .count = 4 });
 }
 static void update_unaligned(world *w, cv_command_list *l) {
-    cv_cmd_update_buffer(l, CV_QUEUE_COPY, &(cv_update_buffer_args){ .buffer = w->big, .offset = 8,
-                                                                   .data = "abcdef", .data_size = 6 });
+    cv_cmd_update_buffer(l, CV_QUEUE_COPY,
+                         &(cv_update_buffer_args){ .buffer = w->big, .offset = 8, .data = "abcdef", .data_size = 6 });
 }
 static void clear_depth_as_color(world *w, cv_command_list *l) {
     cv_cmd_clear_texture(l, CV_QUEUE_COMPUTE, &(cv_clear_texture_args){ .texture = w->depth, .r = 1 });
 }
 static void trace_unbuilt_accel(world *w, cv_command_list *l) {
-    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel_unbuilt, .rays = w->big,
-                                                                .hits = w->small, .count = 4 });
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE,
+                      &(cv_trace_rays_args){
+                          .accel = w->accel_unbuilt, .rays = w->big, .hits = w->small, .count = 4 });
 }
 static void trace_too_many_rays(world *w, cv_command_list *l) {
-    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel, .rays = w->big,
-                                                                .hits = w->small, .count = 100 });   /* 2000 hit bytes */
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE,
+                      &(cv_trace_rays_args){
+                          .accel = w->accel, .rays = w->big, .hits = w->small, .count = 100 }); /* 2000 hit bytes */
 }
 static void trace_into_its_rays(world *w, cv_command_list *l) {
-    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel, .rays = w->big,
-                                                                .hits = w->big, .hits_offset = 4096, .count = 4 });
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE,
+                      &(cv_trace_rays_args){
+                          .accel = w->accel, .rays = w->big, .hits = w->big, .hits_offset = 4096, .count = 4 });
 }
 /* Recording-time errors: the list never becomes executable. */
 static void trace_unknown_flags(world *w, cv_command_list *l) {
-    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = w->accel, .rays = w->big,
-                                                                .hits = w->small, .count = 4, .flags = 0x80 });
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE,
+                      &(cv_trace_rays_args){
+                          .accel = w->accel, .rays = w->big, .hits = w->small, .count = 4, .flags = 0x80 });
 }
 static void draw_on_compute_queue(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_draw(l, CV_QUEUE_COMPUTE, &(cv_draw_args){ .pipeline = w->triangle, .bindings = &b, .bindings_count = 1,
-                                                    .push = U32S(0, 0, 0, 0), .push_size = 16, .vertex_count = 3,
-                                                    .instance_count = 1 });
+    cv_cmd_draw(l, CV_QUEUE_COMPUTE,
+                &(cv_draw_args){ .pipeline = w->triangle,
+                                 .bindings = &b,
+                                 .bindings_count = 1,
+                                 .push = U32S(0, 0, 0, 0),
+                                 .push_size = 16,
+                                 .vertex_count = 3,
+                                 .instance_count = 1 });
 }
 static void draw_outside_pass(world *w, cv_command_list *l) {
     cv_binding b = buf_binding(w->big);
-    cv_cmd_draw(l, CV_QUEUE_GRAPHICS, &(cv_draw_args){ .pipeline = w->triangle, .bindings = &b, .bindings_count = 1,
-                                                     .push = U32S(0, 0, 0, 0), .push_size = 16, .vertex_count = 3,
-                                                     .instance_count = 1 });
+    cv_cmd_draw(l, CV_QUEUE_GRAPHICS,
+                &(cv_draw_args){ .pipeline = w->triangle,
+                                 .bindings = &b,
+                                 .bindings_count = 1,
+                                 .push = U32S(0, 0, 0, 0),
+                                 .push_size = 16,
+                                 .vertex_count = 3,
+                                 .instance_count = 1 });
 }
 static void texture_in_buffer_field(world *w, cv_command_list *l) {
     cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = { w->rgba8.id }, .dst = w->big, .size = 4 });
 }
 static void update_too_large(world *w, cv_command_list *l) {
     static uint8_t blob[CV_MAX_UPDATE_BYTES + 4];
-    cv_cmd_update_buffer(l, CV_QUEUE_COPY, &(cv_update_buffer_args){ .buffer = w->big, .data = blob,
-                                                                   .data_size = sizeof(blob) });
+    cv_cmd_update_buffer(l, CV_QUEUE_COPY,
+                         &(cv_update_buffer_args){ .buffer = w->big, .data = blob, .data_size = sizeof(blob) });
 }
 static void unclosed_render_pass(world *w, cv_command_list *l) {
     cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){ .color0 = w->rgba8 });
@@ -286,7 +405,7 @@ typedef struct bad_case {
     const char *name;
     void (*record)(world *w, cv_command_list *l);
     cv_result expected;
-    uint32_t at;   /* command index the message must name (0 = 1, the command after the valid write) */
+    uint32_t at; /* command index the message must name (0 = 1, the command after the valid write) */
 } bad_case;
 
 static const bad_case cases[] = {
@@ -373,8 +492,9 @@ void conformance_bad_lists(world *w) {
             CHECK_OK(cv_device_write_buffer(w->dev, w->small, 0, sizeof(zero), zero));
             cv_command_list *l = world_begin(w);
             /* A valid first command: if the list ran at all, small[0..16) would change. */
-            cv_cmd_update_buffer(l, CV_QUEUE_COPY, &(cv_update_buffer_args){ .buffer = w->small, .data = marker,
-                                                                           .data_size = sizeof(marker) });
+            cv_cmd_update_buffer(l, CV_QUEUE_COPY,
+                                 &(cv_update_buffer_args){
+                                     .buffer = w->small, .data = marker, .data_size = sizeof(marker) });
             cases[i].record(w, l);
             cv_result r = end_and_run(w, wire);
             if (r != cases[i].expected)
@@ -384,9 +504,9 @@ void conformance_bad_lists(world *w) {
             char where[32];
             snprintf(where, sizeof(where), "command %u", cases[i].at ? cases[i].at : 1);
             if (!strstr(cv_last_error(), where))
-                fprintf(stderr, "[%s] bad list '%s' (%s): message does not name %s: %s\n", w->fx->name,
-                        cases[i].name, how, where, cv_last_error());
-            CHECK(strstr(cv_last_error(), where) != NULL);   /* the message names the offending command */
+                fprintf(stderr, "[%s] bad list '%s' (%s): message does not name %s: %s\n", w->fx->name, cases[i].name,
+                        how, where, cv_last_error());
+            CHECK(strstr(cv_last_error(), where) != NULL); /* the message names the offending command */
             uint32_t after[4] = { 1, 1, 1, 1 };
             CHECK_OK(cv_device_read_buffer(w->dev, w->small, 0, sizeof(after), after));
             CHECK(memcmp(after, zero, sizeof(zero)) == 0);

@@ -23,14 +23,20 @@
 static const fixture fixtures[] = {
     { .name = "mock", .backend = cv_mock_backend, .max_devices = 4 },
 #ifdef CORVID_HAVE_VULKAN
-    { .name = "vulkan", .backend = cv_vulkan_backend, .max_devices = 3,
-      .validation_messages = cv_vulkan_validation_message_count, .executes_shaders = true },
+    { .name = "vulkan",
+      .backend = cv_vulkan_backend,
+      .max_devices = 3,
+      .validation_messages = cv_vulkan_validation_message_count,
+      .executes_shaders = true },
 #endif
 #ifdef CORVID_HAVE_NODE
     { .name = "proxy-mock", .backend = cv_proxy_backend, .max_devices = 4, .node_backend = cv_mock_backend },
 #ifdef CORVID_HAVE_VULKAN
-    { .name = "proxy-vulkan", .backend = cv_proxy_backend, .max_devices = 3,
-      .validation_messages = cv_vulkan_validation_message_count, .executes_shaders = true,
+    { .name = "proxy-vulkan",
+      .backend = cv_proxy_backend,
+      .max_devices = 3,
+      .validation_messages = cv_vulkan_validation_message_count,
+      .executes_shaders = true,
       .node_backend = cv_vulkan_backend },
 #endif
 #endif

@@ -21,9 +21,11 @@ void conformance_transfers(const fixture *fx) {
     cv_buffer buf;
     cv_texture tex, tex_f;
     CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 4096, .label = "shared" }, &buf));
-    CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = 32, .height = 16, .format = CV_FORMAT_RGBA16F,
-                                                       .label = "partition" }, &tex));
-    CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = 32, .height = 16, .format = CV_FORMAT_RGBA32F }, &tex_f));
+    CHECK_OK(cv_texture_create(
+        ctx, &(cv_texture_desc){ .width = 32, .height = 16, .format = CV_FORMAT_RGBA16F, .label = "partition" },
+        &tex));
+    CHECK_OK(
+        cv_texture_create(ctx, &(cv_texture_desc){ .width = 32, .height = 16, .format = CV_FORMAT_RGBA32F }, &tex_f));
     /* One handle, a representation on each device. */
     CHECK_OK(cv_device_load(a, cv_any(buf)));
     CHECK_OK(cv_device_load(b, cv_any(buf)));
@@ -48,7 +50,7 @@ void conformance_transfers(const fixture *fx) {
     /* A column partition of a texture, as multi-GPU tracing copies it back. */
     uint16_t texels[32 * 16 * 4], back[32 * 16 * 4];
     for (int i = 0; i < 32 * 16 * 4; i++)
-        texels[i] = (uint16_t)(0x3C00 + i);   /* finite halves */
+        texels[i] = (uint16_t)(0x3C00 + i); /* finite halves */
     memset(back, 0, sizeof(back));
     CHECK_OK(cv_device_write_texture(a, tex, (cv_rect){ 0, 0, 32, 16 }, texels));
     CHECK_OK(cv_device_write_texture(b, tex, (cv_rect){ 0, 0, 32, 16 }, back));
@@ -60,7 +62,8 @@ void conformance_transfers(const fixture *fx) {
         CHECK(back[(y * 32 + 7) * 4] == 0 && back[(y * 32 + 16) * 4] == 0);
     }
     CHECK_RESULT(cv_transfer_texture(a, tex_f, (cv_rect){ 0, 0, 8, 8 }, b, tex_f, 0, 0, NULL), CV_ERROR_NOT_LOADED);
-    CHECK_RESULT(cv_transfer_texture(a, tex, (cv_rect){ 0, 0, 8, 8 }, b, tex_f, 0, 0, NULL), CV_ERROR_FORMAT_MISMATCH);
+    CHECK_RESULT(cv_transfer_texture(a, tex, (cv_rect){ 0, 0, 8, 8 }, b, tex_f, 0, 0, NULL),
+                 CV_ERROR_FORMAT_MISMATCH);
     CHECK_RESULT(cv_transfer_texture(a, tex, (cv_rect){ 28, 0, 8, 8 }, b, tex, 0, 0, NULL), CV_ERROR_OUT_OF_RANGE);
     CHECK_RESULT(cv_transfer_buffer(a, buf, 4000, b, buf, 0, 200, NULL), CV_ERROR_OUT_OF_RANGE);
     /* Transfers larger than one staging chunk (4 MiB) are pipelined in pieces. */
@@ -68,8 +71,9 @@ void conformance_transfers(const fixture *fx) {
     cv_buffer large;
     cv_texture tall;
     CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = big, .label = "large" }, &large));
-    CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = 1024, .height = 1100, .format = CV_FORMAT_RGBA32F,
-                                                       .label = "tall" }, &tall));
+    CHECK_OK(cv_texture_create(
+        ctx, &(cv_texture_desc){ .width = 1024, .height = 1100, .format = CV_FORMAT_RGBA32F, .label = "tall" },
+        &tall));
     CHECK_OK(cv_device_load(a, cv_any(large)));
     CHECK_OK(cv_device_load(b, cv_any(large)));
     CHECK_OK(cv_device_load(a, cv_any(tall)));
@@ -94,7 +98,7 @@ void conformance_transfers(const fixture *fx) {
         CHECK_OK(cv_device_read_texture(b, tall, (cv_rect){ 0, 0, 1024, 2 }, back_words));
         CHECK(memcmp(back_words, words + 3 * 1024 * 4, 2 * 1024 * 16) == 0);
         CHECK_OK(cv_device_read_texture(b, tall, (cv_rect){ 0, 253, 1024, 1 }, back_words));
-        CHECK(memcmp(back_words, words, 1024 * 16) == 0);   /* source row 256 = words row 0 */
+        CHECK(memcmp(back_words, words, 1024 * 16) == 0); /* source row 256 = words row 0 */
     }
     free(words);
     free(back_words);
@@ -128,8 +132,9 @@ static void *work(void *arg) {
     }
     for (uint32_t i = 0; i < 2000; i++) {
         uint32_t v = w->seed * 100000 + i;
-        cv_cmd_update_buffer(l, CV_QUEUE_COPY, &(cv_update_buffer_args){ .buffer = w->buf, .offset = (i % 64) * 4,
-                                                                       .data = &v, .data_size = 4 });
+        cv_cmd_update_buffer(l, CV_QUEUE_COPY,
+                             &(cv_update_buffer_args){
+                                 .buffer = w->buf, .offset = (i % 64) * 4, .data = &v, .data_size = 4 });
     }
     uint64_t t;
     if (cv_command_list_end(l) != CV_OK || cv_device_submit(w->dev, list, &t) != CV_OK ||
@@ -139,7 +144,7 @@ static void *work(void *arg) {
     if (cv_device_read_buffer(w->dev, w->buf, 0, sizeof(out), out) != CV_OK)
         w->failures++;
     for (uint32_t k = 0; k < 64; k++)
-        if (out[k] != w->seed * 100000 + k + 64 * ((1999 - k) / 64))   /* the last write to each word */
+        if (out[k] != w->seed * 100000 + k + 64 * ((1999 - k) / 64)) /* the last write to each word */
             w->failures++;
     cv_cmdlist_destroy(w->ctx, list);
     return NULL;

@@ -57,7 +57,8 @@ void conformance_resources(world *w) {
     for (int y = 0; y < 4; y++)
         CHECK(memcmp(back + y * 32, texels + ((6 + y) * 16 + 4) * 4, 32) == 0);
     CHECK_RESULT(cv_device_read_texture(w->dev, w->rgba8_b, (cv_rect){ 12, 0, 8, 4 }, back), CV_ERROR_OUT_OF_RANGE);
-    CHECK_RESULT(cv_device_write_texture(w->dev, w->rgba8_b, (cv_rect){ 0, 0, 0, 4 }, texels), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_device_write_texture(w->dev, w->rgba8_b, (cv_rect){ 0, 0, 0, 4 }, texels),
+                 CV_ERROR_INVALID_ARGUMENT);
     CHECK(strstr(cv_last_error(), "empty 0x4 region") != NULL);
     CHECK_RESULT(cv_device_read_texture(w->dev, (cv_texture){ w->small.id }, (cv_rect){ 0, 0, 1, 1 }, back),
                  CV_ERROR_WRONG_HANDLE_TYPE);
@@ -65,7 +66,8 @@ void conformance_resources(world *w) {
     /* Unknown adapters are refused with a message naming them. */
     cv_device *none = NULL;
     CHECK_RESULT(cv_device_create(w->ctx, w->fx->backend(),
-                                  &(cv_device_desc){ .adapter = "no-such-gpu-xyz", .endpoint = fixture_endpoint(w->fx) },
+                                  &(cv_device_desc){ .adapter = "no-such-gpu-xyz",
+                                                     .endpoint = fixture_endpoint(w->fx) },
                                   &none),
                  CV_ERROR_NOT_FOUND);
     CHECK(none == NULL);

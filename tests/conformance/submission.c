@@ -6,8 +6,9 @@
 
 void conformance_resubmit(world *w) {
     cv_command_list *l = world_begin(w);
-    cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = w->big, .src_offset = 0, .dst = w->big,
-                                                               .dst_offset = 512, .size = 16 });
+    cv_cmd_copy_buffer(l, CV_QUEUE_COPY,
+                       &(cv_copy_buffer_args){
+                           .src = w->big, .src_offset = 0, .dst = w->big, .dst_offset = 512, .size = 16 });
     CHECK_OK(cv_command_list_end(l));
     CHECK(!cv_device_has(w->dev, cv_any(w->list)));
     CHECK_OK(cv_device_compile(w->dev, w->list));
@@ -24,17 +25,17 @@ void conformance_resubmit(world *w) {
         CHECK_OK(cv_device_read_buffer(w->dev, w->big, 512, sizeof(dst), dst));
         CHECK(memcmp(src, dst, sizeof(src)) == 0);
         CHECK_OK(cv_device_submit(w->dev, w->list, &t2));
-        CHECK(t2 == t1 + 1);   /* tickets count submissions */
+        CHECK(t2 == t1 + 1); /* tickets count submissions */
         CHECK_OK(cv_device_wait_idle(w->dev));
     }
-    CHECK_EQ_INT(cv_device_loaded_count(w->dev), loaded);   /* no recompiles piled up */
+    CHECK_EQ_INT(cv_device_loaded_count(w->dev), loaded); /* no recompiles piled up */
     CHECK_RESULT(cv_device_wait(w->dev, 1u << 30, 0), CV_ERROR_INVALID_ARGUMENT);
 
     /* Re-recording the list changes what it does on its next submission. */
     l = world_begin(w);
-    CHECK_RESULT(cv_device_submit(w->dev, w->list, NULL), CV_ERROR_BAD_STATE);   /* still recording */
-    cv_cmd_clear_buffer(l, CV_QUEUE_COPY, &(cv_clear_buffer_args){ .buffer = w->big, .offset = 512, .size = 16,
-                                                                 .value = 7 });
+    CHECK_RESULT(cv_device_submit(w->dev, w->list, NULL), CV_ERROR_BAD_STATE); /* still recording */
+    cv_cmd_clear_buffer(l, CV_QUEUE_COPY,
+                        &(cv_clear_buffer_args){ .buffer = w->big, .offset = 512, .size = 16, .value = 7 });
     CHECK_OK(world_end_and_run(w));
     uint32_t dst[4];
     CHECK_OK(cv_device_read_buffer(w->dev, w->big, 512, sizeof(dst), dst));
@@ -73,7 +74,7 @@ void conformance_lifetimes(world *w) {
     CHECK_OK(cv_buffer_destroy(w->ctx, a));
     CHECK_OK(cv_cmdlist_destroy(w->ctx, list));
     uint32_t word = 0;
-    CHECK_OK(cv_device_read_buffer(w->dev, b, (1 << 20) - 4, 4, &word));   /* waits for the copy */
+    CHECK_OK(cv_device_read_buffer(w->dev, b, (1 << 20) - 4, 4, &word)); /* waits for the copy */
     CHECK_EQ_INT(word, 3);
     CHECK_OK(cv_device_wait(w->dev, t, UINT64_MAX));
     CHECK_OK(cv_buffer_destroy(w->ctx, b));
@@ -98,8 +99,8 @@ void conformance_timings(world *w) {
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "outer" });
     cv_cmd_clear_buffer(l, CV_QUEUE_COMPUTE, &(cv_clear_buffer_args){ .buffer = w->big, .size = 65536, .value = 1 });
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "inner" });
-    cv_cmd_copy_buffer(l, CV_QUEUE_COMPUTE, &(cv_copy_buffer_args){ .src = w->big, .dst = w->big,
-                                                                  .dst_offset = 32768, .size = 32768 });
+    cv_cmd_copy_buffer(l, CV_QUEUE_COMPUTE,
+                       &(cv_copy_buffer_args){ .src = w->big, .dst = w->big, .dst_offset = 32768, .size = 32768 });
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
     cv_cmd_timestamp(l, CV_QUEUE_COMPUTE, &(cv_timestamp_args){ .label = "point" });
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });

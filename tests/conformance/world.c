@@ -37,9 +37,9 @@ static cv_result make_accel(world *w, bool write, const char *label, cv_accel *o
     const float node[16] = { 0, 0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0 };
     uint32_t links[16];
     memcpy(links, node, sizeof(node));
-    links[3] = 0x80000000u;   /* a_link: leaf, first triangle 0 */
-    links[7] = 1;             /* a_count */
-    const float tri[12] = { 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0 };   /* v0, e1, e2 with ids 0 */
+    links[3] = 0x80000000u;                                       /* a_link: leaf, first triangle 0 */
+    links[7] = 1;                                                 /* a_count */
+    const float tri[12] = { 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0 }; /* v0, e1, e2 with ids 0 */
     return cv_device_write_accel(w->dev, *out, links, tri);
 }
 
@@ -47,35 +47,57 @@ cv_result world_init(world *w, const fixture *fx) {
     memset(w, 0, sizeof(*w));
     w->fx = fx;
     cv_result r = cv_context_create(NULL, &w->ctx);
-    if (r == CV_OK) r = fixture_device(fx, w->ctx, 0, &w->dev);
+    if (r == CV_OK)
+        r = fixture_device(fx, w->ctx, 0, &w->dev);
     const uint32_t color = CV_TEXTURE_USAGE_SAMPLED | CV_TEXTURE_USAGE_STORAGE | CV_TEXTURE_USAGE_COLOR_TARGET;
-    if (r == CV_OK) r = make_buffer(w, 256, CV_BUFFER_USAGE_STORAGE, "small", &w->small);
-    if (r == CV_OK) r = make_buffer(w, 65536, CV_BUFFER_USAGE_ALL, "big", &w->big);
-    if (r == CV_OK) r = make_buffer(w, 1024, CV_BUFFER_USAGE_UNIFORM, "plain", &w->plain);
-    if (r == CV_OK) r = make_texture(w, CV_FORMAT_RGBA8_UNORM, color, "rgba8", &w->rgba8);
-    if (r == CV_OK) r = make_texture(w, CV_FORMAT_RGBA8_UNORM, color, "rgba8_b", &w->rgba8_b);
-    if (r == CV_OK) r = make_texture(w, CV_FORMAT_RGBA32F, 0, "rgba32f", &w->rgba32f);
-    if (r == CV_OK) r = make_texture(w, CV_FORMAT_RGBA8_UNORM, CV_TEXTURE_USAGE_SAMPLED, "sampled", &w->sampled);
-    if (r == CV_OK) r = make_texture(w, CV_FORMAT_D32F, 0, "depth", &w->depth);
-    if (r == CV_OK) r = cv_sampler_create(w->ctx, &(cv_sampler_desc){ .filter = CV_FILTER_NEAREST }, &w->sampler);
-    if (r == CV_OK) r = cv_device_load(w->dev, cv_any(w->sampler));
-    if (r == CV_OK) r = make_pipeline(w, "test.fill_u32", &w->fill);
-    if (r == CV_OK) r = make_pipeline(w, "test.saxpy", &w->saxpy);
-    if (r == CV_OK) r = make_pipeline(w, "test.gradient", &w->gradient);
-    if (r == CV_OK) r = make_pipeline(w, "test.sample_copy", &w->sample_copy);
-    if (r == CV_OK) r = make_pipeline(w, "test.triangle", &w->triangle);
-    if (r == CV_OK) r = make_accel(w, true, "one triangle", &w->accel);
-    if (r == CV_OK) r = make_accel(w, false, "unbuilt", &w->accel_unbuilt);
-    if (r == CV_OK) r = cv_buffer_create(w->ctx, &(cv_buffer_desc){ .size = 256, .label = "unloaded" }, &w->unloaded);
-    if (r == CV_OK) r = make_buffer(w, 256, 0, "destroyed", &w->destroyed);
-    if (r == CV_OK) r = cv_buffer_destroy(w->ctx, w->destroyed);
-    if (r == CV_OK) r = cv_cmdlist_create(w->ctx, &w->list);
+    if (r == CV_OK)
+        r = make_buffer(w, 256, CV_BUFFER_USAGE_STORAGE, "small", &w->small);
+    if (r == CV_OK)
+        r = make_buffer(w, 65536, CV_BUFFER_USAGE_ALL, "big", &w->big);
+    if (r == CV_OK)
+        r = make_buffer(w, 1024, CV_BUFFER_USAGE_UNIFORM, "plain", &w->plain);
+    if (r == CV_OK)
+        r = make_texture(w, CV_FORMAT_RGBA8_UNORM, color, "rgba8", &w->rgba8);
+    if (r == CV_OK)
+        r = make_texture(w, CV_FORMAT_RGBA8_UNORM, color, "rgba8_b", &w->rgba8_b);
+    if (r == CV_OK)
+        r = make_texture(w, CV_FORMAT_RGBA32F, 0, "rgba32f", &w->rgba32f);
+    if (r == CV_OK)
+        r = make_texture(w, CV_FORMAT_RGBA8_UNORM, CV_TEXTURE_USAGE_SAMPLED, "sampled", &w->sampled);
+    if (r == CV_OK)
+        r = make_texture(w, CV_FORMAT_D32F, 0, "depth", &w->depth);
+    if (r == CV_OK)
+        r = cv_sampler_create(w->ctx, &(cv_sampler_desc){ .filter = CV_FILTER_NEAREST }, &w->sampler);
+    if (r == CV_OK)
+        r = cv_device_load(w->dev, cv_any(w->sampler));
+    if (r == CV_OK)
+        r = make_pipeline(w, "test.fill_u32", &w->fill);
+    if (r == CV_OK)
+        r = make_pipeline(w, "test.saxpy", &w->saxpy);
+    if (r == CV_OK)
+        r = make_pipeline(w, "test.gradient", &w->gradient);
+    if (r == CV_OK)
+        r = make_pipeline(w, "test.sample_copy", &w->sample_copy);
+    if (r == CV_OK)
+        r = make_pipeline(w, "test.triangle", &w->triangle);
+    if (r == CV_OK)
+        r = make_accel(w, true, "one triangle", &w->accel);
+    if (r == CV_OK)
+        r = make_accel(w, false, "unbuilt", &w->accel_unbuilt);
+    if (r == CV_OK)
+        r = cv_buffer_create(w->ctx, &(cv_buffer_desc){ .size = 256, .label = "unloaded" }, &w->unloaded);
+    if (r == CV_OK)
+        r = make_buffer(w, 256, 0, "destroyed", &w->destroyed);
+    if (r == CV_OK)
+        r = cv_buffer_destroy(w->ctx, w->destroyed);
+    if (r == CV_OK)
+        r = cv_cmdlist_create(w->ctx, &w->list);
     return r;
 }
 
 void world_finish(world *w) {
     const fixture *fx = w->fx;
-    cv_context_destroy(w->ctx);   /* destroys the device and every handle */
+    cv_context_destroy(w->ctx); /* destroys the device and every handle */
     memset(w, 0, sizeof(*w));
     fixture_settle(fx);
     CHECK_NOTHING_LIVE();

@@ -9,14 +9,14 @@ typedef struct world {
     const fixture *fx;
     cv_context *ctx;
     cv_device *dev;
-    cv_buffer small;        /* 256 B, storage */
-    cv_buffer big;          /* 64 KiB, storage|index|indirect|uniform */
-    cv_buffer plain;        /* 1 KiB, uniform only */
-    cv_texture rgba8;       /* 16x16, sampled|storage|color target */
-    cv_texture rgba8_b;     /* 16x16, same */
-    cv_texture rgba32f;     /* 16x16, sampled|storage */
-    cv_texture sampled;     /* 16x16 rgba8, sampled only */
-    cv_texture depth;       /* 16x16 D32F */
+    cv_buffer small;    /* 256 B, storage */
+    cv_buffer big;      /* 64 KiB, storage|index|indirect|uniform */
+    cv_buffer plain;    /* 1 KiB, uniform only */
+    cv_texture rgba8;   /* 16x16, sampled|storage|color target */
+    cv_texture rgba8_b; /* 16x16, same */
+    cv_texture rgba32f; /* 16x16, sampled|storage */
+    cv_texture sampled; /* 16x16 rgba8, sampled only */
+    cv_texture depth;   /* 16x16 D32F */
     cv_sampler sampler;
     cv_pipeline fill, saxpy, gradient, sample_copy, triangle;
     cv_accel accel;         /* one triangle, data written */

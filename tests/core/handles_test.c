@@ -33,14 +33,14 @@ static void test_pool_generations(void) {
     CHECK_OK(cv_handle_pool_free(&pool, a));
     CHECK_EQ_INT(cv_handle_pool_slot_generation(&pool, 0), 2);
     CHECK_OK(cv_handle_pool_alloc(&pool, &b));
-    CHECK_EQ_INT(cv_handle_index(b), 0);          /* slot reused ... */
-    CHECK_EQ_INT(cv_handle_generation(b), 2);     /* ... with a new generation */
+    CHECK_EQ_INT(cv_handle_index(b), 0);      /* slot reused ... */
+    CHECK_EQ_INT(cv_handle_generation(b), 2); /* ... with a new generation */
     CHECK(a != b);
     CHECK_RESULT(cv_handle_pool_check(&pool, a), CV_ERROR_STALE_HANDLE);
     CHECK_RESULT(cv_handle_pool_free(&pool, a), CV_ERROR_STALE_HANDLE);
     CHECK_OK(cv_handle_pool_check(&pool, b));
     CHECK_OK(cv_handle_pool_free(&pool, b));
-    CHECK_RESULT(cv_handle_pool_free(&pool, b), CV_ERROR_STALE_HANDLE);   /* double free */
+    CHECK_RESULT(cv_handle_pool_free(&pool, b), CV_ERROR_STALE_HANDLE); /* double free */
     CHECK_EQ_INT(pool.live, 0);
     cv_handle_pool_finish(&pool);
 }
@@ -79,7 +79,7 @@ static void test_exhausted_slot_is_retired(void) {
     uint64_t first, last, other, none = 0;
     CHECK_OK(cv_handle_pool_alloc(&pool, &first));
     CHECK_RESULT(cv_handle_pool_set_generation_for_test(&pool, 0, CV_HANDLE_GENERATION_MAX),
-                 CV_ERROR_INVALID_ARGUMENT);   /* live */
+                 CV_ERROR_INVALID_ARGUMENT); /* live */
     CHECK_OK(cv_handle_pool_free(&pool, first));
     CHECK_OK(cv_handle_pool_set_generation_for_test(&pool, 0, CV_HANDLE_GENERATION_MAX));
     CHECK_OK(cv_handle_pool_alloc(&pool, &last));
@@ -116,7 +116,7 @@ static void test_context_handles(void) {
     CHECK_OK(cv_context_describe(ctx, cv_any(a), &d));
     CHECK_EQ_INT(d.type, CV_HANDLE_BUFFER);
     CHECK_EQ_INT(d.buffer.size, 64);
-    CHECK_EQ_INT(d.buffer.usage, CV_BUFFER_USAGE_STORAGE);   /* zero means default */
+    CHECK_EQ_INT(d.buffer.usage, CV_BUFFER_USAGE_STORAGE); /* zero means default */
     CHECK(strcmp(d.buffer.label, "a") == 0);
 
     CHECK_OK(cv_buffer_destroy(ctx, a));
@@ -137,9 +137,14 @@ static void test_context_handles(void) {
     cv_texture t;
     CHECK_RESULT(cv_texture_create(ctx, &(cv_texture_desc){ .width = 0, .height = 4, .format = CV_FORMAT_R32F }, &t),
                  CV_ERROR_OUT_OF_RANGE);
-    CHECK_RESULT(cv_texture_create(ctx, &(cv_texture_desc){ .width = 4, .height = 4 }, &t), CV_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(cv_texture_create(ctx, &(cv_texture_desc){ .width = 4, .height = 4, .format = CV_FORMAT_D32F,
-                                                           .usage = CV_TEXTURE_USAGE_STORAGE }, &t),
+    CHECK_RESULT(cv_texture_create(ctx, &(cv_texture_desc){ .width = 4, .height = 4 }, &t),
+                 CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_texture_create(ctx,
+                                   &(cv_texture_desc){ .width = 4,
+                                                       .height = 4,
+                                                       .format = CV_FORMAT_D32F,
+                                                       .usage = CV_TEXTURE_USAGE_STORAGE },
+                                   &t),
                  CV_ERROR_USAGE_MISMATCH);
     cv_accel accel;
     CHECK_RESULT(cv_accel_create(ctx, &(cv_accel_desc){ .triangle_count = 0, .node_count = 1 }, &accel),
@@ -195,7 +200,7 @@ static void test_pool_limits(void) {
     getrusage(RUSAGE_SELF, &usage);
     printf("2000 contexts of %u handles per type: %.3f s, peak RSS %ld MiB\n", CV_MAX_POOL_HANDLES,
            (double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9, usage.ru_maxrss / 1024);
-    CHECK(usage.ru_maxrss < 512 * 1024);   /* KiB: a fully backed pool of 16M slots alone would pass this */
+    CHECK(usage.ru_maxrss < 512 * 1024); /* KiB: a fully backed pool of 16M slots alone would pass this */
 
     /* Growing past the first chunks keeps every handle and description intact. */
     CHECK_OK(cv_context_create(&(cv_context_desc){ .max_buffers = 5000 }, &ctx));
@@ -234,7 +239,7 @@ static void test_live_counts(void) {
     CHECK_EQ_INT(cv_live_devices(), 2);
     cv_device_destroy(a);
     CHECK_EQ_INT(cv_live_devices(), 1);
-    cv_context_destroy(ctx);   /* takes b with it */
+    cv_context_destroy(ctx); /* takes b with it */
     CHECK_EQ_INT(cv_live_devices(), 0);
     CHECK_EQ_INT(cv_live_contexts(), 1);
     cv_context_destroy(other);
@@ -258,7 +263,7 @@ static void test_result_table(void) {
     CHECK_RESULT(cv_error(CV_ERROR_IO, "reading scene: %s", cv_last_error()), CV_ERROR_IO);
     CHECK_EQ_INT(strlen(cv_last_error()), 15 + 508);
     CHECK(strcmp(cv_last_error() + 15 + 505, ": 7") == 0);
-    CHECK_RESULT(cv_error(CV_ERROR_IO, "%s|%s", name, name), CV_ERROR_IO);   /* over the limit: cut, terminated */
+    CHECK_RESULT(cv_error(CV_ERROR_IO, "%s|%s", name, name), CV_ERROR_IO); /* over the limit: cut, terminated */
     CHECK_EQ_INT(strlen(cv_last_error()), CV_ERROR_MESSAGE_MAX - 1);
     cv_clear_error();
     CHECK(strcmp(cv_last_error(), "") == 0);

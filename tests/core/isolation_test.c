@@ -12,7 +12,7 @@
 typedef struct session {
     cv_context *ctx;
     cv_device *dev;
-    cv_buffer buf;     /* 64 bytes, loaded, filled with `fill` */
+    cv_buffer buf; /* 64 bytes, loaded, filled with `fill` */
     cv_cmdlist list;
 } session;
 
@@ -45,7 +45,7 @@ static void test_foreign_handles_are_rejected(void) {
     session a, b;
     session_init(&a, 0xAA);
     session_init(&b, 0xBB);
-    CHECK(a.buf.id != b.buf.id);   /* same slot, same generation, different context */
+    CHECK(a.buf.id != b.buf.id); /* same slot, same generation, different context */
 
     cv_resource_desc d;
     expect_foreign(cv_context_check(b.ctx, cv_any(a.buf)));

@@ -24,7 +24,7 @@ static void test_culling(void) {
     CHECK_OK(cv_graph_write(w.graph, waste, unused, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
     CHECK_OK(cv_graph_output(w.graph, out));
     CHECK_OK(cv_graph_bake(w.graph, &bake64));
-    CHECK(cv_graph_pass_kept(w.graph, make));   /* reaches the output through 'use t' */
+    CHECK(cv_graph_pass_kept(w.graph, make)); /* reaches the output through 'use t' */
     CHECK(cv_graph_pass_kept(w.graph, use));
     CHECK(!cv_graph_pass_kept(w.graph, waste));
     cv_graph_stats st;
@@ -32,7 +32,7 @@ static void test_culling(void) {
     CHECK_EQ_INT(st.passes, 2);
     CHECK_EQ_INT(st.culled, 1);
     CHECK_EQ_INT(st.steps, 2);
-    CHECK_EQ_INT(cv_graph_physical_of(w.graph, unused), -1);   /* a culled pass's transient gets no memory */
+    CHECK_EQ_INT(cv_graph_physical_of(w.graph, unused), -1); /* a culled pass's transient gets no memory */
     world_close(&w);
 }
 
@@ -42,8 +42,9 @@ static void test_transient_reuse(void) {
     /* a -> b -> c -> out, one step each: a lives over steps 0-1, b 1-2, c 2-3. */
     cv_graph_resource a = texture(&w, "a"), b = texture(&w, "b"), c = texture(&w, "c"), out = texture(&w, "out");
     cv_graph_resource wide;
-    CHECK_OK(cv_graph_create_texture(w.graph, &(cv_texture_desc){ .width = 128, .height = 16,
-                                                                 .format = CV_FORMAT_RGBA16F, .label = "wide" }, &wide));
+    CHECK_OK(cv_graph_create_texture(
+        w.graph, &(cv_texture_desc){ .width = 128, .height = 16, .format = CV_FORMAT_RGBA16F, .label = "wide" },
+        &wide));
     cv_graph_resource chain[] = { a, b, c, wide, out };
     const char *names[] = { "make a", "a to b", "b to c", "c to wide", "wide to out" };
     for (int i = 0; i < 5; i++) {
@@ -58,10 +59,10 @@ static void test_transient_reuse(void) {
     int32_t pc = cv_graph_physical_of(w.graph, c), pw = cv_graph_physical_of(w.graph, wide);
     int32_t po = cv_graph_physical_of(w.graph, out);
     CHECK(pa >= 0 && pb >= 0);
-    CHECK(pa != pb);            /* a and b are both live at step 1 */
-    CHECK_EQ_INT(pc, pa);       /* a is dead when c is born */
-    CHECK(pw != pa && pw != pb);   /* another description never shares */
-    CHECK_EQ_INT(po, pa);       /* a's entry is free again after c (step 3): first fit */
+    CHECK(pa != pb);             /* a and b are both live at step 1 */
+    CHECK_EQ_INT(pc, pa);        /* a is dead when c is born */
+    CHECK(pw != pa && pw != pb); /* another description never shares */
+    CHECK_EQ_INT(po, pa);        /* a's entry is free again after c (step 3): first fit */
     cv_graph_stats st;
     CHECK_OK(cv_graph_get_stats(w.graph, &st));
     CHECK_EQ_INT(st.transients, 5);
@@ -90,7 +91,7 @@ static void check_edges(uint32_t devices) {
     CHECK_OK(cv_graph_read(w.graph, shade, local, CV_GRAPH_STORAGE_READ));
     CHECK_OK(cv_graph_write(w.graph, shade, v, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
     CHECK_OK(cv_graph_read(w.graph, resolve, v, CV_GRAPH_STORAGE_READ));
-    CHECK_OK(cv_graph_read(w.graph, resolve, g, CV_GRAPH_SAMPLED));   /* primary -> primary: nothing moves */
+    CHECK_OK(cv_graph_read(w.graph, resolve, g, CV_GRAPH_SAMPLED)); /* primary -> primary: nothing moves */
     CHECK_OK(cv_graph_write(w.graph, resolve, out, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
     CHECK_OK(cv_graph_output(w.graph, out));
     cv_partition part;
@@ -228,11 +229,13 @@ static void test_bad_graphs(void) {
     world_open(&w, 1);
     add_pass(&w, "same", CV_MGPU_PRIMARY_ONLY);
     cv_graph_pass dup;
-    CHECK_RESULT(cv_graph_add_pass(w.graph, &(cv_graph_pass_desc){ .name = "same", .policy = CV_MGPU_PRIMARY_ONLY,
-                                                                    .record = NULL }, &dup),
+    CHECK_RESULT(cv_graph_add_pass(
+                     w.graph, &(cv_graph_pass_desc){ .name = "same", .policy = CV_MGPU_PRIMARY_ONLY, .record = NULL },
+                     &dup),
                  CV_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(cv_graph_read(w.graph, (cv_graph_pass){ 7 }, out, CV_GRAPH_SAMPLED), CV_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(cv_graph_read(w.graph, (cv_graph_pass){ 1 }, out, CV_GRAPH_STORAGE_WRITE), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_graph_read(w.graph, (cv_graph_pass){ 1 }, out, CV_GRAPH_STORAGE_WRITE),
+                 CV_ERROR_INVALID_ARGUMENT);
     world_close(&w);
 }
 

@@ -12,7 +12,7 @@
 typedef struct seen_barriers {
     uint32_t count;
     uint64_t resources[8];
-    uint64_t x;                  /* the pass's handle of resource x */
+    uint64_t x; /* the pass's handle of resource x */
     cv_graph_resource watch;
 } seen_barriers;
 
@@ -34,19 +34,23 @@ static void test_barriers(void) {
     cv_graph_pass p[5];
     for (int i = 0; i < 5; i++) {
         seen[i].watch = x;
-        CHECK_OK(cv_graph_add_pass(w.graph, &(cv_graph_pass_desc){ .name = names[i], .queue = CV_QUEUE_COMPUTE,
-                                                                    .policy = CV_MGPU_PRIMARY_ONLY,
-                                                                    .record = note_barriers, .user = &seen[i] }, &p[i]));
+        CHECK_OK(cv_graph_add_pass(w.graph,
+                                   &(cv_graph_pass_desc){ .name = names[i],
+                                                          .queue = CV_QUEUE_COMPUTE,
+                                                          .policy = CV_MGPU_PRIMARY_ONLY,
+                                                          .record = note_barriers,
+                                                          .user = &seen[i] },
+                                   &p[i]));
     }
     CHECK_OK(cv_graph_write(w.graph, p[0], x, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
-    CHECK_OK(cv_graph_read(w.graph, p[1], x, CV_GRAPH_SAMPLED));                       /* write -> read */
+    CHECK_OK(cv_graph_read(w.graph, p[1], x, CV_GRAPH_SAMPLED)); /* write -> read */
     CHECK_OK(cv_graph_write(w.graph, p[1], y, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
-    CHECK_OK(cv_graph_read(w.graph, p[2], x, CV_GRAPH_SAMPLED));                       /* read -> read: none */
+    CHECK_OK(cv_graph_read(w.graph, p[2], x, CV_GRAPH_SAMPLED)); /* read -> read: none */
     CHECK_OK(cv_graph_write(w.graph, p[2], z, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
-    CHECK_OK(cv_graph_read(w.graph, p[3], y, CV_GRAPH_SAMPLED));                       /* write -> read */
-    CHECK_OK(cv_graph_read(w.graph, p[3], z, CV_GRAPH_SAMPLED));                       /* write -> read */
-    CHECK_OK(cv_graph_write(w.graph, p[3], x, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));  /* read -> write */
-    CHECK_OK(cv_graph_read(w.graph, p[4], x, CV_GRAPH_STORAGE_READ));                  /* write -> read */
+    CHECK_OK(cv_graph_read(w.graph, p[3], y, CV_GRAPH_SAMPLED));                                /* write -> read */
+    CHECK_OK(cv_graph_read(w.graph, p[3], z, CV_GRAPH_SAMPLED));                                /* write -> read */
+    CHECK_OK(cv_graph_write(w.graph, p[3], x, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO)); /* read -> write */
+    CHECK_OK(cv_graph_read(w.graph, p[4], x, CV_GRAPH_STORAGE_READ));                           /* write -> read */
     CHECK_OK(cv_graph_write(w.graph, p[4], out, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
     CHECK_OK(cv_graph_output(w.graph, out));
     CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = 64 }));
@@ -63,9 +67,9 @@ static void test_barriers(void) {
     for (int i = 0; i < 5; i++)
         CHECK_EQ_INT(seen[i].count, expect_count[i]);
     CHECK_EQ_INT(seen[1].resources[0], seen[1].x);
-    CHECK_EQ_INT(seen[3].resources[2], seen[3].x);   /* after y and z, in declaration order */
+    CHECK_EQ_INT(seen[3].resources[2], seen[3].x); /* after y and z, in declaration order */
     CHECK_EQ_INT(seen[4].resources[0], seen[4].x);
-    CHECK(seen[4].resources[1] != seen[4].x);   /* 'out' over y's memory */
+    CHECK(seen[4].resources[1] != seen[4].x); /* 'out' over y's memory */
     CHECK(seen[3].resources[0] != seen[3].x && seen[3].resources[1] != seen[3].x);
     CHECK(strcmp(t[3].name, "rewrite x") == 0);
     world_close(&w);
@@ -80,8 +84,9 @@ typedef struct frame {
 
 static void clear_a(const cv_graph_pass_context *pc, cv_command_list *list, void *user) {
     const frame *f = user;
-    cv_cmd_clear_buffer(list, pc->queue, &(cv_clear_buffer_args){ .buffer = cv_graph_buffer(pc, f->a),
-                                                                  .size = COLUMNS * 4, .value = 0x11111111u });
+    cv_cmd_clear_buffer(list, pc->queue,
+                        &(cv_clear_buffer_args){
+                            .buffer = cv_graph_buffer(pc, f->a), .size = COLUMNS * 4, .value = 0x11111111u });
 }
 
 /* Even columns of the window get 1000 + column; odd ones keep what the copy put there. */
@@ -89,9 +94,11 @@ static void stamp_b(const cv_graph_pass_context *pc, cv_command_list *list, void
     const frame *f = user;
     for (uint32_t c = pc->x; c < pc->x + pc->width; c += 2) {
         uint32_t value = 1000 + c;
-        cv_cmd_update_buffer(list, pc->queue, &(cv_update_buffer_args){ .buffer = cv_graph_buffer(pc, f->b),
-                                                                        .offset = c * 4, .data = &value,
-                                                                        .data_size = 4 });
+        cv_cmd_update_buffer(list, pc->queue,
+                             &(cv_update_buffer_args){ .buffer = cv_graph_buffer(pc, f->b),
+                                                       .offset = c * 4,
+                                                       .data = &value,
+                                                       .data_size = 4 });
     }
 }
 
@@ -106,14 +113,22 @@ static void test_execute_three_devices(void) {
     CHECK_OK(cv_graph_create_buffer(w.graph, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "b" }, 4, &f.b));
     CHECK_OK(cv_graph_import_buffer(w.graph, result_h, 4, &result));
     cv_graph_pass clear, copy, stamp, gather;
-    CHECK_OK(cv_graph_add_pass(w.graph, &(cv_graph_pass_desc){ .name = "clear", .queue = CV_QUEUE_COMPUTE,
-                                                                .policy = CV_MGPU_PRIMARY_ONLY, .record = clear_a,
-                                                                .user = &f }, &clear));
+    CHECK_OK(cv_graph_add_pass(w.graph,
+                               &(cv_graph_pass_desc){ .name = "clear",
+                                                      .queue = CV_QUEUE_COMPUTE,
+                                                      .policy = CV_MGPU_PRIMARY_ONLY,
+                                                      .record = clear_a,
+                                                      .user = &f },
+                               &clear));
     CHECK_OK(cv_graph_write(w.graph, clear, f.a, CV_GRAPH_TRANSFER_DST, CV_GRAPH_TRANSFER_AUTO));
     CHECK_OK(cv_graph_add_copy_pass(w.graph, "copy a to b", CV_MGPU_ALL_DEVICES, f.a, f.b, &copy));
-    CHECK_OK(cv_graph_add_pass(w.graph, &(cv_graph_pass_desc){ .name = "stamp", .queue = CV_QUEUE_COMPUTE,
-                                                                .policy = CV_MGPU_ALL_DEVICES, .record = stamp_b,
-                                                                .user = &f }, &stamp));
+    CHECK_OK(cv_graph_add_pass(w.graph,
+                               &(cv_graph_pass_desc){ .name = "stamp",
+                                                      .queue = CV_QUEUE_COMPUTE,
+                                                      .policy = CV_MGPU_ALL_DEVICES,
+                                                      .record = stamp_b,
+                                                      .user = &f },
+                               &stamp));
     CHECK_OK(cv_graph_read(w.graph, stamp, f.b, CV_GRAPH_TRANSFER_SRC));
     CHECK_OK(cv_graph_write(w.graph, stamp, f.b, CV_GRAPH_TRANSFER_DST, CV_GRAPH_TRANSFER_AUTO));
     CHECK_OK(cv_graph_add_copy_pass(w.graph, "gather", CV_MGPU_PRIMARY_ONLY, f.b, result, &gather));
@@ -121,7 +136,7 @@ static void test_execute_three_devices(void) {
     CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
     cv_graph_stats st;
     CHECK_OK(cv_graph_get_stats(w.graph, &st));
-    CHECK_EQ_INT(st.transfers, 2);   /* a multicast, b copied back */
+    CHECK_EQ_INT(st.transfers, 2); /* a multicast, b copied back */
     CHECK_EQ_INT(st.copies, 4);
 
     for (int frame_no = 0; frame_no < 2; frame_no++) {
@@ -133,12 +148,12 @@ static void test_execute_three_devices(void) {
         /* The first frame splits evenly; later splits follow measured times (a
          * device may get no columns, and no instance), so only bytes are checked. */
         if (frame_no == 0)
-            CHECK_EQ_INT(n, 1 + 2 + 3 + 3 + 1);   /* clear, 2 transfers, copy x3, stamp x3, gather */
+            CHECK_EQ_INT(n, 1 + 2 + 3 + 3 + 1); /* clear, 2 transfers, copy x3, stamp x3, gather */
         uint32_t got[COLUMNS];
         CHECK_OK(cv_device_read_buffer(w.devices[0], result_h, 0, sizeof(got), got));
         int wrong = 0;
         for (uint32_t c = 0; c < COLUMNS; c++)
-            wrong += got[c] != (c % 2 ? 0x11111111u : 1000 + c);   /* odd: cleared on dev0, multicast */
+            wrong += got[c] != (c % 2 ? 0x11111111u : 1000 + c); /* odd: cleared on dev0, multicast */
         CHECK_EQ_INT(wrong, 0);
         /* Rebake from the balancer's measurements: still the same bytes. */
         CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
@@ -157,8 +172,9 @@ typedef struct fill_frame {
 
 static void fill_src(const cv_graph_pass_context *pc, cv_command_list *list, void *user) {
     const fill_frame *f = user;
-    cv_cmd_clear_buffer(list, pc->queue, &(cv_clear_buffer_args){ .buffer = cv_graph_buffer(pc, f->src),
-                                                                  .size = COLUMNS * 4, .value = f->value });
+    cv_cmd_clear_buffer(list, pc->queue,
+                        &(cv_clear_buffer_args){
+                            .buffer = cv_graph_buffer(pc, f->src), .size = COLUMNS * 4, .value = f->value });
 }
 
 static int count_wrong(graph_world *w, cv_buffer result_h, uint32_t expect) {
@@ -182,9 +198,13 @@ static void test_enable_and_submit(void) {
     CHECK_OK(cv_graph_create_buffer(w.graph, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "b" }, 4, &b));
     CHECK_OK(cv_graph_import_buffer(w.graph, result_h, 4, &result));
     cv_graph_pass fill, spread, gather;
-    CHECK_OK(cv_graph_add_pass(w.graph, &(cv_graph_pass_desc){ .name = "fill", .queue = CV_QUEUE_COMPUTE,
-                                                                .policy = CV_MGPU_PRIMARY_ONLY, .record = fill_src,
-                                                                .user = &f }, &fill));
+    CHECK_OK(cv_graph_add_pass(w.graph,
+                               &(cv_graph_pass_desc){ .name = "fill",
+                                                      .queue = CV_QUEUE_COMPUTE,
+                                                      .policy = CV_MGPU_PRIMARY_ONLY,
+                                                      .record = fill_src,
+                                                      .user = &f },
+                               &fill));
     CHECK_OK(cv_graph_write(w.graph, fill, f.src, CV_GRAPH_TRANSFER_DST, CV_GRAPH_TRANSFER_AUTO));
     CHECK_OK(cv_graph_add_copy_pass(w.graph, "spread", CV_MGPU_ALL_DEVICES, f.src, b, &spread));
     CHECK_OK(cv_graph_add_copy_pass(w.graph, "gather", CV_MGPU_PRIMARY_ONLY, b, result, &gather));
@@ -206,12 +226,12 @@ static void test_enable_and_submit(void) {
     uint64_t moved = 0;
     for (uint32_t i = 0; i < n && i < 16; i++)
         moved += strncmp(t[i].name, "transfer ", 9) == 0 ? t[i].bytes : 0;
-    CHECK_EQ_INT(moved, 2 * COLUMNS * 4 + 2 * (COLUMNS / 3) * 4);   /* whole buffer to 2 devices, 2 windows back */
+    CHECK_EQ_INT(moved, 2 * COLUMNS * 4 + 2 * (COLUMNS / 3) * 4); /* whole buffer to 2 devices, 2 windows back */
     CHECK_EQ_INT(count_wrong(&w, result_h, 0x22222222u), 0);
 
     /* Frame 2: fill disabled: no multicast; every device reads what it holds. */
     CHECK_OK(cv_graph_enable_pass(w.graph, fill, false));
-    f.value = 0x33333333u;   /* would show if fill still ran */
+    f.value = 0x33333333u; /* would show if fill still ran */
     CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
     CHECK(!cv_graph_pass_kept(w.graph, fill));
     CHECK(cv_graph_pass_kept(w.graph, spread));

@@ -29,8 +29,10 @@ static void record_nothing(const cv_graph_pass_context *pc, cv_command_list *lis
 
 cv_graph_pass add_pass(graph_world *w, const char *name, cv_mgpu_policy policy) {
     cv_graph_pass p = { 0 };
-    CHECK_OK(cv_graph_add_pass(w->graph, &(cv_graph_pass_desc){ .name = name, .queue = CV_QUEUE_COMPUTE,
-                                                                 .policy = policy, .record = record_nothing }, &p));
+    CHECK_OK(cv_graph_add_pass(
+        w->graph,
+        &(cv_graph_pass_desc){ .name = name, .queue = CV_QUEUE_COMPUTE, .policy = policy, .record = record_nothing },
+        &p));
     return p;
 }
 

@@ -12,7 +12,7 @@
 #include "corvid/image_exr.h"
 #include "scratch_dir.h"
 
-#define W 37   /* odd sizes: partial chunks for ZIP (16 rows) and PIZ (32) */
+#define W 37 /* odd sizes: partial chunks for ZIP (16 rows) and PIZ (32) */
 #define H 45
 
 static float sample(uint32_t x, uint32_t y, uint32_t c) {
@@ -21,8 +21,8 @@ static float sample(uint32_t x, uint32_t y, uint32_t c) {
 
 /* Values a float channel must carry exactly, special ones included. */
 static float special(uint32_t i) {
-    static const float values[] = { 0.0f, -0.0f, 1e-40f, -FLT_MAX, FLT_MAX, INFINITY, -INFINITY,
-                                    NAN, 1.0f / 3.0f, 65504.0f, 1e20f };
+    static const float values[] = { 0.0f,      -0.0f, 1e-40f,      -FLT_MAX, FLT_MAX, INFINITY,
+                                    -INFINITY, NAN,   1.0f / 3.0f, 65504.0f, 1e20f };
     return values[i % (sizeof values / sizeof values[0])];
 }
 
@@ -37,16 +37,18 @@ static void test_float_round_trip(void) {
         depth[i] = i < 64 ? special(i) : sample(i % W, i / W, 3);
     }
     cv_exr_layer layers[] = {
-        { .name = "normal", .channel_count = 3, .channels = { "X", "Y", "Z" }, .type = CV_EXR_FLOAT,
+        { .name = "normal",
+          .channel_count = 3,
+          .channels = { "X", "Y", "Z" },
+          .type = CV_EXR_FLOAT,
           .planes = { nx, ny, nz } },
-        { .name = "depth", .channel_count = 1, .channels = { "Z" }, .type = CV_EXR_FLOAT,
-          .planes = { depth } },
+        { .name = "depth", .channel_count = 1, .channels = { "Z" }, .type = CV_EXR_FLOAT, .planes = { depth } },
     };
     for (int k = 0; k < 3; k++) {
         const char *path = scratch_path(0, "float.exr");
-        CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = W, .height = H,
-                                                    .compression = compressions[k],
-                                                    .layer_count = 2, .layers = layers }));
+        CHECK_OK(cv_exr_write(
+            path, &(cv_exr_desc){
+                      .width = W, .height = H, .compression = compressions[k], .layer_count = 2, .layers = layers }));
         cv_exr_image img;
         CHECK_OK(cv_exr_read(path, &img));
         CHECK_EQ_INT(img.width, W);
@@ -93,17 +95,19 @@ static void test_half_round_trip(void) {
         rgba[i * 4 + 0] = 1.0f + sample(i % W, i / W, 0) * scale;
         rgba[i * 4 + 1] = 100.0f + (float)(i % 97);
         rgba[i * 4 + 2] = -3.0f - sample(i % W, i / W, 2) * 1e-4f;
-        rgba[i * 4 + 3] = i < 8 ? (float[]){ 0.5f, 65504.0f, 1e5f, -1e5f, 0x1p-24f, 0x1p-14f, 0.0f,
-                                              1.0f / 3.0f }[i]
+        rgba[i * 4 + 3] = i < 8 ? (float[]){ 0.5f, 65504.0f, 1e5f, -1e5f, 0x1p-24f, 0x1p-14f, 0.0f, 1.0f / 3.0f }[i]
                                 : (float)(i % 2);
     }
-    cv_exr_layer beauty = { .channel_count = 4, .channels = { "R", "G", "B", "A" },
-                            .type = CV_EXR_HALF, .interleaved = rgba };
+    cv_exr_layer beauty = {
+        .channel_count = 4, .channels = { "R", "G", "B", "A" }, .type = CV_EXR_HALF, .interleaved = rgba
+    };
     for (int k = 0; k < 3; k++) {
         const char *path = scratch_path(0, "half.exr");
-        CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = W, .height = H,
+        CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = W,
+                                                    .height = H,
                                                     .compression = compressions[k],
-                                                    .layer_count = 1, .layers = &beauty }));
+                                                    .layer_count = 1,
+                                                    .layers = &beauty }));
         cv_exr_image img;
         CHECK_OK(cv_exr_read(path, &img));
         const char *names[4] = { "R", "G", "B", "A" };
@@ -118,8 +122,8 @@ static void test_half_round_trip(void) {
         /* Values a half holds exactly come back exactly. */
         const float *a = cv_exr_image_find(&img, "A");
         if (a != NULL) {
-            CHECK(a[0] == 0.5f && a[1] == 65504.0f && a[4] == 0x1p-24f && a[5] == 0x1p-14f &&
-                  a[6] == 0.0f && a[9] == 1.0f);
+            CHECK(a[0] == 0.5f && a[1] == 65504.0f && a[4] == 0x1p-24f && a[5] == 0x1p-14f && a[6] == 0.0f &&
+                  a[9] == 1.0f);
             CHECK(isinf(a[2]) && a[2] > 0 && isinf(a[3]) && a[3] < 0);
             CHECK(a[7] != 1.0f / 3.0f && fabsf(a[7] - 1.0f / 3.0f) <= 0x1p-13f);
         }
@@ -143,22 +147,29 @@ static void test_layers_and_names(void) {
     }
     cv_exr_layer layers[] = {
         { .channel_count = 4, .channels = { "R", "G", "B", "A" }, .type = CV_EXR_HALF, .interleaved = rgba },
-        { .name = "albedo", .channel_count = 3, .channels = { "R", "G", "B" }, .type = CV_EXR_HALF,
+        { .name = "albedo",
+          .channel_count = 3,
+          .channels = { "R", "G", "B" },
+          .type = CV_EXR_HALF,
           .planes = { albedo[0], albedo[1], albedo[2] } },
-        { .name = "normal", .channel_count = 3, .channels = { "X", "Y", "Z" }, .type = CV_EXR_FLOAT,
+        { .name = "normal",
+          .channel_count = 3,
+          .channels = { "X", "Y", "Z" },
+          .type = CV_EXR_FLOAT,
           .interleaved = normal },
         { .name = "depth", .channel_count = 1, .channels = { "Z" }, .type = CV_EXR_FLOAT, .planes = { depth } },
         { .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { ao } },
     };
     const char *path = scratch_path(0, "layers.exr");
-    CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = W, .height = H, .compression = CV_EXR_PIZ,
-                                                .layer_count = 5, .layers = layers }));
+    CHECK_OK(cv_exr_write(
+        path,
+        &(cv_exr_desc){ .width = W, .height = H, .compression = CV_EXR_PIZ, .layer_count = 5, .layers = layers }));
     cv_exr_image img;
     CHECK_OK(cv_exr_read(path, &img));
-    static const char *expected[] = { "A", "B", "G", "R", "albedo.B", "albedo.G", "albedo.R", "ao.Y",
-                                      "depth.Z", "normal.X", "normal.Y", "normal.Z" };
-    static const cv_exr_type types[] = { CV_EXR_HALF, CV_EXR_HALF, CV_EXR_HALF, CV_EXR_HALF,
-                                         CV_EXR_HALF, CV_EXR_HALF, CV_EXR_HALF, CV_EXR_HALF,
+    static const char *expected[] = { "A",        "B",    "G",       "R",        "albedo.B", "albedo.G",
+                                      "albedo.R", "ao.Y", "depth.Z", "normal.X", "normal.Y", "normal.Z" };
+    static const cv_exr_type types[] = { CV_EXR_HALF,  CV_EXR_HALF,  CV_EXR_HALF,  CV_EXR_HALF,
+                                         CV_EXR_HALF,  CV_EXR_HALF,  CV_EXR_HALF,  CV_EXR_HALF,
                                          CV_EXR_FLOAT, CV_EXR_FLOAT, CV_EXR_FLOAT, CV_EXR_FLOAT };
     CHECK_EQ_INT(img.channel_count, 12);
     for (uint32_t i = 0; i < img.channel_count && i < 12; i++) {
@@ -166,11 +177,22 @@ static void test_layers_and_names(void) {
         CHECK_EQ_INT(img.channels[i].type, types[i]);
     }
     /* Every plane holds its own layer's values (all exactly representable). */
-    struct { const char *name; float first, last; } probes[] = {
-        { "R", 0.25f, 0.25f }, { "G", 0.5f, 0.5f }, { "B", 0.75f, 0.75f }, { "A", 1.0f, 1.0f },
-        { "albedo.R", 0.125f, 0.125f }, { "albedo.G", 0.25f, 0.25f }, { "albedo.B", 0.375f, 0.375f },
-        { "normal.X", -1.5f, -1.5f }, { "normal.Y", -3.0f, -3.0f }, { "normal.Z", -4.5f, -4.5f },
-        { "depth.Z", 10.0f, 10.0f + W * H - 1 }, { "ao.Y", 0.0f, (float)((W * H - 1) % 5) * 0.25f },
+    struct {
+        const char *name;
+        float first, last;
+    } probes[] = {
+        { "R", 0.25f, 0.25f },
+        { "G", 0.5f, 0.5f },
+        { "B", 0.75f, 0.75f },
+        { "A", 1.0f, 1.0f },
+        { "albedo.R", 0.125f, 0.125f },
+        { "albedo.G", 0.25f, 0.25f },
+        { "albedo.B", 0.375f, 0.375f },
+        { "normal.X", -1.5f, -1.5f },
+        { "normal.Y", -3.0f, -3.0f },
+        { "normal.Z", -4.5f, -4.5f },
+        { "depth.Z", 10.0f, 10.0f + W * H - 1 },
+        { "ao.Y", 0.0f, (float)((W * H - 1) % 5) * 0.25f },
     };
     for (size_t p = 0; p < sizeof probes / sizeof probes[0]; p++) {
         const float *plane = cv_exr_image_find(&img, probes[p].name);
@@ -187,14 +209,17 @@ static void test_compression_choice(void) {
     static float smooth[256 * 64];
     for (uint32_t i = 0; i < 256 * 64; i++)
         smooth[i] = (float)(i % 256) / 256.0f;
-    cv_exr_layer layer = { .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF,
-                           .planes = { smooth } };
+    cv_exr_layer layer = {
+        .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { smooth }
+    };
     size_t sizes[3];
     for (int k = 0; k < 3; k++) {
         const char *path = scratch_path(0, "size.exr");
-        CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = 256, .height = 64,
+        CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = 256,
+                                                    .height = 64,
                                                     .compression = compressions[k],
-                                                    .layer_count = 1, .layers = &layer }));
+                                                    .layer_count = 1,
+                                                    .layers = &layer }));
         unsigned char *bytes = NULL;
         CHECK(file_read_all(path, &bytes, &sizes[k]));
         free(bytes);
@@ -207,8 +232,9 @@ static void test_compression_choice(void) {
 static void test_rejected_descriptions(void) {
     float plane[4] = { 0 };
     const char *path = scratch_path(0, "never.exr");
-    cv_exr_layer ok = { .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF,
-                        .planes = { plane } };
+    cv_exr_layer ok = {
+        .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { plane }
+    };
     cv_exr_desc desc = { .width = 2, .height = 2, .layer_count = 1, .layers = &ok };
     int entries = scratch_dir_entries();
 
@@ -275,14 +301,15 @@ static void test_failed_write_keeps_existing(void) {
     static float noise[256 * 256];
     for (uint32_t i = 0; i < 256 * 256; i++)
         noise[i] = sample(i * 7919 % 256, i / 256, 0) * (float)(i % 13);
-    cv_exr_layer layer = { .name = "depth", .channel_count = 1, .channels = { "Z" },
-                           .type = CV_EXR_FLOAT, .planes = { noise } };
+    cv_exr_layer layer = {
+        .name = "depth", .channel_count = 1, .channels = { "Z" }, .type = CV_EXR_FLOAT, .planes = { noise }
+    };
     const char *path = scratch_path(0, "keep.exr");
     CHECK(file_write_all(path, "original", 8));
     int entries = scratch_dir_entries();
     limit_file_size(64 * 1024);
-    CHECK_RESULT(cv_exr_write(path, &(cv_exr_desc){ .width = 256, .height = 256,
-                                                    .layer_count = 1, .layers = &layer }),
+    CHECK_RESULT(cv_exr_write(path,
+                              &(cv_exr_desc){ .width = 256, .height = 256, .layer_count = 1, .layers = &layer }),
                  CV_ERROR_IO);
     limit_file_size(0);
     CHECK(strstr(cv_last_error(), "writing pixels") != NULL);
@@ -293,8 +320,7 @@ static void test_failed_write_keeps_existing(void) {
     free(bytes);
     CHECK_EQ_INT(scratch_dir_entries(), entries);
     /* Without the limit the same write replaces it. */
-    CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = 256, .height = 256, .layer_count = 1,
-                                                .layers = &layer }));
+    CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = 256, .height = 256, .layer_count = 1, .layers = &layer }));
     cv_exr_image img;
     CHECK_OK(cv_exr_read(path, &img));
     CHECK(img.channel_count == 1 && memcmp(img.channels[0].pixels, noise, sizeof noise) == 0);
@@ -330,11 +356,13 @@ static void test_unreadable_files(void) {
     static float plane[W * H];
     for (uint32_t i = 0; i < W * H; i++)
         plane[i] = sample(i % W, i / W, 0);
-    cv_exr_layer layer = { .name = "depth", .channel_count = 1, .channels = { "Z" },
-                           .type = CV_EXR_FLOAT, .planes = { plane } };
+    cv_exr_layer layer = {
+        .name = "depth", .channel_count = 1, .channels = { "Z" }, .type = CV_EXR_FLOAT, .planes = { plane }
+    };
     const char *whole = scratch_path(1, "whole.exr");
-    CHECK_OK(cv_exr_write(whole, &(cv_exr_desc){ .width = W, .height = H, .compression = CV_EXR_NONE,
-                                                 .layer_count = 1, .layers = &layer }));
+    CHECK_OK(cv_exr_write(
+        whole,
+        &(cv_exr_desc){ .width = W, .height = H, .compression = CV_EXR_NONE, .layer_count = 1, .layers = &layer }));
     unsigned char *bytes = NULL;
     size_t size = 0;
     CHECK(file_read_all(whole, &bytes, &size));

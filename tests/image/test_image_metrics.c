@@ -87,8 +87,8 @@ int main(void) {
     memset(mask, 0, sizeof(mask));
     CHECK_OK(cv_image_metrics_f32(a, b, mask, W, H, 1.0, &m));
     CHECK(m.pixels == 0 && m.rmse == 0.0 && isnan(m.ssim) && m.ssim_windows == 0);
-    CHECK_OK(cv_image_metrics_f32(a, b, NULL, 4, 4, 1.0, &m));   /* smaller than a window */
-    CHECK(isnan(m.ssim) && m.pixels == 15 && m.nonfinite == 1);   /* b[0] is NaN */
+    CHECK_OK(cv_image_metrics_f32(a, b, NULL, 4, 4, 1.0, &m));  /* smaller than a window */
+    CHECK(isnan(m.ssim) && m.pixels == 15 && m.nonfinite == 1); /* b[0] is NaN */
     CHECK_RESULT(cv_image_metrics_f32(NULL, b, NULL, W, H, 1.0, &m), CV_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(cv_image_metrics_f32(a, b, NULL, 0, H, 1.0, &m), CV_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(cv_image_metrics_f32(a, b, NULL, W, H, 0.0, &m), CV_ERROR_INVALID_ARGUMENT);

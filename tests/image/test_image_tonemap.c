@@ -8,15 +8,12 @@
 #include "corvid/tonemap.h"
 
 /* The standard sRGB decoding, written independently of the encoder. */
-static double srgb_decode(double v) {
-    return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4);
-}
+static double srgb_decode(double v) { return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
 
 static uint8_t map1(cv_tonemap_curve curve, float exposure, float x) {
     float rgb[3] = { x, x, x };
     uint8_t out[3] = { 0 };
-    CHECK_OK(cv_tonemap_to_srgb8(&(cv_tonemap_desc){ .exposure = exposure, .curve = curve }, rgb, 3,
-                                 1, 1, out, 3));
+    CHECK_OK(cv_tonemap_to_srgb8(&(cv_tonemap_desc){ .exposure = exposure, .curve = curve }, rgb, 3, 1, 1, out, 3));
     CHECK(out[0] == out[1] && out[1] == out[2]);
     return out[0];
 }
@@ -24,10 +21,12 @@ static uint8_t map1(cv_tonemap_curve curve, float exposure, float x) {
 static void test_known_values(void) {
     /* Expected bytes: round(255 * srgb(f(x))), worked out by hand from the
      * formulas in corvid/tonemap.h. */
-    static const struct { float x; uint8_t aces, reinhard; } table[] = {
-        { 0.0f, 0, 0 },      { 0.001f, 1, 3 },    { 0.18f, 141, 109 }, { 0.5f, 206, 156 },
-        { 1.0f, 232, 188 },  { 2.0f, 245, 213 },  { 4.0f, 252, 231 },  { 8.0f, 255, 242 },
-        { 100.0f, 255, 254 },
+    static const struct {
+        float x;
+        uint8_t aces, reinhard;
+    } table[] = {
+        { 0.0f, 0, 0 },     { 0.001f, 1, 3 },   { 0.18f, 141, 109 }, { 0.5f, 206, 156 },   { 1.0f, 232, 188 },
+        { 2.0f, 245, 213 }, { 4.0f, 252, 231 }, { 8.0f, 255, 242 },  { 100.0f, 255, 254 },
     };
     for (size_t i = 0; i < sizeof table / sizeof table[0]; i++) {
         CHECK_EQ_INT(map1(CV_TONEMAP_ACES, 0.0f, table[i].x), table[i].aces);
@@ -69,7 +68,7 @@ static void test_monotonic(void) {
             previous_byte = b;
         }
         CHECK_EQ_INT(decreases, 0);
-        CHECK_EQ_INT(flat_below_one, 0); /* strictly increasing until it saturates */
+        CHECK_EQ_INT(flat_below_one, 0);  /* strictly increasing until it saturates */
         CHECK_EQ_INT(previous_byte, 255); /* both saturate well before 1e6 */
     }
 }
@@ -114,8 +113,7 @@ static void test_rejected(void) {
     CHECK(strstr(cv_last_error(), "exposure") != NULL);
     CHECK_RESULT(cv_tonemap_to_srgb8(&(cv_tonemap_desc){ .exposure = INFINITY }, rgb, 3, 2, 1, out, 3),
                  CV_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(cv_tonemap_to_srgb8(&(cv_tonemap_desc){ .curve = (cv_tonemap_curve)7 }, rgb, 3, 2, 1,
-                                     out, 3),
+    CHECK_RESULT(cv_tonemap_to_srgb8(&(cv_tonemap_desc){ .curve = (cv_tonemap_curve)7 }, rgb, 3, 2, 1, out, 3),
                  CV_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(cv_tonemap_to_srgb8(&ok, rgb, 2, 2, 1, out, 3), CV_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(cv_tonemap_to_srgb8(&ok, rgb, 3, 2, 1, out, 5), CV_ERROR_INVALID_ARGUMENT);

@@ -140,7 +140,7 @@ static void test_upload_and_get(void) {
         CHECK_OK(cv_content_upload_write(u, off, a.data + off, n));
         CHECK_EQ_INT(cv_content_upload_received(u), off + n);
     }
-    CHECK(!cv_content_store_has(s, a.sha));     /* not visible before finish */
+    CHECK(!cv_content_store_has(s, a.sha)); /* not visible before finish */
     CHECK_OK(cv_content_upload_finish(u));
     CHECK(cv_content_store_has(s, a.sha));
     CHECK(on_disk(dir, &a));
@@ -154,7 +154,7 @@ static void test_upload_and_get(void) {
     CHECK_OK(upload(s, &big, 1u << 20));
     CHECK(get_matches(s, &big));
 
-    CHECK_OK(upload(s, &empty, 1));   /* the empty blob is a blob too */
+    CHECK_OK(upload(s, &empty, 1)); /* the empty blob is a blob too */
     cv_content_blob *b;
     CHECK_OK(cv_content_store_get(s, empty.sha, &b));
     CHECK(cv_content_blob_data(b) != NULL);
@@ -257,7 +257,7 @@ static void test_rejected_uploads(void) {
 
     cv_content_stats st = cv_content_store_stats(s);
     CHECK_EQ_INT(st.uploads, 2);
-    CHECK_EQ_INT(st.rejected, 2);   /* the mismatch and the early finish */
+    CHECK_EQ_INT(st.rejected, 2); /* the mismatch and the early finish */
     CHECK_EQ_INT(st.entries, 2);
     CHECK_EQ_INT(st.bytes, a.size + b.size);
     CHECK_EQ_INT(st.hits, 0);
@@ -283,19 +283,19 @@ static void test_lru_and_restart(void) {
     enum { A, B, C, D, E, F, G, H };
 
     for (int i = A; i <= D; i++)
-        CHECK_OK(upload(s, &b[i], 3000));                   /* oldest first: A B C D */
-    CHECK(cv_content_store_has(s, b[A].sha));               /* B C D A */
+        CHECK_OK(upload(s, &b[i], 3000));     /* oldest first: A B C D */
+    CHECK(cv_content_store_has(s, b[A].sha)); /* B C D A */
     cv_content_blob *pinned_b;
     CHECK_OK(cv_content_store_get(s, b[B].sha, &pinned_b)); /* C D A B, B pinned */
     CHECK_OK(upload(s, &b[E], S));                          /* evicts C: D A B E */
     CHECK(!on_disk(dir, &b[C]));
     CHECK(on_disk(dir, &b[A]) && on_disk(dir, &b[B]) && on_disk(dir, &b[D]) && on_disk(dir, &b[E]));
-    CHECK(get_matches(s, &b[D]));                           /* A B E D */
-    CHECK(get_matches(s, &b[A]));                           /* B E D A */
-    CHECK_OK(upload(s, &b[F], S));                          /* B is oldest but pinned: evicts E */
+    CHECK(get_matches(s, &b[D]));  /* A B E D */
+    CHECK(get_matches(s, &b[A]));  /* B E D A */
+    CHECK_OK(upload(s, &b[F], S)); /* B is oldest but pinned: evicts E */
     CHECK(on_disk(dir, &b[B]) && !on_disk(dir, &b[E]));
     CHECK(memcmp(cv_content_blob_data(pinned_b), b[B].data, S) == 0);
-    cv_content_blob_release(pinned_b);                      /* B D A F */
+    cv_content_blob_release(pinned_b); /* B D A F */
 
     /* Larger than the whole store; and no room while everything is pinned. */
     cv_content_upload *u;
@@ -304,7 +304,7 @@ static void test_lru_and_restart(void) {
     cv_content_blob *pins[4];
     int order_now[4] = { B, D, A, F };
     for (int i = 0; i < 4; i++)
-        CHECK_OK(cv_content_store_get(s, b[order_now[i]].sha, &pins[i]));   /* pinning in order keeps it */
+        CHECK_OK(cv_content_store_get(s, b[order_now[i]].sha, &pins[i])); /* pinning in order keeps it */
     CHECK_RESULT(cv_content_upload_begin(s, b[G].sha, S, &u), CV_ERROR_LIMIT_EXCEEDED);
     for (int i = 0; i < 4; i++)
         cv_content_blob_release(pins[i]);
@@ -328,10 +328,10 @@ static void test_lru_and_restart(void) {
     CHECK_EQ_INT(st.entries, 4);
     CHECK_EQ_INT(st.bytes, 4 * S);
     CHECK_EQ_INT(st.uploads, 0);
-    CHECK_OK(upload(s, &b[G], S));                          /* evicts B: D A F G */
+    CHECK_OK(upload(s, &b[G], S)); /* evicts B: D A F G */
     CHECK(!on_disk(dir, &b[B]) && on_disk(dir, &b[D]));
-    CHECK(cv_content_store_has(s, b[D].sha));               /* A F G D */
-    CHECK_OK(upload(s, &b[H], S));                          /* evicts A: F G D H */
+    CHECK(cv_content_store_has(s, b[D].sha)); /* A F G D */
+    CHECK_OK(upload(s, &b[H], S));            /* evicts A: F G D H */
     CHECK(!on_disk(dir, &b[A]));
     for (int i = 0; i < 8; i++) {
         bool expected = i == F || i == G || i == D || i == H;
@@ -367,15 +367,15 @@ static void test_damage_and_strays(void) {
     CHECK_OK(upload(s, &d, 3000));
     cv_content_store_close(s);
 
-    CHECK_EQ_INT(truncate(path_of(dir, &a, path), 1500), 0);           /* a: truncated */
-    FILE *f = fopen(path_of(dir, &b, path), "r+b");                    /* b: one byte flipped */
+    CHECK_EQ_INT(truncate(path_of(dir, &a, path), 1500), 0); /* a: truncated */
+    FILE *f = fopen(path_of(dir, &b, path), "r+b");          /* b: one byte flipped */
     CHECK(f != NULL);
     if (f) {
         fseek(f, 1234, SEEK_SET);
         fputc(b.data[1234] ^ 0x40, f);
         fclose(f);
     }
-    CHECK_EQ_INT(truncate(path_of(dir, &d, path), 2999), 0);           /* d: truncated */
+    CHECK_EQ_INT(truncate(path_of(dir, &d, path), 2999), 0); /* d: truncated */
     snprintf(stray, sizeof stray, "%s/tmp/leftover.1", dir);
     write_file(stray, "x", 1);
     snprintf(stray, sizeof stray, "%s/objects/ab/not-a-hash", dir);
@@ -384,22 +384,22 @@ static void test_damage_and_strays(void) {
     CHECK_EQ_INT(mkdir(stray, 0755), 0);
     char hex[CV_SHA256_HEX_SIZE];
     cv_sha256_hex(c.sha, hex);
-    snprintf(stray, sizeof stray, "%s/objects/%s", dir, hex);             /* a hash in the wrong folder */
+    snprintf(stray, sizeof stray, "%s/objects/%s", dir, hex); /* a hash in the wrong folder */
     write_file(stray, c.data, c.size);
     snprintf(stray, sizeof stray, "%s/objects/%.2s/%.63s", dir, hex, hex); /* one digit short */
     write_file(stray, c.data, c.size);
-    hex[10] = hex[10] >= 'a' ? (char)(hex[10] - 'a' + 'A') : 'A';         /* upper case */
+    hex[10] = hex[10] >= 'a' ? (char)(hex[10] - 'a' + 'A') : 'A'; /* upper case */
     snprintf(stray, sizeof stray, "%s/objects/%.2s/%s", dir, hex, hex);
     write_file(stray, c.data, c.size);
 
     CHECK_OK(cv_content_store_open(dir, 0, &s));
     CHECK_EQ_INT(entries_in(dir, "tmp"), 0);
-    CHECK_EQ_INT(entries_in(dir, "objects"), 256);                     /* the 256 prefix folders only */
+    CHECK_EQ_INT(entries_in(dir, "objects"), 256); /* the 256 prefix folders only */
     CHECK_EQ_INT(entries_in(dir, "objects/ab"), 0);
     cv_sha256_hex(c.sha, hex);
     snprintf(stray, sizeof stray, "objects/%.2s", hex);
-    CHECK_EQ_INT(entries_in(dir, stray), 1);                           /* c's own file */
-    CHECK_EQ_INT(cv_content_store_stats(s).entries, 4);                /* damage not yet seen */
+    CHECK_EQ_INT(entries_in(dir, stray), 1);            /* c's own file */
+    CHECK_EQ_INT(cv_content_store_stats(s).entries, 4); /* damage not yet seen */
 
     cv_content_blob *cb;
     CHECK_RESULT(cv_content_store_get(s, a.sha, &cb), CV_ERROR_NOT_FOUND);
@@ -465,7 +465,7 @@ static void *work(void *p) {
                     w->bad++;
                 cv_content_blob_release(cb);
             } else if (r == CV_ERROR_NOT_FOUND) {
-                w->gets_missing++;   /* evicted since has() */
+                w->gets_missing++; /* evicted since has() */
             } else {
                 w->bad++;
             }
@@ -560,10 +560,12 @@ static void test_threads(void) {
     CHECK_EQ_INT(bytes_on_disk, st.bytes);
     CHECK_EQ_INT(entries_on_disk, st.entries);
     CHECK_EQ_INT(entries_in(dir, "tmp"), 0);
-    printf("threads: %llu has (%llu hits), %llu uploads, %llu aborts, %llu gets, %llu evicted between has and get, "
-           "%llu evictions\n", (unsigned long long)sum.has_calls, (unsigned long long)st.hits,
-           (unsigned long long)sum.finished, (unsigned long long)sum.aborts, (unsigned long long)sum.gets_ok,
-           (unsigned long long)sum.gets_missing, (unsigned long long)st.evictions);
+    printf(
+        "threads: %llu has (%llu hits), %llu uploads, %llu aborts, %llu gets, %llu evicted between has and get, "
+        "%llu evictions\n",
+        (unsigned long long)sum.has_calls, (unsigned long long)st.hits, (unsigned long long)sum.finished,
+        (unsigned long long)sum.aborts, (unsigned long long)sum.gets_ok, (unsigned long long)sum.gets_missing,
+        (unsigned long long)st.evictions);
     cv_content_store_close(sh.store);
     for (int i = 0; i < HASHES; i++)
         free_blob(&sh.blobs[i]);

@@ -88,9 +88,10 @@ static void expect_reply(raw *c, uint64_t seq, cv_result code, const char *needl
     bool ok = m && m->seq == seq && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY && m->reply->result == code &&
               (!needle || strstr(m->reply->message, needle));
     if (!ok) {
-        fprintf(stderr, "line %d: expected reply %" PRIu64 " with %s mentioning '%s', got %s seq %" PRIu64
-                " result %s '%s'\n", line, seq, cv_result_name(code), needle ? needle : "",
-                m ? "message" : "nothing", m ? m->seq : 0,
+        fprintf(stderr,
+                "line %d: expected reply %" PRIu64 " with %s mentioning '%s', got %s seq %" PRIu64
+                " result %s '%s'\n",
+                line, seq, cv_result_name(code), needle ? needle : "", m ? "message" : "nothing", m ? m->seq : 0,
                 m && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY ? cv_result_name(m->reply->result) : "-",
                 m && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY ? m->reply->message : "");
     }
@@ -133,7 +134,8 @@ static uint64_t send_create(raw *c, uint64_t id, const cv_resource_desc *desc) {
 
 static const cv_resource_desc buffer_desc = { .type = CV_HANDLE_BUFFER, .buffer = { .size = 256 } };
 static const cv_resource_desc texture_desc = {
-    .type = CV_HANDLE_TEXTURE, .texture = { .width = 8, .height = 8, .format = CV_FORMAT_RGBA8_UNORM } };
+    .type = CV_HANDLE_TEXTURE, .texture = { .width = 8, .height = 8, .format = CV_FORMAT_RGBA8_UNORM }
+};
 
 #define BUF_ID(i) cv_handle_pack(CV_HANDLE_BUFFER, 1, 1, (i))
 #define TEX_ID(i) cv_handle_pack(CV_HANDLE_TEXTURE, 1, 1, (i))
@@ -225,8 +227,8 @@ static void encode_copy(uint64_t src, uint64_t dst, uint64_t size, uint8_t **out
     cv_command_list list;
     cv_command_list_init(&list);
     cv_command_list_begin(&list);
-    CHECK_OK(cv_cmd_copy_buffer(&list, CV_QUEUE_COPY, &(cv_copy_buffer_args){
-        .src = { src }, .dst = { dst }, .size = size }));
+    CHECK_OK(cv_cmd_copy_buffer(&list, CV_QUEUE_COPY,
+                                &(cv_copy_buffer_args){ .src = { src }, .dst = { dst }, .size = size }));
     CHECK_OK(cv_command_list_end(&list));
     CHECK_OK(cv_command_list_encode(&list, out, out_size));
     cv_command_list_finish(&list);
@@ -236,33 +238,33 @@ static void encode_copy(uint64_t src, uint64_t dst, uint64_t size, uint8_t **out
 
 static void malformed_and_protocol(void) {
     raw c;
-    raw_open(&c);   /* 1: bytes that are no protobuf */
+    raw_open(&c); /* 1: bytes that are no protobuf */
     static const uint8_t junk[] = { 0xff, 0xff, 0xff, 0xff, 0x0f, 0x12, 0x80 };
     CHECK_OK(cv_rpc_stream_send(c.stream, junk, sizeof(junk)));
     EXPECT_END(&c, CV_RPC_STATUS_INVALID_ARGUMENT, "not a corvid.ClientMessage");
     raw_close(&c);
 
-    raw_open(&c);   /* 2: a protocol version the node does not speak */
+    raw_open(&c); /* 2: a protocol version the node does not speak */
     send_hello(&c, 99, 0);
     EXPECT_END(&c, CV_RPC_STATUS_FAILED_PRECONDITION, "protocol version 99");
     raw_close(&c);
 
-    raw_open(&c);   /* 3: a request before hello */
+    raw_open(&c); /* 3: a request before hello */
     send_create(&c, BUF_ID(1), &buffer_desc);
     EXPECT_END(&c, CV_RPC_STATUS_INVALID_ARGUMENT, "must be hello");
     raw_close(&c);
 
-    session(&c);    /* 4: a second hello */
+    session(&c); /* 4: a second hello */
     send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0);
     EXPECT_END(&c, CV_RPC_STATUS_INVALID_ARGUMENT, "second hello");
     raw_close(&c);
 
-    raw_open(&c);   /* 5: a device the node does not have */
+    raw_open(&c); /* 5: a device the node does not have */
     send_hello(&c, CV_NODE_PROTOCOL_VERSION, 7);
     EXPECT_END(&c, CV_RPC_STATUS_FAILED_PRECONDITION, "device 7 does not exist");
     raw_close(&c);
 
-    session(&c);    /* 6: a message over the node's limit */
+    session(&c); /* 6: a message over the node's limit */
     size_t big = CV_NODE_MAX_MESSAGE_BYTES + 1024;
     uint8_t *huge = calloc(1, big);
     send_write(&c, BUF_ID(1), 0, huge, big);
@@ -270,7 +272,7 @@ static void malformed_and_protocol(void) {
     EXPECT_END(&c, CV_RPC_STATUS_RESOURCE_EXHAUSTED, NULL);
     raw_close(&c);
 
-    session(&c);    /* 7: a message with no request in it */
+    session(&c); /* 7: a message with no request in it */
     Corvid__ClientMessage empty = CORVID__CLIENT_MESSAGE__INIT;
     raw_send(&c, &empty);
     EXPECT_END(&c, CV_RPC_STATUS_INVALID_ARGUMENT, "no request");
@@ -353,8 +355,10 @@ static void bad_requests(void) {
 static void uploads(void) {
     raw c;
     session(&c);
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &(cv_resource_desc){ .type = CV_HANDLE_BUFFER,
-                                                                       .buffer = { .size = 4096 } }), CV_OK, NULL);
+    EXPECT_REPLY(&c,
+                 send_create(&c, BUF_ID(1),
+                             &(cv_resource_desc){ .type = CV_HANDLE_BUFFER, .buffer = { .size = 4096 } }),
+                 CV_OK, NULL);
     uint8_t data[4096], sha[32];
     for (int i = 0; i < 4096; i++)
         data[i] = (uint8_t)(i ^ 0x5a);
@@ -467,7 +471,7 @@ static void churn(void) {
 
     for (int i = 0; i < 2000; i++) {
         raw_open(&c);
-        if (i % 3 == 0) {   /* a session that really started, then vanished */
+        if (i % 3 == 0) { /* a session that really started, then vanished */
             send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0);
             Corvid__NodeMessage *m = raw_recv(&c);
             CHECK(m && m->msg_case == CORVID__NODE_MESSAGE__MSG_HELLO);
@@ -546,7 +550,7 @@ int main(void) {
     isolation();
     churn();
     idle_timeout();
-    health();   /* drains the node: last */
+    health(); /* drains the node: last */
     CHECK_EQ_INT(scratch_node_wait_sessions(&node, 5000), 0);
     scratch_node_stop(&node);
     return check_report("node_hostile");

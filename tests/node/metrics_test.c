@@ -24,7 +24,7 @@
 #include "scratch_node.h"
 
 #define SUBMISSIONS 5
-#define BIG (256u << 10)   /* CV_NODE_BLOB_MIN_BYTES: written through the content store */
+#define BIG (256u << 10) /* CV_NODE_BLOB_MIN_BYTES: written through the content store */
 
 static scratch_node node;
 static cv_metrics_server *metrics;
@@ -34,7 +34,7 @@ static cv_metrics_server *metrics;
 typedef struct http_answer {
     int status;
     char content_type[128];
-    char *body;   /* malloc'd, NUL-terminated */
+    char *body; /* malloc'd, NUL-terminated */
 } http_answer;
 
 static bool http_request(const char *method, const char *path, http_answer *out) {
@@ -97,12 +97,12 @@ static double sample(const char *text, const char *series) {
     return -1;
 }
 
-#define CHECK_SAMPLE(text, series, expected)                                                         \
-    do {                                                                                             \
-        double got_ = sample(text, series);                                                          \
-        if (got_ != (double)(expected))                                                              \
-            fprintf(stderr, "  %s = %.17g, expected %.17g\n", series, got_, (double)(expected));      \
-        CHECK(got_ == (double)(expected));                                                           \
+#define CHECK_SAMPLE(text, series, expected) \
+    do { \
+        double got_ = sample(text, series); \
+        if (got_ != (double)(expected)) \
+            fprintf(stderr, "  %s = %.17g, expected %.17g\n", series, got_, (double)(expected)); \
+        CHECK(got_ == (double)(expected)); \
     } while (0)
 
 /* ---- the work ----------------------------------------------------------------- */
@@ -166,7 +166,7 @@ static void work_on_mock1(cv_context *ctx, cv_device *dev, const uint8_t *big) {
     cv_buffer small = loaded_buffer(ctx, dev, 512);
     uint8_t bytes[512] = { 1, 2, 3 }, back[512];
     CHECK_OK(cv_device_write_buffer(dev, small, 0, sizeof(bytes), bytes));
-    CHECK_OK(cv_device_read_buffer(dev, small, 0, sizeof(back), back));   /* a round trip: all of it done */
+    CHECK_OK(cv_device_read_buffer(dev, small, 0, sizeof(back), back)); /* a round trip: all of it done */
     CHECK(memcmp(back, bytes, sizeof(back)) == 0);
 }
 
@@ -198,7 +198,7 @@ int main(void) {
     CHECK_OK(cv_metrics_server_start(node.node, "127.0.0.1", 0, &metrics));
     CHECK(cv_metrics_server_port(metrics) > 0);
     CHECK_RESULT(cv_metrics_server_start(node.node, "localhost", 0, &(cv_metrics_server *){ 0 }),
-                 CV_ERROR_INVALID_ARGUMENT);   /* numeric addresses only */
+                 CV_ERROR_INVALID_ARGUMENT); /* numeric addresses only */
 
     /* Before any session: everything 0, both devices listed. */
     char *text = scrape();
@@ -209,7 +209,7 @@ int main(void) {
         CHECK_SAMPLE(text, "corvid_node_device_memory_bytes{device=\"mock0\"}", 0);
         CHECK_SAMPLE(text, "corvid_node_device_memory_bytes{device=\"mock1\"}", 0);
         CHECK(strstr(text, "# TYPE corvid_node_gpu_pass_seconds histogram\n") != NULL);
-        CHECK(strstr(text, "corvid_node_gpu_pass_seconds_bucket") == NULL);   /* no pass seen yet */
+        CHECK(strstr(text, "corvid_node_gpu_pass_seconds_bucket") == NULL); /* no pass seen yet */
     }
     free(text);
 
@@ -240,8 +240,8 @@ int main(void) {
         CHECK_SAMPLE(text, "corvid_node_messages_received_total", s0.messages_sent + s1.messages_sent);
         CHECK_SAMPLE(text, "corvid_node_bytes_received_total", s0.bytes_sent + s1.bytes_sent);
         CHECK_SAMPLE(text, "corvid_node_bytes_sent_total", s0.bytes_received + s1.bytes_received);
-        CHECK_SAMPLE(text, "corvid_node_cache_misses_total", 1);   /* mock0's query */
-        CHECK_SAMPLE(text, "corvid_node_cache_hits_total", 1);     /* mock1's query */
+        CHECK_SAMPLE(text, "corvid_node_cache_misses_total", 1); /* mock0's query */
+        CHECK_SAMPLE(text, "corvid_node_cache_hits_total", 1);   /* mock1's query */
         CHECK_SAMPLE(text, "corvid_node_cache_bytes", BIG);
         CHECK_SAMPLE(text, "corvid_node_device_memory_bytes{device=\"mock0\"}", 2 * 4096 + BIG + 16 * 16 * 4);
         CHECK_SAMPLE(text, "corvid_node_device_memory_bytes{device=\"mock1\"}", 512);
@@ -277,7 +277,7 @@ int main(void) {
         CHECK(direct && cv_node_metrics_text(node.node, direct, need + 1) == need);
         CHECK(direct && strcmp(direct, text) == 0);
         char small[64];
-        CHECK_EQ_INT(cv_node_metrics_text(node.node, small, sizeof(small)), need);   /* snprintf-style */
+        CHECK_EQ_INT(cv_node_metrics_text(node.node, small, sizeof(small)), need); /* snprintf-style */
         CHECK_EQ_INT(strlen(small), sizeof(small) - 1);
         CHECK(direct && strncmp(small, direct, sizeof(small) - 1) == 0);
         free(direct);

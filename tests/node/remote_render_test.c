@@ -22,8 +22,9 @@
 #define H 72
 
 static cv_render_settings settings(void) {
-    return (cv_render_settings){ .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = 1.0f,
-                                 .filter_iterations = 2 };
+    return (cv_render_settings){
+        .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = 1.0f, .filter_iterations = 2
+    };
 }
 
 static const char *test_adapter(void) {
@@ -48,8 +49,8 @@ static cv_result render_local(const cv_scene *scene, const cv_bvh *bvh, cv_rende
     cv_device *dev = NULL;
     cv_result res = cv_context_create(NULL, &ctx);
     if (res == CV_OK)
-        res = cv_device_create(ctx, cv_vulkan_backend(), &(cv_device_desc){ .adapter = test_adapter(),
-                                                                              .validation = true }, &dev);
+        res = cv_device_create(ctx, cv_vulkan_backend(),
+                               &(cv_device_desc){ .adapter = test_adapter(), .validation = true }, &dev);
     if (res == CV_OK)
         res = render(&dev, 1, scene, bvh, out);
     if (ctx)
@@ -106,7 +107,7 @@ static void node_death(void) {
     cv_buffer b;
     CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 64 }, &b));
     CHECK_OK(cv_device_load(dev, cv_any(b)));
-    scratch_node_stop_keep(&n, false);   /* cancels the session: the client sees the stream end */
+    scratch_node_stop_keep(&n, false); /* cancels the session: the client sees the stream end */
     uint8_t out[64];
     double t0 = now_s();
     CHECK_RESULT(cv_device_read_buffer(dev, b, 0, 64, out), CV_ERROR_CONNECTION);

@@ -31,7 +31,7 @@
 #define STATUS_UNAUTHENTICATED 16
 
 static const char TOKEN[] = "corvid-test-token-5f3a9c1e7b2d4680";
-static char dir[256];   /* certificates and token files */
+static char dir[256]; /* certificates and token files */
 
 /* ---- a raw client ---------------------------------------------------------------- */
 
@@ -62,7 +62,7 @@ static uint64_t raw_send(raw *c, Corvid__ClientMessage *m) {
     uint8_t *buf;
     size_t size;
     CHECK_OK(cv_node_pack_client(m, &buf, &size));
-    cv_rpc_stream_send(c->stream, buf, size);   /* may fail on a refused stream: what recv says is checked */
+    cv_rpc_stream_send(c->stream, buf, size); /* may fail on a refused stream: what recv says is checked */
     free(buf);
     return m->seq;
 }
@@ -97,9 +97,10 @@ static void expect_reply(raw *c, uint64_t seq, cv_result code, const char *needl
     bool ok = m && m->seq == seq && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY && m->reply->result == code &&
               (!needle || strstr(m->reply->message, needle));
     if (!ok)
-        fprintf(stderr, "line %d: expected reply %" PRIu64 " with %s mentioning '%s', got %s seq %" PRIu64
-                " result %s '%s'\n", line, seq, cv_result_name(code), needle ? needle : "",
-                m ? "message" : "nothing", m ? m->seq : 0,
+        fprintf(stderr,
+                "line %d: expected reply %" PRIu64 " with %s mentioning '%s', got %s seq %" PRIu64
+                " result %s '%s'\n",
+                line, seq, cv_result_name(code), needle ? needle : "", m ? "message" : "nothing", m ? m->seq : 0,
                 m && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY ? cv_result_name(m->reply->result) : "-",
                 m && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY ? m->reply->message : "");
     CHECK(ok);
@@ -204,8 +205,8 @@ static uint64_t send_compile_copy(raw *c, uint64_t list, uint64_t src, uint64_t 
     cv_command_list l;
     cv_command_list_init(&l);
     cv_command_list_begin(&l);
-    CHECK_OK(cv_cmd_copy_buffer(&l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = { src }, .dst = { dst },
-                                                                           .size = size }));
+    CHECK_OK(cv_cmd_copy_buffer(&l, CV_QUEUE_COPY,
+                                &(cv_copy_buffer_args){ .src = { src }, .dst = { dst }, .size = size }));
     CHECK_OK(cv_command_list_end(&l));
     uint8_t *enc = NULL;
     size_t n = 0;
@@ -239,8 +240,9 @@ static void expect_completed(raw *c, uint64_t ticket, cv_result code, const char
     bool ok = m && m->msg_case == CORVID__NODE_MESSAGE__MSG_COMPLETED && m->completed->ticket == ticket &&
               m->completed->result == code && (!needle || strstr(m->completed->message, needle));
     if (!ok)
-        fprintf(stderr, "line %d: expected Completed %" PRIu64 " %s mentioning '%s', got %s ticket %" PRIu64
-                " %s '%s'\n", line, ticket, cv_result_name(code), needle ? needle : "", m ? "message" : "nothing",
+        fprintf(stderr,
+                "line %d: expected Completed %" PRIu64 " %s mentioning '%s', got %s ticket %" PRIu64 " %s '%s'\n",
+                line, ticket, cv_result_name(code), needle ? needle : "", m ? "message" : "nothing",
                 m && m->completed ? m->completed->ticket : 0,
                 m && m->completed ? cv_result_name(m->completed->result) : "-",
                 m && m->completed ? m->completed->message : "");
@@ -455,7 +457,7 @@ static void tokens(void) {
     cv_context_destroy(ctx);
 
     cv_node_stats st = cv_node_get_stats(n.node);
-    CHECK_EQ_INT(st.unauthenticated, 8);   /* 5 sessions, 2 Info calls, 1 proxy device */
+    CHECK_EQ_INT(st.unauthenticated, 8); /* 5 sessions, 2 Info calls, 1 proxy device */
     CHECK_EQ_INT(scratch_node_wait_sessions(&n, 5000), 0);
     scratch_node_stop(&n);
 
@@ -515,8 +517,9 @@ static char client_pem[512], client_key[512], other_pem[512], stranger_pem[512],
 
 static void tls(void) {
     scratch_node n;
-    CHECK_OK(scratch_node_start_secured(&n, cv_mock_backend(), 1,
-                                        &(cv_node_config){ .tls_cert_file = server_pem, .tls_key_file = server_key }));
+    CHECK_OK(
+        scratch_node_start_secured(&n, cv_mock_backend(), 1,
+                                   &(cv_node_config){ .tls_cert_file = server_pem, .tls_key_file = server_key }));
     char why[1024];
     /* Plaintext to a TLS listener: a connection error. */
     CHECK_EQ_INT(info_status(n.endpoint, NULL, why, sizeof(why)), CV_RPC_STATUS_UNAVAILABLE);
@@ -545,8 +548,9 @@ static void tls(void) {
     path_of(not_pem, sizeof(not_pem), "not.pem");
     CHECK_RESULT(cv_rpc_client_create(n.endpoint, &(cv_rpc_client_config){ .tls_ca_file = not_pem }, &client),
                  CV_ERROR_MALFORMED);
-    CHECK_RESULT(cv_rpc_client_create(n.endpoint, &(cv_rpc_client_config){ .tls_ca_file = ca_pem,
-                                                                            .tls_cert_file = client_pem }, &client),
+    CHECK_RESULT(cv_rpc_client_create(n.endpoint,
+                                      &(cv_rpc_client_config){ .tls_ca_file = ca_pem, .tls_cert_file = client_pem },
+                                      &client),
                  CV_ERROR_INVALID_ARGUMENT);
 
     /* The proxy backend through CORVID_NODE_TLS_CA: write and read bytes back. */
@@ -577,20 +581,25 @@ static void tls(void) {
     scratch_node_stop(&n);
 
     /* An expired server certificate is refused by the client. */
-    CHECK_OK(scratch_node_start_secured(&n, cv_mock_backend(), 1, &(cv_node_config){ .tls_cert_file = expired_pem,
-                                                                                     .tls_key_file = expired_key }));
+    CHECK_OK(
+        scratch_node_start_secured(&n, cv_mock_backend(), 1,
+                                   &(cv_node_config){ .tls_cert_file = expired_pem, .tls_key_file = expired_key }));
     CHECK_EQ_INT(info_status(n.endpoint, &good, why, sizeof(why)), CV_RPC_STATUS_UNAVAILABLE);
     scratch_node_stop(&n);
 
     /* Mutual TLS: a client certificate of the node's client CA is needed. */
     CHECK_OK(scratch_node_start_secured(&n, cv_mock_backend(), 1,
-                                        &(cv_node_config){ .tls_cert_file = server_pem, .tls_key_file = server_key,
-                                                           .tls_client_ca_file = ca_pem, .token = TOKEN }));
+                                        &(cv_node_config){ .tls_cert_file = server_pem,
+                                                           .tls_key_file = server_key,
+                                                           .tls_client_ca_file = ca_pem,
+                                                           .token = TOKEN }));
     cv_rpc_client_config none = { .tls_ca_file = ca_pem, .bearer_token = TOKEN };
-    cv_rpc_client_config stranger = { .tls_ca_file = ca_pem, .tls_cert_file = stranger_pem,
-                                      .tls_key_file = stranger_key, .bearer_token = TOKEN };
-    cv_rpc_client_config member = { .tls_ca_file = ca_pem, .tls_cert_file = client_pem, .tls_key_file = client_key,
-                                    .bearer_token = TOKEN };
+    cv_rpc_client_config stranger = {
+        .tls_ca_file = ca_pem, .tls_cert_file = stranger_pem, .tls_key_file = stranger_key, .bearer_token = TOKEN
+    };
+    cv_rpc_client_config member = {
+        .tls_ca_file = ca_pem, .tls_cert_file = client_pem, .tls_key_file = client_key, .bearer_token = TOKEN
+    };
     CHECK_EQ_INT(info_status(n.endpoint, &none, why, sizeof(why)), CV_RPC_STATUS_UNAVAILABLE);
     CHECK_EQ_INT(info_status(n.endpoint, &stranger, why, sizeof(why)), CV_RPC_STATUS_UNAVAILABLE);
     raw_open_with(&c, n.endpoint, &stranger, NULL, 0);
@@ -606,7 +615,8 @@ static void tls(void) {
     scratch_node_stop(&n);
 
     /* A node with a certificate and no key (or a client CA without TLS) does not start. */
-    CHECK_RESULT(scratch_node_start_secured(&n, cv_mock_backend(), 1, &(cv_node_config){ .tls_cert_file = server_pem }),
+    CHECK_RESULT(scratch_node_start_secured(&n, cv_mock_backend(), 1,
+                                            &(cv_node_config){ .tls_cert_file = server_pem }),
                  CV_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(scratch_node_start_secured(&n, cv_mock_backend(), 1,
                                             &(cv_node_config){ .tls_client_ca_file = ca_pem }),
@@ -649,7 +659,7 @@ static void quotas(void) {
     /* Memory: 4096 bytes of buffers and textures. */
     cv_resource_desc b3k = buffer_of(3072), b1k = buffer_of(1024), b1 = buffer_of(1);
     cv_resource_desc tex = { .type = CV_HANDLE_TEXTURE,
-                             .texture = { .width = 16, .height = 16, .format = CV_FORMAT_RGBA8_UNORM } };   /* 1024 */
+                             .texture = { .width = 16, .height = 16, .format = CV_FORMAT_RGBA8_UNORM } }; /* 1024 */
     EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &b3k), CV_OK, NULL);
     EXPECT_REPLY(&c, send_create(&c, TEX_ID(1), &tex), CV_OK, NULL);
     EXPECT_REPLY(&c, send_create(&c, BUF_ID(2), &b1), CV_ERROR_LIMIT_EXCEEDED, "--quota-memory 4096");
@@ -664,7 +674,7 @@ static void quotas(void) {
     EXPECT_REPLY(&c, send_create(&c, BUF_ID(3), &b512), CV_OK, NULL);
     EXPECT_REPLY(&c, send_create(&c, BUF_ID(4), &b256), CV_OK, NULL);
     EXPECT_REPLY(&c, send_create(&c, BUF_ID(5), &b1), CV_ERROR_LIMIT_EXCEEDED, "--quota-resources 4");
-    send_destroy(&c, LIST_ID(1));   /* a list counts as a resource, and has no bytes */
+    send_destroy(&c, LIST_ID(1)); /* a list counts as a resource, and has no bytes */
     EXPECT_REPLY(&c, send_create(&c, BUF_ID(5), &b1), CV_OK, NULL);
     /* The session still works. */
     uint8_t data[256], back[256];
@@ -681,7 +691,7 @@ static void quotas(void) {
     memset(blob, 2, sizeof(blob));
     CHECK_OK(cv_sha256(blob, sizeof(blob), sha_b));
     uint64_t first = send_chunk(&c, sha_b, sizeof(blob), 0, blob, 300);
-    send_chunk(&c, sha_b, sizeof(blob), 300, blob + 300, 300);   /* dropped, no second answer */
+    send_chunk(&c, sha_b, sizeof(blob), 300, blob + 300, 300); /* dropped, no second answer */
     EXPECT_REPLY(&c, first, CV_ERROR_LIMIT_EXCEEDED, "--quota-upload 1000");
     EXPECT_REPLY(&c, send_blob_write(&c, BUF_ID(1), sha_b), CV_ERROR_NOT_FOUND, "not in the node's cache");
     /* A blob the cache already has costs nothing. */
@@ -708,14 +718,14 @@ static void quotas(void) {
     atomic_store(&gate_open, false);
     send_submit(&c, LIST_ID(1), 1);
     send_submit(&c, LIST_ID(2), 2);
-    send_submit(&c, LIST_ID(1), 3);   /* refused; reported in ticket order */
+    send_submit(&c, LIST_ID(1), 3); /* refused; reported in ticket order */
     /* An answer to a later request: the node has handled the submits (their reports wait for the gate). */
     EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &b256), CV_ERROR_ALREADY_LOADED, NULL);
     atomic_store(&gate_open, true);
     EXPECT_COMPLETED(&c, 1, CV_OK, NULL);
     EXPECT_COMPLETED(&c, 2, CV_OK, NULL);
     EXPECT_COMPLETED(&c, 3, CV_ERROR_LIMIT_EXCEEDED, "--quota-inflight 2");
-    send_submit(&c, LIST_ID(1), 4);   /* the session goes on */
+    send_submit(&c, LIST_ID(1), 4); /* the session goes on */
     EXPECT_COMPLETED(&c, 4, CV_OK, NULL);
     memset(back, 0, sizeof(back));
     CHECK(read_back(&c, BUF_ID(2), 256, back) && memcmp(back, data, 256) == 0);
@@ -728,7 +738,8 @@ static void quotas(void) {
 
     /* Quotas out of range do not start a node. */
     CHECK_RESULT(scratch_node_start_secured(&n, cv_mock_backend(), 1,
-                                            &(cv_node_config){ .quota = { .inflight = CV_NODE_MAX_QUOTA_INFLIGHT + 1 } }),
+                                            &(cv_node_config){
+                                                .quota = { .inflight = CV_NODE_MAX_QUOTA_INFLIGHT + 1 } }),
                  CV_ERROR_OUT_OF_RANGE);
     CHECK_NOTHING_LIVE();
 }

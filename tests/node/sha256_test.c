@@ -15,7 +15,9 @@ static void check_digest(const uint8_t sha[32], const char *expected) {
 }
 
 static void one_shot_vectors(void) {
-    static const struct { const char *message, *digest; } vectors[] = {
+    static const struct {
+        const char *message, *digest;
+    } vectors[] = {
         { "abc", "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad" },
         { "", "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855" },
         { "abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq",
@@ -70,7 +72,7 @@ static void hex_round_trip(void) {
     memset(untouched, 0x5a, 32);
     memcpy(sha, untouched, 32);
     CHECK(!cv_sha256_parse_hex("", sha));
-    CHECK(!cv_sha256_parse_hex("ba7816bf", sha));                    /* short */
+    CHECK(!cv_sha256_parse_hex("ba7816bf", sha)); /* short */
     CHECK(!cv_sha256_parse_hex("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad0", sha));
     CHECK(!cv_sha256_parse_hex("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ag", sha));
     CHECK(!cv_sha256_parse_hex("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015a", sha));

@@ -17,8 +17,7 @@ static double noise(uint64_t *state) {
     return (double)(*state >> 11) / (double)(1ull << 53) * 2.0 - 1.0;
 }
 
-static void simulate_frame(const cv_partition *p, const double *speeds, double jitter,
-                           uint64_t *rng, double *ms) {
+static void simulate_frame(const cv_partition *p, const double *speeds, double jitter, uint64_t *rng, double *ms) {
     for (uint32_t d = 0; d < p->device_count; d++) {
         double t = p->ranges[d].width / speeds[d];
         ms[d] = jitter > 0.0 ? t * (1.0 + jitter * noise(rng)) : t;
@@ -57,10 +56,8 @@ static void test_init(void) {
     CHECK(memcmp(&even, &balanced, sizeof even) == 0);
 
     cv_balancer before = b;
-    CHECK_RESULT(cv_balancer_init(&b, &(cv_balancer_desc){ .device_count = 0 }),
-                 CV_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(cv_balancer_init(&b, &(cv_balancer_desc){ .device_count = 65 }),
-                 CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_balancer_init(&b, &(cv_balancer_desc){ .device_count = 0 }), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_balancer_init(&b, &(cv_balancer_desc){ .device_count = 65 }), CV_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(cv_balancer_init(&b, &(cv_balancer_desc){ .device_count = 2, .smoothing = 1.5 }),
                  CV_ERROR_INVALID_ARGUMENT);
     CHECK(strstr(cv_last_error(), "smoothing 1.5") != NULL);
@@ -158,9 +155,10 @@ static void test_stable_under_noise(void) {
     double smoothed_worst, raw_worst;
     uint32_t smoothed_moves = noisy_run(0.0, &smoothed_worst);
     uint32_t raw_moves = noisy_run(1.0, &raw_worst);
-    printf("noisy timings over 280 frames: smoothed %u moves (worst %.1f columns), "
-           "unsmoothed %u moves (worst %.1f columns)\n",
-           smoothed_moves, smoothed_worst, raw_moves, raw_worst);
+    printf(
+        "noisy timings over 280 frames: smoothed %u moves (worst %.1f columns), "
+        "unsmoothed %u moves (worst %.1f columns)\n",
+        smoothed_moves, smoothed_worst, raw_moves, raw_worst);
     CHECK(smoothed_worst <= 2 * TILE);
     CHECK(smoothed_moves * 10 < raw_moves);
     CHECK(smoothed_worst < raw_worst);
@@ -202,8 +200,8 @@ static void test_min_share(void) {
     CHECK_OK(cv_balancer_update(&many, &even, (const double[]){ 480, 480, 480, 0.48 }));
     double s4[4];
     cv_balancer_shares(&many, s4);
-    CHECK(fabs(s4[0] - 0.125) < 1e-12 && fabs(s4[1] - 0.125) < 1e-12 &&
-          fabs(s4[2] - 0.125) < 1e-12 && fabs(s4[3] - 0.625) < 1e-12);
+    CHECK(fabs(s4[0] - 0.125) < 1e-12 && fabs(s4[1] - 0.125) < 1e-12 && fabs(s4[2] - 0.125) < 1e-12 &&
+          fabs(s4[3] - 0.625) < 1e-12);
 }
 
 static void test_unmeasured_and_idle_devices(void) {
@@ -211,8 +209,9 @@ static void test_unmeasured_and_idle_devices(void) {
     CHECK_OK(cv_balancer_init(&b, &(cv_balancer_desc){ .device_count = 3 }));
     /* Device 2 sat the frame out: its time is ignored, even if 0, and it is
      * assumed to run at the mean speed of the others: (1 + 3) / 2. */
-    cv_partition used = { .width = WIDTH, .tile = TILE, .device_count = 3,
-                          .ranges = { { 0, 960 }, { 960, 960 }, { 1920, 0 } } };
+    cv_partition used = {
+        .width = WIDTH, .tile = TILE, .device_count = 3, .ranges = { { 0, 960 }, { 960, 960 }, { 1920, 0 } }
+    };
     CHECK_OK(cv_balancer_update(&b, &used, (const double[]){ 960, 320, 0 }));
     CHECK(b.measured[0] && b.measured[1] && !b.measured[2]);
     double shares[3];

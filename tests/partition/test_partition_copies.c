@@ -5,8 +5,8 @@
 #include "check.h"
 #include "corvid/partition.h"
 
-static void check_copy(const cv_mgpu_copy_plan *plan, uint32_t i, uint32_t src, uint32_t dst,
-                       uint32_t x, uint32_t width) {
+static void check_copy(const cv_mgpu_copy_plan *plan, uint32_t i, uint32_t src, uint32_t dst, uint32_t x,
+                       uint32_t width) {
     CHECK(i < plan->count);
     if (i >= plan->count)
         return;
@@ -109,8 +109,7 @@ static void test_gather_covers_width(void) {
     CHECK_OK(cv_partition_split(3840, 8, 64, weights, &p));
     for (uint32_t primary = 0; primary < 64; primary += 21) {
         cv_mgpu_copy_plan plan;
-        CHECK_OK(cv_mgpu_plan_copies(&p, primary, CV_MGPU_ALL_DEVICES,
-                                     CV_MGPU_ISOLATED_TO_ISOLATED, &plan));
+        CHECK_OK(cv_mgpu_plan_copies(&p, primary, CV_MGPU_ALL_DEVICES, CV_MGPU_ISOLATED_TO_ISOLATED, &plan));
         static uint8_t covered[3840];
         memset(covered, 0, sizeof covered);
         for (uint32_t c = p.ranges[primary].x; c < p.ranges[primary].x + p.ranges[primary].width; c++)
@@ -148,8 +147,7 @@ static void test_rejected_inputs(void) {
                  CV_ERROR_INVALID_ARGUMENT);
     cv_partition broken = p;
     broken.ranges[3].width = 1;
-    CHECK_RESULT(cv_mgpu_plan_copies(&broken, 0, CV_MGPU_ALL_DEVICES, CV_MGPU_ISOLATED_TO_ISOLATED,
-                                     &plan),
+    CHECK_RESULT(cv_mgpu_plan_copies(&broken, 0, CV_MGPU_ALL_DEVICES, CV_MGPU_ISOLATED_TO_ISOLATED, &plan),
                  CV_ERROR_INVALID_ARGUMENT);
 }
 

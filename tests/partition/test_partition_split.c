@@ -10,8 +10,8 @@
 
 /* Checks, independently of cv_partition_validate, everything a split promises;
  * prints the first broken promise. `weights` NULL means equal weights. */
-static bool split_keeps_promises(const cv_partition *p, uint32_t width, uint32_t tile,
-                                 uint32_t n, const double *weights) {
+static bool split_keeps_promises(const cv_partition *p, uint32_t width, uint32_t tile, uint32_t n,
+                                 const double *weights) {
     if (p->width != width || p->tile != tile || p->device_count != n) {
         fprintf(stderr, "w=%u t=%u n=%u: header fields differ\n", width, tile, n);
         return false;
@@ -23,23 +23,22 @@ static bool split_keeps_promises(const cv_partition *p, uint32_t width, uint32_t
     for (uint32_t d = 0; d < n; d++) {
         cv_column_range r = p->ranges[d];
         double ideal_width = width * ((weights ? weights[d] : 1.0) / total);
-        bool ok = r.x == at                                  /* contiguous, no overlap */
-                  && (r.width == 0 || r.x % tile == 0)       /* starts on a tile */
+        bool ok = r.x == at                                      /* contiguous, no overlap */
+                  && (r.width == 0 || r.x % tile == 0)           /* starts on a tile */
                   && fabs(r.width - ideal_width) <= tile + 1e-9; /* share within a tile */
         /* Every boundary but the last is a tile multiple or the width itself. */
         uint32_t end = r.x + r.width;
         ok = ok && (end % tile == 0 || end == width);
         if (!ok) {
-            fprintf(stderr, "w=%u t=%u n=%u: range %u = [%u,+%u) breaks a promise (ideal %.3f)\n",
-                    width, tile, n, d, r.x, r.width, ideal_width);
+            fprintf(stderr, "w=%u t=%u n=%u: range %u = [%u,+%u) breaks a promise (ideal %.3f)\n", width, tile, n, d,
+                    r.x, r.width, ideal_width);
             return false;
         }
         if (r.width > 0)
             last_nonempty = d;
         at = end;
     }
-    if (at != width || last_nonempty == n ||
-        p->ranges[last_nonempty].x + p->ranges[last_nonempty].width != width) {
+    if (at != width || last_nonempty == n || p->ranges[last_nonempty].x + p->ranges[last_nonempty].width != width) {
         fprintf(stderr, "w=%u t=%u n=%u: ranges end at %u\n", width, tile, n, at);
         return false;
     }
@@ -56,8 +55,7 @@ static void test_properties_over_all_widths(void) {
                 cv_partition p;
                 uint32_t n = device_counts[ni];
                 if (cv_partition_split(w, tiles[ti], n, NULL, &p) != CV_OK ||
-                    !split_keeps_promises(&p, w, tiles[ti], n, NULL) ||
-                    cv_partition_validate(&p) != CV_OK)
+                    !split_keeps_promises(&p, w, tiles[ti], n, NULL) || cv_partition_validate(&p) != CV_OK)
                     broken++;
                 splits++;
             }
@@ -70,7 +68,7 @@ static void test_properties_over_all_widths(void) {
 /* Uneven weights, including zeros and a dominant device, over many widths. */
 static void test_weighted_properties(void) {
     static const double weight_sets[][5] = {
-        { 1, 2, 4, 0, 0 }, { 1, 0, 1, 0, 0 }, { 0.1, 7, 0.3, 2, 5 },
+        { 1, 2, 4, 0, 0 },    { 1, 0, 1, 0, 0 }, { 0.1, 7, 0.3, 2, 5 },
         { 1000, 1, 1, 1, 1 }, { 0, 0, 0, 0, 1 }, { 3, 3, 3, 3, 3 },
     };
     static const uint32_t counts[] = { 3, 3, 5, 5, 5, 5 };
@@ -160,18 +158,13 @@ static void test_rejected_inputs(void) {
     CHECK(strstr(cv_last_error(), "width is 0") != NULL);
     CHECK_RESULT(cv_partition_split(1920, 0, 2, NULL, &p), CV_ERROR_INVALID_ARGUMENT);
     CHECK(strstr(cv_last_error(), "tile is 0") != NULL);
-    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ 1, NAN }, &p),
-                 CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ 1, NAN }, &p), CV_ERROR_INVALID_ARGUMENT);
     CHECK(strstr(cv_last_error(), "weights[1]") != NULL);
-    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ -1, 2 }, &p),
-                 CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ -1, 2 }, &p), CV_ERROR_INVALID_ARGUMENT);
     CHECK(strstr(cv_last_error(), "weights[0]") != NULL);
-    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ INFINITY, 1 }, &p),
-                 CV_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ 0, 0 }, &p),
-                 CV_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ 1e308, 1e308 }, &p),
-                 CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ INFINITY, 1 }, &p), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ 0, 0 }, &p), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_partition_split(1920, 16, 2, (const double[]){ 1e308, 1e308 }, &p), CV_ERROR_INVALID_ARGUMENT);
     CHECK(memcmp(&p, &before, sizeof p) == 0);
     CHECK_RESULT(cv_partition_split(1920, 16, 2, NULL, NULL), CV_ERROR_INVALID_ARGUMENT);
 }

@@ -70,8 +70,9 @@ static void check_accumulation_unbiased(const cv_scene *scene, const cv_bvh *bvh
         rig_close(&g);
         return;
     }
-    cv_render_settings s = { .width = AW, .height = AH, .frames = 1, .ao_samples = 1, .sun_cone_degrees = 1.5f,
-                             .filter_iterations = -1 };
+    cv_render_settings s = {
+        .width = AW, .height = AH, .frames = 1, .ao_samples = 1, .sun_cone_degrees = 1.5f, .filter_iterations = -1
+    };
     double *sum = calloc((size_t)AW * AH * 2, sizeof(double));
     cv_render_output o = { 0 };
     for (uint32_t f = 0; f < FRAMES && sum; f++) {
@@ -98,7 +99,7 @@ static void check_accumulation_unbiased(const cv_scene *scene, const cv_bvh *bvh
             for (int c = 0; c < 2; c++) {
                 double want = sum[i * 2 + c] / FRAMES, got = o.visibility[i * 4 + c];
                 worst = fmax(worst, fabs(got - want));
-                if (want < 0.999 && want > 0.0) {   /* partly occluded: where the drift shows */
+                if (want < 0.999 && want > 0.0) { /* partly occluded: where the drift shows */
                     bias[c] += got - want;
                     occluded[c]++;
                 }
@@ -106,8 +107,10 @@ static void check_accumulation_unbiased(const cv_scene *scene, const cv_bvh *bvh
         }
         for (int c = 0; c < 2; c++)
             bias[c] /= occluded[c] ? occluded[c] : 1;
-        fprintf(stderr, "accumulation, %u frames: bias over partly occluded pixels: shadow %.6f (%u px), AO %.6f "
-                "(%u px); worst pixel %.6f\n", FRAMES, bias[0], occluded[0], bias[1], occluded[1], worst);
+        fprintf(stderr,
+                "accumulation, %u frames: bias over partly occluded pixels: shadow %.6f (%u px), AO %.6f "
+                "(%u px); worst pixel %.6f\n",
+                FRAMES, bias[0], occluded[0], bias[1], occluded[1], worst);
         CHECK(occluded[1] > 200);
         CHECK(fabs(bias[0]) < 1e-4 && fabs(bias[1]) < 1e-4);
         CHECK(worst < 1e-3);
@@ -163,8 +166,10 @@ static void check_gbuffer_facing(const cv_scene *scene, const cv_bvh *bvh) {
             covered++;
             float d[3] = { p[0] - cam.position[0], p[1] - cam.position[1], p[2] - cam.position[2] };
             float dist = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            cv_ray ray = { { cam.position[0], cam.position[1], cam.position[2] }, 0.0f,
-                           { d[0] / dist, d[1] / dist, d[2] / dist }, dist * 1.0001f };
+            cv_ray ray = { { cam.position[0], cam.position[1], cam.position[2] },
+                           0.0f,
+                           { d[0] / dist, d[1] / dist, d[2] / dist },
+                           dist * 1.0001f };
             cv_hit hit;
             if (cv_trace_ray(&target, &ray, 0, &hit) && hit.t < dist * 0.9999f)
                 nearer++;
@@ -181,12 +186,13 @@ static void check_gbuffer_facing(const cv_scene *scene, const cv_bvh *bvh) {
             triangle_normal(scene, &hit, ng);
             back += ng[0] * ray.dir[0] + ng[1] * ray.dir[1] + ng[2] * ray.dir[2] >= 0.0f;
         }
-        fprintf(stderr, "gbuffer facing at %ux%u: %u covered pixels, %u on back faces, %u off any surface, %u on "
-                "edges (not counted); %u where the CPU sees a nearer surface\n", GW, GH, covered, back,
-                off_surface, edge, nearer);
+        fprintf(stderr,
+                "gbuffer facing at %ux%u: %u covered pixels, %u on back faces, %u off any surface, %u on "
+                "edges (not counted); %u where the CPU sees a nearer surface\n",
+                GW, GH, covered, back, off_surface, edge, nearer);
         CHECK(covered > GW * GH / 2);
         CHECK_EQ_INT(back, 0);
-        CHECK(off_surface <= covered / 10000);   /* a ray through a shared edge may miss both triangles */
+        CHECK(off_surface <= covered / 10000); /* a ray through a shared edge may miss both triangles */
         CHECK(nearer <= covered / 2000);
     }
     cv_render_output_free(&o);
@@ -219,8 +225,13 @@ static cv_result make_sphere_scene(uint32_t seg, uint32_t rings, cv_scene **out)
         }
     uint32_t mesh = 0;
     if (res == CV_OK)
-        res = cv_scene_add_mesh(scene, &(cv_mesh_desc){ .positions = pos, .normals = pos, .vertex_count = nv,
-                                                        .indices = idx, .triangle_count = nt, .name = "sphere" },
+        res = cv_scene_add_mesh(scene,
+                                &(cv_mesh_desc){ .positions = pos,
+                                                 .normals = pos,
+                                                 .vertex_count = nv,
+                                                 .indices = idx,
+                                                 .triangle_count = nt,
+                                                 .name = "sphere" },
                                 &mesh);
     cv_material m = cv_material_default();
     if (res == CV_OK)
@@ -232,8 +243,12 @@ static cv_result make_sphere_scene(uint32_t seg, uint32_t rings, cv_scene **out)
     if (res == CV_OK)
         res = cv_scene_add_camera(scene, &(cv_camera){ { 1.0f, 1.5f, 4.0f }, { 0, 0, 0 }, { 0, 1, 0 }, 0.8f }, NULL);
     if (res == CV_OK)
-        res = cv_scene_add_light(scene, &(cv_light){ .type = CV_LIGHT_DIRECTIONAL, .direction = { -0.3f, -0.9f, -0.3f },
-                                                     .color = { 1, 1, 1 }, .intensity = 3.0f }, NULL);
+        res = cv_scene_add_light(scene,
+                                 &(cv_light){ .type = CV_LIGHT_DIRECTIONAL,
+                                              .direction = { -0.3f, -0.9f, -0.3f },
+                                              .color = { 1, 1, 1 },
+                                              .intensity = 3.0f },
+                                 NULL);
     free(pos);
     free(idx);
     if (res != CV_OK) {
@@ -260,8 +275,13 @@ static void check_sphere_unoccluded(void) {
     cv_render_output o = { 0 };
     if (bvh)
         CHECK_OK(rig_open(scene, bvh, &g));
-    cv_render_settings s = { .width = SW, .height = SH, .frames = 32, .ao_samples = 8, .ao_radius = 0.5f,
-                             .sun_cone_degrees = -1, .filter_iterations = -1 };
+    cv_render_settings s = { .width = SW,
+                             .height = SH,
+                             .frames = 32,
+                             .ao_samples = 8,
+                             .ao_radius = 0.5f,
+                             .sun_cone_degrees = -1,
+                             .filter_iterations = -1 };
     if (g.renderer)
         CHECK_OK(cv_renderer_render(g.renderer, &s, &o, NULL, NULL, NULL));
     if (o.visibility) {
@@ -323,8 +343,10 @@ static void check_against_reference(const cv_scene *scene, const cv_bvh *bvh) {
             bias[c] /= both ? both : 1;
             sq[c] = sqrt(sq[c] / (both ? both : 1));
         }
-        fprintf(stderr, "vs reference at %ux%u: %u of %u pixels at the same point; shadow bias %.5f RMSE %.4f, "
-                "AO bias %.5f RMSE %.4f\n", RW, RH, both, covered, bias[0], sq[0], bias[1], sq[1]);
+        fprintf(stderr,
+                "vs reference at %ux%u: %u of %u pixels at the same point; shadow bias %.5f RMSE %.4f, "
+                "AO bias %.5f RMSE %.4f\n",
+                RW, RH, both, covered, bias[0], sq[0], bias[1], sq[1]);
         CHECK(both >= covered * 0.99);
         CHECK(fabs(bias[0]) < 0.01 && fabs(bias[1]) < 0.01);
         CHECK(sq[0] < 0.1 && sq[1] < 0.1);
@@ -336,7 +358,10 @@ static void check_against_reference(const cv_scene *scene, const cv_bvh *bvh) {
 /* Shadow (c = 0) or AO (c = 1) of `a` against the reference `ref` over pixels
  * both cover at the same point and, if `only` is set, where only[i]: RMSE,
  * bias (a - ref), pixels. */
-typedef struct vis_error { double rmse, bias; uint32_t pixels; } vis_error;
+typedef struct vis_error {
+    double rmse, bias;
+    uint32_t pixels;
+} vis_error;
 static uint8_t same_point(const cv_render_output *a, const cv_render_output *ref, uint32_t i) {
     const float *p = &a->position[i * 4], *q = &ref->position[i * 4];
     return p[3] != 0.0f && q[3] != 0.0f && fabsf(p[0] - q[0]) + fabsf(p[1] - q[1]) + fabsf(p[2] - q[2]) <= 1e-3f;
@@ -402,7 +427,8 @@ static void check_filter_keeps_umbra(const cv_scene *scene, const cv_bvh *bvh) {
                 for (int dy = -2; dy <= 2; dy++)
                     for (int dx = -2; dx <= 2; dx++) {
                         int qx = x + dx, qy = y + dy;
-                        if (qx >= 0 && qy >= 0 && qx < UW && qy < UH && ref.position[(qy * UW + qx) * 4 + 3] != 0.0f &&
+                        if (qx >= 0 && qy >= 0 && qx < UW && qy < UH &&
+                            ref.position[(qy * UW + qx) * 4 + 3] != 0.0f &&
                             ref.visibility[(qy * UW + qx) * 4] >= 0.5f)
                             umbra[y * UW + x] = 1;
                     }
@@ -410,8 +436,10 @@ static void check_filter_keeps_umbra(const cv_scene *scene, const cv_bvh *bvh) {
             }
         vis_error e1 = vis_compare(&out[0], &ref, 0, umbra), e64 = vis_compare(&out[1], &ref, 0, umbra),
                   raw = vis_compare(&out[2], &ref, 0, umbra);
-        fprintf(stderr, "umbra near lit pixels at %ux%u (%u px): shadow bias vs reference: 1 frame filtered %+.4f "
-                "(unfiltered %+.4f), 64 frames filtered %+.4f\n", UW, UH, e1.pixels, e1.bias, raw.bias, e64.bias);
+        fprintf(stderr,
+                "umbra near lit pixels at %ux%u (%u px): shadow bias vs reference: 1 frame filtered %+.4f "
+                "(unfiltered %+.4f), 64 frames filtered %+.4f\n",
+                UW, UH, e1.pixels, e1.bias, raw.bias, e64.bias);
         CHECK(count > 40);
         CHECK(e1.bias < UMBRA_TOLERANCE_1);
         CHECK(e64.bias < UMBRA_TOLERANCE_64);
@@ -443,9 +471,10 @@ static void check_filter_one_frame(const cv_scene *scene, const cv_bvh *bvh) {
             f[c] = vis_compare(&filtered, &ref, c, NULL);
             r[c] = vis_compare(&raw, &ref, c, NULL);
         }
-        fprintf(stderr, "1 frame at %ux%u vs 256-sample reference (%u px): shadow RMSE filtered %.4f (unfiltered "
-                "%.4f) bias %+.4f; AO RMSE filtered %.4f (unfiltered %.4f) bias %+.4f\n", OW, OH, f[0].pixels,
-                f[0].rmse, r[0].rmse, f[0].bias, f[1].rmse, r[1].rmse, f[1].bias);
+        fprintf(stderr,
+                "1 frame at %ux%u vs 256-sample reference (%u px): shadow RMSE filtered %.4f (unfiltered "
+                "%.4f) bias %+.4f; AO RMSE filtered %.4f (unfiltered %.4f) bias %+.4f\n",
+                OW, OH, f[0].pixels, f[0].rmse, r[0].rmse, f[0].bias, f[1].rmse, r[1].rmse, f[1].bias);
         CHECK(f[0].pixels > OW * OH / 2);
         CHECK(f[0].rmse < ONE_FRAME_RMSE_SHADOW && f[0].rmse < r[0].rmse);
         CHECK(f[1].rmse < ONE_FRAME_RMSE_AO && f[1].rmse < r[1].rmse);

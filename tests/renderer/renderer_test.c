@@ -19,8 +19,9 @@
 #define H 90
 
 static cv_render_settings settings(void) {
-    return (cv_render_settings){ .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = -1,
-                                 .filter_iterations = -1 };
+    return (cv_render_settings){
+        .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = -1, .filter_iterations = -1
+    };
 }
 
 /* CORVID_TEST_ADAPTER picks the adapter (default lavapipe, as in CI). */
@@ -72,13 +73,15 @@ static void check_gbuffer_is_visible_surface(const cv_scene *scene, const cv_bvh
         geometry++;
         float d[3] = { p[0] - cam.position[0], p[1] - cam.position[1], p[2] - cam.position[2] };
         float dist = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        cv_ray ray = { { cam.position[0], cam.position[1], cam.position[2] }, 0.0f,
-                       { d[0] / dist, d[1] / dist, d[2] / dist }, dist * 1.01f };
+        cv_ray ray = { { cam.position[0], cam.position[1], cam.position[2] },
+                       0.0f,
+                       { d[0] / dist, d[1] / dist, d[2] / dist },
+                       dist * 1.01f };
         cv_hit hit;
         if (cv_trace_ray(&target, &ray, 0, &hit) && fabsf(hit.t - dist) <= 1e-3f * dist)
             agree++;
     }
-    CHECK(geometry > W * H / 2);   /* the room fills most of the frame */
+    CHECK(geometry > W * H / 2); /* the room fills most of the frame */
     fprintf(stderr, "gbuffer: %u of %u geometry pixels are the visible surface\n", agree, geometry);
     CHECK(agree >= geometry * 0.98);
 }
@@ -106,20 +109,23 @@ static void check_hard_shadows(const cv_scene *scene, const cv_bvh *bvh, const c
             continue;
         }
         float bias = diag * 2e-5f;
-        cv_ray ray = { { p[0] + n[0] * bias, p[1] + n[1] * bias, p[2] + n[2] * bias }, 0.0f,
-                       { -sun[0], -sun[1], -sun[2] }, 1e30f };
+        cv_ray ray = {
+            { p[0] + n[0] * bias, p[1] + n[1] * bias, p[2] + n[2] * bias }, 0.0f, { -sun[0], -sun[1], -sun[2] }, 1e30f
+        };
         cv_hit hit;
         float expected = cv_trace_ray(&target, &ray, CV_TRACE_ANY_HIT, &hit) ? 0.0f : 1.0f;
         tested++;
         lit += expected == 1.0f;
         agree += o->visibility[i * 4] == expected;
     }
-    fprintf(stderr, "shadows: %u of %u sunward pixels agree with the CPU (%u lit); %u of %u pixels facing away "
-            "from the sun are in shadow\n", agree, tested, lit, away_dark, away);
+    fprintf(stderr,
+            "shadows: %u of %u sunward pixels agree with the CPU (%u lit); %u of %u pixels facing away "
+            "from the sun are in shadow\n",
+            agree, tested, lit, away_dark, away);
     CHECK(tested > 1000);
-    CHECK(lit >= 100 && lit < tested);   /* there are shadows and there is light */
+    CHECK(lit >= 100 && lit < tested); /* there are shadows and there is light */
     CHECK(agree >= tested * 0.995);
-    CHECK(away > 100);                   /* the room has walls facing away from the sun */
+    CHECK(away > 100); /* the room has walls facing away from the sun */
     CHECK_EQ_INT(away_dark, away);
 }
 

@@ -21,8 +21,9 @@ static const char *test_adapter(void) {
 
 static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out,
                            cv_render_stats *stats) {
-    cv_render_settings s = { .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = -1,
-                             .filter_iterations = -1 };
+    cv_render_settings s = {
+        .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = -1, .filter_iterations = -1
+    };
     cv_context *ctx;
     cv_device *devices[4] = { 0 };
     cv_vulkan_gpu_table table;

@@ -17,10 +17,10 @@
 #include <time.h>
 #include <unistd.h>
 
-#define ECHO "/test.Echo/Stream"       /* echoes; at end of stream finishes OK "echoed N" */
-#define REJECT "/test.Echo/Reject"     /* finishes INVALID_ARGUMENT at once */
-#define META "/test.Echo/Meta"         /* sends the "corvid-session" metadata value, returns */
-#define UNARY "/test.Echo/Unary"       /* echoes; "fail" -> INVALID_ARGUMENT */
+#define ECHO "/test.Echo/Stream"   /* echoes; at end of stream finishes OK "echoed N" */
+#define REJECT "/test.Echo/Reject" /* finishes INVALID_ARGUMENT at once */
+#define META "/test.Echo/Meta"     /* sends the "corvid-session" metadata value, returns */
+#define UNARY "/test.Echo/Unary"   /* echoes; "fail" -> INVALID_ARGUMENT */
 
 static double now_s(void) {
     struct timespec t;
@@ -42,7 +42,7 @@ static void echo_stream(cv_rpc_stream *s, const char *method, void *user) {
     if (strcmp(method, META) == 0) {
         const char *v = cv_rpc_stream_metadata(s, "corvid-session");
         cv_rpc_stream_send(s, v ? v : "(none)", strlen(v ? v : "(none)"));
-        return;   /* the layer finishes with OK */
+        return; /* the layer finishes with OK */
     }
     unsigned count = 0;
     for (;;) {
@@ -79,13 +79,18 @@ static int echo_unary(const char *method, const void *request, size_t size, void
     return 0;
 }
 
-static const char *const stream_methods[] = {ECHO, REJECT, META, NULL};
-static const char *const unary_methods[] = {UNARY, NULL};
+static const char *const stream_methods[] = { ECHO, REJECT, META, NULL };
+static const char *const unary_methods[] = { UNARY, NULL };
 
 static cv_rpc_server *start_echo(echo_state *st, uint32_t max_message, uint32_t max_streams) {
-    cv_rpc_server_config cfg = {.listen = "127.0.0.1:0", .max_message_bytes = max_message,
-                                .max_streams = max_streams, .on_stream = echo_stream, .on_unary = echo_unary,
-                                .stream_methods = stream_methods, .unary_methods = unary_methods, .user = st};
+    cv_rpc_server_config cfg = { .listen = "127.0.0.1:0",
+                                 .max_message_bytes = max_message,
+                                 .max_streams = max_streams,
+                                 .on_stream = echo_stream,
+                                 .on_unary = echo_unary,
+                                 .stream_methods = stream_methods,
+                                 .unary_methods = unary_methods,
+                                 .user = st };
     cv_rpc_server *s = NULL;
     CHECK_OK(cv_rpc_server_start(&cfg, &s));
     CHECK(s && cv_rpc_server_port(s) > 0);
@@ -154,18 +159,18 @@ static void expect_failure(cv_rpc_stream *st, int status, const char *message_pa
 /* ---- tests ---- */
 
 static void test_small_messages(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     cv_rpc_stream *s = NULL;
     CHECK_OK(cv_rpc_client_open(c, ECHO, NULL, 0, &s));
     enum { N = 1000 };
-    for (int i = 0; i < N; i++) {   /* all queued first: the layer buffers and paces */
+    for (int i = 0; i < N; i++) { /* all queued first: the layer buffers and paces */
         char msg[32];
         int len = snprintf(msg, sizeof msg, "message %d", i);
         CHECK_OK(cv_rpc_stream_send(s, msg, (size_t)len));
     }
-    CHECK_OK(cv_rpc_stream_send(s, "", 0));   /* an empty message is a message, not end of stream */
+    CHECK_OK(cv_rpc_stream_send(s, "", 0)); /* an empty message is a message, not end of stream */
     int in_order = 0;
     for (int i = 0; i < N; i++) {
         uint8_t *m = NULL;
@@ -191,12 +196,12 @@ static void test_small_messages(void) {
 }
 
 static void test_large_messages(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     cv_rpc_stream *s = NULL;
     CHECK_OK(cv_rpc_client_open(c, ECHO, NULL, 0, &s));
-    size_t sizes[] = {1u << 20, 12u << 20};
+    size_t sizes[] = { 1u << 20, 12u << 20 };
     for (int k = 0; k < 2; k++) {
         uint8_t *buf = malloc(sizes[k]);
         for (size_t i = 0; i < sizes[k]; i++)
@@ -216,7 +221,7 @@ static void test_large_messages(void) {
 }
 
 static void test_over_limit(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 1u << 20, 0);
     cv_rpc_client *c = connect_to(server);
     cv_rpc_stream *s = NULL;
@@ -235,7 +240,7 @@ static void test_over_limit(void) {
 }
 
 static void test_server_error_status(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     cv_rpc_stream *s = NULL;
@@ -248,11 +253,11 @@ static void test_server_error_status(void) {
 }
 
 static void test_metadata_and_peer(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     cv_rpc_stream *s = NULL;
-    cv_rpc_metadata md[] = {{"corvid-session", "session-42"}, {"other", "x"}};
+    cv_rpc_metadata md[] = { { "corvid-session", "session-42" }, { "other", "x" } };
     CHECK_OK(cv_rpc_client_open(c, META, md, 2, &s));
     uint8_t *m = NULL;
     size_t n = 0;
@@ -264,7 +269,7 @@ static void test_metadata_and_peer(void) {
     CHECK_EQ_INT(cv_rpc_stream_status(s, NULL, 0), CV_RPC_STATUS_OK);
     CHECK(strlen(cv_rpc_stream_peer(s)) > 0);
     cv_rpc_stream_destroy(s);
-    cv_rpc_metadata bad[] = {{"Upper-Case", "x"}};
+    cv_rpc_metadata bad[] = { { "Upper-Case", "x" } };
     CHECK_RESULT(cv_rpc_client_open(c, META, bad, 1, &s), CV_ERROR_INVALID_ARGUMENT);
     cv_rpc_client_destroy(c);
     finish_server(server);
@@ -278,11 +283,11 @@ typedef struct worker {
 static void *concurrent_worker(void *arg) {
     worker *w = arg;
     enum { STREAMS = 8, MESSAGES = 50 };
-    cv_rpc_stream *s[STREAMS] = {0};
+    cv_rpc_stream *s[STREAMS] = { 0 };
     for (int i = 0; i < STREAMS; i++)
         if (cv_rpc_client_open(w->client, ECHO, NULL, 0, &s[i]) != CV_OK)
             s[i] = NULL;
-    int good[STREAMS] = {0};
+    int good[STREAMS] = { 0 };
     for (int k = 0; k < MESSAGES; k++)
         for (int i = 0; i < STREAMS; i++) {
             if (!s[i])
@@ -293,8 +298,7 @@ static void *concurrent_worker(void *arg) {
                 continue;
             uint8_t *m = NULL;
             size_t n = 0;
-            if (cv_rpc_stream_recv(s[i], 10000, &m, &n) == CV_OK && m && n == (size_t)len &&
-                memcmp(m, msg, n) == 0)
+            if (cv_rpc_stream_recv(s[i], 10000, &m, &n) == CV_OK && m && n == (size_t)len && memcmp(m, msg, n) == 0)
                 good[i]++;
             free(m);
         }
@@ -312,11 +316,11 @@ static void *concurrent_worker(void *arg) {
 }
 
 static void test_concurrent_streams(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     enum { THREADS = 8 };
-    worker w[THREADS] = {0};
+    worker w[THREADS] = { 0 };
     pthread_t t[THREADS];
     for (int i = 0; i < THREADS; i++) {
         w[i].client = c;
@@ -334,7 +338,7 @@ static void test_concurrent_streams(void) {
 }
 
 static void test_open_and_drop(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     for (int i = 0; i < 500; i++) {
@@ -351,7 +355,7 @@ static void test_open_and_drop(void) {
     }
     CHECK(wait_idle(server, 10.0));
     CHECK_EQ_INT(cv_rpc_server_active_streams(server), 0);
-    cv_rpc_stream *s = NULL;   /* the server still serves */
+    cv_rpc_stream *s = NULL; /* the server still serves */
     CHECK_OK(cv_rpc_client_open(c, ECHO, NULL, 0, &s));
     round_trip(s, "still here");
     close_and_expect(s, 1);
@@ -377,13 +381,13 @@ static void *wait_in_recv(void *arg) {
 }
 
 static void test_server_killed(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     cv_rpc_stream *s = NULL;
     CHECK_OK(cv_rpc_client_open(c, ECHO, NULL, 0, &s));
     round_trip(s, "hello");
-    waiter w = {.stream = s};
+    waiter w = { .stream = s };
     pthread_t t;
     pthread_create(&t, NULL, wait_in_recv, &w);
     usleep(100000);
@@ -398,15 +402,15 @@ static void test_server_killed(void) {
 }
 
 static void test_nothing_listens(void) {
-    int fd = socket(AF_INET, SOCK_STREAM, 0);   /* a port that was free a moment ago */
-    struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    int fd = socket(AF_INET, SOCK_STREAM, 0); /* a port that was free a moment ago */
+    struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
     socklen_t len = sizeof a;
     bind(fd, (struct sockaddr *)&a, sizeof a);
     getsockname(fd, (struct sockaddr *)&a, &len);
     close(fd);
     char target[64];
     snprintf(target, sizeof target, "127.0.0.1:%d", ntohs(a.sin_port));
-    cv_rpc_client_config cfg = {.connect_timeout_ms = 2000};
+    cv_rpc_client_config cfg = { .connect_timeout_ms = 2000 };
     cv_rpc_client *c = NULL;
     CHECK_OK(cv_rpc_client_create(target, &cfg, &c));
     double t0 = now_s();
@@ -429,7 +433,7 @@ static void test_nothing_listens(void) {
 }
 
 static void test_drain(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     cv_rpc_stream *a = NULL, *b = NULL;
@@ -440,7 +444,7 @@ static void test_drain(void) {
     expect_failure(b, CV_RPC_STATUS_UNAVAILABLE, "node is draining");
     cv_rpc_stream_destroy(b);
     round_trip(a, "after drain");
-    void *resp = NULL;   /* unary calls (health) still answered */
+    void *resp = NULL; /* unary calls (health) still answered */
     size_t resp_size = 0;
     CHECK_OK(cv_rpc_client_unary(c, UNARY, "ping", 4, 5000, &resp, &resp_size, NULL));
     free(resp);
@@ -451,10 +455,10 @@ static void test_drain(void) {
 }
 
 static void test_max_streams(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 2);
     cv_rpc_client *c = connect_to(server);
-    cv_rpc_stream *s[3] = {0};
+    cv_rpc_stream *s[3] = { 0 };
     for (int i = 0; i < 2; i++) {
         CHECK_OK(cv_rpc_client_open(c, ECHO, NULL, 0, &s[i]));
         round_trip(s[i], "occupying");
@@ -464,13 +468,13 @@ static void test_max_streams(void) {
     cv_rpc_stream_destroy(s[2]);
     close_and_expect(s[0], 1);
     cv_rpc_stream_destroy(s[0]);
-    cv_rpc_stream_destroy(s[1]);   /* dropped without closing: cancelled */
+    cv_rpc_stream_destroy(s[1]); /* dropped without closing: cancelled */
     cv_rpc_client_destroy(c);
     finish_server(server);
 }
 
 static void test_unary(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     void *resp = NULL;
@@ -485,7 +489,7 @@ static void test_unary(void) {
     CHECK_RESULT(cv_rpc_client_unary(c, "/test.Echo/Nope", "x", 1, 5000, &resp, &resp_size, &status),
                  CV_ERROR_CONNECTION);
     CHECK_EQ_INT(status, CV_RPC_STATUS_UNIMPLEMENTED);
-    cv_rpc_stream *s = NULL;   /* a stream on an unknown method too */
+    cv_rpc_stream *s = NULL; /* a stream on an unknown method too */
     CHECK_OK(cv_rpc_client_open(c, "/test.Echo/Nope", NULL, 0, &s));
     expect_failure(s, CV_RPC_STATUS_UNIMPLEMENTED, "not served");
     cv_rpc_stream_destroy(s);
@@ -494,7 +498,7 @@ static void test_unary(void) {
 }
 
 static void test_recv_timeout(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
     cv_rpc_client *c = connect_to(server);
     cv_rpc_stream *s = NULL;
@@ -522,7 +526,7 @@ typedef struct proxy {
 
 static void *proxy_main(void *arg) {
     proxy *p = arg;
-    struct pollfd lp = {.fd = p->listen_fd, .events = POLLIN};
+    struct pollfd lp = { .fd = p->listen_fd, .events = POLLIN };
     int client = -1;
     while (!atomic_load(&p->stop) && client < 0)
         if (poll(&lp, 1, 50) > 0)
@@ -530,7 +534,7 @@ static void *proxy_main(void *arg) {
     if (client < 0)
         return NULL;
     int server = socket(AF_INET, SOCK_STREAM, 0);
-    struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
     a.sin_port = htons((uint16_t)p->port);
     if (connect(server, (struct sockaddr *)&a, sizeof a) != 0) {
         close(client);
@@ -543,7 +547,7 @@ static void *proxy_main(void *arg) {
             usleep(10000);
             continue;
         }
-        struct pollfd fds[2] = {{.fd = client, .events = POLLIN}, {.fd = server, .events = POLLIN}};
+        struct pollfd fds[2] = { { .fd = client, .events = POLLIN }, { .fd = server, .events = POLLIN } };
         if (poll(fds, 2, 50) <= 0)
             continue;
         for (int i = 0; i < 2; i++) {
@@ -569,7 +573,7 @@ done:
 static void proxy_start(proxy *p, int server_port) {
     p->port = server_port;
     p->listen_fd = socket(AF_INET, SOCK_STREAM, 0);
-    struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
     socklen_t len = sizeof a;
     bind(p->listen_fd, (struct sockaddr *)&a, sizeof a);
     listen(p->listen_fd, 4);
@@ -585,13 +589,13 @@ static void proxy_stop(proxy *p) {
 }
 
 static void test_silent_peer(void) {
-    echo_state st = {0};
+    echo_state st = { 0 };
     cv_rpc_server *server = start_echo(&st, 0, 0);
-    proxy p = {0};
+    proxy p = { 0 };
     proxy_start(&p, cv_rpc_server_port(server));
     char target[64];
     snprintf(target, sizeof target, "127.0.0.1:%d", p.listen_port);
-    cv_rpc_client_config cfg = {.keepalive_ms = 500, .keepalive_timeout_ms = 500};
+    cv_rpc_client_config cfg = { .keepalive_ms = 500, .keepalive_timeout_ms = 500 };
     cv_rpc_client *c = NULL;
     CHECK_OK(cv_rpc_client_create(target, &cfg, &c));
     cv_rpc_stream *s = NULL;
@@ -605,11 +609,11 @@ static void test_silent_peer(void) {
     double dt = now_s() - t0;
     if (dt > 3.0)
         fprintf(stderr, "silent peer noticed after %.2f s\n", dt);
-    CHECK(dt < 3.0);   /* keepalive 0.5 s + timeout 0.5 s, with slack */
+    CHECK(dt < 3.0); /* keepalive 0.5 s + timeout 0.5 s, with slack */
     CHECK_RESULT(cv_rpc_stream_send(s, "x", 1), CV_ERROR_CONNECTION);
     cv_rpc_stream_destroy(s);
     cv_rpc_client_destroy(c);
-    proxy_stop(&p);   /* closes the server's side: its stream is cancelled */
+    proxy_stop(&p); /* closes the server's side: its stream is cancelled */
     finish_server(server);
 }
 
@@ -617,13 +621,20 @@ static const struct {
     const char *name;
     void (*fn)(void);
 } tests[] = {
-    {"small_messages", test_small_messages},   {"large_messages", test_large_messages},
-    {"over_limit", test_over_limit},           {"server_error_status", test_server_error_status},
-    {"metadata_and_peer", test_metadata_and_peer}, {"concurrent_streams", test_concurrent_streams},
-    {"open_and_drop", test_open_and_drop},     {"server_killed", test_server_killed},
-    {"nothing_listens", test_nothing_listens}, {"drain", test_drain},
-    {"max_streams", test_max_streams},         {"unary", test_unary},
-    {"recv_timeout", test_recv_timeout},       {"silent_peer", test_silent_peer},
+    { "small_messages", test_small_messages },
+    { "large_messages", test_large_messages },
+    { "over_limit", test_over_limit },
+    { "server_error_status", test_server_error_status },
+    { "metadata_and_peer", test_metadata_and_peer },
+    { "concurrent_streams", test_concurrent_streams },
+    { "open_and_drop", test_open_and_drop },
+    { "server_killed", test_server_killed },
+    { "nothing_listens", test_nothing_listens },
+    { "drain", test_drain },
+    { "max_streams", test_max_streams },
+    { "unary", test_unary },
+    { "recv_timeout", test_recv_timeout },
+    { "silent_peer", test_silent_peer },
 };
 
 int main(int argc, char **argv) {

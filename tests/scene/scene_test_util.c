@@ -9,8 +9,7 @@
 
 #include "corvid/trace_cpu.h"
 
-uint64_t fnv1a(uint64_t h, const void *data, size_t size)
-{
+uint64_t fnv1a(uint64_t h, const void *data, size_t size) {
     const unsigned char *p = data;
     for (size_t i = 0; i < size; i++) {
         h ^= p[i];
@@ -19,8 +18,7 @@ uint64_t fnv1a(uint64_t h, const void *data, size_t size)
     return h;
 }
 
-uint64_t scene_hash(const cv_scene *s)
-{
+uint64_t scene_hash(const cv_scene *s) {
     uint64_t h = 0xCBF29CE484222325ull;
     for (uint32_t i = 0; i < cv_scene_mesh_count(s); i++) {
         const cv_mesh *m = cv_scene_mesh(s, i);
@@ -42,8 +40,7 @@ uint64_t scene_hash(const cv_scene *s)
     return h;
 }
 
-cv_bvh_tri *brute_force_triangles(const cv_scene *scene, uint32_t *count)
-{
+cv_bvh_tri *brute_force_triangles(const cv_scene *scene, uint32_t *count) {
     cv_bvh_tri *tris = malloc((size_t)cv_scene_world_triangle_count(scene) * sizeof(cv_bvh_tri) + 1);
     uint32_t n = 0;
     for (uint32_t i = 0; tris && i < cv_scene_instance_count(scene); i++) {
@@ -58,8 +55,7 @@ cv_bvh_tri *brute_force_triangles(const cv_scene *scene, uint32_t *count)
     return tris;
 }
 
-bool brute_force_trace(const cv_bvh_tri *tris, uint32_t count, const cv_ray *ray, uint32_t flags, cv_hit *hit)
-{
+bool brute_force_trace(const cv_bvh_tri *tris, uint32_t count, const cv_ray *ray, uint32_t flags, cv_hit *hit) {
     *hit = cv_hit_miss();
     float limit = ray->tmax;
     bool cull = (flags & CV_TRACE_CULL_BACK_FACES) != 0;
@@ -67,7 +63,7 @@ bool brute_force_trace(const cv_bvh_tri *tris, uint32_t count, const cv_ray *ray
         float t, u, v;
         if (!cv_intersect_triangle(&tris[k], ray, limit, cull, &t, &u, &v))
             continue;
-        *hit = (cv_hit){.t = t, .u = u, .v = v, .triangle = tris[k].prim, .instance = tris[k].instance};
+        *hit = (cv_hit){ .t = t, .u = u, .v = v, .triangle = tris[k].prim, .instance = tris[k].instance };
         limit = t;
         if (flags & CV_TRACE_ANY_HIT)
             return true;
@@ -83,8 +79,7 @@ typedef struct brute_job {
     cv_hit *out;
 } brute_job;
 
-static void *brute_range(void *arg)
-{
+static void *brute_range(void *arg) {
     brute_job *j = arg;
     for (uint32_t i = j->begin; i < j->end; i++)
         j->hits += brute_force_trace(j->tris, j->count, &j->rays[i], j->flags, &j->out[i]);
@@ -92,17 +87,18 @@ static void *brute_range(void *arg)
 }
 
 uint32_t brute_force_batch(const cv_bvh_tri *tris, uint32_t count, const cv_ray *rays, uint32_t n, uint32_t flags,
-                           cv_hit *hits)
-{
+                           cv_hit *hits) {
     enum { JOBS = 8 };
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     uint32_t threads = cpus < 1 ? 1 : cpus > JOBS ? JOBS : (uint32_t)cpus;
     brute_job jobs[JOBS];
     pthread_t tids[JOBS];
-    bool started[JOBS] = {false};
+    bool started[JOBS] = { false };
     for (uint32_t t = 0; t < threads; t++)
-        jobs[t] = (brute_job){tris, count, rays, (uint32_t)((uint64_t)n * t / threads),
-                              (uint32_t)((uint64_t)n * (t + 1) / threads), flags, 0, hits};
+        jobs[t] = (brute_job){
+            tris,  count, rays, (uint32_t)((uint64_t)n * t / threads), (uint32_t)((uint64_t)n * (t + 1) / threads),
+            flags, 0,     hits
+        };
     for (uint32_t t = 1; t < threads; t++)
         started[t] = pthread_create(&tids[t], NULL, brute_range, &jobs[t]) == 0;
     for (uint32_t t = 0; t < threads; t++)
@@ -117,15 +113,13 @@ uint32_t brute_force_batch(const cv_bvh_tri *tris, uint32_t count, const cv_ray 
     return total;
 }
 
-const char *model_path(const char *relative)
-{
+const char *model_path(const char *relative) {
     static char path[1024];
     snprintf(path, sizeof path, "%s/%s", CORVID_ASSIMP_MODELS, relative);
     return path;
 }
 
-bool file_exists(const char *path)
-{
+bool file_exists(const char *path) {
     struct stat st;
     return stat(path, &st) == 0;
 }

@@ -14,16 +14,14 @@
 #include "corvid/trace_cpu.h"
 #include "scene_test_util.h"
 
-static bool same_bvh(const cv_bvh *a, const cv_bvh *b)
-{
+static bool same_bvh(const cv_bvh *a, const cv_bvh *b) {
     return a->node_count == b->node_count && a->node2_count == b->node2_count && a->tri_count == b->tri_count &&
            memcmp(a->nodes, b->nodes, a->node_count * sizeof(cv_bvh_node)) == 0 &&
            memcmp(a->nodes2, b->nodes2, a->node2_count * sizeof(cv_bvh_node2)) == 0 &&
            memcmp(a->tris, b->tris, a->tri_count * sizeof(cv_bvh_tri)) == 0;
 }
 
-static void check_flat(const char *name, const cv_scene *s, const cv_bvh_build_options *opt)
-{
+static void check_flat(const char *name, const cv_scene *s, const cv_bvh_build_options *opt) {
     cv_bvh *b = NULL;
     CHECK_OK(cv_bvh_build_flat(s, opt, &b));
     if (!b)
@@ -41,8 +39,7 @@ static void check_flat(const char *name, const cv_scene *s, const cv_bvh_build_o
     cv_bvh_destroy(b);
 }
 
-static void check_two_level(const char *name, const cv_scene *s)
-{
+static void check_two_level(const char *name, const cv_scene *s) {
     cv_scene_bvh *b = NULL;
     CHECK_OK(cv_scene_bvh_build(s, NULL, &b));
     if (!b)
@@ -57,36 +54,36 @@ static void check_two_level(const char *name, const cv_scene *s)
     cv_scene_bvh_destroy(b);
 }
 
-static void check_scene(const char *name, const cv_scene *s)
-{
+static void check_scene(const char *name, const cv_scene *s) {
     check_flat(name, s, NULL);
     check_two_level(name, s);
 }
 
-static void test_option_variants(const cv_scene *s)
-{
+static void test_option_variants(const cv_scene *s) {
     const cv_bvh_build_options variants[] = {
-        {.max_leaf_size = 1}, {.max_leaf_size = 4}, {.max_leaf_size = 16},
-        {.bin_count = 2},     {.bin_count = 64},    {.traversal_cost = 4.0f, .intersection_cost = 0.5f},
+        { .max_leaf_size = 1 }, { .max_leaf_size = 4 }, { .max_leaf_size = 16 },
+        { .bin_count = 2 },     { .bin_count = 64 },    { .traversal_cost = 4.0f, .intersection_cost = 0.5f },
     };
     for (size_t i = 0; i < sizeof variants / sizeof variants[0]; i++)
         check_flat("stress 10k", s, &variants[i]);
     cv_bvh *b = NULL;
-    const cv_bvh_build_options bad[] = {{.bin_count = 1}, {.bin_count = 65}, {.max_leaf_size = 17},
-                                        {.traversal_cost = -1.0f}, {.intersection_cost = NAN}};
+    const cv_bvh_build_options bad[] = { { .bin_count = 1 },
+                                         { .bin_count = 65 },
+                                         { .max_leaf_size = 17 },
+                                         { .traversal_cost = -1.0f },
+                                         { .intersection_cost = NAN } };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         CHECK_RESULT(cv_bvh_build_flat(s, &bad[i], &b), CV_ERROR_INVALID_ARGUMENT);
     CHECK(b == NULL);
 }
 
 /* Same output with 1, 2 and 5 threads (the builder threads big subtrees). */
-static void test_thread_independence(const cv_scene *s)
-{
+static void test_thread_independence(const cv_scene *s) {
     cv_bvh *ref = NULL, *other = NULL;
-    CHECK_OK(cv_bvh_build_flat(s, &(cv_bvh_build_options){.thread_count = 1}, &ref));
-    const uint32_t threads[] = {2, 5};
+    CHECK_OK(cv_bvh_build_flat(s, &(cv_bvh_build_options){ .thread_count = 1 }, &ref));
+    const uint32_t threads[] = { 2, 5 };
     for (size_t i = 0; ref && i < 2; i++) {
-        CHECK_OK(cv_bvh_build_flat(s, &(cv_bvh_build_options){.thread_count = threads[i]}, &other));
+        CHECK_OK(cv_bvh_build_flat(s, &(cv_bvh_build_options){ .thread_count = threads[i] }, &other));
         CHECK(other && same_bvh(ref, other));
         cv_bvh_destroy(other);
         other = NULL;
@@ -95,8 +92,7 @@ static void test_thread_independence(const cv_scene *s)
 }
 
 /* The checker must reject broken copies of a good BVH. */
-static void test_checker_catches(const cv_scene *s)
-{
+static void test_checker_catches(const cv_scene *s) {
     cv_bvh *b = NULL;
     CHECK_OK(cv_bvh_build_flat(s, NULL, &b));
     if (!b)
@@ -117,8 +113,9 @@ static void test_checker_catches(const cv_scene *s)
         case SHRINK_LEAF: copy.nodes[leaf].bmax[0] = copy.nodes[leaf].bmin[0]; break;
         case SHRINK_NODE2: copy.nodes2[0].a_max[1] = copy.nodes2[0].a_min[1]; break;
         case BIG_LEAF: copy.options.max_leaf_size = 1; break;
-        case DUP_TRI: copy.nodes[leaf].info = cv_bvh_leaf_info(cv_bvh_leaf_first(copy.nodes[leaf].info) + 1,
-                                                              cv_bvh_leaf_count(copy.nodes[leaf].info));
+        case DUP_TRI:
+            copy.nodes[leaf].info = cv_bvh_leaf_info(cv_bvh_leaf_first(copy.nodes[leaf].info) + 1,
+                                                     cv_bvh_leaf_count(copy.nodes[leaf].info));
             break;
         case BAD_SKIP: copy.nodes[leaf].skip = 0; break;
         default: copy.tris[0].v0[0] += 1000.0f; break;
@@ -131,8 +128,7 @@ static void test_checker_catches(const cv_scene *s)
     cv_bvh_destroy(b);
 }
 
-static void test_small_cases(void)
-{
+static void test_small_cases(void) {
     cv_scene *s;
     CHECK_OK(cv_scene_create(&s));
     cv_bvh *b = NULL;
@@ -142,11 +138,11 @@ static void test_small_cases(void)
     cv_bvh_destroy(b);
 
     /* One triangle: a single leaf; the two-child layout has an empty child. */
-    const float pos[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
-    const uint32_t idx[] = {0, 1, 2};
-    cv_mesh_desc d = {.positions = pos, .vertex_count = 3, .indices = idx, .triangle_count = 1};
+    const float pos[] = { 0, 0, 0, 1, 0, 0, 0, 1, 0 };
+    const uint32_t idx[] = { 0, 1, 2 };
+    cv_mesh_desc d = { .positions = pos, .vertex_count = 3, .indices = idx, .triangle_count = 1 };
     cv_material m = cv_material_default();
-    cv_instance inst = {0};
+    cv_instance inst = { 0 };
     cv_transform_identity(inst.transform);
     CHECK_OK(cv_scene_add_mesh(s, &d, NULL));
     CHECK_OK(cv_scene_add_material(s, &m, NULL));
@@ -160,8 +156,7 @@ static void test_small_cases(void)
 }
 
 /* Moving instances needs only a TLAS rebuild; deforming a mesh a refit. */
-static void test_updates(void)
-{
+static void test_updates(void) {
     cv_scene *s;
     CHECK_OK(cv_scene_make_room(5, &s));
     cv_scene_bvh *b = NULL;
@@ -175,7 +170,7 @@ static void test_updates(void)
     memcpy(t, cv_scene_instance(s, moved)->transform, sizeof t);
     t[1][3] += 3.0f;
     CHECK_OK(cv_scene_set_instance_transform(s, moved, t));
-    CHECK_RESULT(cv_scene_bvh_check(b, s, NULL, NULL), CV_ERROR_MALFORMED);   /* stale TLAS */
+    CHECK_RESULT(cv_scene_bvh_check(b, s, NULL, NULL), CV_ERROR_MALFORMED); /* stale TLAS */
     CHECK_OK(cv_scene_bvh_rebuild_top(b, s));
     CHECK_OK(cv_scene_bvh_check(b, s, NULL, NULL));
 
@@ -197,11 +192,13 @@ static void test_updates(void)
     int differ = 0;
     for (int y = 0; fresh && y < 48; y++) {
         for (int x = 0; x < 64; x++) {
-            cv_ray r = {.origin = {cam->position[0], cam->position[1], cam->position[2]}, .tmin = 0.0f,
-                        .dir = {(x - 32) / 64.0f, (24 - y) / 64.0f - 0.1f, -1.0f}, .tmax = INFINITY};
+            cv_ray r = { .origin = { cam->position[0], cam->position[1], cam->position[2] },
+                         .tmin = 0.0f,
+                         .dir = { (x - 32) / 64.0f, (24 - y) / 64.0f - 0.1f, -1.0f },
+                         .tmax = INFINITY };
             cv_hit h1, h2;
-            cv_trace_ray(&(cv_trace_target){.two_level = b, .layout = CV_BVH_LAYOUT_NODE2}, &r, 0, &h1);
-            cv_trace_ray(&(cv_trace_target){.two_level = fresh, .layout = CV_BVH_LAYOUT_NODE2}, &r, 0, &h2);
+            cv_trace_ray(&(cv_trace_target){ .two_level = b, .layout = CV_BVH_LAYOUT_NODE2 }, &r, 0, &h1);
+            cv_trace_ray(&(cv_trace_target){ .two_level = fresh, .layout = CV_BVH_LAYOUT_NODE2 }, &r, 0, &h2);
             differ += h1.triangle != h2.triangle || h1.instance != h2.instance || h1.t != h2.t;
         }
     }
@@ -209,17 +206,16 @@ static void test_updates(void)
     cv_scene_bvh_destroy(fresh);
 
     /* Adding a mesh invalidates the BLASes: rebuild_top refuses. */
-    const float pos[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
-    const uint32_t idx[] = {0, 1, 2};
-    cv_mesh_desc d = {.positions = pos, .vertex_count = 3, .indices = idx, .triangle_count = 1};
+    const float pos[] = { 0, 0, 0, 1, 0, 0, 0, 1, 0 };
+    const uint32_t idx[] = { 0, 1, 2 };
+    cv_mesh_desc d = { .positions = pos, .vertex_count = 3, .indices = idx, .triangle_count = 1 };
     CHECK_OK(cv_scene_add_mesh(s, &d, NULL));
     CHECK_RESULT(cv_scene_bvh_rebuild_top(b, s), CV_ERROR_BAD_STATE);
     cv_scene_bvh_destroy(b);
     cv_scene_destroy(s);
 }
 
-int main(void)
-{
+int main(void) {
     cv_scene *room, *stress;
     CHECK_OK(cv_scene_make_room(1, &room));
     CHECK_OK(cv_scene_make_stress(1, 10000, &stress));
@@ -231,7 +227,7 @@ int main(void)
     cv_scene_destroy(room);
     cv_scene_destroy(stress);
 
-    const char *models[] = {"OBJ/spider.obj", "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"};
+    const char *models[] = { "OBJ/spider.obj", "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" };
     for (size_t i = 0; i < 2; i++) {
         cv_scene *s = NULL;
         if (!file_exists(model_path(models[i]))) {

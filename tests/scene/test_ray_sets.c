@@ -16,8 +16,7 @@ static float dot3(const float a[3], const float b[3]) { return a[0] * b[0] + a[1
 static bool unit(const float d[3]) { return fabsf(dot3(d, d) - 1.0f) < 1e-5f; }
 
 /* Facing geometric normal at a hit, as the generator computes it. */
-static void facing_normal(const cv_scene *s, const cv_hit *h, const float dir[3], float n[3])
-{
+static void facing_normal(const cv_scene *s, const cv_hit *h, const float dir[3], float n[3]) {
     float v[3][3], e1[3], e2[3];
     cv_scene_world_triangle(s, h->instance, h->triangle, v);
     for (int k = 0; k < 3; k++) {
@@ -35,10 +34,9 @@ static void facing_normal(const cv_scene *s, const cv_hit *h, const float dir[3]
             n[k] *= -1.0f;
 }
 
-static void test_primary(const cv_scene *s)
-{
+static void test_primary(const cv_scene *s) {
     cv_ray_set a, b, c;
-    cv_ray_set_desc desc = {.width = 40, .height = 30, .seed = 1};
+    cv_ray_set_desc desc = { .width = 40, .height = 30, .seed = 1 };
     CHECK_OK(cv_ray_set_make(s, CV_RAYS_PRIMARY, &desc, &a));
     CHECK_OK(cv_ray_set_make(s, CV_RAYS_PRIMARY, &desc, &b));
     desc.seed = 2;
@@ -62,7 +60,7 @@ static void test_primary(const cv_scene *s)
     cv_ray_set_free(&c);
 
     cv_ray_set r;
-    CHECK_OK(cv_ray_set_make(s, CV_RAYS_RANDOM, &(cv_ray_set_desc){.random_count = 5000, .seed = 4}, &r));
+    CHECK_OK(cv_ray_set_make(s, CV_RAYS_RANDOM, &(cv_ray_set_desc){ .random_count = 5000, .seed = 4 }, &r));
     CHECK_EQ_INT(r.count, 5000);
     float bmin[3], bmax[3];
     cv_scene_bounds(s, bmin, bmax);
@@ -75,15 +73,14 @@ static void test_primary(const cv_scene *s)
     CHECK_RESULT(cv_ray_set_make(s, CV_RAYS_SHADOW, NULL, &r), CV_ERROR_INVALID_ARGUMENT);
 }
 
-static void test_secondary(const cv_scene *s)
-{
+static void test_secondary(const cv_scene *s) {
     cv_bvh *bvh = NULL;
     CHECK_OK(cv_bvh_build_flat(s, NULL, &bvh));
     cv_ray_set primary;
-    cv_ray_set_desc desc = {.width = 128, .height = 96, .seed = 3};
+    cv_ray_set_desc desc = { .width = 128, .height = 96, .seed = 3 };
     CHECK_OK(cv_ray_set_make(s, CV_RAYS_PRIMARY, &desc, &primary));
     cv_hit *hits = malloc(primary.count * sizeof(cv_hit));
-    CHECK_OK(cv_trace_batch(&(cv_trace_target){.flat = bvh}, primary.rays, primary.count, 0, 0, hits));
+    CHECK_OK(cv_trace_batch(&(cv_trace_target){ .flat = bvh }, primary.rays, primary.count, 0, 0, hits));
     uint32_t hit_count = 0;
     for (uint32_t i = 0; i < primary.count; i++)
         hit_count += hits[i].triangle != CV_BVH_INVALID;
@@ -101,8 +98,8 @@ static void test_secondary(const cv_scene *s)
             CHECK_EQ_INT(set.count, hit_count);
         /* Walk the hits in order to pair each secondary ray with its origin. */
         /* All shadow rays share one direction: toward the sun. */
-        const float to_sun[3] = {set.rays[0].dir[0], set.rays[0].dir[1], set.rays[0].dir[2]};
-        const float against_light[3] = {-sun[0], -sun[1], -sun[2]};
+        const float to_sun[3] = { set.rays[0].dir[0], set.rays[0].dir[1], set.rays[0].dir[2] };
+        const float against_light[3] = { -sun[0], -sun[1], -sun[2] };
         if (kind == CV_RAYS_SHADOW)
             CHECK(fabsf(dot3(to_sun, against_light) - 1.0f) < 1e-6f);
         double cos_sum = 0.0;
@@ -123,9 +120,7 @@ static void test_secondary(const cv_scene *s)
             float c = dot3(r->dir, n);
             cos_sum += c;
             switch (kind) {
-            case CV_RAYS_SHADOW:
-                CHECK(memcmp(r->dir, to_sun, sizeof to_sun) == 0 && r->tmax == INFINITY);
-                break;
+            case CV_RAYS_SHADOW: CHECK(memcmp(r->dir, to_sun, sizeof to_sun) == 0 && r->tmax == INFINITY); break;
             case CV_RAYS_AO_SHORT: CHECK(c >= -1e-6f && r->tmax == 0.5f); break;
             case CV_RAYS_AO_LONG:
             case CV_RAYS_DIFFUSE: CHECK(c >= -1e-6f && r->tmax == INFINITY); break;
@@ -163,8 +158,7 @@ static void test_secondary(const cv_scene *s)
     cv_bvh_destroy(bvh);
 }
 
-int main(void)
-{
+int main(void) {
     cv_scene *s;
     CHECK_OK(cv_scene_make_room(1, &s));
     test_primary(s);

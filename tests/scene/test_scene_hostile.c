@@ -98,7 +98,8 @@ static void test_glb_lengths(void) {
  * its child: 2^(levels + 1) - 1 instances once expanded. */
 static void write_dag(const char *path, int levels, bool cycle) {
     char json[8192];
-    int n = snprintf(json, sizeof json, "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,"
+    int n = snprintf(json, sizeof json,
+                     "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,"
                      "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[");
     for (int i = 0; i <= levels; i++) {
         if (i < levels)
@@ -126,7 +127,8 @@ static void test_node_graph(void) {
 
 /* Truncated JSON is called truncated (assimp said "No suitable reader found"). */
 static void test_truncated_json(void) {
-    const char json[] = "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"uri\":\"data:application/octet-stream;base64,AAAA";
+    const char json[] =
+        "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"uri\":\"data:application/octet-stream;base64,AAAA";
     const char *path = path_of("cut.gltf");
     write_file(path, json, sizeof json - 1);
     expect_rejected(path, CV_ERROR_MALFORMED, "truncated glTF");
@@ -157,9 +159,9 @@ static void test_extreme_scales(void) {
         double at, side;
         bool frameable;
     } cases[] = {
-        { 0.0, 1.0, true },      { 0.0, 1e-5, true },  { 1e-3, 1e-7, true },  { 0.0, 1e17, true },
-        { 0.0, 1e-25, false },   { 1e3, 1e-5, false }, { 0.0, 1e20, false },  { 0.0, 3e38, false },
-        { 3e38, 1e30, false },
+        { 0.0, 1.0, true },   { 0.0, 1e-5, true },   { 1e-3, 1e-7, true },
+        { 0.0, 1e17, true },  { 0.0, 1e-25, false }, { 1e3, 1e-5, false },
+        { 0.0, 1e20, false }, { 0.0, 3e38, false },  { 3e38, 1e30, false },
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         const char *path = write_cube("cube.obj", cases[i].at, cases[i].side);

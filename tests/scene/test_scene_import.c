@@ -15,8 +15,7 @@
 #include "scene_test_util.h"
 
 /* Triangles an OBJ file describes: a face of n corners is n - 2 triangles. */
-static long obj_triangles(const char *path)
-{
+static long obj_triangles(const char *path) {
     FILE *f = fopen(path, "r");
     if (!f)
         return -1;
@@ -35,8 +34,7 @@ static long obj_triangles(const char *path)
 }
 
 /* Triangles of an ASCII PLY: each face line starts with its corner count. */
-static long ply_triangles(const char *path)
-{
+static long ply_triangles(const char *path) {
     FILE *f = fopen(path, "r");
     if (!f)
         return -1;
@@ -55,8 +53,7 @@ static long ply_triangles(const char *path)
 }
 
 /* Triangles of an ASCII STL: one per "facet normal" line. */
-static long stl_triangles(const char *path)
-{
+static long stl_triangles(const char *path) {
     FILE *f = fopen(path, "r");
     if (!f)
         return -1;
@@ -68,8 +65,7 @@ static long stl_triangles(const char *path)
     return tris;
 }
 
-static void expect_world_triangles(const char *relative, long expected)
-{
+static void expect_world_triangles(const char *relative, long expected) {
     const char *path = model_path(relative);
     cv_scene *s = NULL;
     CHECK(expected > 0);
@@ -83,8 +79,7 @@ static void expect_world_triangles(const char *relative, long expected)
     cv_scene_destroy(s);
 }
 
-static void test_counts_from_files(void)
-{
+static void test_counts_from_files(void) {
     expect_world_triangles("OBJ/spider.obj", obj_triangles(model_path("OBJ/spider.obj")));
     expect_world_triangles("OBJ/box.obj", obj_triangles(model_path("OBJ/box.obj")));
     expect_world_triangles("OBJ/WusonOBJ.obj", obj_triangles(model_path("OBJ/WusonOBJ.obj")));
@@ -95,8 +90,7 @@ static void test_counts_from_files(void)
     expect_world_triangles("glTF2/BoxTextured-glTF-Binary/BoxTextured.glb", 12);
 }
 
-static void test_engine(void)
-{
+static void test_engine(void) {
     const char *path = model_path("glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
     cv_scene *s = NULL;
     CHECK_OK(cv_scene_import(path, &s));
@@ -117,8 +111,7 @@ static void test_engine(void)
     cv_scene_destroy(s);
 }
 
-static void test_camera_file(void)
-{
+static void test_camera_file(void) {
     cv_scene *s = NULL;
     CHECK_OK(cv_scene_import(model_path("glTF2/cameras/Cameras.gltf"), &s));
     if (!s)
@@ -133,8 +126,7 @@ static void test_camera_file(void)
     cv_scene_destroy(s);
 }
 
-static void test_light_file(void)
-{
+static void test_light_file(void) {
     cv_scene *s = NULL;
     CHECK_OK(cv_scene_import(model_path("AC/SphereWithLight.ac"), &s));
     if (!s)
@@ -181,8 +173,7 @@ static const char mtl_text[] = "newmtl glass\nKd 0.1 0.2 0.3\nNs 98\nd 0.4\nNi 1
 
 static void write_file(const char *path, const void *data, size_t size);
 
-static void test_written_files(const char *dir)
-{
+static void test_written_files(const char *dir) {
     char path[512];
     snprintf(path, sizeof path, "%s/written.gltf", dir);
     write_file(path, gltf_json, sizeof gltf_json - 1);
@@ -234,8 +225,7 @@ static void test_written_files(const char *dir)
     }
 }
 
-static void write_file(const char *path, const void *data, size_t size)
-{
+static void write_file(const char *path, const void *data, size_t size) {
     FILE *f = fopen(path, "wb");
     CHECK(f != NULL);
     if (!f)
@@ -244,8 +234,7 @@ static void write_file(const char *path, const void *data, size_t size)
     fclose(f);
 }
 
-static void *read_file(const char *path, size_t *size)
-{
+static void *read_file(const char *path, size_t *size) {
     FILE *f = fopen(path, "rb");
     if (!f)
         return NULL;
@@ -259,8 +248,7 @@ static void *read_file(const char *path, size_t *size)
 }
 
 /* Import must fail with `code` and a message naming the file. */
-static void expect_rejected(const char *path, cv_result code, const char *what)
-{
+static void expect_rejected(const char *path, cv_result code, const char *what) {
     cv_scene *s = NULL;
     CHECK_RESULT(cv_scene_import(path, &s), code);
     CHECK(s == NULL);
@@ -269,8 +257,7 @@ static void expect_rejected(const char *path, cv_result code, const char *what)
     fprintf(stderr, "rejected as expected: %s\n", cv_last_error());
 }
 
-static void test_bad_files(void)
-{
+static void test_bad_files(void) {
     char dir[] = "/tmp/corvid_import_XXXXXX";
     CHECK(mkdtemp(dir) != NULL);
     char path[512];
@@ -290,7 +277,7 @@ static void test_bad_files(void)
         x = x * 1664525u + 1013904223u;
         garbage[i] = (unsigned char)(x >> 24);
     }
-    const char *exts[] = {"obj", "gltf", "glb", "ply", "stl"};
+    const char *exts[] = { "obj", "gltf", "glb", "ply", "stl" };
     for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++) {
         snprintf(path, sizeof path, "%s/garbage.%s", dir, exts[i]);
         write_file(path, garbage, sizeof garbage);
@@ -303,7 +290,7 @@ static void test_bad_files(void)
     size_t size = 0;
     unsigned char *glb = read_file(model_path("glTF2/BoxTextured-glTF-Binary/BoxTextured.glb"), &size);
     CHECK(glb != NULL && size > 1000);
-    const size_t cuts[] = {12, 100, size / 2, size - 1};
+    const size_t cuts[] = { 12, 100, size / 2, size - 1 };
     for (size_t i = 0; glb && i < sizeof cuts / sizeof cuts[0]; i++) {
         snprintf(path, sizeof path, "%s/truncated_%zu.glb", dir, cuts[i]);
         write_file(path, glb, cuts[i]);
@@ -329,8 +316,8 @@ static void test_bad_files(void)
     write_file(path, nan_obj, sizeof nan_obj - 1);
     expect_rejected(path, CV_ERROR_MALFORMED, "non-finite");
 
-    const char *names[] = {"absent.glb", "empty.obj", "garbage.obj", "garbage.gltf", "garbage.glb", "garbage.ply",
-                           "garbage.stl", "truncated.gltf", "points.obj", "nan.obj"};
+    const char *names[] = { "absent.glb",  "empty.obj",   "garbage.obj",    "garbage.gltf", "garbage.glb",
+                            "garbage.ply", "garbage.stl", "truncated.gltf", "points.obj",   "nan.obj" };
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
         snprintf(path, sizeof path, "%s/%s", dir, names[i]);
         unlink(path);
@@ -342,8 +329,7 @@ static void test_bad_files(void)
     CHECK(rmdir(dir) == 0);
 }
 
-int main(void)
-{
+int main(void) {
     if (!file_exists(model_path("OBJ/spider.obj"))) {
         fprintf(stderr, "assimp test models not found under %s: skipped\n", CORVID_ASSIMP_MODELS);
         return 77;

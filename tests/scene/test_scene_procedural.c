@@ -12,8 +12,7 @@
 #define ROOM_SEED1_HASH 0xac2d6f9e6ab6291cull
 #define STRESS_SEED1_10K_HASH 0x678068988da9b9d5ull
 
-static void test_room(void)
-{
+static void test_room(void) {
     cv_scene *a, *b, *c;
     CHECK_OK(cv_scene_make_room(1, &a));
     CHECK_OK(cv_scene_make_room(1, &b));
@@ -54,9 +53,8 @@ static void test_room(void)
     cv_scene_destroy(c);
 }
 
-static void test_stress_counts(void)
-{
-    const uint64_t counts[] = {1, 15, 16, 17, 1000, 4095, 10000, 12345, 1000003};
+static void test_stress_counts(void) {
+    const uint64_t counts[] = { 1, 15, 16, 17, 1000, 4095, 10000, 12345, 1000003 };
     for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++) {
         cv_scene *s;
         CHECK_OK(cv_scene_make_stress(7, counts[i], &s));
@@ -72,8 +70,7 @@ static void test_stress_counts(void)
     CHECK(s == NULL);
 }
 
-static void test_stress_determinism(void)
-{
+static void test_stress_determinism(void) {
     cv_scene *a, *b, *c;
     CHECK_OK(cv_scene_make_stress(1, 10000, &a));
     CHECK_OK(cv_scene_make_stress(1, 10000, &b));
@@ -88,8 +85,7 @@ static void test_stress_determinism(void)
     cv_scene_destroy(c);
 }
 
-int main(void)
-{
+int main(void) {
     CHECK_RESULT(cv_scene_make_room(1, NULL), CV_ERROR_INVALID_ARGUMENT);
     test_room();
     test_stress_counts();

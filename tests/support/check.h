@@ -12,37 +12,36 @@
 extern int check_failures;
 extern int check_count;
 
-#define CHECK(cond)                                                                     \
-    do {                                                                                \
-        check_count++;                                                                  \
-        if (!(cond)) {                                                                  \
-            check_failures++;                                                           \
-            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);    \
-        }                                                                               \
+#define CHECK(cond) \
+    do { \
+        check_count++; \
+        if (!(cond)) { \
+            check_failures++; \
+            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
+        } \
     } while (0)
 
-#define CHECK_EQ_INT(a, b)                                                              \
-    do {                                                                                \
-        long long check_a_ = (long long)(a), check_b_ = (long long)(b);                 \
-        check_count++;                                                                  \
-        if (check_a_ != check_b_) {                                                     \
-            check_failures++;                                                           \
-            fprintf(stderr, "%s:%d: CHECK_EQ_INT failed: %s = %lld, %s = %lld\n",       \
-                    __FILE__, __LINE__, #a, check_a_, #b, check_b_);                    \
-        }                                                                               \
+#define CHECK_EQ_INT(a, b) \
+    do { \
+        long long check_a_ = (long long)(a), check_b_ = (long long)(b); \
+        check_count++; \
+        if (check_a_ != check_b_) { \
+            check_failures++; \
+            fprintf(stderr, "%s:%d: CHECK_EQ_INT failed: %s = %lld, %s = %lld\n", __FILE__, __LINE__, #a, check_a_, \
+                    #b, check_b_); \
+        } \
     } while (0)
 
 /* Expects `expr` (a cv_result) to equal `code`; prints both names and the error message. */
-#define CHECK_RESULT(expr, code)                                                        \
-    do {                                                                                \
-        cv_result check_r_ = (expr);                                                    \
-        check_count++;                                                                  \
-        if (check_r_ != (code)) {                                                       \
-            check_failures++;                                                           \
-            fprintf(stderr, "%s:%d: %s returned %s, expected %s (%s)\n", __FILE__,      \
-                    __LINE__, #expr, cv_result_name(check_r_), cv_result_name(code),    \
-                    cv_last_error());                                                   \
-        }                                                                               \
+#define CHECK_RESULT(expr, code) \
+    do { \
+        cv_result check_r_ = (expr); \
+        check_count++; \
+        if (check_r_ != (code)) { \
+            check_failures++; \
+            fprintf(stderr, "%s:%d: %s returned %s, expected %s (%s)\n", __FILE__, __LINE__, #expr, \
+                    cv_result_name(check_r_), cv_result_name(code), cv_last_error()); \
+        } \
     } while (0)
 
 #define CHECK_OK(expr) CHECK_RESULT(expr, CV_OK)
@@ -50,10 +49,10 @@ extern int check_count;
 /* Checks that every context and device the test created has been destroyed
  * (libuv's way: each test proves it cleaned up). Use it at the end of a test,
  * after destroying what it made. */
-#define CHECK_NOTHING_LIVE()                                                            \
-    do {                                                                                \
-        CHECK_EQ_INT(cv_live_contexts(), 0);                                            \
-        CHECK_EQ_INT(cv_live_devices(), 0);                                             \
+#define CHECK_NOTHING_LIVE() \
+    do { \
+        CHECK_EQ_INT(cv_live_contexts(), 0); \
+        CHECK_EQ_INT(cv_live_devices(), 0); \
     } while (0)
 
 /* Prints "<name>: N passed, N failed" and returns the process exit code. */

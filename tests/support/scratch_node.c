@@ -27,9 +27,14 @@ static cv_result start(scratch_node *n, const cv_backend *backend, uint32_t coun
                  strcmp(backend->name, "vulkan") == 0 ? (adapter && *adapter ? adapter : "llvmpipe") : "");
         snprintf(n->devices[i].label, sizeof(n->devices[i].label), "%s%u", backend->name, i);
     }
-    n->config = (cv_node_config){ .listen = "127.0.0.1:0", .name = "scratch", .devices = n->devices,
-                                  .device_count = count, .validation = validation, .cache_dir = n->cache_dir,
-                                  .cache_bytes = 256ull << 20, .idle_timeout_ms = idle_timeout_ms,
+    n->config = (cv_node_config){ .listen = "127.0.0.1:0",
+                                  .name = "scratch",
+                                  .devices = n->devices,
+                                  .device_count = count,
+                                  .validation = validation,
+                                  .cache_dir = n->cache_dir,
+                                  .cache_bytes = 256ull << 20,
+                                  .idle_timeout_ms = idle_timeout_ms,
                                   .log_sessions = getenv("CORVID_NODE_LOG") != NULL };
     if (security) {
         if (security->listen)

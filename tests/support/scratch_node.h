@@ -7,7 +7,7 @@
 
 typedef struct scratch_node {
     cv_node *node;
-    char endpoint[64];          /* "127.0.0.1:<port>" */
+    char endpoint[64]; /* "127.0.0.1:<port>" */
     char cache_dir[256];
     cv_node_config config;
     cv_node_device_spec devices[8];

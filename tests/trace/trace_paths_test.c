@@ -63,7 +63,7 @@ typedef struct scene_case {
     const char *name;
     cv_scene *scene;
     cv_bvh *bvh;
-    uint32_t *by_id;            /* triangle indices sorted by (instance, prim) */
+    uint32_t *by_id; /* triangle indices sorted by (instance, prim) */
 } scene_case;
 
 static const cv_bvh *sort_bvh;
@@ -211,8 +211,9 @@ static void trace_on_device(rig *g, cv_accel accel, const cv_ray_set *set, uint3
     cv_command_list *l;
     CHECK_OK(cv_cmdlist_create(g->ctx, &list));
     CHECK_OK(cv_cmdlist_begin(g->ctx, list, &l));
-    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = accel, .rays = rays, .hits = hits,
-                                                                .count = set->count, .flags = flags });
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE,
+                      &(cv_trace_rays_args){
+                          .accel = accel, .rays = rays, .hits = hits, .count = set->count, .flags = flags });
     CHECK_OK(cv_command_list_end(l));
     uint64_t ticket = 0;
     CHECK_OK(cv_device_submit(g->dev, list, &ticket));
@@ -242,8 +243,10 @@ static void check_set(rig *g, const scene_case *s, cv_accel accel, cv_vulkan_tra
     }
     printf("  %-8s %-10s %-12s %7u rays %7u hits: %7u identical, %u coincident, %u grazing, %u wrong\n",
            cv_vulkan_trace_path_name(path), cv_ray_kind_name(set->kind),
-           flags == 0 ? "closest" : flags == CV_TRACE_ANY_HIT ? "any" : flags == CV_TRACE_CULL_BACK_FACES ? "closest+cull"
-                                                                                                        : "any+cull",
+           flags == 0                          ? "closest"
+           : flags == CV_TRACE_ANY_HIT         ? "any"
+           : flags == CV_TRACE_CULL_BACK_FACES ? "closest+cull"
+                                               : "any+cull",
            set->count, hits, identical, coincident, grazing, wrong);
     CHECK(hits > 0);
     CHECK_EQ_INT(wrong, 0);

@@ -52,7 +52,7 @@ static void test_adapters(void) {
     index = 77;
     CHECK_RESULT(cv_vulkan_find_adapter("no-such-gpu", &index), CV_ERROR_NOT_FOUND);
     CHECK(strstr(cv_last_error(), "no-such-gpu") != NULL);
-    CHECK(strstr(cv_last_error(), adapters[0].name) != NULL);   /* lists what there is */
+    CHECK(strstr(cv_last_error(), adapters[0].name) != NULL); /* lists what there is */
     CHECK_EQ_INT(index, 77);
     CHECK_RESULT(cv_vulkan_find_adapter("9", &index), CV_ERROR_NOT_FOUND);
     CHECK(strstr(cv_last_error(), "index 9") != NULL);
@@ -133,8 +133,7 @@ static void test_gpu_table(void) {
     for (uint32_t i = 0; i < 3; i++)
         CHECK(t.gpus[i].adapter == 0 && t.gpus[i].instance == i);
     snprintf(two, sizeof(two), "%s,nope", vkt_adapter());
-    CHECK_RESULT(cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .adapters = two }, &t),
-                 CV_ERROR_NOT_FOUND);
+    CHECK_RESULT(cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .adapters = two }, &t), CV_ERROR_NOT_FOUND);
     CHECK_RESULT(cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 65 }, &t),
                  CV_ERROR_LIMIT_EXCEEDED);
     /* The environment is read when the config leaves the count at 0. */

@@ -40,11 +40,17 @@ static void test_fill(fixture *f) {
 
     cv_command_list *l;
     CHECK_OK(cv_cmdlist_begin(f->ctx, f->list, &l));
-    uint32_t push[2] = { 0xfffff000u, N };   /* wraps past 2^32 */
+    uint32_t push[2] = { 0xfffff000u, N }; /* wraps past 2^32 */
     cv_binding b = { .resource = cv_any(buf) };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = fill, .bindings = &b, .bindings_count = 1,
-                                                            .push = push, .push_size = 8,
-                                                            .groups_x = groups(N, 64), .groups_y = 1, .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = fill,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = push,
+                                         .push_size = 8,
+                                         .groups_x = groups(N, 64),
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
     CHECK_OK(cv_command_list_end(l));
     CHECK_OK(vkt_run(f->dev, f->list, NULL));
     CHECK_OK(cv_device_read_buffer(f->dev, buf, 0, 4 * (N + SLACK), data));
@@ -77,7 +83,7 @@ static void test_saxpy_chain(fixture *f) {
     /* y = 1.75 x + y; y = -0.5 x2 + y with x2 produced by fill in the same list;
      * z = copy of y; then x is cleared after being read (write-after-read). */
     float a1 = 1.75f, a2 = -0.5f;
-    uint32_t fill_push[2] = { 0x3f800000u, N };   /* float bit patterns from 1.0 upwards */
+    uint32_t fill_push[2] = { 0x3f800000u, N }; /* float bit patterns from 1.0 upwards */
     cv_binding xy[2] = { { .resource = cv_any(x) }, { .resource = cv_any(y) } };
     cv_binding x2y[2] = { { .resource = cv_any(x2) }, { .resource = cv_any(y) } };
     cv_binding bx2 = { .resource = cv_any(x2) };
@@ -89,15 +95,33 @@ static void test_saxpy_chain(fixture *f) {
     memcpy(push2 + 4, &count, 4);
     cv_command_list *l;
     CHECK_OK(cv_cmdlist_begin(f->ctx, f->list, &l));
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = saxpy, .bindings = xy, .bindings_count = 2,
-                                                            .push = push1, .push_size = 8,
-                                                            .groups_x = groups(N, 64), .groups_y = 1, .groups_z = 1 });
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = fill, .bindings = &bx2, .bindings_count = 1,
-                                                            .push = fill_push, .push_size = 8,
-                                                            .groups_x = groups(N, 64), .groups_y = 1, .groups_z = 1 });
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = saxpy, .bindings = x2y, .bindings_count = 2,
-                                                            .push = push2, .push_size = 8,
-                                                            .groups_x = groups(N, 64), .groups_y = 1, .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = saxpy,
+                                         .bindings = xy,
+                                         .bindings_count = 2,
+                                         .push = push1,
+                                         .push_size = 8,
+                                         .groups_x = groups(N, 64),
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = fill,
+                                         .bindings = &bx2,
+                                         .bindings_count = 1,
+                                         .push = fill_push,
+                                         .push_size = 8,
+                                         .groups_x = groups(N, 64),
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = saxpy,
+                                         .bindings = x2y,
+                                         .bindings_count = 2,
+                                         .push = push2,
+                                         .push_size = 8,
+                                         .groups_x = groups(N, 64),
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
     cv_cmd_copy_buffer(l, CV_QUEUE_COMPUTE, &(cv_copy_buffer_args){ .src = y, .dst = z, .size = 4 * N });
     cv_cmd_clear_buffer(l, CV_QUEUE_COMPUTE, &(cv_clear_buffer_args){ .buffer = x, .size = 4 * N, .value = 7 });
     CHECK_OK(cv_command_list_end(l));
@@ -134,10 +158,15 @@ static void run_gradient(fixture *f, cv_texture tex, uint32_t w, uint32_t h, int
     CHECK_OK(cv_cmdlist_begin(f->ctx, f->list, &l));
     int32_t push[2] = { ox, oy };
     cv_binding b = { .resource = cv_any(tex) };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = gradient, .bindings = &b,
-                                                            .bindings_count = 1, .push = push, .push_size = 8,
-                                                            .groups_x = groups(w, 8), .groups_y = groups(h, 8),
-                                                            .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = gradient,
+                                         .bindings = &b,
+                                         .bindings_count = 1,
+                                         .push = push,
+                                         .push_size = 8,
+                                         .groups_x = groups(w, 8),
+                                         .groups_y = groups(h, 8),
+                                         .groups_z = 1 });
     CHECK_OK(cv_command_list_end(l));
     CHECK_OK(vkt_run(f->dev, f->list, NULL));
     CHECK_OK(cv_pipeline_destroy(f->ctx, gradient));
@@ -196,9 +225,15 @@ static void test_sample_copy(fixture *f, cv_address_mode address) {
     CHECK_OK(cv_cmdlist_begin(f->ctx, f->list, &l));
     int32_t push[2] = { ox, oy };
     cv_binding b[2] = { { .resource = cv_any(src), .sampler = sampler }, { .resource = cv_any(dst) } };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = copy, .bindings = b, .bindings_count = 2,
-                                                            .push = push, .push_size = 8, .groups_x = groups(DW, 8),
-                                                            .groups_y = groups(DH, 8), .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = copy,
+                                         .bindings = b,
+                                         .bindings_count = 2,
+                                         .push = push,
+                                         .push_size = 8,
+                                         .groups_x = groups(DW, 8),
+                                         .groups_y = groups(DH, 8),
+                                         .groups_z = 1 });
     CHECK_OK(cv_command_list_end(l));
     CHECK_OK(vkt_run(f->dev, f->list, NULL));
     CHECK_OK(cv_device_read_texture(f->dev, dst, (cv_rect){ 0, 0, DW, DH }, out));

@@ -10,8 +10,10 @@
 
 enum { TOTAL = 10000, WAVE = 500 };
 
-static const cv_format formats[] = { CV_FORMAT_RGBA8_UNORM, CV_FORMAT_RGBA16F, CV_FORMAT_RGBA32F, CV_FORMAT_R32F,
-                                     CV_FORMAT_RG16F, CV_FORMAT_R11G11B10F, CV_FORMAT_R32_UINT, CV_FORMAT_D32F };
+static const cv_format formats[] = {
+    CV_FORMAT_RGBA8_UNORM, CV_FORMAT_RGBA16F,    CV_FORMAT_RGBA32F,  CV_FORMAT_R32F,
+    CV_FORMAT_RG16F,       CV_FORMAT_R11G11B10F, CV_FORMAT_R32_UINT, CV_FORMAT_D32F
+};
 
 int main(void) {
     cv_context *ctx;
@@ -36,17 +38,21 @@ int main(void) {
             uint32_t r = seed >> 8;
             if (i % 10 < 6) {
                 cv_buffer b;
-                uint64_t size = 256ull << (r % 9);   /* 256 B .. 64 KiB */
+                uint64_t size = 256ull << (r % 9); /* 256 B .. 64 KiB */
                 if (i % 97 == 0)
-                    size = 40ull << 20;                 /* larger than half a block: its own */
+                    size = 40ull << 20; /* larger than half a block: its own */
                 CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = size }, &b));
                 wave[i] = cv_any(b);
             } else if (i % 10 < 9) {
                 cv_texture t;
                 cv_format f = formats[r % 8];
                 uint32_t usage = f == CV_FORMAT_D32F ? 0 : CV_TEXTURE_USAGE_SAMPLED | CV_TEXTURE_USAGE_STORAGE;
-                CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = 8 + r % 57, .height = 8 + (r >> 6) % 41,
-                                                                   .format = f, .usage = usage }, &t));
+                CHECK_OK(cv_texture_create(ctx,
+                                           &(cv_texture_desc){ .width = 8 + r % 57,
+                                                               .height = 8 + (r >> 6) % 41,
+                                                               .format = f,
+                                                               .usage = usage },
+                                           &t));
                 wave[i] = cv_any(t);
             } else {
                 cv_sampler s;
@@ -61,9 +67,15 @@ int main(void) {
         for (uint32_t i = 0; i < WAVE; i += 50) {
             uint32_t push[2] = { i, 64 };
             cv_binding b = { .resource = wave[i] };
-            cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = fill, .bindings = &b,
-                                                                    .bindings_count = 1, .push = push, .push_size = 8,
-                                                                    .groups_x = 1, .groups_y = 1, .groups_z = 1 });
+            cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                            &(cv_dispatch_args){ .pipeline = fill,
+                                                 .bindings = &b,
+                                                 .bindings_count = 1,
+                                                 .push = push,
+                                                 .push_size = 8,
+                                                 .groups_x = 1,
+                                                 .groups_y = 1,
+                                                 .groups_z = 1 });
         }
         CHECK_OK(cv_command_list_end(l));
         uint64_t ticket;

@@ -53,38 +53,66 @@ int main(void) {
     memcpy(&three_bits, &three, 4);
     cv_cmd_clear_buffer(l, CV_QUEUE_COPY, &(cv_clear_buffer_args){ .buffer = y, .size = 4 * N, .value = three_bits });
     /* compute: y = 2x + y; grad = gradient */
-    struct { float a; uint32_t count; } push = { 2.0f, N };
+    struct {
+        float a;
+        uint32_t count;
+    } push = { 2.0f, N };
     cv_binding xy[2] = { { .resource = cv_any(x) }, { .resource = cv_any(y) } };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = saxpy, .bindings = xy, .bindings_count = 2,
-                                                            .push = &push, .push_size = 8, .groups_x = N / 64,
-                                                            .groups_y = 1, .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = saxpy,
+                                         .bindings = xy,
+                                         .bindings_count = 2,
+                                         .push = &push,
+                                         .push_size = 8,
+                                         .groups_x = N / 64,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
     int32_t origin[2] = { 3, 5 };
     cv_binding bg = { .resource = cv_any(grad) };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = gradient, .bindings = &bg,
-                                                            .bindings_count = 1, .push = origin, .push_size = 8,
-                                                            .groups_x = W / 8, .groups_y = H / 8, .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = gradient,
+                                         .bindings = &bg,
+                                         .bindings_count = 1,
+                                         .push = origin,
+                                         .push_size = 8,
+                                         .groups_x = W / 8,
+                                         .groups_y = H / 8,
+                                         .groups_z = 1 });
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "copies" });
     /* copy: out = y; copy = grad */
     cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = y, .dst = out, .size = 4 * N });
-    cv_cmd_copy_texture(l, CV_QUEUE_COPY, &(cv_copy_texture_args){ .src = grad, .dst = copy, .width = W, .height = H });
+    cv_cmd_copy_texture(l, CV_QUEUE_COPY,
+                        &(cv_copy_texture_args){ .src = grad, .dst = copy, .width = W, .height = H });
     cv_cmd_end_marker(l, CV_QUEUE_COPY, &(cv_end_marker_args){ 0 });
     /* graphics: final = sample(grad) shifted by one texel, then a render pass loads it and draws nothing */
     int32_t offset[2] = { 1, 0 };
     cv_binding bs[2] = { { .resource = cv_any(grad), .sampler = nearest }, { .resource = cv_any(final) } };
-    cv_cmd_dispatch(l, CV_QUEUE_GRAPHICS, &(cv_dispatch_args){ .pipeline = sample_copy, .bindings = bs,
-                                                             .bindings_count = 2, .push = offset, .push_size = 8,
-                                                             .groups_x = W / 8, .groups_y = H / 8, .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_GRAPHICS,
+                    &(cv_dispatch_args){ .pipeline = sample_copy,
+                                         .bindings = bs,
+                                         .bindings_count = 2,
+                                         .push = offset,
+                                         .push_size = 8,
+                                         .groups_x = W / 8,
+                                         .groups_y = H / 8,
+                                         .groups_z = 1 });
     cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){ .color0 = final });
     cv_cmd_end_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 });
     /* compute again, after graphics: y = 2x + y once more */
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = saxpy, .bindings = xy, .bindings_count = 2,
-                                                            .push = &push, .push_size = 8, .groups_x = N / 64,
-                                                            .groups_y = 1, .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = saxpy,
+                                         .bindings = xy,
+                                         .bindings_count = 2,
+                                         .push = &push,
+                                         .push_size = 8,
+                                         .groups_x = N / 64,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
     CHECK_OK(cv_command_list_end(l));
 
     float hy[N], hout[N];
-    float (*tex)[W][4] = malloc(W * H * 16);
+    float(*tex)[W][4] = malloc(W * H * 16);
     for (int round = 0; round < 2; round++) {
         uint64_t t;
         CHECK_OK(vkt_run(dev, list, &t));
@@ -107,7 +135,7 @@ int main(void) {
         wrong = 0;
         for (uint32_t py = 0; py < H; py++)
             for (uint32_t px = 0; px < W; px++) {
-                uint32_t sx = px + 1 < W ? px + 1 : W - 1;   /* clamped */
+                uint32_t sx = px + 1 < W ? px + 1 : W - 1; /* clamped */
                 wrong += tex[py][px][0] != gradient_ref(sx + 3) || tex[py][px][1] != gradient_ref(py + 5);
             }
         CHECK_EQ_INT(wrong, 0);

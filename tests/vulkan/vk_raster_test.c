@@ -11,9 +11,11 @@
 #include "vk_test.h"
 
 enum { W = 64, H = 64 };
-#define EDGE_EPS 0.05   /* pixels; covers the rasterizer's sub-pixel snapping */
+#define EDGE_EPS 0.05 /* pixels; covers the rasterizer's sub-pixel snapping */
 
-typedef struct vec2 { double x, y; } vec2;
+typedef struct vec2 {
+    double x, y;
+} vec2;
 
 /* Clip-space positions (w = 1) of the two triangles, chosen so that no pixel
  * centre lies on an edge. */
@@ -22,9 +24,7 @@ static const float tris[2][3][4] = {
     { { -0.93f, 0.11f, 0.5f, 1.0f }, { 0.88f, 0.58f, 0.5f, 1.0f }, { 0.05f, -0.96f, 0.5f, 1.0f } },
 };
 
-static vec2 to_pixels(const float *clip) {
-    return (vec2){ (clip[0] + 1.0) * 0.5 * W, (clip[1] + 1.0) * 0.5 * H };
-}
+static vec2 to_pixels(const float *clip) { return (vec2){ (clip[0] + 1.0) * 0.5 * W, (clip[1] + 1.0) * 0.5 * H }; }
 
 /* 1 inside, 0 outside, -1 within EDGE_EPS of an edge (either is acceptable). */
 static int classify(const float tri[3][4], double px, double py) {
@@ -60,16 +60,30 @@ int main(void) {
     cv_command_list *l;
     CHECK_OK(cv_cmdlist_create(ctx, &list));
     CHECK_OK(cv_cmdlist_begin(ctx, list, &l));
-    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){
-        .color0 = color, .depth = depth, .clear = 1, .clear_b = 1.0f, .clear_a = 1.0f, .clear_depth = 1.0f });
+    cv_cmd_begin_render_pass(
+        l, CV_QUEUE_GRAPHICS,
+        &(cv_begin_render_pass_args){
+            .color0 = color, .depth = depth, .clear = 1, .clear_b = 1.0f, .clear_a = 1.0f, .clear_depth = 1.0f });
     const float green[4] = { 0, 1, 0, 1 }, red[4] = { 1, 0, 0, 1 };
     cv_binding b = { .resource = cv_any(vertices) };
-    cv_cmd_draw(l, CV_QUEUE_GRAPHICS, &(cv_draw_args){ .pipeline = triangle, .bindings = &b, .bindings_count = 1,
-                                                     .push = green, .push_size = 16, .vertex_count = 3,
-                                                     .instance_count = 1, .first_vertex = 0 });
-    cv_cmd_draw(l, CV_QUEUE_GRAPHICS, &(cv_draw_args){ .pipeline = triangle, .bindings = &b, .bindings_count = 1,
-                                                     .push = red, .push_size = 16, .vertex_count = 3,
-                                                     .instance_count = 1, .first_vertex = 3 });
+    cv_cmd_draw(l, CV_QUEUE_GRAPHICS,
+                &(cv_draw_args){ .pipeline = triangle,
+                                 .bindings = &b,
+                                 .bindings_count = 1,
+                                 .push = green,
+                                 .push_size = 16,
+                                 .vertex_count = 3,
+                                 .instance_count = 1,
+                                 .first_vertex = 0 });
+    cv_cmd_draw(l, CV_QUEUE_GRAPHICS,
+                &(cv_draw_args){ .pipeline = triangle,
+                                 .bindings = &b,
+                                 .bindings_count = 1,
+                                 .push = red,
+                                 .push_size = 16,
+                                 .vertex_count = 3,
+                                 .instance_count = 1,
+                                 .first_vertex = 3 });
     cv_cmd_end_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 });
     CHECK_OK(cv_command_list_end(l));
     CHECK_OK(vkt_run(dev, list, NULL));
@@ -96,7 +110,7 @@ int main(void) {
             sure[1] += far == 1 && near == 0;
             maybe[1] += far != 0 && near != 1;
             if (near == -1 || (near == 0 && far == -1))
-                continue;   /* an edge pixel: either result is right */
+                continue; /* an edge pixel: either result is right */
             const uint8_t *want = near == 1 ? rgba_green : far == 1 ? rgba_red : rgba_clear;
             float want_depth = near == 1 ? 0.25f : far == 1 ? 0.5f : 1.0f;
             wrong_color += memcmp(p, want, 4) != 0;
@@ -107,10 +121,10 @@ int main(void) {
     CHECK_EQ_INT(wrong_depth, 0);
     for (int t = 0; t < 2; t++) {
         CHECK(covered[t] >= sure[t] && covered[t] <= maybe[t]);
-        CHECK(sure[t] > 300);   /* the triangles are not degenerate */
+        CHECK(sure[t] > 300); /* the triangles are not degenerate */
     }
-    printf("coverage: near %d (CPU %d..%d), far visible %d (CPU %d..%d)\n", covered[0], sure[0], maybe[0],
-           covered[1], sure[1], maybe[1]);
+    printf("coverage: near %d (CPU %d..%d), far visible %d (CPU %d..%d)\n", covered[0], sure[0], maybe[0], covered[1],
+           sure[1], maybe[1]);
     cv_context_destroy(ctx);
     return vkt_report("vk_raster");
 }

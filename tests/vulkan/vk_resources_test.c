@@ -41,8 +41,10 @@ static void test_formats(cv_context *ctx, cv_device *dev) {
         uint32_t usage = depth ? CV_TEXTURE_USAGE_DEPTH_TARGET | CV_TEXTURE_USAGE_SAMPLED
                                : CV_TEXTURE_USAGE_SAMPLED | CV_TEXTURE_USAGE_STORAGE | CV_TEXTURE_USAGE_COLOR_TARGET;
         cv_texture t;
-        CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = 17, .height = 9, .format = (cv_format)f,
-                                                           .usage = usage, .label = "format" }, &t));
+        CHECK_OK(cv_texture_create(
+            ctx,
+            &(cv_texture_desc){ .width = 17, .height = 9, .format = (cv_format)f, .usage = usage, .label = "format" },
+            &t));
         cv_result r = cv_device_load(dev, cv_any(t));
         if (r != CV_OK)
             fprintf(stderr, "%s: %s\n", cv_format_name((cv_format)f), cv_last_error());
@@ -62,11 +64,14 @@ static void test_formats(cv_context *ctx, cv_device *dev) {
      * checks the adapter's format features itself and names what is missing. */
     const cv_backend *backend = cv_vulkan_backend();
     cv_resource_desc desc = { .type = CV_HANDLE_TEXTURE,
-                              .texture = { .width = 8, .height = 8, .format = CV_FORMAT_D32F,
-                                           .usage = CV_TEXTURE_USAGE_STORAGE, .label = "depth-storage" } };
+                              .texture = { .width = 8,
+                                           .height = 8,
+                                           .format = CV_FORMAT_D32F,
+                                           .usage = CV_TEXTURE_USAGE_STORAGE,
+                                           .label = "depth-storage" } };
     void *obj = NULL;
     cv_result r = backend->resource_create(cv_device_backend_data(dev), 1, &desc, NULL, &obj);
-    if (vkt_is_lavapipe() || r != CV_OK) {   /* lavapipe lacks depth storage; NVIDIA has it */
+    if (vkt_is_lavapipe() || r != CV_OK) { /* lavapipe lacks depth storage; NVIDIA has it */
         CHECK_EQ_INT(r, CV_ERROR_UNSUPPORTED);
         CHECK(strstr(cv_last_error(), "depth-storage") != NULL && strstr(cv_last_error(), "storage") != NULL);
         CHECK(obj == NULL);

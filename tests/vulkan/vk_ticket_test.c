@@ -46,11 +46,20 @@ int main(void) {
     cv_command_list *l;
     CHECK_OK(cv_cmdlist_create(ctx, &list));
     CHECK_OK(cv_cmdlist_begin(ctx, list, &l));
-    struct { float a; uint32_t count; } push = { 2.0f, N };
+    struct {
+        float a;
+        uint32_t count;
+    } push = { 2.0f, N };
     cv_binding b[2] = { { .resource = cv_any(x) }, { .resource = cv_any(y) } };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = saxpy, .bindings = b, .bindings_count = 2,
-                                                            .push = &push, .push_size = 8, .groups_x = N / 64,
-                                                            .groups_y = 1, .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = saxpy,
+                                         .bindings = b,
+                                         .bindings_count = 2,
+                                         .push = &push,
+                                         .push_size = 8,
+                                         .groups_x = N / 64,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
     CHECK_OK(cv_command_list_end(l));
 
     uint64_t tickets[REPEAT];

@@ -37,16 +37,28 @@ int main(void) {
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "frame" });
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "compute" });
     for (int i = 0; i < 4; i++)
-        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = fill, .bindings = &bb,
-                                                                .bindings_count = 1, .push = push, .push_size = 8,
-                                                                .groups_x = N / 64, .groups_y = 1, .groups_z = 1 });
+        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                        &(cv_dispatch_args){ .pipeline = fill,
+                                             .bindings = &bb,
+                                             .bindings_count = 1,
+                                             .push = push,
+                                             .push_size = 8,
+                                             .groups_x = N / 64,
+                                             .groups_y = 1,
+                                             .groups_z = 1 });
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
     cv_cmd_begin_marker(l, CV_QUEUE_GRAPHICS, &(cv_begin_marker_args){ .label = "raster" });
-    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_begin_render_pass_args){
-        .color0 = color, .depth = depth, .clear = 1, .clear_depth = 1.0f });
-    cv_cmd_draw(l, CV_QUEUE_GRAPHICS, &(cv_draw_args){ .pipeline = triangle, .bindings = &bv, .bindings_count = 1,
-                                                     .push = white, .push_size = 16, .vertex_count = 3,
-                                                     .instance_count = 1 });
+    cv_cmd_begin_render_pass(l, CV_QUEUE_GRAPHICS,
+                             &(cv_begin_render_pass_args){
+                                 .color0 = color, .depth = depth, .clear = 1, .clear_depth = 1.0f });
+    cv_cmd_draw(l, CV_QUEUE_GRAPHICS,
+                &(cv_draw_args){ .pipeline = triangle,
+                                 .bindings = &bv,
+                                 .bindings_count = 1,
+                                 .push = white,
+                                 .push_size = 16,
+                                 .vertex_count = 3,
+                                 .instance_count = 1 });
     cv_cmd_timestamp(l, CV_QUEUE_GRAPHICS, &(cv_timestamp_args){ .label = "drawn" });
     cv_cmd_end_render_pass(l, CV_QUEUE_GRAPHICS, &(cv_end_render_pass_args){ 0 });
     cv_cmd_end_marker(l, CV_QUEUE_GRAPHICS, &(cv_end_marker_args){ 0 });

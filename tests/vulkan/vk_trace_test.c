@@ -93,10 +93,14 @@ static uint32_t compare(tracer *t, const cv_ray_set *set, uint32_t flags, cv_hit
     cv_command_list *l;
     CHECK_OK(cv_cmdlist_create(t->ctx, &list));
     CHECK_OK(cv_cmdlist_begin(t->ctx, list, &l));
-    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE, &(cv_trace_rays_args){ .accel = t->accel, .rays = rays,
-                                                                .rays_offset = RAYS_OFFSET, .hits = hits,
-                                                                .hits_offset = HITS_OFFSET, .count = n,
-                                                                .flags = flags });
+    cv_cmd_trace_rays(l, CV_QUEUE_COMPUTE,
+                      &(cv_trace_rays_args){ .accel = t->accel,
+                                             .rays = rays,
+                                             .rays_offset = RAYS_OFFSET,
+                                             .hits = hits,
+                                             .hits_offset = HITS_OFFSET,
+                                             .count = n,
+                                             .flags = flags });
     CHECK_OK(cv_command_list_end(l));
     CHECK_OK(vkt_run(t->dev, list, NULL));
     CHECK_OK(cv_device_read_buffer(t->dev, hits, HITS_OFFSET, (uint64_t)n * sizeof(cv_hit), gpu_hits));

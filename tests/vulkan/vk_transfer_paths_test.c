@@ -66,7 +66,7 @@ static void texture_case(cv_context *ctx, cv_device *a, cv_device *b, cv_transfe
     uint8_t *src = malloc(size), *dst = malloc(size), *back = malloc(size);
     fill(src, size, w * 7 + h);
     fill(dst, size, w * 7 + h + 1);
-    if (format == CV_FORMAT_RGBA32F)   /* finite floats, so every bit pattern survives */
+    if (format == CV_FORMAT_RGBA32F) /* finite floats, so every bit pattern survives */
         for (size_t i = 3; i < size; i += 4)
             src[i] &= 0x3f, dst[i] &= 0x3f;
     CHECK_OK(cv_device_write_texture(a, tex, (cv_rect){ 0, 0, w, h }, src));
@@ -92,8 +92,9 @@ static void refusals(cv_context *ctx, cv_device *a, cv_device *b, cv_transfer_pa
     cv_texture tex;
     CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = N, .label = "guarded" }, &buf));
     CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = N, .label = "only on a" }, &other));
-    CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = 16, .height = 16, .format = CV_FORMAT_RGBA8_UNORM,
-                                                       .label = "guarded" }, &tex));
+    CHECK_OK(cv_texture_create(
+        ctx, &(cv_texture_desc){ .width = 16, .height = 16, .format = CV_FORMAT_RGBA8_UNORM, .label = "guarded" },
+        &tex));
     for (int i = 0; i < 2; i++) {
         cv_device *d = i ? b : a;
         CHECK_OK(cv_device_load(d, cv_any(buf)));
@@ -121,7 +122,7 @@ static void refusals(cv_context *ctx, cv_device *a, cv_device *b, cv_transfer_pa
     CHECK_RESULT(cv_transfer_texture(a, (cv_texture){ 0 }, (cv_rect){ 0, 0, 4, 4 }, b, tex, 0, 0, &st),
                  CV_ERROR_NOT_LOADED);
     CHECK_RESULT(cv_transfer_buffer(NULL, buf, 0, b, buf, 0, 4, &st), CV_ERROR_INVALID_ARGUMENT);
-    CHECK_EQ_INT(st.bytes, 12345);   /* stats untouched by a refusal */
+    CHECK_EQ_INT(st.bytes, 12345); /* stats untouched by a refusal */
     CHECK_OK(cv_device_read_buffer(b, buf, 0, N, after));
     CHECK(memcmp(after, before, N) == 0);
     CHECK_OK(cv_device_read_texture(b, tex, (cv_rect){ 0, 0, 16, 16 }, after));
@@ -203,7 +204,7 @@ static void environment(cv_context *ctx, cv_device *a, cv_device *b) {
     cv_transfer_stats st = { 0 };
     cv_transfer_path chosen;
     CHECK_OK(cv_transfer_choose_path(a, b, &chosen));
-    if (vkt_is_lavapipe())   /* lavapipe offers VK_KHR_external_memory_fd: auto shares */
+    if (vkt_is_lavapipe()) /* lavapipe offers VK_KHR_external_memory_fd: auto shares */
         CHECK_EQ_INT(chosen, CV_TRANSFER_SHARED);
     setenv("CORVID_TRANSFER_PATH", "host-import", 1);
     CHECK_OK(cv_transfer_buffer(a, buf, 0, b, buf, 0, 256, &st));

@@ -36,8 +36,9 @@ static void test_across_backends(void) {
     cv_buffer b;
     cv_texture t;
     CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 1 << 16, .label = "shared" }, &b));
-    CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = 64, .height = 32, .format = CV_FORMAT_RGBA8_UNORM,
-                                                       .label = "shared" }, &t));
+    CHECK_OK(cv_texture_create(
+        ctx, &(cv_texture_desc){ .width = 64, .height = 32, .format = CV_FORMAT_RGBA8_UNORM, .label = "shared" },
+        &t));
     cv_device *both[2] = { gpu, mock };
     for (int i = 0; i < 2; i++) {
         CHECK_OK(cv_device_load(both[i], cv_any(b)));
@@ -57,7 +58,7 @@ static void test_across_backends(void) {
     CHECK_OK(cv_transfer_texture(mock, t, (cv_rect){ 16, 0, 16, 32 }, gpu, t, 16, 0, NULL));
     CHECK_OK(cv_device_read_texture(gpu, t, (cv_rect){ 0, 0, 64, 32 }, back));
     for (int y = 0; y < 32; y++) {
-        CHECK(memcmp(back + y * 256 + 64, data + y * 256 + 64, 64) == 0);          /* the moved columns */
+        CHECK(memcmp(back + y * 256 + 64, data + y * 256 + 64, 64) == 0);           /* the moved columns */
         CHECK(memcmp(back + y * 256, data + 8192 + y * 256, 64) == 0);              /* untouched left */
         CHECK(memcmp(back + y * 256 + 128, data + 8192 + y * 256 + 128, 128) == 0); /* untouched right */
     }
@@ -83,10 +84,10 @@ int main(void) {
     cv_texture tex = { 0 }, tex2 = { 0 };
     CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 4 * N, .label = "buf" }, &buf));
     CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = W * H * 16, .label = "buf2" }, &buf2));
-    CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = W, .height = H, .format = CV_FORMAT_RGBA32F,
-                                                       .label = "frame" }, &tex));
-    CHECK_OK(cv_texture_create(ctx, &(cv_texture_desc){ .width = W, .height = H, .format = CV_FORMAT_RGBA32F,
-                                                       .label = "frame2" }, &tex2));
+    CHECK_OK(cv_texture_create(
+        ctx, &(cv_texture_desc){ .width = W, .height = H, .format = CV_FORMAT_RGBA32F, .label = "frame" }, &tex));
+    CHECK_OK(cv_texture_create(
+        ctx, &(cv_texture_desc){ .width = W, .height = H, .format = CV_FORMAT_RGBA32F, .label = "frame2" }, &tex2));
     cv_pipeline fill, gradient;
     CHECK_OK(cv_pipeline_create(ctx, "test.fill_u32", &fill));
     CHECK_OK(cv_pipeline_create(ctx, "test.gradient", &gradient));
@@ -107,12 +108,24 @@ int main(void) {
     uint32_t fill_push[2] = { 1000, N };
     int32_t origin[2] = { 0, 0 };
     cv_binding bb = { .resource = cv_any(buf) }, bt = { .resource = cv_any(tex) };
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = fill, .bindings = &bb, .bindings_count = 1,
-                                                            .push = fill_push, .push_size = 8,
-                                                            .groups_x = (N + 63) / 64, .groups_y = 1, .groups_z = 1 });
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = gradient, .bindings = &bt,
-                                                            .bindings_count = 1, .push = origin, .push_size = 8,
-                                                            .groups_x = W / 8, .groups_y = H / 8, .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = fill,
+                                         .bindings = &bb,
+                                         .bindings_count = 1,
+                                         .push = fill_push,
+                                         .push_size = 8,
+                                         .groups_x = (N + 63) / 64,
+                                         .groups_y = 1,
+                                         .groups_z = 1 });
+    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                    &(cv_dispatch_args){ .pipeline = gradient,
+                                         .bindings = &bt,
+                                         .bindings_count = 1,
+                                         .push = origin,
+                                         .push_size = 8,
+                                         .groups_x = W / 8,
+                                         .groups_y = H / 8,
+                                         .groups_z = 1 });
     CHECK_OK(cv_command_list_end(l));
     CHECK_OK(vkt_run(gpu[0], list, NULL));
     uint8_t *zero = calloc(1, W * H * 16);
@@ -129,11 +142,11 @@ int main(void) {
     CHECK_OK(cv_device_read_buffer(gpu[1], buf, 0, 4 * N, words));
     int wrong = 0;
     for (uint32_t i = 0; i < N; i++) {
-        bool moved = i >= 2000 && i < 2500;   /* bytes 8000..9999 <- source bytes 400..2399 */
+        bool moved = i >= 2000 && i < 2500; /* bytes 8000..9999 <- source bytes 400..2399 */
         wrong += words[i] != (moved ? 1000 + (i - 2000) + 100 : 0);
     }
     CHECK_EQ_INT(wrong, 0);
-    float (*frame)[W][4] = malloc(W * H * 16);
+    float(*frame)[W][4] = malloc(W * H * 16);
     CHECK_OK(cv_device_read_texture(gpu[1], tex, (cv_rect){ 0, 0, W, H }, frame));
     wrong = 0;
     for (int y = 0; y < H; y++)
@@ -150,16 +163,23 @@ int main(void) {
     CHECK_OK(cv_device_write_buffer(gpu[1], buf2, 0, W * H * 16, zero));
     CHECK_OK(cv_cmdlist_begin(ctx, list, &l));
     /* buf[0..100) <- buf[2000..2100) (words 2000.. hold the moved values) */
-    cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = buf, .src_offset = 8000, .dst = buf,
-                                                               .dst_offset = 0, .size = 400 });
+    cv_cmd_copy_buffer(l, CV_QUEUE_COPY,
+                       &(cv_copy_buffer_args){
+                           .src = buf, .src_offset = 8000, .dst = buf, .dst_offset = 0, .size = 400 });
     /* tex2 (4,2) <- tex (16,0) 24 x 20 */
-    cv_cmd_copy_texture(l, CV_QUEUE_COPY, &(cv_copy_texture_args){ .src = tex, .src_x = 16, .src_y = 0, .dst = tex2,
-                                                                 .dst_x = 4, .dst_y = 2, .width = 24, .height = 20 });
+    cv_cmd_copy_texture(
+        l, CV_QUEUE_COPY,
+        &(cv_copy_texture_args){
+            .src = tex, .src_x = 16, .src_y = 0, .dst = tex2, .dst_x = 4, .dst_y = 2, .width = 24, .height = 20 });
     /* buf2 <- tex2 rows (all of it), then tex (0, 30) <- buf2 first 10x5 texels (zeros) */
-    cv_cmd_copy_texture_to_buffer(l, CV_QUEUE_COPY, &(cv_copy_texture_to_buffer_args){
-        .src = tex2, .src_x = 0, .src_y = 0, .width = W, .height = H, .dst = buf2, .dst_offset = 0 });
-    cv_cmd_copy_buffer_to_texture(l, CV_QUEUE_COPY, &(cv_copy_buffer_to_texture_args){
-        .src = buf2, .src_offset = 0, .dst = tex, .dst_x = 20, .dst_y = 30, .width = 10, .height = 5 });
+    cv_cmd_copy_texture_to_buffer(
+        l, CV_QUEUE_COPY,
+        &(cv_copy_texture_to_buffer_args){
+            .src = tex2, .src_x = 0, .src_y = 0, .width = W, .height = H, .dst = buf2, .dst_offset = 0 });
+    cv_cmd_copy_buffer_to_texture(
+        l, CV_QUEUE_COPY,
+        &(cv_copy_buffer_to_texture_args){
+            .src = buf2, .src_offset = 0, .dst = tex, .dst_x = 20, .dst_y = 30, .width = 10, .height = 5 });
     CHECK_OK(cv_command_list_end(l));
     CHECK_OK(vkt_run(gpu[1], list, NULL));
 
@@ -168,9 +188,9 @@ int main(void) {
     for (uint32_t i = 0; i < 100; i++)
         wrong += words[i] != 1100 + i;
     CHECK_EQ_INT(wrong, 0);
-    float (*frame2)[W][4] = malloc(W * H * 16);
+    float(*frame2)[W][4] = malloc(W * H * 16);
     CHECK_OK(cv_device_read_texture(gpu[1], tex2, (cv_rect){ 0, 0, W, H }, frame2));
-    float (*staged)[W][4] = malloc(W * H * 16);
+    float(*staged)[W][4] = malloc(W * H * 16);
     CHECK_OK(cv_device_read_buffer(gpu[1], buf2, 0, W * H * 16, staged));
     CHECK(memcmp(staged, frame2, W * H * 16) == 0);
     CHECK_OK(cv_device_read_texture(gpu[1], tex, (cv_rect){ 0, 0, W, H }, frame));

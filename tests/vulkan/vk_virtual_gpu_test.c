@@ -29,41 +29,63 @@ static void *work(void *arg) {
     cv_command_list *l;
     bool ok = cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 4 * N }, &x) == CV_OK &&
               cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 4 * N }, &y) == CV_OK &&
-              cv_texture_create(ctx, &(cv_texture_desc){ .width = W, .height = H, .format = CV_FORMAT_RGBA32F,
-                                                         .usage = CV_TEXTURE_USAGE_STORAGE }, &tex) == CV_OK &&
+              cv_texture_create(ctx,
+                                &(cv_texture_desc){ .width = W,
+                                                    .height = H,
+                                                    .format = CV_FORMAT_RGBA32F,
+                                                    .usage = CV_TEXTURE_USAGE_STORAGE },
+                                &tex) == CV_OK &&
               cv_pipeline_create(ctx, "test.fill_u32", &fill) == CV_OK &&
               cv_pipeline_create(ctx, "test.saxpy", &saxpy) == CV_OK &&
-              cv_pipeline_create(ctx, "test.gradient", &gradient) == CV_OK &&
-              cv_cmdlist_create(ctx, &list) == CV_OK;
+              cv_pipeline_create(ctx, "test.gradient", &gradient) == CV_OK && cv_cmdlist_create(ctx, &list) == CV_OK;
     cv_handle handles[] = { cv_any(x), cv_any(y), cv_any(tex), cv_any(fill), cv_any(saxpy), cv_any(gradient) };
     for (size_t i = 0; ok && i < sizeof(handles) / sizeof(handles[0]); i++)
         ok = cv_device_load(w->dev, handles[i]) == CV_OK;
     float *hy = malloc(4 * N), *out = malloc(4 * N);
-    float (*texels)[W][4] = malloc(W * H * 16);
+    float(*texels)[W][4] = malloc(W * H * 16);
     for (uint32_t round = 0; ok && round < ROUNDS; round++) {
         /* x[i] = bits(1.0) + seed + i reinterpreted; y = a x + y; gradient at a per-device origin. */
         uint32_t seed = w->index * 1000 + round;
         for (int i = 0; i < N; i++)
             hy[i] = (float)(i % 37) - 18.0f;
-        ok = cv_device_write_buffer(w->dev, y, 0, 4 * N, hy) == CV_OK &&
-             cv_cmdlist_begin(ctx, list, &l) == CV_OK;
+        ok = cv_device_write_buffer(w->dev, y, 0, 4 * N, hy) == CV_OK && cv_cmdlist_begin(ctx, list, &l) == CV_OK;
         if (!ok)
             break;
         uint32_t fill_push[2] = { 0x3f800000u + seed, N };
-        struct { float a; uint32_t count; } saxpy_push = { (float)(w->index + 1), N };
+        struct {
+            float a;
+            uint32_t count;
+        } saxpy_push = { (float)(w->index + 1), N };
         int32_t origin[2] = { (int32_t)(w->index * 100 + round), -(int32_t)round };
         cv_binding bx = { .resource = cv_any(x) }, bt = { .resource = cv_any(tex) };
         cv_binding xy[2] = { { .resource = cv_any(x) }, { .resource = cv_any(y) } };
-        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = fill, .bindings = &bx,
-                                                                .bindings_count = 1, .push = fill_push, .push_size = 8,
-                                                                .groups_x = N / 64, .groups_y = 1, .groups_z = 1 });
-        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = saxpy, .bindings = xy,
-                                                                .bindings_count = 2, .push = &saxpy_push,
-                                                                .push_size = 8, .groups_x = N / 64, .groups_y = 1,
-                                                                .groups_z = 1 });
-        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE, &(cv_dispatch_args){ .pipeline = gradient, .bindings = &bt,
-                                                                .bindings_count = 1, .push = origin, .push_size = 8,
-                                                                .groups_x = W / 8, .groups_y = H / 8, .groups_z = 1 });
+        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                        &(cv_dispatch_args){ .pipeline = fill,
+                                             .bindings = &bx,
+                                             .bindings_count = 1,
+                                             .push = fill_push,
+                                             .push_size = 8,
+                                             .groups_x = N / 64,
+                                             .groups_y = 1,
+                                             .groups_z = 1 });
+        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                        &(cv_dispatch_args){ .pipeline = saxpy,
+                                             .bindings = xy,
+                                             .bindings_count = 2,
+                                             .push = &saxpy_push,
+                                             .push_size = 8,
+                                             .groups_x = N / 64,
+                                             .groups_y = 1,
+                                             .groups_z = 1 });
+        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
+                        &(cv_dispatch_args){ .pipeline = gradient,
+                                             .bindings = &bt,
+                                             .bindings_count = 1,
+                                             .push = origin,
+                                             .push_size = 8,
+                                             .groups_x = W / 8,
+                                             .groups_y = H / 8,
+                                             .groups_z = 1 });
         uint64_t t;
         ok = cv_command_list_end(l) == CV_OK && cv_device_submit(w->dev, list, &t) == CV_OK &&
              cv_device_wait(w->dev, t, UINT64_MAX) == CV_OK &&

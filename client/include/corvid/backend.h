@@ -37,40 +37,39 @@
 
 #include "corvid/device.h"
 
-typedef struct cv_backend_device cv_backend_device;   /* each backend's own */
+typedef struct cv_backend_device cv_backend_device; /* each backend's own */
 
 /* What a device offers for cross-device links (backend.h contract above). */
 typedef struct cv_link_caps {
-    uint8_t driver_uuid[16], device_uuid[16];   /* equal on both devices = one adapter, one driver */
-    bool shared_memory;            /* can export and import memory as opaque file descriptors */
-    bool host_import;              /* can import host allocations */
-    uint64_t host_alignment;       /* host_import: required alignment of pointer and size */
-    char shared_missing[64];       /* !shared_memory: what the device lacks (an extension name) */
-    char host_missing[64];         /* !host_import: likewise */
+    uint8_t driver_uuid[16], device_uuid[16]; /* equal on both devices = one adapter, one driver */
+    bool shared_memory;                       /* can export and import memory as opaque file descriptors */
+    bool host_import;                         /* can import host allocations */
+    uint64_t host_alignment;                  /* host_import: required alignment of pointer and size */
+    char shared_missing[64];                  /* !shared_memory: what the device lacks (an extension name) */
+    char host_missing[64];                    /* !host_import: likewise */
 } cv_link_caps;
 
 typedef enum cv_staging_kind {
-    CV_STAGING_EXPORT = 1,         /* device memory of this device, exported: fd gets a new descriptor */
-    CV_STAGING_IMPORT = 2,         /* the memory another device exported (fd, key, memory_type, allocation_size) */
-    CV_STAGING_HOST = 3,           /* the host allocation at `host` (page-aligned, host_alignment multiples) */
+    CV_STAGING_EXPORT = 1, /* device memory of this device, exported: fd gets a new descriptor */
+    CV_STAGING_IMPORT = 2, /* the memory another device exported (fd, key, memory_type, allocation_size) */
+    CV_STAGING_HOST = 3,   /* the host allocation at `host` (page-aligned, host_alignment multiples) */
 } cv_staging_kind;
 
 typedef struct cv_staging_desc {
     cv_staging_kind kind;
-    uint64_t size;                 /* bytes usable for copies */
-    uint64_t key;                  /* process-unique name of the memory; EXPORT sets it, IMPORT/HOST pass it */
-    int fd;                        /* EXPORT: out, the caller closes it. IMPORT: in; set to -1 when the
+    uint64_t size;            /* bytes usable for copies */
+    uint64_t key;             /* process-unique name of the memory; EXPORT sets it, IMPORT/HOST pass it */
+    int fd;                   /* EXPORT: out, the caller closes it. IMPORT: in; set to -1 when the
                                       backend took ownership (else the caller closes it) */
-    void *host;                    /* HOST: the allocation */
-    uint32_t memory_type;          /* EXPORT: out; IMPORT: in (backend facts passed back unchanged) */
-    uint64_t allocation_size;      /* likewise */
+    void *host;               /* HOST: the allocation */
+    uint32_t memory_type;     /* EXPORT: out; IMPORT: in (backend facts passed back unchanged) */
+    uint64_t allocation_size; /* likewise */
 } cv_staging_desc;
 
 struct cv_backend {
     const char *name;
-    bool orders_host_access;   /* reads/writes are ordered after earlier submissions by the backend */
-    cv_result (*device_create)(const cv_device_desc *desc, cv_device_info *info,
-                               cv_backend_device **out);
+    bool orders_host_access; /* reads/writes are ordered after earlier submissions by the backend */
+    cv_result (*device_create)(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out);
     void (*device_destroy)(cv_backend_device *bd);
 
     /* Creates the device object for a buffer, texture, sampler, pipeline or accel
@@ -79,16 +78,13 @@ struct cv_backend {
                                  const cv_pipeline_info *pipeline, void **out_obj);
     void (*resource_destroy)(cv_backend_device *bd, cv_handle_type type, void *obj);
 
-    cv_result (*buffer_write)(cv_backend_device *bd, void *buf, uint64_t offset, uint64_t size,
-                              const void *data);
-    cv_result (*buffer_read)(cv_backend_device *bd, void *buf, uint64_t offset, uint64_t size,
-                             void *out);
-    cv_result (*texture_write)(cv_backend_device *bd, void *tex, const cv_texture_desc *desc,
-                               cv_rect rect, const void *data);
-    cv_result (*texture_read)(cv_backend_device *bd, void *tex, const cv_texture_desc *desc,
-                              cv_rect rect, void *out);
-    cv_result (*accel_write)(cv_backend_device *bd, void *accel, const cv_accel_desc *desc,
-                             const void *nodes, const void *triangles);
+    cv_result (*buffer_write)(cv_backend_device *bd, void *buf, uint64_t offset, uint64_t size, const void *data);
+    cv_result (*buffer_read)(cv_backend_device *bd, void *buf, uint64_t offset, uint64_t size, void *out);
+    cv_result (*texture_write)(cv_backend_device *bd, void *tex, const cv_texture_desc *desc, cv_rect rect,
+                               const void *data);
+    cv_result (*texture_read)(cv_backend_device *bd, void *tex, const cv_texture_desc *desc, cv_rect rect, void *out);
+    cv_result (*accel_write)(cv_backend_device *bd, void *accel, const cv_accel_desc *desc, const void *nodes,
+                             const void *triangles);
 
     cv_result (*list_compile)(cv_backend_device *bd, cv_device *dev, const cv_command_list *list,
                               void **out_compiled);
@@ -97,8 +93,8 @@ struct cv_backend {
     cv_result (*wait)(cv_backend_device *bd, uint64_t ticket, uint64_t timeout_ns);
     uint64_t (*completed)(cv_backend_device *bd);
     /* Timings of the latest finished submission of `compiled` (may be NULL: none). */
-    cv_result (*timings)(cv_backend_device *bd, void *compiled, cv_pass_timing *out,
-                         uint32_t capacity, uint32_t *count);
+    cv_result (*timings)(cv_backend_device *bd, void *compiled, cv_pass_timing *out, uint32_t capacity,
+                         uint32_t *count);
 
     /* Cross-device links (optional, NULL = staged transfers only). */
     void (*link_caps)(cv_backend_device *bd, cv_link_caps *out);
@@ -111,12 +107,12 @@ struct cv_backend {
 
 /* A device's representation of one handle. */
 typedef struct cv_device_resource {
-    uint64_t id;                        /* 0 = slot not loaded */
+    uint64_t id; /* 0 = slot not loaded */
     cv_resource_desc desc;
-    const cv_pipeline_info *pipeline;   /* pipelines only */
-    void *obj;                          /* the backend's object */
-    uint64_t last_use;                  /* ticket of the last submission using it */
-    bool ready;                         /* accels: data written, can be traced */
+    const cv_pipeline_info *pipeline; /* pipelines only */
+    void *obj;                        /* the backend's object */
+    uint64_t last_use;                /* ticket of the last submission using it */
+    bool ready;                       /* accels: data written, can be traced */
 } cv_device_resource;
 
 /* The loaded representation of id on dev, or NULL (not loaded, stale, wrong id).

@@ -22,14 +22,16 @@
 #include "corvid/result.h"
 
 /* A slice of a list's side arrays: bytes in `data` or entries in `bindings`. */
-typedef struct cv_span { uint32_t offset, size; } cv_span;
+typedef struct cv_span {
+    uint32_t offset, size;
+} cv_span;
 
 /* One resource bound to a pipeline slot. Slot i of a command binds bindings[i]. */
 typedef struct cv_binding {
-    cv_handle resource;  /* buffer or texture */
-    cv_sampler sampler;  /* sampled textures only */
-    uint64_t offset;     /* buffers: byte offset */
-    uint64_t range;      /* buffers: bytes, 0 = to the end */
+    cv_handle resource; /* buffer or texture */
+    cv_sampler sampler; /* sampled textures only */
+    uint64_t offset;    /* buffers: byte offset */
+    uint64_t range;     /* buffers: bytes, 0 = to the end */
 } cv_binding;
 
 /* Storage form of each field type (inside a recorded list). */
@@ -55,18 +57,26 @@ typedef struct cv_binding {
 #define CV_ARG_PIPELINE(n) cv_pipeline n;
 #define CV_ARG_ACCEL(n) cv_accel n;
 #define CV_ARG_ANY(n) cv_handle n;
-#define CV_ARG_BYTES(n) const void *n; uint32_t n##_size;
+#define CV_ARG_BYTES(n) \
+    const void *n; \
+    uint32_t n##_size;
 #define CV_ARG_STRING(n) const char *n;
-#define CV_ARG_BINDINGS(n) const cv_binding *n; uint32_t n##_count;
+#define CV_ARG_BINDINGS(n) \
+    const cv_binding *n; \
+    uint32_t n##_count;
 
 #define CV_STORE_FIELD(num, TYPE, name) CV_STORE_##TYPE(name)
 #define CV_ARG_FIELD(num, TYPE, name) CV_ARG_##TYPE(name)
 
 /* cv_<lower>_cmd (stored) and cv_<lower>_args (recording arguments). The
  * `unused` member keeps field-less commands valid C. */
-#define CV_CMD_STRUCTS(id, UPPER, lower, Camel, queues)                       \
-    typedef struct cv_##lower##_cmd { CV_FIELDS_##lower(CV_STORE_FIELD) uint8_t unused; } cv_##lower##_cmd; \
-    typedef struct cv_##lower##_args { CV_FIELDS_##lower(CV_ARG_FIELD) uint8_t unused; } cv_##lower##_args;
+#define CV_CMD_STRUCTS(id, UPPER, lower, Camel, queues) \
+    typedef struct cv_##lower##_cmd { \
+        CV_FIELDS_##lower(CV_STORE_FIELD) uint8_t unused; \
+    } cv_##lower##_cmd; \
+    typedef struct cv_##lower##_args { \
+        CV_FIELDS_##lower(CV_ARG_FIELD) uint8_t unused; \
+    } cv_##lower##_args;
 CV_COMMAND_TABLE(CV_CMD_STRUCTS)
 #undef CV_CMD_STRUCTS
 
@@ -84,20 +94,20 @@ typedef struct cv_command {
 #define CV_MAX_LIST_DATA (64u << 20)
 
 typedef struct cv_command_list {
-    uint64_t id;               /* the cv_cmdlist handle, 0 for a free-standing list */
+    uint64_t id; /* the cv_cmdlist handle, 0 for a free-standing list */
     cv_command *commands;
     uint32_t count, capacity;
     cv_binding *bindings;
     uint32_t binding_count, binding_capacity;
     uint8_t *data;
     uint32_t data_size, data_capacity;
-    uint32_t queue_mask;       /* CV_QUEUE_BIT_* of every recorded command */
-    uint32_t version;          /* bumps on every begin; compiled forms key on it */
+    uint32_t queue_mask; /* CV_QUEUE_BIT_* of every recorded command */
+    uint32_t version;    /* bumps on every begin; compiled forms key on it */
     bool recording;
-    bool ended_ok;             /* ended without error: may be compiled and submitted */
+    bool ended_ok; /* ended without error: may be compiled and submitted */
     int32_t render_pass_open;
     int32_t marker_depth;
-    cv_result error;           /* sticky first error */
+    cv_result error; /* sticky first error */
     char error_message[256];
 } cv_command_list;
 
@@ -129,8 +139,7 @@ void cv_list_string(const cv_command_list *l, cv_span s, char *buf, size_t cap);
 /* Calls fn for every non-zero handle a stored command references (handle
  * fields, bound resources and samplers), in field order. */
 typedef void (*cv_handle_visitor)(uint64_t id, void *user);
-void cv_command_visit_handles(const cv_command_list *list, const cv_command *cmd, cv_handle_visitor fn,
-                              void *user);
+void cv_command_visit_handles(const cv_command_list *list, const cv_command *cmd, cv_handle_visitor fn, void *user);
 
 /* Replaces every non-zero handle a stored command references (the same ones,
  * in the same order, as cv_command_visit_handles) with fn's answer. Used to

@@ -120,7 +120,7 @@ typedef enum cv_command_type {
 } cv_command_type;
 /* clang-format on */
 
-const char *cv_command_name(cv_command_type t);   /* "dispatch", ... or "unknown" */
-uint32_t cv_command_queues(cv_command_type t);    /* allowed queue bits, 0 if unknown */
+const char *cv_command_name(cv_command_type t); /* "dispatch", ... or "unknown" */
+uint32_t cv_command_queues(cv_command_type t);  /* allowed queue bits, 0 if unknown */
 
 #endif

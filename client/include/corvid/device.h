@@ -24,24 +24,24 @@ typedef struct cv_device_desc {
     /* Which adapter: "" or NULL = the backend's default; a decimal index ("1"); or a
      * case-insensitive substring of the adapter name ("llvmpipe", "H100"). */
     const char *adapter;
-    bool validation;               /* enable API validation where the backend has it */
-    char label[CV_LABEL_MAX];      /* e.g. "gpu0"; shown in messages */
-    const char *endpoint;          /* proxy backend: "host:port" of a corvid-node */
+    bool validation;          /* enable API validation where the backend has it */
+    char label[CV_LABEL_MAX]; /* e.g. "gpu0"; shown in messages */
+    const char *endpoint;     /* proxy backend: "host:port" of a corvid-node */
 } cv_device_desc;
 
 typedef struct cv_device_info {
-    char name[256];                /* adapter name */
-    char backend[16];              /* "vulkan", "mock", "proxy" */
+    char name[256];   /* adapter name */
+    char backend[16]; /* "vulkan", "mock", "proxy" */
     char driver[128];
-    uint32_t adapter_index;        /* index among the backend's adapters */
+    uint32_t adapter_index; /* index among the backend's adapters */
     uint32_t vendor_id, device_id;
-    bool separate_compute_queue;   /* a compute-only queue family is used */
-    bool separate_copy_queue;      /* a transfer-only queue family is used */
-    bool ray_tracing_pipeline;     /* VK_KHR_ray_tracing_pipeline available */
-    char trace_path[16];           /* path trace_rays uses: "compute", "pipeline", "none" */
-    bool gpu_timestamps;           /* pass timings come from the GPU */
+    bool separate_compute_queue; /* a compute-only queue family is used */
+    bool separate_copy_queue;    /* a transfer-only queue family is used */
+    bool ray_tracing_pipeline;   /* VK_KHR_ray_tracing_pipeline available */
+    char trace_path[16];         /* path trace_rays uses: "compute", "pipeline", "none" */
+    bool gpu_timestamps;         /* pass timings come from the GPU */
     uint64_t max_storage_buffer_range;
-    uint32_t max_dispatch[3];      /* workgroup count limits */
+    uint32_t max_dispatch[3]; /* workgroup count limits */
 } cv_device_info;
 
 /* Pass timing: the region between a begin_marker and its end_marker, or a
@@ -52,8 +52,7 @@ typedef struct cv_pass_timing {
     double duration_ms;
 } cv_pass_timing;
 
-cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc,
-                           cv_device **out);
+cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc, cv_device **out);
 /* Waits for the device's work, releases everything it holds, detaches it. */
 void cv_device_destroy(cv_device *dev);
 const cv_device_info *cv_device_get_info(const cv_device *dev);
@@ -73,10 +72,8 @@ uint32_t cv_device_loaded_count(cv_device *dev);
 /* Host <-> device data. Writes wait for submitted work that uses the resource;
  * reads wait for it to finish, so they see its results. Texture data is tightly
  * packed rows of rect.width texels. */
-cv_result cv_device_write_buffer(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size,
-                                 const void *data);
-cv_result cv_device_read_buffer(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size,
-                                void *out);
+cv_result cv_device_write_buffer(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, const void *data);
+cv_result cv_device_read_buffer(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, void *out);
 cv_result cv_device_write_texture(cv_device *dev, cv_texture t, cv_rect rect, const void *data);
 cv_result cv_device_read_texture(cv_device *dev, cv_texture t, cv_rect rect, void *out);
 
@@ -93,8 +90,7 @@ cv_result cv_device_submit(cv_device *dev, cv_cmdlist list, uint64_t *ticket);
 cv_result cv_device_wait(cv_device *dev, uint64_t ticket, uint64_t timeout_ns);
 cv_result cv_device_wait_idle(cv_device *dev);
 /* Pass timings of a finished submission (the latest submission of its list). */
-cv_result cv_device_timings(cv_device *dev, uint64_t ticket, cv_pass_timing *out, uint32_t capacity,
-                            uint32_t *count);
+cv_result cv_device_timings(cv_device *dev, uint64_t ticket, cv_pass_timing *out, uint32_t capacity, uint32_t *count);
 
 /* Built-in backends. */
 const cv_backend *cv_mock_backend(void);

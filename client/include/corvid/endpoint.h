@@ -19,12 +19,12 @@
 #include "corvid/result.h"
 
 #define CV_MAX_NODES 16u
-#define CV_ENDPOINT_HOST_MAX 253u   /* the longest DNS name */
+#define CV_ENDPOINT_HOST_MAX 253u /* the longest DNS name */
 
 typedef struct cv_endpoint {
-    char host[CV_ENDPOINT_HOST_MAX + 3];   /* as written, brackets of IPv6 included */
+    char host[CV_ENDPOINT_HOST_MAX + 3]; /* as written, brackets of IPv6 included */
     uint16_t port;
-    char text[CV_ENDPOINT_HOST_MAX + 10];  /* "host:port", what gRPC is given */
+    char text[CV_ENDPOINT_HOST_MAX + 10]; /* "host:port", what gRPC is given */
 } cv_endpoint;
 
 /* Parses one "host:port". `what` names the option in messages. */

@@ -72,8 +72,12 @@
 typedef struct cv_graph cv_graph;
 
 /* Handles within one graph; 0 is invalid. */
-typedef struct cv_graph_resource { uint32_t id; } cv_graph_resource;
-typedef struct cv_graph_pass { uint32_t id; } cv_graph_pass;
+typedef struct cv_graph_resource {
+    uint32_t id;
+} cv_graph_resource;
+typedef struct cv_graph_pass {
+    uint32_t id;
+} cv_graph_pass;
 
 #define CV_GRAPH_MAX_PASSES 1024u
 #define CV_GRAPH_MAX_RESOURCES 1024u
@@ -83,12 +87,12 @@ typedef struct cv_graph_pass { uint32_t id; } cv_graph_pass;
 /* How a pass uses a resource. The first four write, the others read; a
  * read-modify-write is declared as both a read and a write. */
 typedef enum cv_graph_access {
-    CV_GRAPH_COLOR_TARGET = 0,  /* textures */
-    CV_GRAPH_DEPTH_TARGET,      /* depth textures */
+    CV_GRAPH_COLOR_TARGET = 0, /* textures */
+    CV_GRAPH_DEPTH_TARGET,     /* depth textures */
     CV_GRAPH_STORAGE_WRITE,
     CV_GRAPH_TRANSFER_DST,
     CV_GRAPH_STORAGE_READ,
-    CV_GRAPH_SAMPLED,           /* textures */
+    CV_GRAPH_SAMPLED, /* textures */
     CV_GRAPH_TRANSFER_SRC,
     CV_GRAPH_ACCESS_COUNT
 } cv_graph_access;
@@ -102,12 +106,12 @@ typedef enum cv_graph_transfer {
 } cv_graph_transfer;
 
 typedef struct cv_graph_pass_context {
-    const char *name;          /* the pass's name */
-    cv_queue_type queue;       /* record on this queue */
-    uint32_t x, width;         /* the pass's column window */
-    uint32_t full_width;       /* the bake's width */
-    bool history_valid;        /* history reads hold the previous frame (false on the first) */
-    const void *instance;      /* the graph's, for cv_graph_texture/cv_graph_buffer */
+    const char *name;     /* the pass's name */
+    cv_queue_type queue;  /* record on this queue */
+    uint32_t x, width;    /* the pass's column window */
+    uint32_t full_width;  /* the bake's width */
+    bool history_valid;   /* history reads hold the previous frame (false on the first) */
+    const void *instance; /* the graph's, for cv_graph_texture/cv_graph_buffer */
 } cv_graph_pass_context;
 
 /* The record callback of a pass: records the pass's commands for one device
@@ -116,7 +120,7 @@ typedef struct cv_graph_pass_context {
 typedef void (*cv_graph_record_fn)(const cv_graph_pass_context *pc, cv_command_list *list, void *user);
 
 typedef struct cv_graph_pass_desc {
-    const char *name;          /* 1..CV_LABEL_MAX-1 bytes, unique in the graph */
+    const char *name; /* 1..CV_LABEL_MAX-1 bytes, unique in the graph */
     cv_queue_type queue;
     cv_mgpu_policy policy;
     cv_graph_record_fn record;
@@ -168,18 +172,18 @@ cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy p
                                  cv_graph_resource dst, cv_graph_pass *out);
 
 typedef struct cv_graph_bake_desc {
-    uint32_t width;                 /* columns of the X axis ALL_DEVICES passes split, > 0 */
-    uint32_t tile;                  /* window starts are multiples of it; 0 = 8 */
-    const cv_partition *partition;  /* NULL: the graph's balancer splits the width */
+    uint32_t width;                /* columns of the X axis ALL_DEVICES passes split, > 0 */
+    uint32_t tile;                 /* window starts are multiples of it; 0 = 8 */
+    const cv_partition *partition; /* NULL: the graph's balancer splits the width */
 } cv_graph_bake_desc;
 
 cv_result cv_graph_bake(cv_graph *g, const cv_graph_bake_desc *desc);
 
 /* What a bake decided, for tests and tools (valid until the next bake). */
 typedef struct cv_graph_stats {
-    uint32_t passes, culled, steps, transfers, copies;  /* copies: device-to-device copies of all transfers */
+    uint32_t passes, culled, steps, transfers, copies; /* copies: device-to-device copies of all transfers */
     uint32_t barriers;
-    uint32_t transients, physical;  /* transient resources, and the resources holding them */
+    uint32_t transients, physical; /* transient resources, and the resources holding them */
 } cv_graph_stats;
 cv_result cv_graph_get_stats(const cv_graph *g, cv_graph_stats *out);
 /* The partition of the last bake. */
@@ -190,10 +194,10 @@ bool cv_graph_pass_kept(const cv_graph *g, cv_graph_pass p);
 int32_t cv_graph_physical_of(const cv_graph *g, cv_graph_resource r);
 
 typedef struct cv_graph_timing {
-    char name[CV_LABEL_MAX];   /* pass name, or "transfer '<resource>'" */
-    uint32_t device;           /* device index (a transfer: its source) */
+    char name[CV_LABEL_MAX]; /* pass name, or "transfer '<resource>'" */
+    uint32_t device;         /* device index (a transfer: its source) */
     double ms;
-    uint64_t bytes;            /* a transfer: bytes moved between devices */
+    uint64_t bytes; /* a transfer: bytes moved between devices */
 } cv_graph_timing;
 
 /* Records, submits, transfers and waits; one timing per pass instance and per

@@ -50,17 +50,31 @@ typedef enum cv_handle_type {
 } cv_handle_type;
 _Static_assert(CV_HANDLE_TYPE_COUNT <= 16, "the handle's type field has 4 bits");
 
-typedef struct cv_handle { uint64_t id; } cv_handle;     /* any type, checked at run time */
-typedef struct cv_buffer { uint64_t id; } cv_buffer;
-typedef struct cv_texture { uint64_t id; } cv_texture;
-typedef struct cv_sampler { uint64_t id; } cv_sampler;
-typedef struct cv_pipeline { uint64_t id; } cv_pipeline;
-typedef struct cv_cmdlist { uint64_t id; } cv_cmdlist;
-typedef struct cv_accel { uint64_t id; } cv_accel;       /* acceleration structure for tracing rays */
+typedef struct cv_handle {
+    uint64_t id;
+} cv_handle; /* any type, checked at run time */
+typedef struct cv_buffer {
+    uint64_t id;
+} cv_buffer;
+typedef struct cv_texture {
+    uint64_t id;
+} cv_texture;
+typedef struct cv_sampler {
+    uint64_t id;
+} cv_sampler;
+typedef struct cv_pipeline {
+    uint64_t id;
+} cv_pipeline;
+typedef struct cv_cmdlist {
+    uint64_t id;
+} cv_cmdlist;
+typedef struct cv_accel {
+    uint64_t id;
+} cv_accel; /* acceleration structure for tracing rays */
 
 #define CV_HANDLE_INDEX_BITS 24u
 #define CV_HANDLE_GENERATION_BITS 24u
-#define CV_HANDLE_TAG_BITS 12u   /* a node holds a context per session: thousands at once */
+#define CV_HANDLE_TAG_BITS 12u /* a node holds a context per session: thousands at once */
 #define CV_HANDLE_INDEX_MAX ((1u << CV_HANDLE_INDEX_BITS) - 1u)
 #define CV_HANDLE_GENERATION_MAX ((1u << CV_HANDLE_GENERATION_BITS) - 1u)
 #define CV_HANDLE_TAG_MAX ((1u << CV_HANDLE_TAG_BITS) - 1u)
@@ -71,18 +85,19 @@ static inline uint64_t cv_handle_pack(cv_handle_type type, uint32_t tag, uint32_
 }
 static inline cv_handle_type cv_handle_type_of(uint64_t id) { return (cv_handle_type)(id >> 60); }
 static inline uint32_t cv_handle_tag(uint64_t id) { return (uint32_t)(id >> 48) & CV_HANDLE_TAG_MAX; }
-static inline uint32_t cv_handle_generation(uint64_t id) {
-    return (uint32_t)(id >> 24) & CV_HANDLE_GENERATION_MAX;
-}
+static inline uint32_t cv_handle_generation(uint64_t id) { return (uint32_t)(id >> 24) & CV_HANDLE_GENERATION_MAX; }
 static inline uint32_t cv_handle_index(uint64_t id) { return (uint32_t)id & CV_HANDLE_INDEX_MAX; }
 
 /* Converts any typed handle to the untyped cv_handle (compile error for other types). */
-#define cv_any(h) _Generic((h),                                     \
-    cv_handle: (h),                                                 \
-    cv_buffer: (cv_handle){ (h).id }, cv_texture: (cv_handle){ (h).id }, \
-    cv_sampler: (cv_handle){ (h).id }, cv_pipeline: (cv_handle){ (h).id }, \
-    cv_cmdlist: (cv_handle){ (h).id }, \
-    cv_accel: (cv_handle){ (h).id })
+#define cv_any(h) \
+    _Generic((h), cv_handle \
+             : (h), cv_buffer \
+             : (cv_handle){ (h).id }, cv_texture \
+             : (cv_handle){ (h).id }, cv_sampler \
+             : (cv_handle){ (h).id }, cv_pipeline \
+             : (cv_handle){ (h).id }, cv_cmdlist \
+             : (cv_handle){ (h).id }, cv_accel \
+             : (cv_handle){ (h).id })
 
 /* "buffer", "texture", ... ("none" for 0, "invalid" for an unknown tag). */
 const char *cv_handle_type_name(cv_handle_type type);

@@ -28,15 +28,15 @@
 
 typedef struct cv_handle_pool {
     cv_handle_type type;
-    uint32_t tag;           /* context tag of every handle it makes, 1..CV_HANDLE_TAG_MAX */
-    uint32_t capacity;      /* the most slots it may hold */
-    uint32_t live;          /* allocated and not yet freed */
-    uint32_t used;          /* slots [0, used) have been handed out at least once */
-    uint32_t retired;       /* slots whose generations are used up, never handed out again */
-    size_t data_size;       /* caller's bytes per slot */
-    size_t stride;          /* bytes per slot in a chunk */
+    uint32_t tag;      /* context tag of every handle it makes, 1..CV_HANDLE_TAG_MAX */
+    uint32_t capacity; /* the most slots it may hold */
+    uint32_t live;     /* allocated and not yet freed */
+    uint32_t used;     /* slots [0, used) have been handed out at least once */
+    uint32_t retired;  /* slots whose generations are used up, never handed out again */
+    size_t data_size;  /* caller's bytes per slot */
+    size_t stride;     /* bytes per slot in a chunk */
     unsigned char *chunks[CV_HANDLE_POOL_CHUNKS];
-    uint32_t *free_slots;   /* stack of freed slot indices, room for every existing slot */
+    uint32_t *free_slots; /* stack of freed slot indices, room for every existing slot */
     uint32_t free_count;
 } cv_handle_pool;
 

@@ -18,23 +18,23 @@ typedef enum cv_pipeline_kind {
 } cv_pipeline_kind;
 
 typedef enum cv_binding_kind {
-    CV_BINDING_STORAGE_BUFFER = 0,   /* 'b' */
-    CV_BINDING_UNIFORM_BUFFER = 1,   /* 'u' */
-    CV_BINDING_STORAGE_TEXTURE = 2,  /* 'i' */
-    CV_BINDING_SAMPLED_TEXTURE = 3,  /* 't': texture + sampler */
+    CV_BINDING_STORAGE_BUFFER = 0,  /* 'b' */
+    CV_BINDING_UNIFORM_BUFFER = 1,  /* 'u' */
+    CV_BINDING_STORAGE_TEXTURE = 2, /* 'i' */
+    CV_BINDING_SAMPLED_TEXTURE = 3, /* 't': texture + sampler */
 } cv_binding_kind;
 
 typedef struct cv_pipeline_info {
     const char *name;
     cv_pipeline_kind kind;
-    uint32_t local_size[3];          /* compute only */
-    uint32_t push_constant_size;     /* bytes a command must supply, exactly */
+    uint32_t local_size[3];      /* compute only */
+    uint32_t push_constant_size; /* bytes a command must supply, exactly */
     uint32_t binding_count;
     cv_binding_kind bindings[CV_MAX_BINDINGS];
-    uint32_t color_count;            /* graphics only */
+    uint32_t color_count; /* graphics only */
     cv_format color_formats[CV_MAX_COLOR_TARGETS];
-    cv_format depth_format;          /* graphics only; UNDEFINED = no depth */
-    const char *compute_shader;      /* file names in shaders/, extension included; NULL where unused */
+    cv_format depth_format;     /* graphics only; UNDEFINED = no depth */
+    const char *compute_shader; /* file names in shaders/, extension included; NULL where unused */
     const char *vertex_shader;
     const char *fragment_shader;
 } cv_pipeline_info;

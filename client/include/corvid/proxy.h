@@ -31,10 +31,10 @@ const cv_backend *cv_proxy_backend(void);
 /* Traffic of one proxy device's session. */
 typedef struct cv_proxy_stats {
     uint64_t messages_sent, bytes_sent, bytes_received;
-    uint64_t upload_bytes_sent;      /* content-addressed data actually sent */
-    uint64_t upload_bytes_skipped;   /* ... that the node had already */
-    uint64_t round_trips;            /* requests that waited for an answer */
-    uint64_t blocking_waits;         /* waits for a ticket the node had not yet reported finished:
+    uint64_t upload_bytes_sent;    /* content-addressed data actually sent */
+    uint64_t upload_bytes_skipped; /* ... that the node had already */
+    uint64_t round_trips;          /* requests that waited for an answer */
+    uint64_t blocking_waits;       /* waits for a ticket the node had not yet reported finished:
                                         each costs at least the node's latency, like a round trip */
 } cv_proxy_stats;
 

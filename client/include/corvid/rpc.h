@@ -62,15 +62,15 @@
 #include <stdint.h>
 #include "corvid/result.h"
 
-typedef struct cv_rpc_client cv_rpc_client;   /* one channel to "host:port" */
+typedef struct cv_rpc_client cv_rpc_client; /* one channel to "host:port" */
 typedef struct cv_rpc_server cv_rpc_server;
-typedef struct cv_rpc_stream cv_rpc_stream;   /* one bidirectional-streaming call, either side */
+typedef struct cv_rpc_stream cv_rpc_stream; /* one bidirectional-streaming call, either side */
 
 /* Bounds of the stream machinery. */
-#define CV_RPC_RECV_QUEUE_MAX 4u              /* received messages buffered before we stop reading */
-#define CV_RPC_SEND_QUEUE_BYTES (64u << 20)   /* queued send bytes above which send() blocks */
+#define CV_RPC_RECV_QUEUE_MAX 4u            /* received messages buffered before we stop reading */
+#define CV_RPC_SEND_QUEUE_BYTES (64u << 20) /* queued send bytes above which send() blocks */
 #define CV_RPC_DEFAULT_MAX_MESSAGE (16u << 20)
-#define CV_RPC_MAX_UNARY_CALLS 64u            /* concurrent unary calls a server runs; more: RESOURCE_EXHAUSTED */
+#define CV_RPC_MAX_UNARY_CALLS 64u /* concurrent unary calls a server runs; more: RESOURCE_EXHAUSTED */
 #define CV_RPC_FOREVER UINT32_MAX
 
 /* gRPC status codes, as the wire carries them (grpc_status_code). */
@@ -89,23 +89,23 @@ enum {
 };
 
 typedef struct cv_rpc_metadata {
-    const char *key, *value;   /* key: lowercase [0-9a-z_.-]; value: printable ASCII (no "-bin" keys) */
+    const char *key, *value; /* key: lowercase [0-9a-z_.-]; value: printable ASCII (no "-bin" keys) */
 } cv_rpc_metadata;
 
 /* ---- client ---- */
 
 typedef struct cv_rpc_client_config {
-    uint32_t max_message_bytes;       /* receive and send limit; 0 = 16 MiB */
-    uint32_t keepalive_ms;            /* 0 = 10000: ping interval, so a dead peer is noticed */
-    uint32_t keepalive_timeout_ms;    /* 0 = 5000 */
-    uint32_t connect_timeout_ms;      /* 0 = 5000: how long one connection attempt may take; calls made while
+    uint32_t max_message_bytes;    /* receive and send limit; 0 = 16 MiB */
+    uint32_t keepalive_ms;         /* 0 = 10000: ping interval, so a dead peer is noticed */
+    uint32_t keepalive_timeout_ms; /* 0 = 5000 */
+    uint32_t connect_timeout_ms;   /* 0 = 5000: how long one connection attempt may take; calls made while
                                          the node cannot be reached fail with CV_ERROR_CONNECTION (UNAVAILABLE)
                                          once the attempt failed, they do not wait for the node to come up */
-    const char *bearer_token;         /* NULL = none; else sent as "authorization: Bearer <token>" on every call
+    const char *bearer_token;      /* NULL = none; else sent as "authorization: Bearer <token>" on every call
                                          (printable ASCII, no spaces; copied) */
-    const char *tls_ca_file;          /* NULL = plaintext; else TLS, trusting the PEM CA certificates in this file
+    const char *tls_ca_file;       /* NULL = plaintext; else TLS, trusting the PEM CA certificates in this file
                                          (the server's certificate must name the target's host: SAN) */
-    const char *tls_cert_file;        /* with tls_key_file: a client certificate (PEM) for mutual TLS */
+    const char *tls_cert_file;     /* with tls_key_file: a client certificate (PEM) for mutual TLS */
     const char *tls_key_file;
 } cv_rpc_client_config;
 
@@ -133,9 +133,9 @@ cv_result cv_rpc_client_unary(cv_rpc_client *c, const char *method, const void *
 /* ---- server ---- */
 
 typedef struct cv_rpc_server_config {
-    const char *listen;               /* "127.0.0.1:0" picks a free port */
-    uint32_t max_message_bytes;       /* receive and send limit; 0 = 16 MiB */
-    uint32_t max_streams;             /* concurrent streams; more are refused with RESOURCE_EXHAUSTED; 0 = 1024 */
+    const char *listen;         /* "127.0.0.1:0" picks a free port */
+    uint32_t max_message_bytes; /* receive and send limit; 0 = 16 MiB */
+    uint32_t max_streams;       /* concurrent streams; more are refused with RESOURCE_EXHAUSTED; 0 = 1024 */
     /* A stream of a registered streaming method: called on a new thread owned by the layer; the stream is
        valid until the handler returns (the layer then finishes the call with OK if the handler did not; sends
        still queued go out first, so a client that stops reading holds the stream until it is cancelled, its
@@ -147,8 +147,8 @@ typedef struct cv_rpc_server_config {
        block long (the client waits). */
     int (*on_unary)(const char *method, const void *request, size_t size, void **response, size_t *response_size,
                     char *message, size_t message_cap, void *user);
-    const char *const *stream_methods;   /* NULL-terminated list of full method paths; copied */
-    const char *const *unary_methods;    /* the same; methods in neither list get UNIMPLEMENTED */
+    const char *const *stream_methods; /* NULL-terminated list of full method paths; copied */
+    const char *const *unary_methods;  /* the same; methods in neither list get UNIMPLEMENTED */
     /* Optional: decides whether a call of a served method may run, before any handler sees it: 0 runs it, a
        non-zero gRPC status refuses it with the message written to `message` (NUL-terminated, at most cap
        bytes). Gets the method path, the peer ("ipv4:127.0.0.1:53412") and the call's initial metadata. Runs on
@@ -165,7 +165,7 @@ typedef struct cv_rpc_server_config {
 /* Binds, starts the acceptor thread. Fails (CV_ERROR_CONNECTION) if the address cannot be bound, CV_ERROR_IO or
  * CV_ERROR_INVALID_ARGUMENT (naming the file) if a TLS file cannot be read or only one of cert/key is given. */
 cv_result cv_rpc_server_start(const cv_rpc_server_config *config, cv_rpc_server **out);
-int cv_rpc_server_port(const cv_rpc_server *s);        /* bound port */
+int cv_rpc_server_port(const cv_rpc_server *s); /* bound port */
 /* Stops accepting streams: streams that arrive later are refused with UNAVAILABLE "node is draining";
  * running streams go on. Unary calls are still served (so the node's health check can say it drains). */
 void cv_rpc_server_drain(cv_rpc_server *s);

@@ -27,11 +27,11 @@
 #include "corvid/result.h"
 
 #define CV_SHA256_SIZE 32
-#define CV_SHA256_HEX_SIZE 65   /* 64 digits and the terminating NUL */
+#define CV_SHA256_HEX_SIZE 65 /* 64 digits and the terminating NUL */
 
 typedef struct cv_sha256_ctx {
-    void *evp;      /* the EVP_MD_CTX; NULL once finished or discarded */
-    bool failed;    /* an update failed: final reports it */
+    void *evp;   /* the EVP_MD_CTX; NULL once finished or discarded */
+    bool failed; /* an update failed: final reports it */
 } cv_sha256_ctx;
 
 /* The digest of `size` bytes. CV_ERROR_OUT_OF_MEMORY or CV_ERROR_BACKEND

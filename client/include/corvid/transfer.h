@@ -39,18 +39,16 @@ typedef enum cv_transfer_path {
 
 typedef struct cv_transfer_stats {
     uint64_t bytes;
-    double read_ms;     /* source device -> staging (host memory, or shared memory) */
-    double write_ms;    /* staging -> destination device */
+    double read_ms;  /* source device -> staging (host memory, or shared memory) */
+    double write_ms; /* staging -> destination device */
     double total_ms;
-    cv_transfer_path path;   /* the path the bytes took: STAGED, HOST_IMPORT or SHARED */
+    cv_transfer_path path; /* the path the bytes took: STAGED, HOST_IMPORT or SHARED */
 } cv_transfer_stats;
 
-cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_offset,
-                             cv_device *dst, cv_buffer dst_buffer, uint64_t dst_offset,
-                             uint64_t size, cv_transfer_stats *stats);
-cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect src_rect,
-                              cv_device *dst, cv_texture dst_texture, uint32_t dst_x,
-                              uint32_t dst_y, cv_transfer_stats *stats);
+cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_offset, cv_device *dst,
+                             cv_buffer dst_buffer, uint64_t dst_offset, uint64_t size, cv_transfer_stats *stats);
+cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect src_rect, cv_device *dst,
+                              cv_texture dst_texture, uint32_t dst_x, uint32_t dst_y, cv_transfer_stats *stats);
 
 /* "auto", "staged", "host-import", "shared" ("unknown" out of range). */
 const char *cv_transfer_path_name(cv_transfer_path path);

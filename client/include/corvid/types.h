@@ -55,7 +55,7 @@ typedef enum cv_format {
 } cv_format;
 /* clang-format on */
 
-uint32_t cv_format_bytes(cv_format f);   /* 0 for UNDEFINED or out of range */
+uint32_t cv_format_bytes(cv_format f); /* 0 for UNDEFINED or out of range */
 bool cv_format_is_depth(cv_format f);
 const char *cv_format_name(cv_format f);
 
@@ -81,9 +81,9 @@ enum cv_texture_usage {
 };
 
 typedef struct cv_texture_desc {
-    uint32_t width, height;   /* texels, 1..CV_MAX_TEXTURE_DIM */
+    uint32_t width, height; /* texels, 1..CV_MAX_TEXTURE_DIM */
     cv_format format;
-    uint32_t usage;           /* cv_texture_usage bits; 0 = sampled|storage (depth: depth target|sampled) */
+    uint32_t usage; /* cv_texture_usage bits; 0 = sampled|storage (depth: depth target|sampled) */
     char label[CV_LABEL_MAX];
 } cv_texture_desc;
 
@@ -97,7 +97,7 @@ typedef struct cv_sampler_desc {
 } cv_sampler_desc;
 
 typedef struct cv_pipeline_desc {
-    char name[CV_LABEL_MAX];  /* a name from the pipeline registry (pipeline_registry.h) */
+    char name[CV_LABEL_MAX]; /* a name from the pipeline registry (pipeline_registry.h) */
 } cv_pipeline_desc;
 
 /* An acceleration structure over triangles, for the trace_rays command.
@@ -108,8 +108,8 @@ typedef struct cv_pipeline_desc {
  * read it as is; the driver's ray-tracing pipeline gets an acceleration
  * structure built from the same triangles). */
 typedef struct cv_accel_desc {
-    uint32_t triangle_count;  /* 1..CV_MAX_ACCEL_TRIANGLES */
-    uint32_t node_count;      /* 1..triangle_count */
+    uint32_t triangle_count; /* 1..CV_MAX_ACCEL_TRIANGLES */
+    uint32_t node_count;     /* 1..triangle_count */
     char label[CV_LABEL_MAX];
 } cv_accel_desc;
 #define CV_MAX_ACCEL_TRIANGLES (1u << 27)
@@ -128,6 +128,8 @@ enum cv_trace_flags {
 };
 
 /* A texel rectangle. */
-typedef struct cv_rect { uint32_t x, y, width, height; } cv_rect;
+typedef struct cv_rect {
+    uint32_t x, y, width, height;
+} cv_rect;
 
 #endif

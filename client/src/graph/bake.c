@@ -8,14 +8,14 @@
 #include "graph_internal.h"
 
 typedef struct bake_state {
-    uint32_t n;                 /* passes */
-    uint32_t *access_base;      /* pass p's accesses are seen[access_base[p] ...] */
-    int32_t *seen;              /* per access: the pass whose write a read sees, -1 for none */
-    uint8_t *dep;               /* dep[a * n + b]: ORDER (a runs before b), NEEDS (b needs a's data) */
-    uint32_t *order;            /* all passes, topologically */
-    graph_physical *physical;   /* the pool, then the entries this bake adds */
+    uint32_t n;               /* passes */
+    uint32_t *access_base;    /* pass p's accesses are seen[access_base[p] ...] */
+    int32_t *seen;            /* per access: the pass whose write a read sees, -1 for none */
+    uint8_t *dep;             /* dep[a * n + b]: ORDER (a runs before b), NEEDS (b needs a's data) */
+    uint32_t *order;          /* all passes, topologically */
+    graph_physical *physical; /* the pool, then the entries this bake adds */
     uint32_t physical_count;
-    uint32_t *devices;          /* per resource: bit d if device d uses it */
+    uint32_t *devices; /* per resource: bit d if device d uses it */
 } bake_state;
 
 enum { ORDER = 1, NEEDS = 2 };
@@ -35,7 +35,7 @@ static const graph_resource *res_of(const cv_graph *g, uint32_t id) {
 
 static bool pass_writes(const graph_pass *p, uint32_t id) {
     if (p->disabled)
-        return false;   /* baked as if it were not there */
+        return false; /* baked as if it were not there */
     for (uint32_t a = 0; a < p->access_count; a++)
         if (p->accesses[a].write && p->accesses[a].id == id)
             return true;
@@ -80,8 +80,10 @@ static cv_result validate(const cv_graph *g) {
                 return cv_error(CV_ERROR_NOT_FOUND, "graph: pass '%s': %s of unknown resource #%u", pass->name,
                                 cv_graph_access_name(acc->access), acc->id & ~GRAPH_HISTORY_BIT);
             if (history && acc->write)
-                return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: pass '%s': writes the history of '%s', which is "
-                                "read-only", pass->name, r->name);
+                return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                                "graph: pass '%s': writes the history of '%s', which is "
+                                "read-only",
+                                pass->name, r->name);
             bool texture_only = acc->access == CV_GRAPH_COLOR_TARGET || acc->access == CV_GRAPH_DEPTH_TARGET ||
                                 acc->access == CV_GRAPH_SAMPLED;
             if (texture_only && r->type != CV_HANDLE_TEXTURE)
@@ -94,18 +96,23 @@ static cv_result validate(const cv_graph *g) {
                 if (prev->id != acc->id)
                     continue;
                 if (prev->write)
-                    return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: pass '%s': writes '%s' twice (%s, then %s) "
-                                    "with no read between", pass->name, r->name,
-                                    cv_graph_access_name(prev->access), cv_graph_access_name(acc->access));
+                    return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                                    "graph: pass '%s': writes '%s' twice (%s, then %s) "
+                                    "with no read between",
+                                    pass->name, r->name, cv_graph_access_name(prev->access),
+                                    cv_graph_access_name(acc->access));
                 break;
             }
         }
         if (pass->record == graph_record_copy) {
             bool h1, h2;
-            const graph_resource *src = graph_lookup(g, pass->copy_src, &h1), *dst = graph_lookup(g, pass->copy_dst, &h2);
+            const graph_resource *src = graph_lookup(g, pass->copy_src, &h1),
+                                 *dst = graph_lookup(g, pass->copy_dst, &h2);
             if (src && dst && !same_desc(src, dst))
-                return cv_error(CV_ERROR_FORMAT_MISMATCH, "graph: pass '%s': copies '%s' to '%s', which differ in "
-                                "size or format", pass->name, src->name, dst->name);
+                return cv_error(CV_ERROR_FORMAT_MISMATCH,
+                                "graph: pass '%s': copies '%s' to '%s', which differ in "
+                                "size or format",
+                                pass->name, src->name, dst->name);
         }
     }
     return CV_OK;
@@ -130,7 +137,7 @@ static cv_result find_dependencies(const cv_graph *g, bake_state *s) {
             int32_t *seen = &s->seen[s->access_base[p] + a];
             *seen = -1;
             if (pass->disabled || (acc->id & GRAPH_HISTORY_BIT))
-                continue;   /* last frame's contents: no edge this frame */
+                continue; /* last frame's contents: no edge this frame */
             const graph_resource *r = res_of(g, acc->id);
             int32_t w = writer_before(g, acc->id, (int32_t)p);
             if (acc->write) {
@@ -140,8 +147,10 @@ static cv_result find_dependencies(const cv_graph *g, bake_state *s) {
             }
             if (w < 0 && !r->imported) {
                 if (pass_writes(pass, acc->id))
-                    return cv_error(CV_ERROR_BAD_STATE, "graph: pass '%s': reads '%s', a transient no pass writes "
-                                    "before it", pass->name, r->name);
+                    return cv_error(CV_ERROR_BAD_STATE,
+                                    "graph: pass '%s': reads '%s', a transient no pass writes "
+                                    "before it",
+                                    pass->name, r->name);
                 w = writer_after(g, acc->id, (int32_t)p);
                 if (w < 0)
                     return cv_error(CV_ERROR_BAD_STATE, "graph: pass '%s': reads '%s', a transient no pass writes",
@@ -230,7 +239,7 @@ static bool resource_reaches_output(const cv_graph *g, uint32_t index) {
     for (uint32_t p = 0; p < g->pass_count; p++)
         for (uint32_t a = 0; a < g->passes[p].access_count && !g->passes[p].disabled; a++)
             if (g->passes[p].accesses[a].id == ((index + 1) | GRAPH_HISTORY_BIT))
-                return true;   /* next frame reads it */
+                return true; /* next frame reads it */
     return false;
 }
 
@@ -275,9 +284,10 @@ static cv_result partition(cv_graph *g, const cv_graph_bake_desc *desc, graph_ba
             return res;
         if (desc->partition->device_count != g->device_count ||
             (desc->width && desc->width != desc->partition->width))
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: bake: the partition is for %u devices and %u columns, "
-                            "the graph has %u devices and a width of %u", desc->partition->device_count,
-                            desc->partition->width, g->device_count, desc->width);
+            return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                            "graph: bake: the partition is for %u devices and %u columns, "
+                            "the graph has %u devices and a width of %u",
+                            desc->partition->device_count, desc->partition->width, g->device_count, desc->width);
         b->partition = *desc->partition;
     } else {
         cv_result res = cv_balancer_split(&g->balancer, desc->width, desc->tile ? desc->tile : 8, &b->partition);
@@ -318,7 +328,8 @@ static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_bake
     const graph_resource *r = res_of(g, acc->id);
     bool primary = pass->policy == CV_MGPU_PRIMARY_ONLY;
     if (acc->rule != CV_GRAPH_TRANSFER_AUTO && primary != (acc->rule != CV_GRAPH_TRANSFER_TO_PRIMARY))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: pass '%s': writes '%s' with rule %s, which needs a %s pass "
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "graph: pass '%s': writes '%s' with rule %s, which needs a %s pass "
                         "(after an ALL_DEVICES pass the primary holds only its own columns: gather them first)",
                         pass->name, r->name, cv_mgpu_transfer_name(transfer_rules[acc->rule]),
                         primary ? "ALL_DEVICES" : "PRIMARY_ONLY");
@@ -337,9 +348,9 @@ static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_bake
     if (!to_all && !to_primary)
         return CV_OK;
     graph_step step = { .transfer = true, .pass = p, .resource = (acc->id & ~GRAPH_HISTORY_BIT) - 1 };
-    step.rule = to_primary ? CV_MGPU_ISOLATED_TO_ISOLATED
-                           : acc->rule == CV_GRAPH_TRANSFER_PRIMARY_TO_WINDOWS ? CV_MGPU_PRIMARY_TO_ISOLATED
-                                                                               : CV_MGPU_MULTICAST;
+    step.rule = to_primary                                          ? CV_MGPU_ISOLATED_TO_ISOLATED
+                : acc->rule == CV_GRAPH_TRANSFER_PRIMARY_TO_WINDOWS ? CV_MGPU_PRIMARY_TO_ISOLATED
+                                                                    : CV_MGPU_MULTICAST;
     cv_result res = cv_mgpu_plan_copies(&b->partition, 0, pass->policy, step.rule, &step.plan);
     if (res != CV_OK || step.plan.count == 0)
         return res;
@@ -348,13 +359,18 @@ static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_bake
         bool whole = cols.x == 0 && cols.width == b->width;
         uint64_t end = r->type == CV_HANDLE_TEXTURE ? r->texture.width : r->buffer.size;
         uint64_t need = r->type == CV_HANDLE_TEXTURE ? cols.x + cols.width
-                        : whole ? r->buffer.size : (uint64_t)(cols.x + cols.width) * r->column_bytes;
+                        : whole                      ? r->buffer.size
+                                                     : (uint64_t)(cols.x + cols.width) * r->column_bytes;
         if (r->type == CV_HANDLE_BUFFER && !whole && r->column_bytes == 0)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: pass '%s': buffer '%s' moves in columns (%s) but was "
-                            "declared with no column_bytes", pass->name, r->name, cv_mgpu_transfer_name(step.rule));
+            return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                            "graph: pass '%s': buffer '%s' moves in columns (%s) but was "
+                            "declared with no column_bytes",
+                            pass->name, r->name, cv_mgpu_transfer_name(step.rule));
         if (need > end)
-            return cv_error(CV_ERROR_OUT_OF_RANGE, "graph: pass '%s': '%s' is smaller than the %u columns its %s "
-                            "transfer moves", pass->name, r->name, b->width, cv_mgpu_transfer_name(step.rule));
+            return cv_error(CV_ERROR_OUT_OF_RANGE,
+                            "graph: pass '%s': '%s' is smaller than the %u columns its %s "
+                            "transfer moves",
+                            pass->name, r->name, b->width, cv_mgpu_transfer_name(step.rule));
     }
     b->stats.transfers++;
     b->stats.copies += step.plan.count;
@@ -383,7 +399,8 @@ static cv_result lay_out_steps(const cv_graph *g, const bake_state *s, graph_bak
                     return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
                 b->instances = q;
             }
-            b->instances[b->instance_count] = (graph_instance){ .device = d, .window = window,
+            b->instances[b->instance_count] = (graph_instance){ .device = d,
+                                                                .window = window,
                                                                 .list = b->instance_count };
             b->instance_count++;
             step.instance_count++;
@@ -461,11 +478,11 @@ static cv_result alias(const cv_graph *g, bake_state *s, graph_baked *b) {
         free(busy_until);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
     }
-    if (g->pool_count)   /* g->pool is NULL before the first bake */
+    if (g->pool_count) /* g->pool is NULL before the first bake */
         memcpy(s->physical, g->pool, g->pool_count * sizeof(graph_physical));
     s->physical_count = g->pool_count;
     for (uint32_t i = 0; i < g->pool_count + n; i++)
-        busy_until[i] = -2;   /* -2: unused this bake */
+        busy_until[i] = -2; /* -2: unused this bake */
     for (uint32_t r = 0; r < n; r++)
         b->physical[r] = -1;
     for (uint32_t step = 0; step < b->step_count; step++)
@@ -477,7 +494,9 @@ static cv_result alias(const cv_graph *g, bake_state *s, graph_baked *b) {
             while (i < s->physical_count && !(same_key(&s->physical[i], res) && busy_until[i] < (int64_t)step))
                 i++;
             if (i == s->physical_count) {
-                s->physical[i] = (graph_physical){ .type = res->type, .texture = res->texture, .buffer = res->buffer };
+                s->physical[i] = (graph_physical){ .type = res->type,
+                                                   .texture = res->texture,
+                                                   .buffer = res->buffer };
                 s->physical_count++;
             }
             b->stats.physical += busy_until[i] == -2;
@@ -554,8 +573,9 @@ static cv_result place_barriers(const cv_graph *g, graph_baked *b) {
                         }
                         b->barriers = q;
                     }
-                    b->barriers[count++] = (graph_barrier){ .resource = r, .history = history,
-                                                            .after_write = t->written, .before_write = write };
+                    b->barriers[count++] = (graph_barrier){
+                        .resource = r, .history = history, .after_write = t->written, .before_write = write
+                    };
                 }
                 if (!t) {
                     t = &state[d][tracked[d]++];

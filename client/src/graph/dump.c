@@ -33,7 +33,8 @@ cv_result cv_graph_dump_text(const cv_graph *g, FILE *f) {
     fprintf(f, "graph: %u devices, width %u, tile %u\n", g->device_count, b->width, b->partition.tile);
     fprintf(f, "partition:");
     for (uint32_t d = 0; d < g->device_count; d++)
-        fprintf(f, " dev%u [%u,%u)", d, b->partition.ranges[d].x, b->partition.ranges[d].x + b->partition.ranges[d].width);
+        fprintf(f, " dev%u [%u,%u)", d, b->partition.ranges[d].x,
+                b->partition.ranges[d].x + b->partition.ranges[d].width);
     fprintf(f, "\nresources:\n");
     for (uint32_t r = 0; r < g->resource_count; r++) {
         const graph_resource *res = &g->resources[r];
@@ -101,9 +102,10 @@ cv_result cv_graph_dump_text(const cv_graph *g, FILE *f) {
             fputc('\n', f);
     }
     const cv_graph_stats *st = &b->stats;
-    fprintf(f, "stats: %u passes, %u culled, %u steps, %u transfers, %u copies, %u barriers, %u transients in %u "
-            "physical\n", st->passes, st->culled, st->steps, st->transfers, st->copies, st->barriers, st->transients,
-            st->physical);
+    fprintf(f,
+            "stats: %u passes, %u culled, %u steps, %u transfers, %u copies, %u barriers, %u transients in %u "
+            "physical\n",
+            st->passes, st->culled, st->steps, st->transfers, st->copies, st->barriers, st->transients, st->physical);
     return ferror(f) ? cv_error(CV_ERROR_IO, "cv_graph_dump_text: write failed") : CV_OK;
 }
 

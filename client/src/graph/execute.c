@@ -22,19 +22,23 @@ static double now_ms(void) {
 
 typedef struct recorder {
     cv_graph *g;
-    uint32_t *step_of;          /* per instance: its step */
-    atomic_uint next;           /* the next instance to record */
+    uint32_t *step_of; /* per instance: its step */
+    atomic_uint next;  /* the next instance to record */
 } recorder;
 
 static void record_instance(cv_graph *g, const graph_step *st, const graph_instance *inst) {
     const graph_pass *pass = &g->passes[st->pass];
     cv_command_list *l;
     if (cv_cmdlist_begin(g->ctx, g->lists[inst->list], &l) != CV_OK)
-        return;   /* the list is not ended: submit reports it */
+        return; /* the list is not ended: submit reports it */
     graph_record_ctx rc = { .graph = g, .pass = st->pass, .device = inst->device };
-    cv_graph_pass_context pc = { .name = pass->name, .queue = pass->queue, .x = inst->window.x,
-                                 .width = inst->window.width, .full_width = g->baked.width,
-                                 .history_valid = g->frame > g->history_epoch, .instance = &rc };
+    cv_graph_pass_context pc = { .name = pass->name,
+                                 .queue = pass->queue,
+                                 .x = inst->window.x,
+                                 .width = inst->window.width,
+                                 .full_width = g->baked.width,
+                                 .history_valid = g->frame > g->history_epoch,
+                                 .instance = &rc };
     cv_cmd_begin_marker(l, pass->queue, &(cv_begin_marker_args){ .label = pass->name });
     for (uint32_t i = 0; i < inst->barrier_count; i++) {
         const graph_barrier *b = &g->baked.barriers[inst->barrier_first + i];
@@ -81,8 +85,8 @@ static cv_result record_all(cv_graph *g) {
             cv_command_list *l;
             cv_result res = cv_cmdlist_get(g->ctx, g->lists[inst->list], &l);
             if (res == CV_OK && (l->recording || !l->ended_ok))
-                return cv_error(l->error != CV_OK ? l->error : CV_ERROR_BAD_STATE, "graph: pass '%s' on device %u: %s",
-                                g->passes[b->steps[s].pass].name, inst->device,
+                return cv_error(l->error != CV_OK ? l->error : CV_ERROR_BAD_STATE,
+                                "graph: pass '%s' on device %u: %s", g->passes[b->steps[s].pass].name, inst->device,
                                 l->error != CV_OK ? cv_command_list_error(l) : "its list was not recorded");
         }
     return CV_OK;
@@ -169,7 +173,7 @@ static cv_result evaluate(cv_graph *g, bool wait, cv_graph_timing *timings, uint
                                cv_last_error());
         }
     }
-    if (!wait) {   /* cv_graph_submit: the last tickets; after a failure, wait as below */
+    if (!wait) { /* cv_graph_submit: the last tickets; after a failure, wait as below */
         for (uint32_t d = 0; d < CV_MAX_DEVICES; d++)
             last[d] = 0;
         for (uint32_t i = 0; i < b->instance_count && res == CV_OK; i++)

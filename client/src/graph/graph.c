@@ -6,9 +6,9 @@
 #include "graph_internal.h"
 
 static const char *access_names[CV_GRAPH_ACCESS_COUNT] = {
-    [CV_GRAPH_COLOR_TARGET] = "color target", [CV_GRAPH_DEPTH_TARGET] = "depth target",
+    [CV_GRAPH_COLOR_TARGET] = "color target",   [CV_GRAPH_DEPTH_TARGET] = "depth target",
     [CV_GRAPH_STORAGE_WRITE] = "storage write", [CV_GRAPH_TRANSFER_DST] = "transfer dst",
-    [CV_GRAPH_STORAGE_READ] = "storage read", [CV_GRAPH_SAMPLED] = "sampled",
+    [CV_GRAPH_STORAGE_READ] = "storage read",   [CV_GRAPH_SAMPLED] = "sampled",
     [CV_GRAPH_TRANSFER_SRC] = "transfer src",
 };
 
@@ -95,8 +95,8 @@ void cv_graph_destroy(cv_graph *g) {
 
 static cv_result add_resource(cv_graph *g, const graph_resource *r, cv_graph_resource *out) {
     if (g->resource_count == CV_GRAPH_MAX_RESOURCES)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "graph: resource '%s': the graph already has %u resources",
-                        r->name, CV_GRAPH_MAX_RESOURCES);
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "graph: resource '%s': the graph already has %u resources", r->name,
+                        CV_GRAPH_MAX_RESOURCES);
     if (!grow((void **)&g->resources, &g->resource_capacity, g->resource_count + 1, sizeof(*r)))
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: resource '%s'", r->name);
     g->resources[g->resource_count++] = *r;
@@ -127,7 +127,8 @@ cv_result cv_graph_create_buffer(cv_graph *g, const cv_buffer_desc *desc, uint64
     return add_resource(g, &r, out);
 }
 
-static cv_result import(cv_graph *g, cv_handle h, cv_handle_type type, uint64_t column_bytes, cv_graph_resource *out) {
+static cv_result import(cv_graph *g, cv_handle h, cv_handle_type type, uint64_t column_bytes,
+                        cv_graph_resource *out) {
     if (!g || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_import: NULL argument");
     cv_resource_desc desc;
@@ -171,8 +172,10 @@ cv_result cv_graph_history(cv_graph *g, cv_graph_resource r, cv_graph_resource *
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_history: resource #%u is not a resource of this graph",
                         r.id);
     if (res->imported)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: history of '%s': imported resources keep no history "
-                        "(the application owns their contents)", res->name);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "graph: history of '%s': imported resources keep no history "
+                        "(the application owns their contents)",
+                        res->name);
     g->resources[r.id - 1].history = true;
     *out = (cv_graph_resource){ r.id | GRAPH_HISTORY_BIT };
     return CV_OK;
@@ -232,7 +235,9 @@ static cv_result declare(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_g
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: pass '%s': transfer rule %d", pass->name, rule);
     if (!grow((void **)&pass->accesses, &pass->access_capacity, pass->access_count + 1, sizeof(graph_access)))
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: pass '%s'", pass->name);
-    pass->accesses[pass->access_count++] = (graph_access){ .id = r.id, .access = access, .rule = rule, .write = write };
+    pass->accesses[pass->access_count++] = (graph_access){
+        .id = r.id, .access = access, .rule = rule, .write = write
+    };
     return CV_OK;
 }
 
@@ -248,8 +253,10 @@ cv_result cv_graph_write(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_g
 cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy policy, cv_graph_resource src,
                                  cv_graph_resource dst, cv_graph_pass *out) {
     cv_graph_pass p;
-    cv_result res = cv_graph_add_pass(g, &(cv_graph_pass_desc){ .name = name, .queue = CV_QUEUE_COPY,
-                                                                .policy = policy, .record = graph_record_copy }, &p);
+    cv_result res = cv_graph_add_pass(
+        g,
+        &(cv_graph_pass_desc){ .name = name, .queue = CV_QUEUE_COPY, .policy = policy, .record = graph_record_copy },
+        &p);
     if (res != CV_OK)
         return res;
     graph_pass *pass = &g->passes[p.id - 1];
@@ -258,7 +265,7 @@ cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy p
     res = cv_graph_read(g, p, src, CV_GRAPH_TRANSFER_SRC);
     if (res == CV_OK)
         res = cv_graph_write(g, p, dst, CV_GRAPH_TRANSFER_DST, CV_GRAPH_TRANSFER_AUTO);
-    if (res != CV_OK) {   /* nothing changes: the pass goes again */
+    if (res != CV_OK) { /* nothing changes: the pass goes again */
         free(pass->accesses);
         g->pass_count--;
         return res;
@@ -308,15 +315,22 @@ void graph_record_copy(const cv_graph_pass_context *pc, cv_command_list *list, v
     bool history;
     const graph_resource *s = graph_lookup(rc->graph, src.id, &history);
     if (s && s->type == CV_HANDLE_TEXTURE) {
-        cv_cmd_copy_texture(list, pc->queue, &(cv_copy_texture_args){
-            .src = cv_graph_texture(pc, src), .src_x = pc->x, .dst = cv_graph_texture(pc, dst), .dst_x = pc->x,
-            .width = pc->width, .height = s->texture.height });
+        cv_cmd_copy_texture(list, pc->queue,
+                            &(cv_copy_texture_args){ .src = cv_graph_texture(pc, src),
+                                                     .src_x = pc->x,
+                                                     .dst = cv_graph_texture(pc, dst),
+                                                     .dst_x = pc->x,
+                                                     .width = pc->width,
+                                                     .height = s->texture.height });
     } else if (s) {
         bool whole = pc->width == pc->full_width || s->column_bytes == 0;
         uint64_t offset = whole ? 0 : pc->x * s->column_bytes;
         uint64_t size = whole ? s->buffer.size : pc->width * s->column_bytes;
-        cv_cmd_copy_buffer(list, pc->queue, &(cv_copy_buffer_args){
-            .src = cv_graph_buffer(pc, src), .src_offset = offset, .dst = cv_graph_buffer(pc, dst),
-            .dst_offset = offset, .size = size });
+        cv_cmd_copy_buffer(list, pc->queue,
+                           &(cv_copy_buffer_args){ .src = cv_graph_buffer(pc, src),
+                                                   .src_offset = offset,
+                                                   .dst = cv_graph_buffer(pc, dst),
+                                                   .dst_offset = offset,
+                                                   .size = size });
     }
 }

@@ -10,17 +10,17 @@
 
 typedef struct graph_resource {
     char name[CV_LABEL_MAX];
-    cv_handle_type type;        /* CV_HANDLE_BUFFER or CV_HANDLE_TEXTURE */
+    cv_handle_type type; /* CV_HANDLE_BUFFER or CV_HANDLE_TEXTURE */
     cv_texture_desc texture;
     cv_buffer_desc buffer;
     uint64_t column_bytes;
     bool imported, output, history;
-    cv_handle handle;           /* imported */
-    cv_handle frames[2];        /* history: frames[frame & 1] is this frame's, the other the previous */
+    cv_handle handle;    /* imported */
+    cv_handle frames[2]; /* history: frames[frame & 1] is this frame's, the other the previous */
 } graph_resource;
 
 typedef struct graph_access {
-    uint32_t id;                /* as declared: checked at bake */
+    uint32_t id; /* as declared: checked at bake */
     cv_graph_access access;
     cv_graph_transfer rule;
     bool write;
@@ -34,38 +34,38 @@ typedef struct graph_pass {
     void *user;
     graph_access *accesses;
     uint32_t access_count, access_capacity;
-    uint32_t copy_src, copy_dst;  /* built-in copy pass: resource ids */
-    bool disabled;                /* cv_graph_enable_pass(false): left out of bakes */
+    uint32_t copy_src, copy_dst; /* built-in copy pass: resource ids */
+    bool disabled;               /* cv_graph_enable_pass(false): left out of bakes */
 } graph_pass;
 
 /* A barrier at the start of a pass instance's list. */
 typedef struct graph_barrier {
-    uint32_t resource;          /* index */
+    uint32_t resource; /* index */
     bool history;
-    bool after_write, before_write;  /* the earlier access wrote; this one writes */
+    bool after_write, before_write; /* the earlier access wrote; this one writes */
 } graph_barrier;
 
 /* A pass on one device. */
 typedef struct graph_instance {
     uint32_t device;
     cv_column_range window;
-    uint32_t list;              /* index into cv_graph.lists */
+    uint32_t list; /* index into cv_graph.lists */
     uint32_t barrier_first, barrier_count;
 } graph_instance;
 
 typedef struct graph_step {
     bool transfer;
-    uint32_t pass;              /* the pass, or a transfer's source pass */
-    uint32_t resource;          /* transfers */
-    cv_mgpu_transfer rule;      /* transfers */
-    cv_mgpu_copy_plan plan;     /* transfers */
-    uint32_t instance_first, instance_count;  /* passes */
+    uint32_t pass;                           /* the pass, or a transfer's source pass */
+    uint32_t resource;                       /* transfers */
+    cv_mgpu_transfer rule;                   /* transfers */
+    cv_mgpu_copy_plan plan;                  /* transfers */
+    uint32_t instance_first, instance_count; /* passes */
 } graph_step;
 
 /* A resource holding transients (aliased when lifetimes are disjoint). */
 typedef struct graph_physical {
     cv_handle_type type;
-    cv_texture_desc texture;    /* key: the description, label left out */
+    cv_texture_desc texture; /* key: the description, label left out */
     cv_buffer_desc buffer;
     cv_handle handle;
 } graph_physical;
@@ -73,7 +73,7 @@ typedef struct graph_physical {
 typedef struct graph_baked {
     bool valid;
     uint32_t width;
-    bool balanced;              /* the partition came from the balancer */
+    bool balanced; /* the partition came from the balancer */
     cv_partition partition;
     graph_step *steps;
     uint32_t step_count;
@@ -81,9 +81,9 @@ typedef struct graph_baked {
     uint32_t instance_count;
     graph_barrier *barriers;
     uint32_t barrier_count;
-    bool *kept;                 /* per pass */
-    int32_t *physical;          /* per resource: pool index or -1 */
-    uint32_t *first, *last;     /* per resource: lifetime in steps (transients) */
+    bool *kept;             /* per pass */
+    int32_t *physical;      /* per resource: pool index or -1 */
+    uint32_t *first, *last; /* per resource: lifetime in steps (transients) */
     cv_graph_stats stats;
 } graph_baked;
 
@@ -100,8 +100,8 @@ struct cv_graph {
     cv_cmdlist *lists;
     uint32_t list_count;
     cv_balancer balancer;
-    uint64_t frame;             /* executes so far: picks the history frames */
-    uint64_t history_epoch;     /* g->frame when history frames were last created */
+    uint64_t frame;         /* executes so far: picks the history frames */
+    uint64_t history_epoch; /* g->frame when history frames were last created */
     graph_baked baked;
 };
 

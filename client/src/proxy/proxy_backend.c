@@ -40,7 +40,7 @@ static cv_result resolve_device(const char *endpoint, const char *text, uint32_t
         if (v >= CV_MAX_DEVICES)
             return cv_error(CV_ERROR_NOT_FOUND, "node '%s': device %s does not exist (at most %u)", endpoint, text,
                             CV_MAX_DEVICES);
-        *out = (uint32_t)v;   /* the node checks it against its own count at hello */
+        *out = (uint32_t)v; /* the node checks it against its own count at hello */
         return CV_OK;
     }
     cv_proxy_node_info *info = malloc(sizeof(*info));
@@ -119,7 +119,7 @@ static Corvid__ClientMessage client_message(void) {
 
 static cv_result proxy_resource_create(cv_backend_device *p, uint64_t id, const cv_resource_desc *desc,
                                        const cv_pipeline_info *pipeline, void **out_obj) {
-    (void)pipeline;   /* the node resolves the name from its own registry */
+    (void)pipeline; /* the node resolves the name from its own registry */
     proxy_resource *res = malloc(sizeof(*res));
     if (!res)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "proxy resource");
@@ -146,7 +146,7 @@ static void send_destroy(proxy_device *p, uint64_t id) {
     Corvid__ClientMessage m = client_message();
     m.msg_case = CORVID__CLIENT_MESSAGE__MSG_DESTROY;
     m.destroy = &destroy;
-    proxy_send(p, &m);   /* a dead session frees everything on the node anyway */
+    proxy_send(p, &m); /* a dead session frees everything on the node anyway */
 }
 
 static void proxy_resource_destroy(cv_backend_device *p, cv_handle_type type, void *obj) {
@@ -172,7 +172,7 @@ static void remember_blob(proxy_device *p, const uint8_t sha[CV_SHA256_BYTES]) {
         uint32_t cap = p->known_capacity ? p->known_capacity * 2 : 16;
         void *k = realloc(p->known, (size_t)cap * CV_SHA256_BYTES);
         if (!k)
-            return;   /* only an optimisation: the next use asks the node again */
+            return; /* only an optimisation: the next use asks the node again */
         p->known = k;
         p->known_capacity = cap;
     }
@@ -431,7 +431,7 @@ static cv_result proxy_submit(cv_backend_device *p, void *obj, uint64_t ticket) 
     pthread_mutex_lock(&p->lock);
     bool full = ticket - p->completed > PROXY_INFLIGHT - 1;
     pthread_mutex_unlock(&p->lock);
-    while (full) {   /* the ring of in-flight tickets is full: let the oldest finish first */
+    while (full) { /* the ring of in-flight tickets is full: let the oldest finish first */
         cv_result r = proxy_health(p);
         if (r != CV_OK)
             return r;
@@ -548,7 +548,7 @@ cv_result cv_proxy_query_node(const char *endpoint, uint32_t timeout_ms, cv_prox
     if (r == CV_OK)
         r = cv_rpc_client_create(endpoint, &cc, &client);
     memset(token, 0, sizeof(token));
-    if (r != CV_OK)   /* this client's settings (token and TLS files): creating connects nothing yet */
+    if (r != CV_OK) /* this client's settings (token and TLS files): creating connects nothing yet */
         return cv_error(r, "node '%s': %s", endpoint, cv_last_error());
     Corvid__InfoRequest req = CORVID__INFO_REQUEST__INIT;
     uint8_t buf[16];
@@ -556,8 +556,8 @@ cv_result cv_proxy_query_node(const char *endpoint, uint32_t timeout_ms, cv_prox
     void *resp = NULL;
     size_t resp_size = 0;
     int status = 0;
-    r = cv_rpc_client_unary(client, CV_NODE_METHOD_INFO, buf, n, timeout_ms ? timeout_ms : 10000, &resp,
-                            &resp_size, &status);
+    r = cv_rpc_client_unary(client, CV_NODE_METHOD_INFO, buf, n, timeout_ms ? timeout_ms : 10000, &resp, &resp_size,
+                            &status);
     cv_rpc_client_destroy(client);
     if (r != CV_OK)
         return cv_error(CV_ERROR_CONNECTION, "node '%s': %s", endpoint, cv_last_error());

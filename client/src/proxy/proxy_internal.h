@@ -32,16 +32,16 @@ typedef struct proxy_list {
 
 /* The answer a waiting request gets. */
 typedef struct proxy_pending {
-    uint64_t seq;                   /* 0: no request waits */
+    uint64_t seq; /* 0: no request waits */
     bool done;
     cv_result result;
     char message[1024];
-    Corvid__DeviceInfo *hello;      /* hello: the node's device (copied into info) */
+    Corvid__DeviceInfo *hello; /* hello: the node's device (copied into info) */
     cv_device_info *hello_info;
     uint64_t session_id;
-    uint8_t *read_into;             /* reads: destination and its size */
+    uint8_t *read_into; /* reads: destination and its size */
     uint64_t read_size, read_received;
-    bool *present;                  /* blob queries: one flag per hash */
+    bool *present; /* blob queries: one flag per hash */
     size_t present_count;
 } proxy_pending;
 
@@ -52,36 +52,36 @@ typedef struct proxy_inflight {
 
 typedef struct proxy_known_list {
     uint64_t id;
-    uint32_t refs;                  /* compiled forms alive; the node's list goes at 0 */
+    uint32_t refs; /* compiled forms alive; the node's list goes at 0 */
 } proxy_known_list;
 
 struct cv_backend_device {
     char endpoint[256];
     uint32_t remote_device;
-    uint32_t timeout_ms;            /* for one answer */
+    uint32_t timeout_ms; /* for one answer */
     cv_rpc_client *client;
     cv_rpc_stream *stream;
     pthread_t receiver;
     bool receiver_started;
 
-    pthread_mutex_t lock;           /* everything below */
+    pthread_mutex_t lock; /* everything below */
     pthread_cond_t cond;
     atomic_uint_fast64_t next_seq;
     proxy_pending pending;
-    uint64_t completed;             /* highest ticket the node finished */
-    proxy_inflight inflight[PROXY_INFLIGHT];   /* submitted, not completed: ring by ticket */
-    cv_result dead;                 /* CV_OK while the stream lives */
+    uint64_t completed;                      /* highest ticket the node finished */
+    proxy_inflight inflight[PROXY_INFLIGHT]; /* submitted, not completed: ring by ticket */
+    cv_result dead;                          /* CV_OK while the stream lives */
     char dead_message[512];
-    cv_result async_error;          /* first refused fire-and-forget request */
+    cv_result async_error; /* first refused fire-and-forget request */
     char async_message[512];
 
     /* Blobs the node is known to have (answered present, or uploaded). */
     uint8_t (*known)[CV_SHA256_BYTES];
     uint32_t known_count, known_capacity;
-    proxy_known_list *lists;        /* lists that exist on the node */
+    proxy_known_list *lists; /* lists that exist on the node */
     uint32_t list_count, list_capacity;
 
-    cv_proxy_stats stats;           /* under lock */
+    cv_proxy_stats stats; /* under lock */
 };
 
 typedef struct cv_backend_device proxy_device;

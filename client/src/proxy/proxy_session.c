@@ -80,9 +80,9 @@ cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending
             if (pthread_cond_timedwait(&p->cond, &p->lock, &deadline) != 0)
                 break;
         if (p->pending.done)
-            r = p->pending.result == CV_OK ? CV_OK
-                                           : cv_error(p->pending.result, "node '%s': %s", p->endpoint,
-                                                      p->pending.message);
+            r = p->pending.result == CV_OK
+                    ? CV_OK
+                    : cv_error(p->pending.result, "node '%s': %s", p->endpoint, p->pending.message);
         else if (p->dead != CV_OK)
             r = cv_error(p->dead, "node '%s': %s", p->endpoint, p->dead_message);
         else {
@@ -168,9 +168,7 @@ static void on_message(proxy_device *p, const Corvid__NodeMessage *m) {
             p->pending.done = true;
         }
         break;
-    case CORVID__NODE_MESSAGE__MSG_REPLY:
-        on_reply(p, m->seq, m->reply);
-        break;
+    case CORVID__NODE_MESSAGE__MSG_REPLY: on_reply(p, m->seq, m->reply); break;
     case CORVID__NODE_MESSAGE__MSG_BLOB_STATUS:
         if (p->pending.seq == m->seq && p->pending.present) {
             if (m->blob_status->n_present != p->pending.present_count) {
@@ -182,15 +180,9 @@ static void on_message(proxy_device *p, const Corvid__NodeMessage *m) {
             p->pending.done = true;
         }
         break;
-    case CORVID__NODE_MESSAGE__MSG_READ_DATA:
-        on_read_data(p, m->seq, m->read_data);
-        break;
-    case CORVID__NODE_MESSAGE__MSG_COMPLETED:
-        on_completed(p, m->completed);
-        break;
-    default:
-        set_dead(p, CV_ERROR_MALFORMED, "an unknown message from the node");
-        break;
+    case CORVID__NODE_MESSAGE__MSG_READ_DATA: on_read_data(p, m->seq, m->read_data); break;
+    case CORVID__NODE_MESSAGE__MSG_COMPLETED: on_completed(p, m->completed); break;
+    default: set_dead(p, CV_ERROR_MALFORMED, "an unknown message from the node"); break;
     }
     pthread_cond_broadcast(&p->cond);
 }
@@ -249,11 +241,13 @@ cv_result proxy_client_config(cv_rpc_client_config *cc, char *token, size_t cap)
     cc->tls_cert_file = env("CORVID_NODE_TLS_CERT");
     cc->tls_key_file = env("CORVID_NODE_TLS_KEY");
     if ((cc->tls_cert_file || cc->tls_key_file) && !cc->tls_ca_file)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_NODE_TLS_CERT/KEY (a client certificate) need "
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "CORVID_NODE_TLS_CERT/KEY (a client certificate) need "
                         "CORVID_NODE_TLS_CA (the CA that signed the node's certificate)");
     if (!cc->tls_cert_file != !cc->tls_key_file)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s is set without %s", cc->tls_cert_file ? "CORVID_NODE_TLS_CERT"
-                        : "CORVID_NODE_TLS_KEY", cc->tls_cert_file ? "CORVID_NODE_TLS_KEY" : "CORVID_NODE_TLS_CERT");
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s is set without %s",
+                        cc->tls_cert_file ? "CORVID_NODE_TLS_CERT" : "CORVID_NODE_TLS_KEY",
+                        cc->tls_cert_file ? "CORVID_NODE_TLS_KEY" : "CORVID_NODE_TLS_CERT");
     return CV_OK;
 }
 
@@ -264,7 +258,7 @@ cv_result proxy_session_open(proxy_device *p, cv_device_info *info) {
     if (r == CV_OK)
         r = cv_rpc_client_create(p->endpoint, &cc, &p->client);
     memset(token, 0, sizeof(token));
-    if (r != CV_OK)   /* this client's settings (token and TLS files): creating connects nothing yet */
+    if (r != CV_OK) /* this client's settings (token and TLS files): creating connects nothing yet */
         return cv_error(r, "node '%s': %s", p->endpoint, cv_last_error());
     if (r == CV_OK)
         r = cv_rpc_client_open(p->client, CV_NODE_METHOD_SESSION, NULL, 0, &p->stream);

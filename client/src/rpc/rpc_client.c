@@ -16,8 +16,8 @@
 struct cv_rpc_client {
     grpc_channel *channel;
     char *target;
-    char *authorization;   /* "Bearer <token>", or NULL: sent with every call */
-    atomic_uint streams;   /* open streams, to catch destroy-before-streams */
+    char *authorization; /* "Bearer <token>", or NULL: sent with every call */
+    atomic_uint streams; /* open streams, to catch destroy-before-streams */
 };
 
 /* The one place where the client's credentials are made: plaintext, or TLS trusting the CA file's
@@ -27,7 +27,8 @@ struct cv_rpc_client {
 static cv_result client_credentials(const cv_rpc_client_config *cfg, grpc_channel_credentials **out) {
     if (!cfg->tls_ca_file) {
         if (cfg->tls_cert_file || cfg->tls_key_file)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc client: a TLS client certificate needs the CA file "
+            return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                            "rpc client: a TLS client certificate needs the CA file "
                             "that the server's certificate is checked against (tls_ca_file)");
         *out = grpc_insecure_credentials_create();
         return CV_OK;
@@ -42,7 +43,7 @@ static cv_result client_credentials(const cv_rpc_client_config *cfg, grpc_channe
     if (r == CV_OK && cfg->tls_key_file)
         r = cv_rpc_read_pem_file(cfg->tls_key_file, "TLS client key", &key);
     if (r == CV_OK) {
-        grpc_ssl_pem_key_cert_pair pair = {.private_key = key, .cert_chain = cert};
+        grpc_ssl_pem_key_cert_pair pair = { .private_key = key, .cert_chain = cert };
         *out = grpc_ssl_credentials_create(ca, cert ? &pair : NULL, NULL, NULL);
         if (!*out)
             r = cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc client: gRPC refused the TLS files (CA '%s')",
@@ -57,24 +58,20 @@ static cv_result client_credentials(const cv_rpc_client_config *cfg, grpc_channe
     return r;
 }
 
-static bool token_char_ok(char ch) {
-    return ch > ' ' && ch < 0x7f;
-}
+static bool token_char_ok(char ch) { return ch > ' ' && ch < 0x7f; }
 
 static grpc_arg int_arg(const char *key, int value) {
-    grpc_arg a = {.type = GRPC_ARG_INTEGER, .key = (char *)key};
+    grpc_arg a = { .type = GRPC_ARG_INTEGER, .key = (char *)key };
     a.value.integer = value;
     return a;
 }
 
-static int clamp_int(uint32_t v) {
-    return v > INT32_MAX ? INT32_MAX : (int)v;
-}
+static int clamp_int(uint32_t v) { return v > INT32_MAX ? INT32_MAX : (int)v; }
 
 cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *config, cv_rpc_client **out) {
     if (!target || !*target || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_client_create: null or empty target, or null out");
-    cv_rpc_client_config cfg = config ? *config : (cv_rpc_client_config){0};
+    cv_rpc_client_config cfg = config ? *config : (cv_rpc_client_config){ 0 };
     uint32_t max_message = cfg.max_message_bytes ? cfg.max_message_bytes : CV_RPC_DEFAULT_MAX_MESSAGE;
     uint32_t keepalive = cfg.keepalive_ms ? cfg.keepalive_ms : 10000;
     uint32_t keepalive_timeout = cfg.keepalive_timeout_ms ? cfg.keepalive_timeout_ms : 5000;
@@ -86,8 +83,10 @@ cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *c
         for (size_t i = 0; ok && i < n; i++)
             ok = token_char_ok(cfg.bearer_token[i]);
         if (!ok)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_client_create: the bearer token for '%s' must be "
-                            "1..%u printable ASCII characters without spaces", target, MAX_TOKEN_CHARS);
+            return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                            "cv_rpc_client_create: the bearer token for '%s' must be "
+                            "1..%u printable ASCII characters without spaces",
+                            target, MAX_TOKEN_CHARS);
     }
     grpc_init();
     grpc_channel_credentials *creds = NULL;
@@ -127,7 +126,7 @@ cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *c
         /* Each client has its own connection (the core otherwise shares subchannels process-wide). */
         int_arg(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1),
     };
-    grpc_channel_args channel_args = {.num_args = sizeof args / sizeof args[0], .args = args};
+    grpc_channel_args channel_args = { .num_args = sizeof args / sizeof args[0], .args = args };
 
     c->channel = grpc_channel_create(target, creds, &channel_args);
     grpc_channel_credentials_release(creds);
@@ -160,8 +159,8 @@ static cv_result check_metadata(const cv_rpc_metadata *md, uint32_t count) {
         grpc_slice key = grpc_slice_from_static_string(md[i].key);
         grpc_slice value = grpc_slice_from_static_string(md[i].value);
         if (!grpc_header_key_is_legal(key) || grpc_is_binary_header(key))
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc metadata %u: key '%s' is not a legal text header key",
-                            i, md[i].key);
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc metadata %u: key '%s' is not a legal text header key", i,
+                            md[i].key);
         if (!grpc_header_nonbin_value_is_legal(value))
             return cv_error(CV_ERROR_INVALID_ARGUMENT, "rpc metadata %u ('%s'): value is not printable ASCII", i,
                             md[i].key);
@@ -175,7 +174,8 @@ static cv_result open_call(cv_rpc_client *c, const char *method, const cv_rpc_me
 static grpc_call *create_call(cv_rpc_client *c, grpc_completion_queue *cq, const char *method,
                               gpr_timespec deadline) {
     grpc_slice m = grpc_slice_from_copied_string(method);
-    grpc_call *call = grpc_channel_create_call(c->channel, NULL, GRPC_PROPAGATE_DEFAULTS, cq, m, NULL, deadline, NULL);
+    grpc_call *call = grpc_channel_create_call(c->channel, NULL, GRPC_PROPAGATE_DEFAULTS, cq, m, NULL, deadline,
+                                               NULL);
     grpc_slice_unref(m);
     return call;
 }
@@ -183,14 +183,17 @@ static grpc_call *create_call(cv_rpc_client *c, grpc_completion_queue *cq, const
 cv_result cv_rpc_client_open(cv_rpc_client *c, const char *method, const cv_rpc_metadata *metadata, uint32_t count,
                              cv_rpc_stream **out) {
     if (!c || !method || method[0] != '/' || !out || (count && !metadata))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_client_open: null client/out/metadata or method '%s' "
-                        "not of the form /package.Service/Method", method ? method : "(null)");
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "cv_rpc_client_open: null client/out/metadata or method '%s' "
+                        "not of the form /package.Service/Method",
+                        method ? method : "(null)");
     cv_result r = check_metadata(metadata, count);
     if (r != CV_OK)
         return r;
     for (uint32_t i = 0; c->authorization && i < count; i++)
         if (strcmp(metadata[i].key, "authorization") == 0)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_client_open: 'authorization' metadata on a client "
+            return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                            "cv_rpc_client_open: 'authorization' metadata on a client "
                             "that has a bearer token (it sends its own)");
     cv_rpc_metadata *all = NULL;
     if (c->authorization) {
@@ -199,7 +202,7 @@ cv_result cv_rpc_client_open(cv_rpc_client *c, const char *method, const cv_rpc_
             return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_rpc_client_open");
         if (count)
             memcpy(all, metadata, count * sizeof *all);
-        all[count++] = (cv_rpc_metadata){"authorization", c->authorization};
+        all[count++] = (cv_rpc_metadata){ "authorization", c->authorization };
         metadata = all;
     }
     r = open_call(c, method, metadata, count, out);
@@ -225,7 +228,7 @@ static cv_result open_call(cv_rpc_client *c, const char *method, const cv_rpc_me
         return r;
     }
     free(s->peer);
-    s->peer = strdup(c->target);   /* the client's peer before it connects is the target we asked for */
+    s->peer = strdup(c->target); /* the client's peer before it connects is the target we asked for */
     r = cv_rpc_stream_begin(s, metadata, count);
     if (r != CV_OK) {
         cv_rpc_stream_teardown(s);
@@ -270,9 +273,9 @@ cv_result cv_rpc_client_unary(cv_rpc_client *c, const char *method, const void *
     grpc_slice details = grpc_empty_slice();
     const char *error_string = NULL;
 
-    grpc_op ops[6] = {{.op = GRPC_OP_SEND_INITIAL_METADATA}, {.op = GRPC_OP_SEND_MESSAGE},
-                      {.op = GRPC_OP_SEND_CLOSE_FROM_CLIENT}, {.op = GRPC_OP_RECV_INITIAL_METADATA},
-                      {.op = GRPC_OP_RECV_MESSAGE},           {.op = GRPC_OP_RECV_STATUS_ON_CLIENT}};
+    grpc_op ops[6] = { { .op = GRPC_OP_SEND_INITIAL_METADATA },  { .op = GRPC_OP_SEND_MESSAGE },
+                       { .op = GRPC_OP_SEND_CLOSE_FROM_CLIENT }, { .op = GRPC_OP_RECV_INITIAL_METADATA },
+                       { .op = GRPC_OP_RECV_MESSAGE },           { .op = GRPC_OP_RECV_STATUS_ON_CLIENT } };
     grpc_metadata auth;
     if (c->authorization) {
         auth.key = grpc_slice_from_static_string("authorization");
@@ -309,7 +312,10 @@ cv_result cv_rpc_client_unary(cv_rpc_client *c, const char *method, const void *
             char *text = cv_rpc_slice_to_string(details);
             r = cv_error(code == GRPC_STATUS_DEADLINE_EXCEEDED ? CV_ERROR_TIMEOUT : CV_ERROR_CONNECTION,
                          "rpc unary '%s' on %s: status %s (%d): %s", method, c->target, cv_rpc_status_name(code),
-                         (int)code, text && text[0] ? text : error_string ? error_string : "");
+                         (int)code,
+                         text && text[0] ? text
+                         : error_string  ? error_string
+                                         : "");
             free(text);
         }
     }
@@ -373,7 +379,7 @@ cv_result cv_rpc_read_token_file(const char *path, char *out, size_t cap) {
     bool failed = ferror(f);
     fclose(f);
     line[n] = 0;
-    char *end = strchr(line, '\n');   /* the first line */
+    char *end = strchr(line, '\n'); /* the first line */
     size_t len = end ? (size_t)(end - line) : n;
     while (len && (line[len - 1] == '\r' || line[len - 1] == ' ' || line[len - 1] == '\t'))
         len--;
@@ -386,9 +392,10 @@ cv_result cv_rpc_read_token_file(const char *path, char *out, size_t cap) {
     else if (len == 0)
         r = cv_error(CV_ERROR_MALFORMED, "token file '%s' is empty (the token is its first line)", path);
     else if (!ok)
-        r = cv_error(CV_ERROR_MALFORMED, "token file '%s': the token (its first line) must be 1..%u printable "
-                     "ASCII characters without spaces", path, (unsigned)(cap - 1 < MAX_TOKEN_CHARS ? cap - 1
-                     : MAX_TOKEN_CHARS));
+        r = cv_error(CV_ERROR_MALFORMED,
+                     "token file '%s': the token (its first line) must be 1..%u printable "
+                     "ASCII characters without spaces",
+                     path, (unsigned)(cap - 1 < MAX_TOKEN_CHARS ? cap - 1 : MAX_TOKEN_CHARS));
     else {
         memcpy(out, line, len);
         out[len] = 0;

@@ -11,11 +11,11 @@
 #include <time.h>
 
 typedef enum stream_tag {
-    TAG_INITIAL_SENT = 1,   /* SEND_INITIAL_METADATA */
-    TAG_INITIAL_RECEIVED,   /* client: RECV_INITIAL_METADATA */
-    TAG_END,                /* client: RECV_STATUS_ON_CLIENT; server: RECV_CLOSE_ON_SERVER */
-    TAG_RECV,               /* RECV_MESSAGE */
-    TAG_SEND,               /* the head of the send queue */
+    TAG_INITIAL_SENT = 1, /* SEND_INITIAL_METADATA */
+    TAG_INITIAL_RECEIVED, /* client: RECV_INITIAL_METADATA */
+    TAG_END,              /* client: RECV_STATUS_ON_CLIENT; server: RECV_CLOSE_ON_SERVER */
+    TAG_RECV,             /* RECV_MESSAGE */
+    TAG_SEND,             /* the head of the send queue */
 } stream_tag;
 
 #define TAG(t) ((void *)(intptr_t)(t))
@@ -55,8 +55,7 @@ cv_result cv_rpc_buffer_read(grpc_byte_buffer *bb, uint8_t **data, size_t *size)
     grpc_byte_buffer_reader_destroy(&reader);
     if (at != total) {
         free(out);
-        return cv_error(CV_ERROR_MALFORMED, "rpc: received message has %zu bytes in slices, %zu in total", at,
-                        total);
+        return cv_error(CV_ERROR_MALFORMED, "rpc: received message has %zu bytes in slices, %zu in total", at, total);
     }
     *data = out;
     *size = total;
@@ -68,7 +67,7 @@ grpc_byte_buffer *cv_rpc_buffer_copy(const void *data, size_t size) {
     if (size)
         memcpy(GRPC_SLICE_START_PTR(slice), data, size);
     grpc_byte_buffer *bb = grpc_raw_byte_buffer_create(&slice, 1);
-    grpc_slice_unref(slice);   /* the buffer holds its own reference */
+    grpc_slice_unref(slice); /* the buffer holds its own reference */
     return bb;
 }
 
@@ -87,9 +86,10 @@ gpr_timespec cv_rpc_deadline(uint32_t timeout_ms) {
 
 const char *cv_rpc_status_name(int status) {
     static const char *const names[] = {
-        "OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND", "ALREADY_EXISTS",
-        "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION", "ABORTED", "OUT_OF_RANGE",
-        "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS", "UNAUTHENTICATED",
+        "OK",        "CANCELLED",       "UNKNOWN",           "INVALID_ARGUMENT",   "DEADLINE_EXCEEDED",
+        "NOT_FOUND", "ALREADY_EXISTS",  "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
+        "ABORTED",   "OUT_OF_RANGE",    "UNIMPLEMENTED",     "INTERNAL",           "UNAVAILABLE",
+        "DATA_LOSS", "UNAUTHENTICATED",
     };
     if (status >= 0 && status < (int)(sizeof names / sizeof names[0]))
         return names[status];
@@ -170,7 +170,7 @@ static bool start_locked(cv_rpc_stream *s, const grpc_op *ops, size_t n, stream_
 static void start_recv_locked(cv_rpc_stream *s) {
     if (s->recv_in_flight || s->eof || s->failed || s->closing || s->in_count >= CV_RPC_RECV_QUEUE_MAX)
         return;
-    grpc_op op = {.op = GRPC_OP_RECV_MESSAGE};
+    grpc_op op = { .op = GRPC_OP_RECV_MESSAGE };
     op.data.recv_message.recv_message = &s->recv_buffer;
     s->recv_buffer = NULL;
     if (start_locked(s, &op, 1, TAG_RECV))
@@ -181,15 +181,13 @@ static void start_send_locked(cv_rpc_stream *s) {
     if (s->out_in_flight || !s->out_head || s->failed || s->closing)
         return;
     cv_rpc_out *o = s->out_head;
-    grpc_op op = {0};
+    grpc_op op = { 0 };
     switch (o->kind) {
     case CV_RPC_OUT_MESSAGE:
         op.op = GRPC_OP_SEND_MESSAGE;
         op.data.send_message.send_message = o->buffer;
         break;
-    case CV_RPC_OUT_CLOSE:
-        op.op = GRPC_OP_SEND_CLOSE_FROM_CLIENT;
-        break;
+    case CV_RPC_OUT_CLOSE: op.op = GRPC_OP_SEND_CLOSE_FROM_CLIENT; break;
     case CV_RPC_OUT_STATUS:
         op.op = GRPC_OP_SEND_STATUS_FROM_SERVER;
         op.data.send_status_from_server.status = s->status;
@@ -273,7 +271,7 @@ static void on_end(cv_rpc_stream *s) {
     if (s->is_server && s->cancelled)
         fail_locked(s);
     else if (s->out_head && !s->out_in_flight)
-        fail_locked(s);   /* nothing queued can go out any more */
+        fail_locked(s); /* nothing queued can go out any more */
 }
 
 static void *pump_main(void *arg) {
@@ -291,15 +289,9 @@ static void *pump_main(void *arg) {
             if (!ev.success)
                 fail_locked(s);
             break;
-        case TAG_END:
-            on_end(s);
-            break;
-        case TAG_RECV:
-            on_recv(s, ev.success);
-            break;
-        case TAG_SEND:
-            on_send(s, ev.success);
-            break;
+        case TAG_END: on_end(s); break;
+        case TAG_RECV: on_recv(s, ev.success); break;
+        case TAG_SEND: on_send(s, ev.success); break;
         }
         pthread_cond_broadcast(&s->cond);
         pthread_mutex_unlock(&s->mu);
@@ -323,7 +315,7 @@ cv_result cv_rpc_stream_begin(cv_rpc_stream *s, const cv_rpc_metadata *md, uint3
     s->pump_started = true;
 
     pthread_mutex_lock(&s->mu);
-    grpc_op end = {0};
+    grpc_op end = { 0 };
     if (s->is_server) {
         /* Completes when the call is over: at once if the client cancels or vanishes, so recv and send
            learn of it without waiting for their own ops. */
@@ -337,12 +329,12 @@ cv_result cv_rpc_stream_begin(cv_rpc_stream *s, const cv_rpc_metadata *md, uint3
         end.data.recv_status_on_client.error_string = &s->error_string;
     }
     bool ok = start_locked(s, &end, 1, TAG_END);
-    grpc_op initial = {.op = GRPC_OP_SEND_INITIAL_METADATA};
+    grpc_op initial = { .op = GRPC_OP_SEND_INITIAL_METADATA };
     initial.data.send_initial_metadata.count = s->send_md_count;
     initial.data.send_initial_metadata.metadata = s->send_md;
     ok = ok && start_locked(s, &initial, 1, TAG_INITIAL_SENT);
     if (ok && !s->is_server) {
-        grpc_op op = {.op = GRPC_OP_RECV_INITIAL_METADATA};
+        grpc_op op = { .op = GRPC_OP_RECV_INITIAL_METADATA };
         op.data.recv_initial_metadata.recv_initial_metadata = &s->recv_initial;
         ok = start_locked(s, &op, 1, TAG_INITIAL_RECEIVED);
     }
@@ -378,8 +370,7 @@ static struct timespec deadline_after(uint32_t ms) {
 static cv_result call_error_locked(cv_rpc_stream *s) {
     if (!s->is_server && s->status_set)
         return cv_error(CV_ERROR_CONNECTION, "rpc stream to %s: status %s (%d): %s", s->peer,
-                        cv_rpc_status_name(s->status), (int)s->status,
-                        s->status_message ? s->status_message : "");
+                        cv_rpc_status_name(s->status), (int)s->status, s->status_message ? s->status_message : "");
     if (s->is_server && s->cancelled)
         return cv_error(CV_ERROR_CONNECTION, "rpc stream from %s: cancelled by the client or the connection was lost",
                         s->peer);
@@ -393,7 +384,7 @@ cv_result cv_rpc_stream_recv(cv_rpc_stream *s, uint32_t timeout_ms, uint8_t **da
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_stream_recv: null stream or output");
     *data = NULL;
     *size = 0;
-    struct timespec deadline = timeout_ms == CV_RPC_FOREVER ? (struct timespec){0} : deadline_after(timeout_ms);
+    struct timespec deadline = timeout_ms == CV_RPC_FOREVER ? (struct timespec){ 0 } : deadline_after(timeout_ms);
     cv_result r = CV_OK;
     bool timed_out = false;
     pthread_mutex_lock(&s->mu);
@@ -412,23 +403,23 @@ cv_result cv_rpc_stream_recv(cv_rpc_stream *s, uint32_t timeout_ms, uint8_t **da
         }
         if (s->is_server) {
             if (s->eof)
-                break;                                  /* the client half-closed */
+                break; /* the client half-closed */
             if ((s->failed || s->ended) && !s->recv_in_flight) {
                 r = call_error_locked(s);
                 break;
             }
-        } else if (s->ended && !s->recv_in_flight) {   /* wait for the status, then for the last message */
+        } else if (s->ended && !s->recv_in_flight) { /* wait for the status, then for the last message */
             if (s->status != GRPC_STATUS_OK)
                 r = call_error_locked(s);
-            break;                                      /* OK status: end of stream */
+            break; /* OK status: end of stream */
         }
         if (timed_out) {
-            r = cv_error(CV_ERROR_TIMEOUT, "rpc stream %s %s: no message within %u ms",
-                         s->is_server ? "from" : "to", s->peer, timeout_ms);
+            r = cv_error(CV_ERROR_TIMEOUT, "rpc stream %s %s: no message within %u ms", s->is_server ? "from" : "to",
+                         s->peer, timeout_ms);
             break;
         }
         if (remaining_wait(&s->cond, &s->mu, timeout_ms == CV_RPC_FOREVER ? NULL : &deadline) == ETIMEDOUT)
-            timed_out = true;   /* one more look at the state before giving up */
+            timed_out = true; /* one more look at the state before giving up */
     }
     pthread_mutex_unlock(&s->mu);
     return r;
@@ -475,7 +466,7 @@ cv_result cv_rpc_stream_send_owned(cv_rpc_stream *s, void *data, size_t size) {
         free(data);
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_stream_send_owned: null stream or data");
     }
-    grpc_slice slice = grpc_slice_new(data, size, free);   /* gRPC frees it once sent */
+    grpc_slice slice = grpc_slice_new(data, size, free); /* gRPC frees it once sent */
     grpc_byte_buffer *bb = grpc_raw_byte_buffer_create(&slice, 1);
     grpc_slice_unref(slice);
     return send_buffer(s, bb, size);
@@ -493,7 +484,7 @@ cv_result cv_rpc_stream_close_send(cv_rpc_stream *s) {
     cv_result r = CV_OK;
     pthread_mutex_lock(&s->mu);
     if (s->send_closed || s->failed || s->ended || s->closing) {
-        free(o);   /* already closed, or nothing left to close */
+        free(o); /* already closed, or nothing left to close */
     } else {
         s->send_closed = true;
         enqueue_locked(s, o);
@@ -546,9 +537,7 @@ void cv_rpc_stream_cancel(cv_rpc_stream *s) {
     pthread_mutex_unlock(&s->mu);
 }
 
-const char *cv_rpc_stream_peer(cv_rpc_stream *s) {
-    return s ? s->peer : "";
-}
+const char *cv_rpc_stream_peer(cv_rpc_stream *s) { return s ? s->peer : ""; }
 
 const char *cv_rpc_stream_metadata(cv_rpc_stream *s, const char *key) {
     if (!s || !key)
@@ -571,7 +560,7 @@ void cv_rpc_stream_teardown(cv_rpc_stream *s) {
         return;
     pthread_mutex_lock(&s->mu);
     if (!s->ended)
-        grpc_call_cancel(s->call, NULL);   /* every op in flight completes (failed) */
+        grpc_call_cancel(s->call, NULL); /* every op in flight completes (failed) */
     s->closing = true;
     pthread_mutex_unlock(&s->mu);
     if (s->pump_started) {

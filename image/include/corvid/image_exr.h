@@ -53,15 +53,15 @@ typedef enum cv_exr_type {
 } cv_exr_type;
 
 typedef enum cv_exr_compression {
-    CV_EXR_ZIP = 0,   /* zlib over 16 scanlines: the default, good on smooth data */
-    CV_EXR_PIZ = 1,   /* wavelet, 32 scanlines: usually smaller on noisy renders */
+    CV_EXR_ZIP = 0, /* zlib over 16 scanlines: the default, good on smooth data */
+    CV_EXR_PIZ = 1, /* wavelet, 32 scanlines: usually smaller on noisy renders */
     CV_EXR_NONE = 2,
     CV_EXR_OTHER_COMPRESSION = 3, /* read only: one this writer does not produce (RLE, DWAA, ...) */
 } cv_exr_compression;
 
 typedef struct cv_exr_layer {
-    const char *name;           /* prefix of its channels; NULL or "" for unprefixed (the beauty) */
-    uint32_t channel_count;     /* 1..CV_EXR_MAX_LAYER_CHANNELS */
+    const char *name;       /* prefix of its channels; NULL or "" for unprefixed (the beauty) */
+    uint32_t channel_count; /* 1..CV_EXR_MAX_LAYER_CHANNELS */
     const char *channels[CV_EXR_MAX_LAYER_CHANNELS]; /* e.g. "R", "G", "B" or "X", "Y", "Z" */
     cv_exr_type type;
     /* Either interleaved: width * height * channel_count floats ... */
@@ -71,9 +71,9 @@ typedef struct cv_exr_layer {
 } cv_exr_layer;
 
 typedef struct cv_exr_desc {
-    uint32_t width, height;     /* 1..CV_MAX_TEXTURE_DIM each */
+    uint32_t width, height; /* 1..CV_MAX_TEXTURE_DIM each */
     cv_exr_compression compression;
-    uint32_t layer_count;       /* >= 1; at most CV_EXR_MAX_CHANNELS channels in all */
+    uint32_t layer_count; /* >= 1; at most CV_EXR_MAX_CHANNELS channels in all */
     const cv_exr_layer *layers;
 } cv_exr_desc;
 
@@ -81,16 +81,16 @@ typedef struct cv_exr_desc {
 cv_result cv_exr_write(const char *path, const cv_exr_desc *desc);
 
 typedef struct cv_exr_channel {
-    char *name;                 /* full name, e.g. "albedo.R" */
-    cv_exr_type type;           /* how the file stored it */
-    float *pixels;              /* width * height floats, rows top to bottom */
+    char *name;       /* full name, e.g. "albedo.R" */
+    cv_exr_type type; /* how the file stored it */
+    float *pixels;    /* width * height floats, rows top to bottom */
 } cv_exr_channel;
 
 typedef struct cv_exr_image {
     uint32_t width, height;
     cv_exr_compression compression; /* as stored */
     uint32_t channel_count;
-    cv_exr_channel *channels;   /* in the file's (alphabetical) order */
+    cv_exr_channel *channels; /* in the file's (alphabetical) order */
 } cv_exr_image;
 
 /* Reads every channel of `path` into float planes. On failure *out is left

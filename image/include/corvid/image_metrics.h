@@ -25,17 +25,17 @@
 #define CV_SSIM_WINDOW 8
 
 typedef struct cv_image_metrics {
-    uint64_t pixels;        /* pixels compared (in the mask, both values finite) */
-    uint64_t nonfinite;     /* pixels in the mask left out for a NaN or infinite value */
+    uint64_t pixels;    /* pixels compared (in the mask, both values finite) */
+    uint64_t nonfinite; /* pixels in the mask left out for a NaN or infinite value */
     double rmse, bias, max_abs;
-    double ssim;            /* NAN when ssim_windows == 0 */
+    double ssim; /* NAN when ssim_windows == 0 */
     uint64_t ssim_windows;
 } cv_image_metrics;
 
 /* `peak` (finite, > 0) is the dynamic range L of the SSIM constants, e.g. 1
  * for visibility and albedo. CV_ERROR_INVALID_ARGUMENT for NULL images, a zero
  * size or a bad peak. With no pixel compared, rmse, bias and max_abs are 0. */
-cv_result cv_image_metrics_f32(const float *a, const float *b, const uint8_t *mask, uint32_t width,
-                               uint32_t height, double peak, cv_image_metrics *out);
+cv_result cv_image_metrics_f32(const float *a, const float *b, const uint8_t *mask, uint32_t width, uint32_t height,
+                               double peak, cv_image_metrics *out);
 
 #endif

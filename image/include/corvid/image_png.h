@@ -30,13 +30,12 @@
 
 typedef struct cv_png_image {
     uint32_t width, height;
-    uint32_t channels;   /* 3 (RGB) or 4 (RGBA) */
-    uint8_t *pixels;     /* width * height * channels bytes */
+    uint32_t channels; /* 3 (RGB) or 4 (RGBA) */
+    uint8_t *pixels;   /* width * height * channels bytes */
 } cv_png_image;
 
 /* width and height 1..CV_MAX_TEXTURE_DIM, channels 3 or 4. */
-cv_result cv_png_write(const char *path, uint32_t width, uint32_t height, uint32_t channels,
-                       const uint8_t *pixels);
+cv_result cv_png_write(const char *path, uint32_t width, uint32_t height, uint32_t channels, const uint8_t *pixels);
 
 /* On failure *out is left unchanged; on success free it with cv_png_image_free. */
 cv_result cv_png_read(const char *path, cv_png_image *out);

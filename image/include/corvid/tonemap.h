@@ -33,8 +33,8 @@ typedef enum cv_tonemap_curve {
 } cv_tonemap_curve;
 
 typedef struct cv_tonemap_desc {
-    float exposure;          /* stops, finite; 0 leaves the input as it is */
-    cv_tonemap_curve curve;  /* 0 = ACES */
+    float exposure;         /* stops, finite; 0 leaves the input as it is */
+    cv_tonemap_curve curve; /* 0 = ACES */
 } cv_tonemap_desc;
 
 /* The curve alone: linear scene value (already exposed) to display value in [0, 1]. */
@@ -49,8 +49,7 @@ uint8_t cv_srgb_encode8(float linear);
 /* Tone maps width * height pixels of `in_channels` floats (3: RGB, 4: RGBA)
  * into `out_channels` bytes per pixel (3 or 4; alpha 255 when the input has
  * none). Rows are tightly packed in both. */
-cv_result cv_tonemap_to_srgb8(const cv_tonemap_desc *desc, const float *in, uint32_t in_channels,
-                              uint32_t width, uint32_t height, uint8_t *out,
-                              uint32_t out_channels);
+cv_result cv_tonemap_to_srgb8(const cv_tonemap_desc *desc, const float *in, uint32_t in_channels, uint32_t width,
+                              uint32_t height, uint8_t *out, uint32_t out_channels);
 
 #endif

@@ -60,7 +60,6 @@
 #include "corvid/result.h"
 #include "corvid/types.h"
 
-
 /* Columns [x, x + width) of the pass. width 0 means the device sits this pass out. */
 typedef struct cv_column_range {
     uint32_t x;
@@ -68,17 +67,17 @@ typedef struct cv_column_range {
 } cv_column_range;
 
 typedef struct cv_partition {
-    uint32_t width;         /* columns of the whole pass */
-    uint32_t tile;          /* every non-empty range starts on a multiple of this */
-    uint32_t device_count;  /* ranges[0 .. device_count-1] are meaningful */
+    uint32_t width;        /* columns of the whole pass */
+    uint32_t tile;         /* every non-empty range starts on a multiple of this */
+    uint32_t device_count; /* ranges[0 .. device_count-1] are meaningful */
     cv_column_range ranges[CV_MAX_DEVICES];
 } cv_partition;
 
 /* Splits `width` columns among `device_count` devices (1..CV_MAX_DEVICES)
  * in proportion to `weights` (device_count finite values >= 0, not all 0; NULL
  * means equal weights), with range starts snapped to multiples of `tile` (>= 1). */
-cv_result cv_partition_split(uint32_t width, uint32_t tile, uint32_t device_count,
-                             const double *weights, cv_partition *out);
+cv_result cv_partition_split(uint32_t width, uint32_t tile, uint32_t device_count, const double *weights,
+                             cv_partition *out);
 
 /* CV_OK if `p` is well formed: width, tile and device count as cv_partition_split
  * takes them, and ranges that follow each other without gap or overlap in device
@@ -89,7 +88,7 @@ cv_result cv_partition_split(uint32_t width, uint32_t tile, uint32_t device_coun
 cv_result cv_partition_validate(const cv_partition *p);
 
 typedef struct cv_balancer_desc {
-    uint32_t device_count;  /* 1..CV_MAX_DEVICES */
+    uint32_t device_count; /* 1..CV_MAX_DEVICES */
     /* Weight of the newest measurement in the moving average of each device's
      * speed, in (0, 1]; 0 means 0.15. Lower is steadier, higher adapts faster. */
     double smoothing;
@@ -103,10 +102,10 @@ typedef struct cv_balancer {
     uint32_t device_count;
     double smoothing;
     double min_share;
-    uint32_t frames;                            /* updates taken so far */
-    bool measured[CV_MAX_DEVICES];    /* has a speed sample */
-    double speed[CV_MAX_DEVICES];     /* smoothed columns per ms */
-    cv_partition last;                          /* the partition of the last update */
+    uint32_t frames;               /* updates taken so far */
+    bool measured[CV_MAX_DEVICES]; /* has a speed sample */
+    double speed[CV_MAX_DEVICES];  /* smoothed columns per ms */
+    cv_partition last;             /* the partition of the last update */
 } cv_balancer;
 
 cv_result cv_balancer_init(cv_balancer *b, const cv_balancer_desc *desc);
@@ -121,8 +120,7 @@ void cv_balancer_shares(const cv_balancer *b, double *shares);
  * tile) while its ideal position is within one tile of it: timing noise then
  * does not flip boundaries back and forth. Each range is thus within two
  * tiles of its share; the result follows the same rules as any split. */
-cv_result cv_balancer_split(const cv_balancer *b, uint32_t width, uint32_t tile,
-                            cv_partition *out);
+cv_result cv_balancer_split(const cv_balancer *b, uint32_t width, uint32_t tile, cv_partition *out);
 
 /* Feeds back one frame: `used` is the partition the frame ran with (its
  * device_count must match) and ms[d] the time device d took for its range.
@@ -132,8 +130,8 @@ cv_result cv_balancer_update(cv_balancer *b, const cv_partition *used, const dou
 
 /* Where a pass runs. */
 typedef enum cv_mgpu_policy {
-    CV_MGPU_PRIMARY_ONLY = 0,  /* the primary computes the whole width */
-    CV_MGPU_ALL_DEVICES = 1,   /* each device computes its own range */
+    CV_MGPU_PRIMARY_ONLY = 0, /* the primary computes the whole width */
+    CV_MGPU_ALL_DEVICES = 1,  /* each device computes its own range */
 } cv_mgpu_policy;
 
 /* Where a pass's data must be after the transfer. */
@@ -154,7 +152,7 @@ typedef enum cv_mgpu_transfer {
 typedef struct cv_mgpu_copy {
     uint32_t src_device;
     uint32_t dst_device;
-    cv_column_range columns;  /* the same columns on both devices */
+    cv_column_range columns; /* the same columns on both devices */
 } cv_mgpu_copy;
 
 typedef struct cv_mgpu_copy_plan {
@@ -171,8 +169,8 @@ typedef struct cv_mgpu_copy_plan {
  * where the data already is, and devices with empty ranges neither send nor
  * receive. MULTICAST after an ALL_DEVICES pass is CV_ERROR_INVALID_ARGUMENT
  * (the primary holds only its own columns: gather them first). */
-cv_result cv_mgpu_plan_copies(const cv_partition *p, uint32_t primary, cv_mgpu_policy policy,
-                              cv_mgpu_transfer rule, cv_mgpu_copy_plan *out);
+cv_result cv_mgpu_plan_copies(const cv_partition *p, uint32_t primary, cv_mgpu_policy policy, cv_mgpu_transfer rule,
+                              cv_mgpu_copy_plan *out);
 
 const char *cv_mgpu_policy_name(cv_mgpu_policy policy);
 const char *cv_mgpu_transfer_name(cv_mgpu_transfer rule);

@@ -27,16 +27,16 @@
 #define CV_RENDER_BAND_RAYS (1u << 22)
 
 typedef struct cv_render_settings {
-    uint32_t width, height;     /* [640x360] pixels */
-    uint32_t frames;            /* [4] frames accumulated (more = less noise) */
-    uint32_t ao_samples;        /* [4] AO rays per pixel per frame (0..32) */
-    float ao_radius;            /* [2% of the scene diagonal] AO ray length, metres */
-    float sun_cone_degrees;     /* [1.5] half angle of the sun's cone (soft shadows); < 0 = hard shadows */
-    uint32_t camera;            /* [0] scene camera index; a framing camera if the scene has none */
-    uint32_t tile;              /* [8] partition tile width, pixels */
-    int32_t filter_iterations;  /* [3] a-trous iterations (steps 1, 2, 4, ...); -1 = none */
-    uint32_t band_rays;         /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
-    uint32_t first_frame;       /* [0] sample index of the first frame: frames draw the sample sets of
+    uint32_t width, height;    /* [640x360] pixels */
+    uint32_t frames;           /* [4] frames accumulated (more = less noise) */
+    uint32_t ao_samples;       /* [4] AO rays per pixel per frame (0..32) */
+    float ao_radius;           /* [2% of the scene diagonal] AO ray length, metres */
+    float sun_cone_degrees;    /* [1.5] half angle of the sun's cone (soft shadows); < 0 = hard shadows */
+    uint32_t camera;           /* [0] scene camera index; a framing camera if the scene has none */
+    uint32_t tile;             /* [8] partition tile width, pixels */
+    int32_t filter_iterations; /* [3] a-trous iterations (steps 1, 2, 4, ...); -1 = none */
+    uint32_t band_rays;        /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
+    uint32_t first_frame;      /* [0] sample index of the first frame: frames draw the sample sets of
                                  * first_frame .. first_frame + frames - 1 (a render can continue
                                  * another's sequence; tests render single frames of a sequence) */
 } cv_render_settings;
@@ -45,7 +45,7 @@ typedef struct cv_render_settings {
 typedef struct cv_render_device_stats {
     cv_column_range columns;
     uint64_t rays;
-    double trace_ms;            /* GPU (or CPU, on lavapipe) time of raygen+trace+resolve */
+    double trace_ms; /* GPU (or CPU, on lavapipe) time of raygen+trace+resolve */
     double ms_per_column;
 } cv_render_device_stats;
 
@@ -53,21 +53,21 @@ typedef struct cv_render_stats {
     uint32_t device_count;
     uint32_t frames;
     cv_render_device_stats devices[CV_MAX_DEVICES];
-    uint64_t rays_total;        /* over all frames */
-    uint64_t transfer_bytes;    /* over all frames, between devices */
+    uint64_t rays_total;     /* over all frames */
+    uint64_t transfer_bytes; /* over all frames, between devices */
     double transfer_ms;
-    double upload_ms;           /* scene upload to all devices */
-    double frame_ms;            /* wall time per frame, mean */
+    double upload_ms; /* scene upload to all devices */
+    double frame_ms;  /* wall time per frame, mean */
 } cv_render_stats;
 
 /* The frame as planes of RGBA floats (width * height * 4 each). */
 typedef struct cv_render_output {
     uint32_t width, height;
-    float *radiance;            /* linear HDR; alpha 1 on geometry, 0 on sky */
+    float *radiance; /* linear HDR; alpha 1 on geometry, 0 on sky */
     float *albedo;
-    float *normal;              /* xyz, w = material index */
-    float *position;            /* world position, w = 1 on geometry */
-    float *visibility;          /* r = sun visibility, g = ambient occlusion (filtered; accumulated in
+    float *normal;     /* xyz, w = material index */
+    float *position;   /* world position, w = 1 on geometry */
+    float *visibility; /* r = sun visibility, g = ambient occlusion (filtered; accumulated in
                                  * float32), b, a = their mean squares over the frames (unfiltered) */
 } cv_render_output;
 

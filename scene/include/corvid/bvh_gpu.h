@@ -123,7 +123,7 @@
 #define CV_BVH_LEAF_FIRST_MASK 0x0FFFFFFFu
 #define CV_BVH_LEAF_COUNT_SHIFT 28
 #define CV_BVH_MAX_LEAF_SIZE 16u
-#define CV_BVH_MAX_PRIMITIVES (CV_BVH_LEAF_FIRST_MASK + 1u)   /* 2^28 per array */
+#define CV_BVH_MAX_PRIMITIVES (CV_BVH_LEAF_FIRST_MASK + 1u) /* 2^28 per array */
 /* Deepest leaf of any tree (root = depth 0): the builder halves by count
  * where needed to stay within it, so a traversal stack of CV_BVH_MAX_DEPTH
  * entries per level always suffices (two-level: one such stack per level). */
@@ -177,15 +177,14 @@ typedef struct cv_ray {
 } cv_ray;
 
 typedef struct cv_hit {
-    float t;                    /* INFINITY on a miss */
-    float u, v;                 /* barycentrics (0 on a miss) */
-    uint32_t triangle;          /* triangle index in its mesh; CV_BVH_INVALID on a miss */
-    uint32_t instance;          /* scene instance index; CV_BVH_INVALID on a miss */
+    float t;           /* INFINITY on a miss */
+    float u, v;        /* barycentrics (0 on a miss) */
+    uint32_t triangle; /* triangle index in its mesh; CV_BVH_INVALID on a miss */
+    uint32_t instance; /* scene instance index; CV_BVH_INVALID on a miss */
 } cv_hit;
 
 /* Leaf info of the skip layout. */
-static inline uint32_t cv_bvh_leaf_info(uint32_t first, uint32_t count)
-{
+static inline uint32_t cv_bvh_leaf_info(uint32_t first, uint32_t count) {
     return first | ((count - 1u) << CV_BVH_LEAF_COUNT_SHIFT);
 }
 static inline uint32_t cv_bvh_leaf_first(uint32_t info) { return info & CV_BVH_LEAF_FIRST_MASK; }
@@ -193,22 +192,24 @@ static inline uint32_t cv_bvh_leaf_count(uint32_t info) { return (info >> CV_BVH
 
 _Static_assert(sizeof(cv_bvh_node) == 32, "cv_bvh_node is 32 bytes in std430");
 _Static_assert(offsetof(cv_bvh_node, info) == 12 && offsetof(cv_bvh_node, bmax) == 16 &&
-               offsetof(cv_bvh_node, skip) == 28, "cv_bvh_node offsets");
+                   offsetof(cv_bvh_node, skip) == 28,
+               "cv_bvh_node offsets");
 _Static_assert(sizeof(cv_bvh_node2) == 64, "cv_bvh_node2 is 64 bytes in std430");
 _Static_assert(offsetof(cv_bvh_node2, a_link) == 12 && offsetof(cv_bvh_node2, a_count) == 28 &&
-               offsetof(cv_bvh_node2, b_min) == 32 && offsetof(cv_bvh_node2, b_link) == 44 &&
-               offsetof(cv_bvh_node2, b_max) == 48 && offsetof(cv_bvh_node2, b_count) == 60,
+                   offsetof(cv_bvh_node2, b_min) == 32 && offsetof(cv_bvh_node2, b_link) == 44 &&
+                   offsetof(cv_bvh_node2, b_max) == 48 && offsetof(cv_bvh_node2, b_count) == 60,
                "cv_bvh_node2 offsets");
 _Static_assert(sizeof(cv_bvh_tri) == 48, "cv_bvh_tri is 48 bytes in std430");
 _Static_assert(offsetof(cv_bvh_tri, prim) == 12 && offsetof(cv_bvh_tri, e1) == 16 &&
-               offsetof(cv_bvh_tri, instance) == 28 && offsetof(cv_bvh_tri, e2) == 32,
+                   offsetof(cv_bvh_tri, instance) == 28 && offsetof(cv_bvh_tri, e2) == 32,
                "cv_bvh_tri offsets");
 _Static_assert(sizeof(cv_bvh_instance) == 64, "cv_bvh_instance is 64 bytes in std430");
-_Static_assert(offsetof(cv_bvh_instance, blas_root) == 48 &&
-               offsetof(cv_bvh_instance, instance) == 56, "cv_bvh_instance offsets");
-_Static_assert(sizeof(cv_ray) == 32 && offsetof(cv_ray, tmin) == 12 &&
-               offsetof(cv_ray, dir) == 16 && offsetof(cv_ray, tmax) == 28, "cv_ray layout");
-_Static_assert(sizeof(cv_hit) == 20 && offsetof(cv_hit, triangle) == 12 &&
-               offsetof(cv_hit, instance) == 16, "cv_hit layout");
+_Static_assert(offsetof(cv_bvh_instance, blas_root) == 48 && offsetof(cv_bvh_instance, instance) == 56,
+               "cv_bvh_instance offsets");
+_Static_assert(sizeof(cv_ray) == 32 && offsetof(cv_ray, tmin) == 12 && offsetof(cv_ray, dir) == 16 &&
+                   offsetof(cv_ray, tmax) == 28,
+               "cv_ray layout");
+_Static_assert(sizeof(cv_hit) == 20 && offsetof(cv_hit, triangle) == 12 && offsetof(cv_hit, instance) == 16,
+               "cv_hit layout");
 
 #endif

@@ -41,29 +41,27 @@ bool cv_ray_kind_is_occlusion(cv_ray_kind kind);
 
 /* Zero fields take the defaults in brackets. */
 typedef struct cv_ray_set_desc {
-    uint32_t width, height;     /* [256 x 256] primary rays */
-    const cv_camera *camera;    /* [the scene's first camera, else cv_scene_framing_camera] */
-    float sun_direction[3];     /* direction sunlight travels [the scene's first
+    uint32_t width, height;  /* [256 x 256] primary rays */
+    const cv_camera *camera; /* [the scene's first camera, else cv_scene_framing_camera] */
+    float sun_direction[3];  /* direction sunlight travels [the scene's first
                                    directional light, else (-0.3, -1, -0.2) normalized] */
-    float ao_short_length;      /* [0.5] metres */
-    uint32_t random_count;      /* [65536] RANDOM rays */
-    uint32_t seed;              /* jitter and sampling */
+    float ao_short_length;   /* [0.5] metres */
+    uint32_t random_count;   /* [65536] RANDOM rays */
+    uint32_t seed;           /* jitter and sampling */
 } cv_ray_set_desc;
 
 typedef struct cv_ray_set {
     cv_ray_kind kind;
-    cv_ray *rays;               /* malloc'd; free with cv_ray_set_free */
+    cv_ray *rays; /* malloc'd; free with cv_ray_set_free */
     uint32_t count;
 } cv_ray_set;
 
 /* PRIMARY or RANDOM rays (need no hits). */
-cv_result cv_ray_set_make(const cv_scene *scene, cv_ray_kind kind, const cv_ray_set_desc *desc,
-                          cv_ray_set *out);
+cv_result cv_ray_set_make(const cv_scene *scene, cv_ray_kind kind, const cv_ray_set_desc *desc, cv_ray_set *out);
 /* A secondary set from primary rays and their closest hits (from any tracer
  * that reports instance and triangle ids of `scene`). */
-cv_result cv_ray_set_make_secondary(const cv_scene *scene, cv_ray_kind kind,
-                                    const cv_ray_set_desc *desc, const cv_ray_set *primary,
-                                    const cv_hit *primary_hits, cv_ray_set *out);
+cv_result cv_ray_set_make_secondary(const cv_scene *scene, cv_ray_kind kind, const cv_ray_set_desc *desc,
+                                    const cv_ray_set *primary, const cv_hit *primary_hits, cv_ray_set *out);
 void cv_ray_set_free(cv_ray_set *set);
 
 #endif

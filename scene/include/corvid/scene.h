@@ -33,49 +33,49 @@ typedef struct cv_scene cv_scene;
 /* Input to cv_scene_add_mesh. normals may be NULL (smooth, area-weighted
  * normals are then computed); uvs may be NULL (the mesh has none). */
 typedef struct cv_mesh_desc {
-    const float *positions;     /* vertex_count * 3 */
-    const float *normals;       /* vertex_count * 3, or NULL */
-    const float *uvs;           /* vertex_count * 2, or NULL */
-    uint32_t vertex_count;      /* >= 1 */
-    const uint32_t *indices;    /* triangle_count * 3, each < vertex_count */
-    uint32_t triangle_count;    /* >= 1 */
-    const char *name;           /* may be NULL; truncated to CV_SCENE_NAME_MAX - 1 */
+    const float *positions;  /* vertex_count * 3 */
+    const float *normals;    /* vertex_count * 3, or NULL */
+    const float *uvs;        /* vertex_count * 2, or NULL */
+    uint32_t vertex_count;   /* >= 1 */
+    const uint32_t *indices; /* triangle_count * 3, each < vertex_count */
+    uint32_t triangle_count; /* >= 1 */
+    const char *name;        /* may be NULL; truncated to CV_SCENE_NAME_MAX - 1 */
 } cv_mesh_desc;
 
 /* A stored mesh (read-only view; the arrays belong to the scene). */
 typedef struct cv_mesh {
-    float *positions;           /* vertex_count * 3 */
-    float *normals;             /* vertex_count * 3 */
-    float *uvs;                 /* vertex_count * 2, or NULL */
-    uint32_t *indices;          /* triangle_count * 3 */
+    float *positions;  /* vertex_count * 3 */
+    float *normals;    /* vertex_count * 3 */
+    float *uvs;        /* vertex_count * 2, or NULL */
+    uint32_t *indices; /* triangle_count * 3 */
     uint32_t vertex_count;
     uint32_t triangle_count;
     char name[CV_SCENE_NAME_MAX];
 } cv_mesh;
 
 typedef struct cv_material {
-    float base_color[3];        /* linear rgb, 0..1 */
-    float roughness;            /* 0..1 (perceptual) */
-    float metalness;            /* 0..1 */
-    float emission[3];          /* linear rgb radiance, >= 0 */
-    float transmission;         /* 0..1: fraction of light passing through */
-    float ior;                  /* index of refraction, >= 1 */
+    float base_color[3]; /* linear rgb, 0..1 */
+    float roughness;     /* 0..1 (perceptual) */
+    float metalness;     /* 0..1 */
+    float emission[3];   /* linear rgb radiance, >= 0 */
+    float transmission;  /* 0..1: fraction of light passing through */
+    float ior;           /* index of refraction, >= 1 */
 } cv_material;
 
 /* Base color 0.8 grey, roughness 0.5, dielectric, no emission, opaque, ior 1.5. */
 cv_material cv_material_default(void);
 
 typedef struct cv_instance {
-    uint32_t mesh;              /* index of a mesh of the scene */
-    uint32_t material;          /* index of a material of the scene */
-    float transform[3][4];      /* object to world, row-major: world = T * (p, 1) */
+    uint32_t mesh;         /* index of a mesh of the scene */
+    uint32_t material;     /* index of a material of the scene */
+    float transform[3][4]; /* object to world, row-major: world = T * (p, 1) */
 } cv_instance;
 
 typedef struct cv_camera {
     float position[3];
-    float target[3];            /* a point looked at (forward = target - position) */
-    float up[3];                /* need not be orthogonal to forward, must not be parallel */
-    float vertical_fov;         /* full vertical angle, radians, in (0, pi) */
+    float target[3];    /* a point looked at (forward = target - position) */
+    float up[3];        /* need not be orthogonal to forward, must not be parallel */
+    float vertical_fov; /* full vertical angle, radians, in (0, pi) */
 } cv_camera;
 
 typedef enum cv_light_type {
@@ -85,14 +85,14 @@ typedef enum cv_light_type {
 
 typedef struct cv_light {
     cv_light_type type;
-    float direction[3];         /* directional: unit direction the light travels (sun to scene) */
-    float position[3];          /* point: world position */
-    float color[3];             /* linear rgb, max component 1 by convention */
-    float intensity;            /* directional: irradiance (lux-like); point: intensity */
+    float direction[3]; /* directional: unit direction the light travels (sun to scene) */
+    float position[3];  /* point: world position */
+    float color[3];     /* linear rgb, max component 1 by convention */
+    float intensity;    /* directional: irradiance (lux-like); point: intensity */
 } cv_light;
 
 cv_result cv_scene_create(cv_scene **out);
-void cv_scene_destroy(cv_scene *scene);             /* NULL is allowed */
+void cv_scene_destroy(cv_scene *scene); /* NULL is allowed */
 
 /* Each add copies its input and returns the new element's index in *out_index
  * (may be NULL). Fails with CV_ERROR_INVALID_ARGUMENT naming the bad field. */
@@ -103,12 +103,10 @@ cv_result cv_scene_add_camera(cv_scene *scene, const cv_camera *camera, uint32_t
 cv_result cv_scene_add_light(cv_scene *scene, const cv_light *light, uint32_t *out_index);
 
 /* Moves an instance (same checks as add). */
-cv_result cv_scene_set_instance_transform(cv_scene *scene, uint32_t instance,
-                                          const float transform[3][4]);
+cv_result cv_scene_set_instance_transform(cv_scene *scene, uint32_t instance, const float transform[3][4]);
 /* Replaces a mesh's positions (same vertex count, finite values); topology,
  * normals and uvs are kept. */
-cv_result cv_scene_set_mesh_positions(cv_scene *scene, uint32_t mesh, const float *positions,
-                                      uint32_t vertex_count);
+cv_result cv_scene_set_mesh_positions(cv_scene *scene, uint32_t mesh, const float *positions, uint32_t vertex_count);
 
 uint32_t cv_scene_mesh_count(const cv_scene *scene);
 uint32_t cv_scene_material_count(const cv_scene *scene);
@@ -136,8 +134,7 @@ void cv_scene_bounds(const cv_scene *scene, float min[3], float max[3]);
  * position transformed by the instance's transform, exactly as the BVH
  * builders do it (same float operations, so results compare bit for bit).
  * Indices must be in range (checked with assert). */
-void cv_scene_world_triangle(const cv_scene *scene, uint32_t instance, uint32_t triangle,
-                             float out[3][3]);
+void cv_scene_world_triangle(const cv_scene *scene, uint32_t instance, uint32_t triangle, float out[3][3]);
 
 /* A camera that frames the whole scene (from the +x+y+z diagonal, 60 degree
  * vertical field of view), for scenes that bring none. */

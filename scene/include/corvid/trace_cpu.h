@@ -44,12 +44,12 @@ bool cv_trace_ray(const cv_trace_target *target, const cv_ray *ray, uint32_t fla
 
 /* count rays into hits[count], split over thread_count threads (0 = all
  * online CPUs). Results do not depend on the thread count. */
-cv_result cv_trace_batch(const cv_trace_target *target, const cv_ray *rays, uint32_t count,
-                         uint32_t flags, uint32_t thread_count, cv_hit *hits);
+cv_result cv_trace_batch(const cv_trace_target *target, const cv_ray *rays, uint32_t count, uint32_t flags,
+                         uint32_t thread_count, cv_hit *hits);
 
 /* The ray-triangle test itself: hit when tmin <= t < t_limit. Writes t, u, v
  * only on a hit. Brute-force references use it to match the BVH bit for bit. */
-bool cv_intersect_triangle(const cv_bvh_tri *tri, const cv_ray *ray, float t_limit,
-                           bool cull_back_faces, float *t, float *u, float *v);
+bool cv_intersect_triangle(const cv_bvh_tri *tri, const cv_ray *ray, float t_limit, bool cull_back_faces, float *t,
+                           float *u, float *v);
 
 #endif

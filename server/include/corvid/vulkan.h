@@ -35,23 +35,23 @@ typedef enum cv_vulkan_adapter_type {
 typedef struct cv_vulkan_adapter_info {
     uint32_t index;
     char name[256];
-    char driver[128];                   /* driver name and version text */
+    char driver[128]; /* driver name and version text */
     cv_vulkan_adapter_type type;
     uint32_t vendor_id, device_id;
-    uint32_t api_version;               /* VK_MAKE_API_VERSION form */
-    uint64_t device_local_bytes;        /* size of the largest device-local heap */
-    bool separate_compute_queue;        /* has a compute-only queue family */
-    bool separate_copy_queue;           /* has a transfer-only queue family */
-    bool ray_tracing_pipeline;          /* VK_KHR_ray_tracing_pipeline */
-    bool usable;                        /* meets the requirements above */
-    char unusable_reason[128];          /* why not, when !usable */
+    uint32_t api_version;        /* VK_MAKE_API_VERSION form */
+    uint64_t device_local_bytes; /* size of the largest device-local heap */
+    bool separate_compute_queue; /* has a compute-only queue family */
+    bool separate_copy_queue;    /* has a transfer-only queue family */
+    bool ray_tracing_pipeline;   /* VK_KHR_ray_tracing_pipeline */
+    bool usable;                 /* meets the requirements above */
+    char unusable_reason[128];   /* why not, when !usable */
 } cv_vulkan_adapter_info;
 
 /* What an adapter is wanted for, to choose among several. */
 typedef enum cv_vulkan_purpose {
-    CV_VULKAN_PURPOSE_RENDER = 0,       /* fastest: discrete > integrated > virtual > CPU, then memory */
-    CV_VULKAN_PURPOSE_RAY_TRACING = 1,  /* VK_KHR_ray_tracing_pipeline first, then as RENDER */
-    CV_VULKAN_PURPOSE_SOFTWARE = 2,     /* a CPU implementation (lavapipe) first: reproducible tests */
+    CV_VULKAN_PURPOSE_RENDER = 0,      /* fastest: discrete > integrated > virtual > CPU, then memory */
+    CV_VULKAN_PURPOSE_RAY_TRACING = 1, /* VK_KHR_ray_tracing_pipeline first, then as RENDER */
+    CV_VULKAN_PURPOSE_SOFTWARE = 2,    /* a CPU implementation (lavapipe) first: reproducible tests */
 } cv_vulkan_purpose;
 
 /* Copies up to `capacity` adapters' info; *count gets the number of adapters. */
@@ -66,8 +66,8 @@ cv_result cv_vulkan_find_adapter(const char *spec, uint32_t *index);
 /* ---- validation messages -------------------------------------------------- */
 
 typedef struct cv_vulkan_message_counts {
-    uint32_t errors;      /* validation and performance messages of error severity */
-    uint32_t warnings;    /* ... of warning severity */
+    uint32_t errors;   /* validation and performance messages of error severity */
+    uint32_t warnings; /* ... of warning severity */
 } cv_vulkan_message_counts;
 
 /* Counts of messages from the validation layer since the process started
@@ -81,11 +81,11 @@ uint32_t cv_vulkan_validation_message_count(void);
 /* Device memory is sub-allocated from large blocks per memory type; these are
  * the figures for leak checks. */
 typedef struct cv_vulkan_memory_stats {
-    uint32_t block_count;        /* VkDeviceMemory objects held */
+    uint32_t block_count; /* VkDeviceMemory objects held */
     uint64_t block_bytes;
-    uint32_t allocation_count;   /* live sub-allocations (resources, staging) */
+    uint32_t allocation_count; /* live sub-allocations (resources, staging) */
     uint64_t allocated_bytes;
-    uint32_t buffers, images, samplers, pipelines;   /* live Vulkan objects */
+    uint32_t buffers, images, samplers, pipelines; /* live Vulkan objects */
 } cv_vulkan_memory_stats;
 
 /* Stats of one Vulkan device; CV_ERROR_INVALID_ARGUMENT for another backend's. */
@@ -119,12 +119,12 @@ typedef enum cv_vulkan_trace_path {
 const char *cv_vulkan_trace_path_name(cv_vulkan_trace_path path);
 
 typedef struct cv_vulkan_trace_status {
-    cv_vulkan_trace_path mode;          /* what was asked: AUTO, COMPUTE or PIPELINE */
-    cv_vulkan_trace_path path;          /* what lists compiled now use: COMPUTE or PIPELINE */
-    bool pipeline_offered;              /* the adapter has the ray-tracing pipeline */
-    bool measured;                      /* AUTO: the adapter's paths were measured */
-    uint32_t measured_rays;             /* rays per measurement (each path, closest and any hit) */
-    double compute_mrays, pipeline_mrays;   /* measured million rays per second */
+    cv_vulkan_trace_path mode;            /* what was asked: AUTO, COMPUTE or PIPELINE */
+    cv_vulkan_trace_path path;            /* what lists compiled now use: COMPUTE or PIPELINE */
+    bool pipeline_offered;                /* the adapter has the ray-tracing pipeline */
+    bool measured;                        /* AUTO: the adapter's paths were measured */
+    uint32_t measured_rays;               /* rays per measurement (each path, closest and any hit) */
+    double compute_mrays, pipeline_mrays; /* measured million rays per second */
 } cv_vulkan_trace_status;
 
 /* CV_ERROR_INVALID_ARGUMENT for NULL or another backend's device. */
@@ -135,7 +135,6 @@ cv_result cv_vulkan_get_trace_status(cv_device *dev, cv_vulkan_trace_status *out
 cv_result cv_vulkan_set_trace_path(cv_device *dev, cv_vulkan_trace_path mode);
 
 /* ---- virtual GPU table ---------------------------------------------------- */
-
 
 typedef struct cv_vulkan_gpu_config {
     /* Device instances per adapter; 0 = CORVID_VIRTUAL_GPUS from the environment, else 1. */
@@ -149,8 +148,8 @@ typedef struct cv_vulkan_gpu_config {
 } cv_vulkan_gpu_config;
 
 typedef struct cv_vulkan_gpu {
-    uint32_t adapter;      /* adapter index */
-    uint32_t instance;     /* which copy on that adapter: 0, 1, ... */
+    uint32_t adapter;  /* adapter index */
+    uint32_t instance; /* which copy on that adapter: 0, 1, ... */
 } cv_vulkan_gpu;
 
 /* The device indirection table: virtual GPU i runs on gpus[i].adapter. */
