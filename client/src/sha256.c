@@ -26,6 +26,7 @@ cv_result cv_sha256(const void *data, size_t size, uint8_t out[CV_SHA256_SIZE]) 
 }
 
 cv_result cv_sha256_init(cv_sha256_ctx *ctx) {
+    *ctx = (cv_sha256_ctx){ 0 }; /* written on failure too: a discard after it is harmless */
     EVP_MD_CTX *evp = EVP_MD_CTX_new();
     if (evp == NULL)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "sha256: EVP_MD_CTX_new failed");

@@ -212,6 +212,7 @@ static void queue_completion(session *s, const pending_submit *p) {
 
 /* The node handle for a client id of an expected type (CV_HANDLE_NONE: any). */
 static cv_result translate(session *s, uint64_t client_id, cv_handle_type type, const char *what, uint64_t *out) {
+    *out = 0; /* written on failure too */
     if (client_id == 0)
         return cv_error(CV_ERROR_INVALID_HANDLE, "%s: null handle", what);
     if (type != CV_HANDLE_NONE && cv_handle_type_of(client_id) != type)

@@ -135,7 +135,8 @@ static void put_timing(cv_graph_timing *out, uint32_t capacity, uint32_t *count,
                        double ms, uint64_t bytes) {
     if (out && *count < capacity) {
         out[*count] = (cv_graph_timing){ .device = device, .ms = ms, .bytes = bytes };
-        snprintf(out[*count].name, sizeof(out[*count].name), "%s", name);
+        /* Pass names fit (graph.c checks them); transfer names may be cut. */
+        snprintf(out[*count].name, sizeof(out[*count].name), "%.*s", (int)sizeof(out[*count].name) - 1, name);
     }
     (*count)++;
 }

@@ -252,7 +252,7 @@ cv_result cv_graph_write(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_g
 
 cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy policy, cv_graph_resource src,
                                  cv_graph_resource dst, cv_graph_pass *out) {
-    cv_graph_pass p;
+    cv_graph_pass p = { 0 };
     cv_result res = cv_graph_add_pass(
         g,
         &(cv_graph_pass_desc){ .name = name, .queue = CV_QUEUE_COPY, .policy = policy, .record = graph_record_copy },
