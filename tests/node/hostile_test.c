@@ -15,121 +15,19 @@
 #include "corvid/node_protocol.h"
 #include "corvid/rpc.h"
 #include "corvid/sha256.h"
+#include "raw_node_client.h"
 #include "scratch_node.h"
-
-#define TIMEOUT_MS 5000u
 
 static scratch_node node;
 
-typedef struct raw {
-    cv_rpc_client *client;
-    cv_rpc_stream *stream;
-    uint64_t seq;
-    uint64_t ticket;
-} raw;
-
-static void raw_open(raw *c) {
-    memset(c, 0, sizeof(*c));
-    cv_rpc_client_config cc = { .max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES };
-    CHECK_OK(cv_rpc_client_create(node.endpoint, &cc, &c->client));
-    CHECK_OK(cv_rpc_client_open(c->client, CV_NODE_METHOD_SESSION, NULL, 0, &c->stream));
-}
-
-static void raw_close(raw *c) {
-    if (c->stream)
-        cv_rpc_stream_destroy(c->stream);
-    if (c->client)
-        cv_rpc_client_destroy(c->client);
-    memset(c, 0, sizeof(*c));
-}
-
-static uint64_t raw_send(raw *c, Corvid__ClientMessage *m) {
-    m->seq = ++c->seq;
-    uint8_t *buf;
-    size_t size;
-    CHECK_OK(cv_node_pack_client(m, &buf, &size));
-    CHECK_OK(cv_rpc_stream_send(c->stream, buf, size));
-    free(buf);
-    return m->seq;
-}
-
-/* The next message from the node (NULL at the end of the stream or on error). */
-static Corvid__NodeMessage *raw_recv(raw *c) {
-    uint8_t *data = NULL;
-    size_t size = 0;
-    if (cv_rpc_stream_recv(c->stream, TIMEOUT_MS, &data, &size) != CV_OK || !data)
-        return NULL;
-    Corvid__NodeMessage *m = corvid__node_message__unpack(NULL, size, data);
-    free(data);
-    CHECK(m != NULL);
-    return m;
-}
-
-/* Expects the stream to end with `status`; the status message must mention `needle`. */
-static void expect_end(raw *c, int status, const char *needle, int line) {
-    Corvid__NodeMessage *m;
-    while ((m = raw_recv(c)) != NULL)
-        corvid__node_message__free_unpacked(m, NULL);
-    char message[512];
-    int got = cv_rpc_stream_status(c->stream, message, sizeof(message));
-    if (got != status || (needle && !strstr(message, needle))) {
-        fprintf(stderr, "line %d: stream ended with %d '%s', expected %d mentioning '%s'\n", line, got, message,
-                status, needle ? needle : "");
-        CHECK(false);
-    } else {
-        CHECK(true);
-    }
-}
-#define EXPECT_END(c, status, needle) expect_end(c, status, needle, __LINE__)
-
-/* Expects a Reply for seq with `code` whose message mentions `needle`. */
-static void expect_reply(raw *c, uint64_t seq, cv_result code, const char *needle, int line) {
-    Corvid__NodeMessage *m = raw_recv(c);
-    bool ok = m && m->seq == seq && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY && m->reply->result == code &&
-              (!needle || strstr(m->reply->message, needle));
-    if (!ok) {
-        fprintf(stderr,
-                "line %d: expected reply %" PRIu64 " with %s mentioning '%s', got %s seq %" PRIu64
-                " result %s '%s'\n",
-                line, seq, cv_result_name(code), needle ? needle : "", m ? "message" : "nothing", m ? m->seq : 0,
-                m && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY ? cv_result_name(m->reply->result) : "-",
-                m && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY ? m->reply->message : "");
-    }
-    CHECK(ok);
-    if (m)
-        corvid__node_message__free_unpacked(m, NULL);
-}
-#define EXPECT_REPLY(c, seq, code, needle) expect_reply(c, seq, code, needle, __LINE__)
-
-static uint64_t send_hello(raw *c, uint32_t version, uint32_t device) {
-    Corvid__Hello hello = CORVID__HELLO__INIT;
-    hello.protocol_version = version;
-    hello.client_name = "hostile";
-    hello.device = device;
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_HELLO;
-    m.hello = &hello;
-    return raw_send(c, &m);
-}
-
 /* Opens a session that said hello and got its reply. */
-static void session(raw *c) {
-    raw_open(c);
-    send_hello(c, CV_NODE_PROTOCOL_VERSION, 0);
+static void session(raw_client *c) {
+    raw_open(c, node.endpoint);
+    raw_send_hello(c, CV_NODE_PROTOCOL_VERSION, 0, "hostile");
     Corvid__NodeMessage *m = raw_recv(c);
     CHECK(m && m->msg_case == CORVID__NODE_MESSAGE__MSG_HELLO && m->hello->device);
     if (m)
         corvid__node_message__free_unpacked(m, NULL);
-}
-
-static uint64_t send_create(raw *c, uint64_t id, const cv_resource_desc *desc) {
-    Corvid__CreateResource create;
-    cv_node_desc_storage storage;
-    cv_node_desc_to_msg(id, desc, &create, &storage);
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_CREATE;
-    m.create = &create;
-    return raw_send(c, &m);
 }
 
 static const cv_resource_desc buffer_desc = { .type = CV_HANDLE_BUFFER, .buffer = { .size = 256 } };
@@ -141,133 +39,40 @@ static const cv_resource_desc texture_desc = {
 #define TEX_ID(i) cv_handle_pack(CV_HANDLE_TEXTURE, 1, 1, (i))
 #define LIST_ID(i) cv_handle_pack(CV_HANDLE_CMDLIST, 1, 1, (i))
 
-static uint64_t send_write(raw *c, uint64_t id, uint64_t offset, const void *data, size_t size) {
-    Corvid__WriteBuffer w = CORVID__WRITE_BUFFER__INIT;
-    w.id = id;
-    w.offset = offset;
-    w.source_case = CORVID__WRITE_BUFFER__SOURCE_DATA;
-    w.data = (ProtobufCBinaryData){ size, (uint8_t *)data };
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_WRITE_BUFFER;
-    m.write_buffer = &w;
-    return raw_send(c, &m);
-}
-
-static uint64_t send_read(raw *c, uint64_t id, uint64_t offset, uint64_t size) {
-    Corvid__ReadBuffer r = CORVID__READ_BUFFER__INIT;
-    r.id = id;
-    r.offset = offset;
-    r.size = size;
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER;
-    m.read_buffer = &r;
-    return raw_send(c, &m);
-}
-
-/* Reads a whole buffer range back (a single piece) into out. */
-static bool read_back(raw *c, uint64_t id, uint64_t size, uint8_t *out) {
-    uint64_t seq = send_read(c, id, 0, size);
-    Corvid__NodeMessage *m = raw_recv(c);
-    bool ok = m && m->seq == seq && m->msg_case == CORVID__NODE_MESSAGE__MSG_READ_DATA && m->read_data->last &&
-              m->read_data->data.len == size;
-    if (ok)
-        memcpy(out, m->read_data->data.data, size);
-    if (m)
-        corvid__node_message__free_unpacked(m, NULL);
-    return ok;
-}
-
-static uint64_t send_chunk(raw *c, const uint8_t sha[32], uint64_t size, uint64_t offset, const void *data,
-                           size_t len) {
-    Corvid__BlobChunk chunk = CORVID__BLOB_CHUNK__INIT;
-    chunk.sha256 = (ProtobufCBinaryData){ 32, (uint8_t *)sha };
-    chunk.size = size;
-    chunk.offset = offset;
-    chunk.data = (ProtobufCBinaryData){ len, (uint8_t *)data };
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_BLOB_CHUNK;
-    m.blob_chunk = &chunk;
-    return raw_send(c, &m);
-}
-
-static uint64_t send_blob_write(raw *c, uint64_t id, const uint8_t sha[32]) {
-    Corvid__WriteBuffer w = CORVID__WRITE_BUFFER__INIT;
-    w.id = id;
-    w.source_case = CORVID__WRITE_BUFFER__SOURCE_BLOB;
-    w.blob = (ProtobufCBinaryData){ 32, (uint8_t *)sha };
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_WRITE_BUFFER;
-    m.write_buffer = &w;
-    return raw_send(c, &m);
-}
-
-static uint64_t send_compile(raw *c, uint64_t id, const uint8_t *encoded, size_t size) {
-    Corvid__CompileList cl = CORVID__COMPILE_LIST__INIT;
-    cl.id = id;
-    cl.source_case = CORVID__COMPILE_LIST__SOURCE_ENCODED;
-    cl.encoded = (ProtobufCBinaryData){ size, (uint8_t *)encoded };
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_COMPILE;
-    m.compile = &cl;
-    return raw_send(c, &m);
-}
-
-static uint64_t send_submit(raw *c, uint64_t id, uint64_t ticket) {
-    Corvid__SubmitList s = CORVID__SUBMIT_LIST__INIT;
-    s.id = id;
-    s.ticket = ticket;
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_SUBMIT;
-    m.submit = &s;
-    return raw_send(c, &m);
-}
-
-/* Encodes a one-command list copying `size` bytes from src to dst (client ids). */
-static void encode_copy(uint64_t src, uint64_t dst, uint64_t size, uint8_t **out, size_t *out_size) {
-    cv_command_list list;
-    cv_command_list_init(&list);
-    cv_command_list_begin(&list);
-    CHECK_OK(cv_cmd_copy_buffer(&list, CV_QUEUE_COPY,
-                                &(cv_copy_buffer_args){ .src = { src }, .dst = { dst }, .size = size }));
-    CHECK_OK(cv_command_list_end(&list));
-    CHECK_OK(cv_command_list_encode(&list, out, out_size));
-    cv_command_list_finish(&list);
-}
-
 /* ---- the cases ------------------------------------------------------------------ */
 
 static void malformed_and_protocol(void) {
-    raw c;
-    raw_open(&c); /* 1: bytes that are no protobuf */
+    raw_client c;
+    raw_open(&c, node.endpoint); /* 1: bytes that are no protobuf */
     static const uint8_t junk[] = { 0xff, 0xff, 0xff, 0xff, 0x0f, 0x12, 0x80 };
     CHECK_OK(cv_rpc_stream_send(c.stream, junk, sizeof(junk)));
     EXPECT_END(&c, CV_RPC_STATUS_INVALID_ARGUMENT, "not a corvid.ClientMessage");
     raw_close(&c);
 
-    raw_open(&c); /* 2: a protocol version the node does not speak */
-    send_hello(&c, 99, 0);
+    raw_open(&c, node.endpoint); /* 2: a protocol version the node does not speak */
+    raw_send_hello(&c, 99, 0, "hostile");
     EXPECT_END(&c, CV_RPC_STATUS_FAILED_PRECONDITION, "protocol version 99");
     raw_close(&c);
 
-    raw_open(&c); /* 3: a request before hello */
-    send_create(&c, BUF_ID(1), &buffer_desc);
+    raw_open(&c, node.endpoint); /* 3: a request before hello */
+    raw_send_create(&c, BUF_ID(1), &buffer_desc);
     EXPECT_END(&c, CV_RPC_STATUS_INVALID_ARGUMENT, "must be hello");
     raw_close(&c);
 
     session(&c); /* 4: a second hello */
-    send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0);
+    raw_send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0, "hostile");
     EXPECT_END(&c, CV_RPC_STATUS_INVALID_ARGUMENT, "second hello");
     raw_close(&c);
 
-    raw_open(&c); /* 5: a device the node does not have */
-    send_hello(&c, CV_NODE_PROTOCOL_VERSION, 7);
+    raw_open(&c, node.endpoint); /* 5: a device the node does not have */
+    raw_send_hello(&c, CV_NODE_PROTOCOL_VERSION, 7, "hostile");
     EXPECT_END(&c, CV_RPC_STATUS_FAILED_PRECONDITION, "device 7 does not exist");
     raw_close(&c);
 
     session(&c); /* 6: a message over the node's limit */
     size_t big = CV_NODE_MAX_MESSAGE_BYTES + 1024;
     uint8_t *huge = calloc(1, big);
-    send_write(&c, BUF_ID(1), 0, huge, big);
+    raw_send_write(&c, BUF_ID(1), 0, huge, big);
     free(huge);
     EXPECT_END(&c, CV_RPC_STATUS_RESOURCE_EXHAUSTED, NULL);
     raw_close(&c);
@@ -280,13 +85,13 @@ static void malformed_and_protocol(void) {
 }
 
 static void bad_requests(void) {
-    raw c;
+    raw_client c;
     session(&c);
     /* 8: a description that does not match the handle's type */
-    EXPECT_REPLY(&c, send_create(&c, TEX_ID(1), &buffer_desc), CV_ERROR_WRONG_HANDLE_TYPE, "texture handle");
+    EXPECT_REPLY(&c, raw_send_create(&c, TEX_ID(1), &buffer_desc), CV_ERROR_WRONG_HANDLE_TYPE, "texture handle");
     /* 9: the same id twice */
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &buffer_desc), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &buffer_desc), CV_ERROR_ALREADY_LOADED, "already exists");
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(1), &buffer_desc), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(1), &buffer_desc), CV_ERROR_ALREADY_LOADED, "already exists");
     /* 10: a format that does not exist */
     Corvid__CreateResource create;
     cv_node_desc_storage storage;
@@ -299,31 +104,26 @@ static void bad_requests(void) {
     /* 11: a zero-sized buffer */
     cv_resource_desc zero = buffer_desc;
     zero.buffer.size = 0;
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(3), &zero), CV_ERROR_INVALID_ARGUMENT, "size is 0");
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(3), &zero), CV_ERROR_INVALID_ARGUMENT, "size is 0");
     /* 12: a pipeline the registry does not have */
     cv_resource_desc pipe = { .type = CV_HANDLE_PIPELINE };
     snprintf(pipe.pipeline.name, sizeof(pipe.pipeline.name), "no-such-pipeline");
-    EXPECT_REPLY(&c, send_create(&c, cv_handle_pack(CV_HANDLE_PIPELINE, 1, 1, 1), &pipe), CV_ERROR_UNKNOWN_PIPELINE,
-                 "no-such-pipeline");
+    EXPECT_REPLY(&c, raw_send_create(&c, cv_handle_pack(CV_HANDLE_PIPELINE, 1, 1, 1), &pipe),
+                 CV_ERROR_UNKNOWN_PIPELINE, "no-such-pipeline");
     /* 13: a write out of range (async: answered only because it fails) */
     uint8_t bytes[64] = { 1 };
-    EXPECT_REPLY(&c, send_write(&c, BUF_ID(1), 250, bytes, sizeof(bytes)), CV_ERROR_OUT_OF_RANGE, "out of range");
+    EXPECT_REPLY(&c, raw_send_write(&c, BUF_ID(1), 250, bytes, sizeof(bytes)), CV_ERROR_OUT_OF_RANGE, "out of range");
     /* 14: a texture handle where a buffer is wanted */
-    EXPECT_REPLY(&c, send_write(&c, TEX_ID(1), 0, bytes, 4), CV_ERROR_WRONG_HANDLE_TYPE, "needs a buffer");
+    EXPECT_REPLY(&c, raw_send_write(&c, TEX_ID(1), 0, bytes, 4), CV_ERROR_WRONG_HANDLE_TYPE, "needs a buffer");
     /* 15: reads of a resource never created */
-    EXPECT_REPLY(&c, send_read(&c, BUF_ID(77), 0, 4), CV_ERROR_INVALID_HANDLE, "unknown in this session");
+    EXPECT_REPLY(&c, raw_send_read(&c, BUF_ID(77), 0, 4), CV_ERROR_INVALID_HANDLE, "unknown in this session");
     /* 16: a read past the end */
-    EXPECT_REPLY(&c, send_read(&c, BUF_ID(1), 200, 100), CV_ERROR_OUT_OF_RANGE, "read_buffer");
+    EXPECT_REPLY(&c, raw_send_read(&c, BUF_ID(1), 200, 100), CV_ERROR_OUT_OF_RANGE, "read_buffer");
     /* 17: a stale handle (destroyed, then used) */
-    Corvid__DestroyResource destroy = CORVID__DESTROY_RESOURCE__INIT;
-    destroy.id = BUF_ID(1);
-    Corvid__ClientMessage dm = CORVID__CLIENT_MESSAGE__INIT;
-    dm.msg_case = CORVID__CLIENT_MESSAGE__MSG_DESTROY;
-    dm.destroy = &destroy;
-    raw_send(&c, &dm);
-    EXPECT_REPLY(&c, send_write(&c, BUF_ID(1), 0, bytes, 4), CV_ERROR_INVALID_HANDLE, "unknown in this session");
+    raw_send_destroy(&c, BUF_ID(1));
+    EXPECT_REPLY(&c, raw_send_write(&c, BUF_ID(1), 0, bytes, 4), CV_ERROR_INVALID_HANDLE, "unknown in this session");
     /* 18: texture data of the wrong size */
-    EXPECT_REPLY(&c, send_create(&c, TEX_ID(3), &texture_desc), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, TEX_ID(3), &texture_desc), CV_OK, NULL);
     Corvid__WriteTexture wt = CORVID__WRITE_TEXTURE__INIT;
     wt.id = TEX_ID(3);
     wt.width = 8;
@@ -343,21 +143,21 @@ static void bad_requests(void) {
     qm.blob_query = &q;
     EXPECT_REPLY(&c, raw_send(&c, &qm), CV_ERROR_MALFORMED, "SHA-256");
     /* The session still works after all of that. */
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(4), &buffer_desc), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(4), &buffer_desc), CV_OK, NULL);
     uint8_t pattern[16], back[16];
     for (int i = 0; i < 16; i++)
         pattern[i] = (uint8_t)(i * 7 + 1);
-    send_write(&c, BUF_ID(4), 0, pattern, 16);
-    CHECK(read_back(&c, BUF_ID(4), 16, back) && memcmp(pattern, back, 16) == 0);
+    raw_send_write(&c, BUF_ID(4), 0, pattern, 16);
+    CHECK(raw_read_back(&c, BUF_ID(4), 16, back) && memcmp(pattern, back, 16) == 0);
     raw_close(&c);
 }
 
 static void uploads(void) {
-    raw c;
+    raw_client c;
     session(&c);
     EXPECT_REPLY(&c,
-                 send_create(&c, BUF_ID(1),
-                             &(cv_resource_desc){ .type = CV_HANDLE_BUFFER, .buffer = { .size = 4096 } }),
+                 raw_send_create(&c, BUF_ID(1),
+                                 &(cv_resource_desc){ .type = CV_HANDLE_BUFFER, .buffer = { .size = 4096 } }),
                  CV_OK, NULL);
     uint8_t data[4096], sha[32];
     for (int i = 0; i < 4096; i++)
@@ -367,48 +167,48 @@ static void uploads(void) {
     uint8_t wrong[32];
     memcpy(wrong, sha, 32);
     wrong[0] ^= 1;
-    send_chunk(&c, wrong, 4096, 0, data, 2048);
-    EXPECT_REPLY(&c, send_chunk(&c, wrong, 4096, 2048, data + 2048, 2048), CV_ERROR_HASH_MISMATCH, NULL);
-    EXPECT_REPLY(&c, send_blob_write(&c, BUF_ID(1), wrong), CV_ERROR_NOT_FOUND, "not in the node's cache");
+    raw_send_chunk(&c, wrong, 4096, 0, data, 2048);
+    EXPECT_REPLY(&c, raw_send_chunk(&c, wrong, 4096, 2048, data + 2048, 2048), CV_ERROR_HASH_MISMATCH, NULL);
+    EXPECT_REPLY(&c, raw_send_blob_write(&c, BUF_ID(1), wrong), CV_ERROR_NOT_FOUND, "not in the node's cache");
     /* 21: an upload that stops half way, then a write that refers to it */
-    send_chunk(&c, sha, 4096, 0, data, 1000);
-    EXPECT_REPLY(&c, send_blob_write(&c, BUF_ID(1), sha), CV_ERROR_NOT_FOUND, "upload it first");
+    raw_send_chunk(&c, sha, 4096, 0, data, 1000);
+    EXPECT_REPLY(&c, raw_send_blob_write(&c, BUF_ID(1), sha), CV_ERROR_NOT_FOUND, "upload it first");
     /* 22: a first chunk that does not start at 0 */
     uint8_t other[32];
     cv_sha256(data, 100, other);
-    EXPECT_REPLY(&c, send_chunk(&c, other, 100, 50, data, 50), CV_ERROR_OUT_OF_RANGE, "must be 0");
+    EXPECT_REPLY(&c, raw_send_chunk(&c, other, 100, 50, data, 50), CV_ERROR_OUT_OF_RANGE, "must be 0");
     /* A proper upload then works, and the bytes arrive. */
-    send_chunk(&c, sha, 4096, 0, data, 3000);
-    send_chunk(&c, sha, 4096, 3000, data + 3000, 1096);
-    EXPECT_REPLY(&c, send_blob_write(&c, BUF_ID(1), sha), CV_OK, NULL);
+    raw_send_chunk(&c, sha, 4096, 0, data, 3000);
+    raw_send_chunk(&c, sha, 4096, 3000, data + 3000, 1096);
+    EXPECT_REPLY(&c, raw_send_blob_write(&c, BUF_ID(1), sha), CV_OK, NULL);
     uint8_t *back = malloc(4096);
-    CHECK(read_back(&c, BUF_ID(1), 4096, back) && memcmp(back, data, 4096) == 0);
+    CHECK(raw_read_back(&c, BUF_ID(1), 4096, back) && memcmp(back, data, 4096) == 0);
     free(back);
     raw_close(&c);
 }
 
 static void lists(void) {
-    raw c;
+    raw_client c;
     session(&c);
     cv_resource_desc small = { .type = CV_HANDLE_BUFFER, .buffer = { .size = 64 } };
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &small), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(2), &small), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, LIST_ID(1), NULL), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(1), &small), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(2), &small), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, LIST_ID(1), NULL), CV_OK, NULL);
     /* 23: an encoded list that is garbage */
     static const uint8_t junk[] = { 0x0a, 0x05, 0xff, 0xff };
-    EXPECT_REPLY(&c, send_compile(&c, LIST_ID(1), junk, sizeof(junk)), CV_ERROR_MALFORMED, NULL);
+    EXPECT_REPLY(&c, raw_send_compile(&c, LIST_ID(1), junk, sizeof(junk)), CV_ERROR_MALFORMED, NULL);
     /* 24: a list naming a handle this session never created */
     uint8_t *enc;
     size_t n;
-    encode_copy(BUF_ID(1), BUF_ID(99), 16, &enc, &n);
-    EXPECT_REPLY(&c, send_compile(&c, LIST_ID(1), enc, n), CV_ERROR_INVALID_HANDLE, "command 0");
+    raw_encode_copy(BUF_ID(1), BUF_ID(99), 16, &enc, &n);
+    EXPECT_REPLY(&c, raw_send_compile(&c, LIST_ID(1), enc, n), CV_ERROR_INVALID_HANDLE, "command 0");
     free(enc);
     /* 25: a copy past the end, caught by the node's validation */
-    encode_copy(BUF_ID(1), BUF_ID(2), 128, &enc, &n);
-    EXPECT_REPLY(&c, send_compile(&c, LIST_ID(1), enc, n), CV_ERROR_OUT_OF_RANGE, NULL);
+    raw_encode_copy(BUF_ID(1), BUF_ID(2), 128, &enc, &n);
+    EXPECT_REPLY(&c, raw_send_compile(&c, LIST_ID(1), enc, n), CV_ERROR_OUT_OF_RANGE, NULL);
     free(enc);
     /* 26: submitting a list that never compiled: Completed carries the error */
-    send_submit(&c, LIST_ID(1), 1);
+    raw_send_submit(&c, LIST_ID(1), 1);
     Corvid__NodeMessage *m = raw_recv(&c);
     CHECK(m && m->msg_case == CORVID__NODE_MESSAGE__MSG_COMPLETED && m->completed->ticket == 1 &&
           m->completed->result != CV_OK);
@@ -416,19 +216,19 @@ static void lists(void) {
         corvid__node_message__free_unpacked(m, NULL);
     /* A good list runs and its result is there to read. */
     uint8_t pattern[16] = { 9, 8, 7, 6, 5, 4, 3, 2, 1, 0, 11, 12, 13, 14, 15, 16 }, back[16] = { 0 };
-    send_write(&c, BUF_ID(1), 0, pattern, 16);
-    encode_copy(BUF_ID(1), BUF_ID(2), 16, &enc, &n);
-    send_compile(&c, LIST_ID(1), enc, n);
+    raw_send_write(&c, BUF_ID(1), 0, pattern, 16);
+    raw_encode_copy(BUF_ID(1), BUF_ID(2), 16, &enc, &n);
+    raw_send_compile(&c, LIST_ID(1), enc, n);
     free(enc);
-    send_submit(&c, LIST_ID(1), 2);
+    raw_send_submit(&c, LIST_ID(1), 2);
     m = raw_recv(&c);
     CHECK(m && m->msg_case == CORVID__NODE_MESSAGE__MSG_COMPLETED && m->completed->ticket == 2 &&
           m->completed->result == CV_OK);
     if (m)
         corvid__node_message__free_unpacked(m, NULL);
-    CHECK(read_back(&c, BUF_ID(2), 16, back) && memcmp(pattern, back, 16) == 0);
+    CHECK(raw_read_back(&c, BUF_ID(2), 16, back) && memcmp(pattern, back, 16) == 0);
     /* 27: a ticket out of sequence ends the session */
-    send_submit(&c, LIST_ID(1), 9);
+    raw_send_submit(&c, LIST_ID(1), 9);
     EXPECT_END(&c, CV_RPC_STATUS_INVALID_ARGUMENT, "tickets increase by one");
     raw_close(&c);
 }
@@ -436,16 +236,17 @@ static void lists(void) {
 /* 28: a handle of another session is unknown here, and the other session's
  * resource is untouched. */
 static void isolation(void) {
-    raw a, b;
+    raw_client a, b;
     session(&a);
     session(&b);
     cv_resource_desc small = { .type = CV_HANDLE_BUFFER, .buffer = { .size = 16 } };
-    EXPECT_REPLY(&a, send_create(&a, BUF_ID(5), &small), CV_OK, NULL);
+    EXPECT_REPLY(&a, raw_send_create(&a, BUF_ID(5), &small), CV_OK, NULL);
     uint8_t mine[16] = { 42, 42, 42, 42 }, theirs[16] = { 0 }, back[16];
-    send_write(&a, BUF_ID(5), 0, mine, 16);
-    EXPECT_REPLY(&b, send_write(&b, BUF_ID(5), 0, theirs, 16), CV_ERROR_INVALID_HANDLE, "unknown in this session");
-    EXPECT_REPLY(&b, send_read(&b, BUF_ID(5), 0, 16), CV_ERROR_INVALID_HANDLE, "unknown in this session");
-    CHECK(read_back(&a, BUF_ID(5), 16, back) && memcmp(back, mine, 16) == 0);
+    raw_send_write(&a, BUF_ID(5), 0, mine, 16);
+    EXPECT_REPLY(&b, raw_send_write(&b, BUF_ID(5), 0, theirs, 16), CV_ERROR_INVALID_HANDLE,
+                 "unknown in this session");
+    EXPECT_REPLY(&b, raw_send_read(&b, BUF_ID(5), 0, 16), CV_ERROR_INVALID_HANDLE, "unknown in this session");
+    CHECK(raw_read_back(&a, BUF_ID(5), 16, back) && memcmp(back, mine, 16) == 0);
     raw_close(&a);
     raw_close(&b);
 }
@@ -453,26 +254,26 @@ static void isolation(void) {
 /* 29: a client that disappears mid-frame; 30: thousands of sessions opened and
  * dropped. The node frees each and keeps serving. */
 static void churn(void) {
-    raw c;
+    raw_client c;
     session(&c);
     cv_resource_desc big = { .type = CV_HANDLE_BUFFER, .buffer = { .size = 1 << 20 } };
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &big), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(2), &big), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, LIST_ID(1), NULL), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(1), &big), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(2), &big), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, LIST_ID(1), NULL), CV_OK, NULL);
     uint8_t *enc;
     size_t n;
-    encode_copy(BUF_ID(1), BUF_ID(2), 1 << 20, &enc, &n);
-    send_compile(&c, LIST_ID(1), enc, n);
+    raw_encode_copy(BUF_ID(1), BUF_ID(2), 1 << 20, &enc, &n);
+    raw_send_compile(&c, LIST_ID(1), enc, n);
     free(enc);
     for (uint64_t t = 1; t <= 50; t++)
-        send_submit(&c, LIST_ID(1), t);
+        raw_send_submit(&c, LIST_ID(1), t);
     cv_rpc_stream_cancel(c.stream);
     raw_close(&c);
 
     for (int i = 0; i < 2000; i++) {
-        raw_open(&c);
+        raw_open(&c, node.endpoint);
         if (i % 3 == 0) { /* a session that really started, then vanished */
-            send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0);
+            raw_send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0, "hostile");
             Corvid__NodeMessage *m = raw_recv(&c);
             CHECK(m && m->msg_case == CORVID__NODE_MESSAGE__MSG_HELLO);
             if (m)
@@ -483,9 +284,9 @@ static void churn(void) {
         raw_close(&c);
     }
     CHECK_EQ_INT(scratch_node_wait_sessions(&node, 20000), 0);
-    raw ok;
+    raw_client ok;
     session(&ok);
-    EXPECT_REPLY(&ok, send_create(&ok, BUF_ID(1), &buffer_desc), CV_OK, NULL);
+    EXPECT_REPLY(&ok, raw_send_create(&ok, BUF_ID(1), &buffer_desc), CV_OK, NULL);
     raw_close(&ok);
     CHECK(cv_node_get_stats(node.node).sessions_started >= 667);
 }
@@ -499,25 +300,25 @@ static void health(void) {
     void *resp = NULL;
     size_t resp_size = 0;
     int status = -1;
-    CHECK_OK(cv_rpc_client_unary(client, CV_HEALTH_METHOD_CHECK, req, 0, TIMEOUT_MS, &resp, &resp_size, &status));
+    CHECK_OK(cv_rpc_client_unary(client, CV_HEALTH_METHOD_CHECK, req, 0, RAW_TIMEOUT_MS, &resp, &resp_size, &status));
     CHECK(status == 0 && resp_size == 2 && ((uint8_t *)resp)[0] == 0x08 && ((uint8_t *)resp)[1] == 1);
     free(resp);
     resp = NULL;
     static const uint8_t unknown[] = { 0x0a, 0x03, 'f', 'o', 'o' };
-    cv_rpc_client_unary(client, CV_HEALTH_METHOD_CHECK, unknown, sizeof(unknown), TIMEOUT_MS, &resp, &resp_size,
+    cv_rpc_client_unary(client, CV_HEALTH_METHOD_CHECK, unknown, sizeof(unknown), RAW_TIMEOUT_MS, &resp, &resp_size,
                         &status);
     CHECK_EQ_INT(status, CV_RPC_STATUS_NOT_FOUND);
     free(resp);
     resp = NULL;
     cv_node_drain(node.node);
-    CHECK_OK(cv_rpc_client_unary(client, CV_HEALTH_METHOD_CHECK, req, 0, TIMEOUT_MS, &resp, &resp_size, &status));
+    CHECK_OK(cv_rpc_client_unary(client, CV_HEALTH_METHOD_CHECK, req, 0, RAW_TIMEOUT_MS, &resp, &resp_size, &status));
     CHECK(status == 0 && resp_size == 2 && ((uint8_t *)resp)[1] == 2);
     free(resp);
     cv_rpc_client_destroy(client);
     /* A session opened while draining is refused. */
-    raw c;
-    raw_open(&c);
-    send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0);
+    raw_client c;
+    raw_open(&c, node.endpoint);
+    raw_send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0, "hostile");
     EXPECT_END(&c, CV_RPC_STATUS_UNAVAILABLE, NULL);
     raw_close(&c);
 }
@@ -526,12 +327,9 @@ static void health(void) {
 static void idle_timeout(void) {
     scratch_node quick;
     CHECK_OK(scratch_node_start_with(&quick, cv_mock_backend(), 1, false, 300, NULL));
-    raw c;
-    cv_rpc_client_config cc = { 0 };
-    memset(&c, 0, sizeof(c));
-    CHECK_OK(cv_rpc_client_create(quick.endpoint, &cc, &c.client));
-    CHECK_OK(cv_rpc_client_open(c.client, CV_NODE_METHOD_SESSION, NULL, 0, &c.stream));
-    send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0);
+    raw_client c;
+    raw_open(&c, quick.endpoint);
+    raw_send_hello(&c, CV_NODE_PROTOCOL_VERSION, 0, "hostile");
     EXPECT_END(&c, CV_RPC_STATUS_DEADLINE_EXCEEDED, "idle");
     raw_close(&c);
     CHECK_EQ_INT(scratch_node_wait_sessions(&quick, 5000), 0);

@@ -25,102 +25,20 @@
 #include "corvid/proxy.h"
 #include "corvid/rpc.h"
 #include "corvid/sha256.h"
+#include "raw_node_client.h"
 #include "scratch_node.h"
 
-#define TIMEOUT_MS 5000u
 #define STATUS_UNAUTHENTICATED 16
 
 static const char TOKEN[] = "corvid-test-token-5f3a9c1e7b2d4680";
 static char dir[256]; /* certificates and token files */
 
-/* ---- a raw client ---------------------------------------------------------------- */
+/* ---- a raw client (tests/support/raw_node_client.h) ------------------------------ */
 
-typedef struct raw {
-    cv_rpc_client *client;
-    cv_rpc_stream *stream;
-    uint64_t seq;
-} raw;
-
-static void raw_open_with(raw *c, const char *endpoint, const cv_rpc_client_config *cc, const cv_rpc_metadata *md,
-                          uint32_t count) {
-    memset(c, 0, sizeof(*c));
-    CHECK_OK(cv_rpc_client_create(endpoint, cc, &c->client));
-    if (c->client)
-        CHECK_OK(cv_rpc_client_open(c->client, CV_NODE_METHOD_SESSION, md, count, &c->stream));
-}
-
-static void raw_close(raw *c) {
-    if (c->stream)
-        cv_rpc_stream_destroy(c->stream);
-    if (c->client)
-        cv_rpc_client_destroy(c->client);
-    memset(c, 0, sizeof(*c));
-}
-
-static uint64_t raw_send(raw *c, Corvid__ClientMessage *m) {
-    m->seq = ++c->seq;
-    uint8_t *buf;
-    size_t size;
-    CHECK_OK(cv_node_pack_client(m, &buf, &size));
-    cv_rpc_stream_send(c->stream, buf, size); /* may fail on a refused stream: what recv says is checked */
-    free(buf);
-    return m->seq;
-}
-
-static Corvid__NodeMessage *raw_recv(raw *c) {
-    uint8_t *data = NULL;
-    size_t size = 0;
-    if (cv_rpc_stream_recv(c->stream, TIMEOUT_MS, &data, &size) != CV_OK || !data)
-        return NULL;
-    Corvid__NodeMessage *m = corvid__node_message__unpack(NULL, size, data);
-    free(data);
-    CHECK(m != NULL);
-    return m;
-}
-
-static void expect_end(raw *c, int status, const char *needle, int line) {
-    Corvid__NodeMessage *m;
-    while ((m = raw_recv(c)) != NULL)
-        corvid__node_message__free_unpacked(m, NULL);
-    char message[512] = "";
-    int got = cv_rpc_stream_status(c->stream, message, sizeof(message));
-    bool ok = got == status && (!needle || strstr(message, needle));
-    if (!ok)
-        fprintf(stderr, "line %d: stream ended with %d '%s', expected %d mentioning '%s'\n", line, got, message,
-                status, needle ? needle : "");
-    CHECK(ok);
-}
-#define EXPECT_END(c, status, needle) expect_end(c, status, needle, __LINE__)
-
-static void expect_reply(raw *c, uint64_t seq, cv_result code, const char *needle, int line) {
-    Corvid__NodeMessage *m = raw_recv(c);
-    bool ok = m && m->seq == seq && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY && m->reply->result == code &&
-              (!needle || strstr(m->reply->message, needle));
-    if (!ok)
-        fprintf(stderr,
-                "line %d: expected reply %" PRIu64 " with %s mentioning '%s', got %s seq %" PRIu64
-                " result %s '%s'\n",
-                line, seq, cv_result_name(code), needle ? needle : "", m ? "message" : "nothing", m ? m->seq : 0,
-                m && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY ? cv_result_name(m->reply->result) : "-",
-                m && m->msg_case == CORVID__NODE_MESSAGE__MSG_REPLY ? m->reply->message : "");
-    CHECK(ok);
-    if (m)
-        corvid__node_message__free_unpacked(m, NULL);
-}
-#define EXPECT_REPLY(c, seq, code, needle) expect_reply(c, seq, code, needle, __LINE__)
-
-static uint64_t send_hello(raw *c) {
-    Corvid__Hello hello = CORVID__HELLO__INIT;
-    hello.protocol_version = CV_NODE_PROTOCOL_VERSION;
-    hello.client_name = "security";
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_HELLO;
-    m.hello = &hello;
-    return raw_send(c, &m);
-}
+static uint64_t send_hello(raw_client *c) { return raw_send_hello(c, CV_NODE_PROTOCOL_VERSION, 0, "security"); }
 
 /* Says hello and expects the node's answer. */
-static bool hello_ok(raw *c) {
+static bool hello_ok(raw_client *c) {
     send_hello(c);
     Corvid__NodeMessage *m = raw_recv(c);
     bool ok = m && m->msg_case == CORVID__NODE_MESSAGE__MSG_HELLO && m->hello->device;
@@ -129,128 +47,16 @@ static bool hello_ok(raw *c) {
     return ok;
 }
 
-static uint64_t send_create(raw *c, uint64_t id, const cv_resource_desc *desc) {
-    Corvid__CreateResource create;
-    cv_node_desc_storage storage;
-    cv_node_desc_to_msg(id, desc, &create, &storage);
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_CREATE;
-    m.create = &create;
-    return raw_send(c, &m);
-}
-
-static uint64_t send_destroy(raw *c, uint64_t id) {
-    Corvid__DestroyResource d = CORVID__DESTROY_RESOURCE__INIT;
-    d.id = id;
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_DESTROY;
-    m.destroy = &d;
-    return raw_send(c, &m);
-}
-
-static uint64_t send_write(raw *c, uint64_t id, const void *data, size_t size) {
-    Corvid__WriteBuffer w = CORVID__WRITE_BUFFER__INIT;
-    w.id = id;
-    w.source_case = CORVID__WRITE_BUFFER__SOURCE_DATA;
-    w.data = (ProtobufCBinaryData){ size, (uint8_t *)data };
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_WRITE_BUFFER;
-    m.write_buffer = &w;
-    return raw_send(c, &m);
-}
-
-static bool read_back(raw *c, uint64_t id, uint64_t size, uint8_t *out) {
-    Corvid__ReadBuffer r = CORVID__READ_BUFFER__INIT;
-    r.id = id;
-    r.size = size;
-    Corvid__ClientMessage msg = CORVID__CLIENT_MESSAGE__INIT;
-    msg.msg_case = CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER;
-    msg.read_buffer = &r;
-    uint64_t seq = raw_send(c, &msg);
-    Corvid__NodeMessage *m = raw_recv(c);
-    bool ok = m && m->seq == seq && m->msg_case == CORVID__NODE_MESSAGE__MSG_READ_DATA && m->read_data->last &&
-              m->read_data->data.len == size;
-    if (ok)
-        memcpy(out, m->read_data->data.data, size);
-    if (m)
-        corvid__node_message__free_unpacked(m, NULL);
-    return ok;
-}
-
-static uint64_t send_chunk(raw *c, const uint8_t sha[32], uint64_t size, uint64_t offset, const void *data,
-                           size_t len) {
-    Corvid__BlobChunk chunk = CORVID__BLOB_CHUNK__INIT;
-    chunk.sha256 = (ProtobufCBinaryData){ 32, (uint8_t *)sha };
-    chunk.size = size;
-    chunk.offset = offset;
-    chunk.data = (ProtobufCBinaryData){ len, (uint8_t *)data };
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_BLOB_CHUNK;
-    m.blob_chunk = &chunk;
-    return raw_send(c, &m);
-}
-
-static uint64_t send_blob_write(raw *c, uint64_t id, const uint8_t sha[32]) {
-    Corvid__WriteBuffer w = CORVID__WRITE_BUFFER__INIT;
-    w.id = id;
-    w.source_case = CORVID__WRITE_BUFFER__SOURCE_BLOB;
-    w.blob = (ProtobufCBinaryData){ 32, (uint8_t *)sha };
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_WRITE_BUFFER;
-    m.write_buffer = &w;
-    return raw_send(c, &m);
-}
-
-static uint64_t send_compile_copy(raw *c, uint64_t list, uint64_t src, uint64_t dst, uint64_t size) {
-    cv_command_list l;
-    cv_command_list_init(&l);
-    cv_command_list_begin(&l);
-    CHECK_OK(cv_cmd_copy_buffer(&l, CV_QUEUE_COPY,
-                                &(cv_copy_buffer_args){ .src = { src }, .dst = { dst }, .size = size }));
-    CHECK_OK(cv_command_list_end(&l));
+static uint64_t send_compile_copy(raw_client *c, uint64_t list, uint64_t src, uint64_t dst, uint64_t size) {
     uint8_t *enc = NULL;
     size_t n = 0;
-    CHECK_OK(cv_command_list_encode(&l, &enc, &n));
-    cv_command_list_finish(&l);
-    Corvid__CompileList cl = CORVID__COMPILE_LIST__INIT;
-    cl.id = list;
-    cl.source_case = CORVID__COMPILE_LIST__SOURCE_ENCODED;
-    cl.encoded = (ProtobufCBinaryData){ n, enc };
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_COMPILE;
-    m.compile = &cl;
-    uint64_t seq = raw_send(c, &m);
+    raw_encode_copy(src, dst, size, &enc, &n);
+    uint64_t seq = raw_send_compile(c, list, enc, n);
     free(enc);
     return seq;
 }
 
-static uint64_t send_submit(raw *c, uint64_t list, uint64_t ticket) {
-    Corvid__SubmitList s = CORVID__SUBMIT_LIST__INIT;
-    s.id = list;
-    s.ticket = ticket;
-    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
-    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_SUBMIT;
-    m.submit = &s;
-    return raw_send(c, &m);
-}
-
 /* Expects Completed for `ticket` with `code`, its message mentioning `needle`. */
-static void expect_completed(raw *c, uint64_t ticket, cv_result code, const char *needle, int line) {
-    Corvid__NodeMessage *m = raw_recv(c);
-    bool ok = m && m->msg_case == CORVID__NODE_MESSAGE__MSG_COMPLETED && m->completed->ticket == ticket &&
-              m->completed->result == code && (!needle || strstr(m->completed->message, needle));
-    if (!ok)
-        fprintf(stderr,
-                "line %d: expected Completed %" PRIu64 " %s mentioning '%s', got %s ticket %" PRIu64 " %s '%s'\n",
-                line, ticket, cv_result_name(code), needle ? needle : "", m ? "message" : "nothing",
-                m && m->completed ? m->completed->ticket : 0,
-                m && m->completed ? cv_result_name(m->completed->result) : "-",
-                m && m->completed ? m->completed->message : "");
-    CHECK(ok);
-    if (m)
-        corvid__node_message__free_unpacked(m, NULL);
-}
-#define EXPECT_COMPLETED(c, ticket, code, needle) expect_completed(c, ticket, code, needle, __LINE__)
 
 #define BUF_ID(i) cv_handle_pack(CV_HANDLE_BUFFER, 1, 1, (i))
 #define TEX_ID(i) cv_handle_pack(CV_HANDLE_TEXTURE, 1, 1, (i))
@@ -261,16 +67,16 @@ static cv_resource_desc buffer_of(uint64_t size) {
 }
 
 /* A render-free session: create a buffer, write it, read the bytes back. */
-static bool roundtrip(raw *c) {
+static bool roundtrip(raw_client *c) {
     if (!hello_ok(c))
         return false;
     cv_resource_desc b = buffer_of(64);
-    EXPECT_REPLY(c, send_create(c, BUF_ID(1), &b), CV_OK, NULL);
+    EXPECT_REPLY(c, raw_send_create(c, BUF_ID(1), &b), CV_OK, NULL);
     uint8_t data[64], back[64] = { 0 };
     for (int i = 0; i < 64; i++)
         data[i] = (uint8_t)(i * 7 + 1);
-    send_write(c, BUF_ID(1), data, sizeof(data));
-    return read_back(c, BUF_ID(1), sizeof(back), back) && memcmp(back, data, sizeof(data)) == 0;
+    raw_send_write(c, BUF_ID(1), 0, data, sizeof(data));
+    return raw_read_back(c, BUF_ID(1), sizeof(back), back) && memcmp(back, data, sizeof(data)) == 0;
 }
 
 /* Info over the rpc layer: the gRPC status (-1 if the call never started). */
@@ -284,7 +90,7 @@ static int info_status(const char *endpoint, const cv_rpc_client_config *cc, cha
     void *resp = NULL;
     size_t n = 0;
     int status = -1;
-    if (cv_rpc_client_unary(client, CV_NODE_METHOD_INFO, req, 0, TIMEOUT_MS, &resp, &n, &status) != CV_OK)
+    if (cv_rpc_client_unary(client, CV_NODE_METHOD_INFO, req, 0, RAW_TIMEOUT_MS, &resp, &n, &status) != CV_OK)
         snprintf(why, cap, "%s", cv_last_error());
     else
         why[0] = 0;
@@ -301,7 +107,7 @@ static int health_status(const char *endpoint, const cv_rpc_client_config *cc) {
     void *resp = NULL;
     size_t n = 0;
     int status = -1;
-    cv_rpc_client_unary(client, CV_HEALTH_METHOD_CHECK, req, 0, TIMEOUT_MS, &resp, &n, &status);
+    cv_rpc_client_unary(client, CV_HEALTH_METHOD_CHECK, req, 0, RAW_TIMEOUT_MS, &resp, &n, &status);
     free(resp);
     cv_rpc_client_destroy(client);
     return status;
@@ -381,7 +187,7 @@ static void tokens(void) {
     cv_node_config sec = { .token = TOKEN, .log_sessions = true };
     CHECK_OK(scratch_node_start_secured(&n, cv_mock_backend(), 1, &sec));
 
-    raw c;
+    raw_client c;
     /* No token. */
     raw_open_with(&c, n.endpoint, NULL, NULL, 0);
     send_hello(&c);
@@ -526,7 +332,7 @@ static void tls(void) {
     /* The right CA: a session works. */
     cv_rpc_client_config good = { .tls_ca_file = ca_pem };
     CHECK_EQ_INT(info_status(n.endpoint, &good, why, sizeof(why)), 0);
-    raw c;
+    raw_client c;
     raw_open_with(&c, n.endpoint, &good, NULL, 0);
     CHECK(roundtrip(&c));
     raw_close(&c);
@@ -652,7 +458,7 @@ static void quotas(void) {
     scratch_node n;
     cv_node_config sec = { .quota = { .memory_bytes = 4096, .resources = 4, .inflight = 2, .upload_bytes = 1000 } };
     CHECK_OK(scratch_node_start_secured(&n, &gated, 1, &sec));
-    raw c;
+    raw_client c;
     raw_open_with(&c, n.endpoint, NULL, NULL, 0);
     CHECK(hello_ok(&c));
 
@@ -660,45 +466,46 @@ static void quotas(void) {
     cv_resource_desc b3k = buffer_of(3072), b1k = buffer_of(1024), b1 = buffer_of(1);
     cv_resource_desc tex = { .type = CV_HANDLE_TEXTURE,
                              .texture = { .width = 16, .height = 16, .format = CV_FORMAT_RGBA8_UNORM } }; /* 1024 */
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &b3k), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, TEX_ID(1), &tex), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(2), &b1), CV_ERROR_LIMIT_EXCEEDED, "--quota-memory 4096");
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(2), &b1), CV_ERROR_LIMIT_EXCEEDED, "holds 4096 bytes of device memory");
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(1), &b3k), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, TEX_ID(1), &tex), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(2), &b1), CV_ERROR_LIMIT_EXCEEDED, "--quota-memory 4096");
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(2), &b1), CV_ERROR_LIMIT_EXCEEDED,
+                 "holds 4096 bytes of device memory");
     /* Destroying gives the memory back. */
-    send_destroy(&c, TEX_ID(1));
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(2), &b1k), CV_OK, NULL);
+    raw_send_destroy(&c, TEX_ID(1));
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(2), &b1k), CV_OK, NULL);
     /* Resources: 4 in all (3 now: BUF 1, BUF 2, and the list below). */
-    EXPECT_REPLY(&c, send_create(&c, LIST_ID(1), NULL), CV_OK, NULL);
-    send_destroy(&c, BUF_ID(2));
+    EXPECT_REPLY(&c, raw_send_create(&c, LIST_ID(1), NULL), CV_OK, NULL);
+    raw_send_destroy(&c, BUF_ID(2));
     cv_resource_desc b512 = buffer_of(512), b256 = buffer_of(256);
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(3), &b512), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(4), &b256), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(5), &b1), CV_ERROR_LIMIT_EXCEEDED, "--quota-resources 4");
-    send_destroy(&c, LIST_ID(1)); /* a list counts as a resource, and has no bytes */
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(5), &b1), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(3), &b512), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(4), &b256), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(5), &b1), CV_ERROR_LIMIT_EXCEEDED, "--quota-resources 4");
+    raw_send_destroy(&c, LIST_ID(1)); /* a list counts as a resource, and has no bytes */
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(5), &b1), CV_OK, NULL);
     /* The session still works. */
     uint8_t data[256], back[256];
     memset(data, 0x5a, sizeof(data));
-    send_write(&c, BUF_ID(4), data, sizeof(data));
-    CHECK(read_back(&c, BUF_ID(4), sizeof(back), back) && memcmp(back, data, sizeof(data)) == 0);
+    raw_send_write(&c, BUF_ID(4), 0, data, sizeof(data));
+    CHECK(raw_read_back(&c, BUF_ID(4), sizeof(back), back) && memcmp(back, data, sizeof(data)) == 0);
 
     /* Upload cache bytes: 1000 per session; a blob past it is refused in full and its chunks dropped. */
     uint8_t blob[600], sha_a[32], sha_b[32];
     memset(blob, 1, sizeof(blob));
     CHECK_OK(cv_sha256(blob, sizeof(blob), sha_a));
-    send_chunk(&c, sha_a, sizeof(blob), 0, blob, sizeof(blob));
-    EXPECT_REPLY(&c, send_blob_write(&c, BUF_ID(1), sha_a), CV_OK, NULL);
+    raw_send_chunk(&c, sha_a, sizeof(blob), 0, blob, sizeof(blob));
+    EXPECT_REPLY(&c, raw_send_blob_write(&c, BUF_ID(1), sha_a), CV_OK, NULL);
     memset(blob, 2, sizeof(blob));
     CHECK_OK(cv_sha256(blob, sizeof(blob), sha_b));
-    uint64_t first = send_chunk(&c, sha_b, sizeof(blob), 0, blob, 300);
-    send_chunk(&c, sha_b, sizeof(blob), 300, blob + 300, 300); /* dropped, no second answer */
+    uint64_t first = raw_send_chunk(&c, sha_b, sizeof(blob), 0, blob, 300);
+    raw_send_chunk(&c, sha_b, sizeof(blob), 300, blob + 300, 300); /* dropped, no second answer */
     EXPECT_REPLY(&c, first, CV_ERROR_LIMIT_EXCEEDED, "--quota-upload 1000");
-    EXPECT_REPLY(&c, send_blob_write(&c, BUF_ID(1), sha_b), CV_ERROR_NOT_FOUND, "not in the node's cache");
+    EXPECT_REPLY(&c, raw_send_blob_write(&c, BUF_ID(1), sha_b), CV_ERROR_NOT_FOUND, "not in the node's cache");
     /* A blob the cache already has costs nothing. */
     memset(blob, 1, sizeof(blob));
-    send_chunk(&c, sha_a, sizeof(blob), 0, blob, sizeof(blob));
-    EXPECT_REPLY(&c, send_blob_write(&c, BUF_ID(1), sha_a), CV_OK, NULL);
-    CHECK(read_back(&c, BUF_ID(4), sizeof(back), back) && memcmp(back, data, sizeof(data)) == 0);
+    raw_send_chunk(&c, sha_a, sizeof(blob), 0, blob, sizeof(blob));
+    EXPECT_REPLY(&c, raw_send_blob_write(&c, BUF_ID(1), sha_a), CV_OK, NULL);
+    CHECK(raw_read_back(&c, BUF_ID(4), sizeof(back), back) && memcmp(back, data, sizeof(data)) == 0);
 
     cv_rpc_stream_close_send(c.stream);
     EXPECT_END(&c, CV_RPC_STATUS_OK, NULL);
@@ -708,27 +515,27 @@ static void quotas(void) {
     /* Lists in flight: 2, while the device holds them; a new session has its own quotas. */
     raw_open_with(&c, n.endpoint, NULL, NULL, 0);
     CHECK(hello_ok(&c));
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &b256), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(2), &b256), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, LIST_ID(1), NULL), CV_OK, NULL);
-    EXPECT_REPLY(&c, send_create(&c, LIST_ID(2), NULL), CV_OK, NULL);
-    send_write(&c, BUF_ID(1), data, sizeof(data));
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(1), &b256), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(2), &b256), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, LIST_ID(1), NULL), CV_OK, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, LIST_ID(2), NULL), CV_OK, NULL);
+    raw_send_write(&c, BUF_ID(1), 0, data, sizeof(data));
     send_compile_copy(&c, LIST_ID(1), BUF_ID(1), BUF_ID(2), 256);
     send_compile_copy(&c, LIST_ID(2), BUF_ID(1), BUF_ID(2), 128);
     atomic_store(&gate_open, false);
-    send_submit(&c, LIST_ID(1), 1);
-    send_submit(&c, LIST_ID(2), 2);
-    send_submit(&c, LIST_ID(1), 3); /* refused; reported in ticket order */
+    raw_send_submit(&c, LIST_ID(1), 1);
+    raw_send_submit(&c, LIST_ID(2), 2);
+    raw_send_submit(&c, LIST_ID(1), 3); /* refused; reported in ticket order */
     /* An answer to a later request: the node has handled the submits (their reports wait for the gate). */
-    EXPECT_REPLY(&c, send_create(&c, BUF_ID(1), &b256), CV_ERROR_ALREADY_LOADED, NULL);
+    EXPECT_REPLY(&c, raw_send_create(&c, BUF_ID(1), &b256), CV_ERROR_ALREADY_LOADED, NULL);
     atomic_store(&gate_open, true);
     EXPECT_COMPLETED(&c, 1, CV_OK, NULL);
     EXPECT_COMPLETED(&c, 2, CV_OK, NULL);
     EXPECT_COMPLETED(&c, 3, CV_ERROR_LIMIT_EXCEEDED, "--quota-inflight 2");
-    send_submit(&c, LIST_ID(1), 4); /* the session goes on */
+    raw_send_submit(&c, LIST_ID(1), 4); /* the session goes on */
     EXPECT_COMPLETED(&c, 4, CV_OK, NULL);
     memset(back, 0, sizeof(back));
-    CHECK(read_back(&c, BUF_ID(2), 256, back) && memcmp(back, data, 256) == 0);
+    CHECK(raw_read_back(&c, BUF_ID(2), 256, back) && memcmp(back, data, 256) == 0);
     cv_rpc_stream_close_send(c.stream);
     EXPECT_END(&c, CV_RPC_STATUS_OK, NULL);
     raw_close(&c);
