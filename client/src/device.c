@@ -570,3 +570,12 @@ cv_result cv_device_timings(cv_device *dev, uint64_t ticket, cv_pass_timing *out
     pthread_mutex_unlock(&dev->lock);
     return r;
 }
+
+bool cv_device_is_lost(cv_device *dev) {
+    if (!dev || !dev->backend->lost)
+        return false;
+    pthread_mutex_lock(&dev->lock);
+    bool lost = dev->backend->lost(dev->bd);
+    pthread_mutex_unlock(&dev->lock);
+    return lost;
+}

@@ -668,6 +668,27 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot) {
     return res;
 }
 
+/* A secondary device that is gone for good (its node died or disconnected)
+ * leaves the renderer: the frame graph is rebuilt for the others, and the
+ * frame it failed in is traced again by the survivors. Every pixel's rays
+ * depend only on the pixel and the frame, so the image is the same as if the
+ * device had never been there. The primary holds the image: without it there
+ * is no frame. Returns how many devices were dropped. */
+static uint32_t drop_lost_devices(cv_renderer *r) {
+    if (r->count < 2 || cv_device_is_lost(r->devices[0]))
+        return 0;
+    uint32_t kept = 1;
+    for (uint32_t d = 1; d < r->count; d++)
+        if (!cv_device_is_lost(r->devices[d]))
+            r->devices[kept++] = r->devices[d];
+    uint32_t dropped = r->count - kept;
+    if (dropped) {
+        r->count = kept;
+        destroy_graph(r);
+    }
+    return dropped;
+}
+
 cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings, cv_render_output *out,
                              cv_render_stats *stats, void (*progress)(uint32_t, uint32_t, void *), void *user) {
     if (!r || !out)
@@ -718,6 +739,17 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
             accumulated[f % IN_FLIGHT_FRAMES] = tickets[0];
             if (res == CV_OK && f + 1 >= IN_FLIGHT_FRAMES && accumulated[(f + 1) % IN_FLIGHT_FRAMES])
                 res = cv_device_wait(r->devices[0], accumulated[(f + 1) % IN_FLIGHT_FRAMES], UINT64_MAX);
+        }
+        uint32_t dropped = res != CV_OK ? drop_lost_devices(r) : 0;
+        if (dropped) {
+            st.devices_lost += dropped;
+            st.device_count = r->count;
+            memset(st.devices, 0, sizeof(st.devices));
+            res = build_graph(r, (uint32_t)s.filter_iterations, band_capacity(r, &s));
+            if (res == CV_OK) {
+                f--; /* this frame again, on the survivors (f wraps to the loop's f++ at 0) */
+                continue;
+            }
         }
         double frame_wall = now_ms() - submitted;
         for (uint32_t i = 0; i < n && i < 64 && res == CV_OK; i++) {

@@ -96,6 +96,63 @@ static double now_s(void) {
     return ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
+/* A node dies between frames of a render on three devices (the local primary
+ * and one device on each of two nodes): the frame it fails in is traced again
+ * by the survivors, later frames go on without it, and the image is the one
+ * rendered on the primary alone. */
+typedef struct loss_plan {
+    scratch_node *victim;
+    uint32_t after_frame;
+} loss_plan;
+
+static void kill_node_after(uint32_t frame, uint32_t frames, void *user) {
+    (void)frames;
+    loss_plan *plan = user;
+    if (frame == plan->after_frame && plan->victim->node)
+        scratch_node_stop(plan->victim); /* cancels its sessions: the client sees them end */
+}
+
+static void node_loss(const cv_scene *scene, const cv_bvh *bvh) {
+    cv_render_settings s = settings();
+    s.frames = 4;
+    cv_render_stats stats;
+    cv_render_output alone = { 0 }, survived = { 0 };
+    scratch_node nodes[2];
+    CHECK_OK(scratch_node_start(&nodes[0], cv_vulkan_backend(), 1, true));
+    CHECK_OK(scratch_node_start(&nodes[1], cv_vulkan_backend(), 1, true));
+    cv_context *ctx;
+    cv_device *devices[3] = { 0 };
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    CHECK_OK(cv_device_create(ctx, cv_vulkan_backend(),
+                              &(cv_device_desc){ .adapter = test_adapter(), .validation = true }, &devices[0]));
+    for (int n = 0; n < 2; n++)
+        CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = nodes[n].endpoint },
+                                  &devices[1 + n]));
+    cv_renderer *r = NULL;
+    if (devices[0] && devices[1] && devices[2]) {
+        /* The primary alone first: the image the loss must not change. */
+        CHECK_OK(cv_renderer_create(devices, 1, scene, bvh, &r));
+        CHECK_OK(cv_renderer_render(r, &s, &alone, &stats, NULL, NULL));
+        cv_renderer_destroy(r);
+        r = NULL;
+        loss_plan plan = { .victim = &nodes[1], .after_frame = 2 };
+        CHECK_OK(cv_renderer_create(devices, 3, scene, bvh, &r));
+        CHECK_OK(cv_renderer_render(r, &s, &survived, &stats, kill_node_after, &plan));
+        CHECK_EQ_INT(stats.devices_lost, 1);
+        CHECK_EQ_INT(stats.device_count, 2);
+        CHECK(cv_device_is_lost(devices[2]));
+        CHECK(!cv_device_is_lost(devices[1]));
+        CHECK(same_image(&alone, &survived));
+        cv_renderer_destroy(r);
+    }
+    cv_context_destroy(ctx);
+    CHECK_EQ_INT(scratch_node_wait_sessions(&nodes[0], 5000), 0);
+    scratch_node_stop(&nodes[0]);
+    scratch_node_stop(&nodes[1]);
+    cv_render_output_free(&alone);
+    cv_render_output_free(&survived);
+}
+
 /* The node goes away under a live session. */
 static void node_death(void) {
     scratch_node n;
@@ -156,6 +213,7 @@ int main(void) {
         CHECK_EQ_INT(scratch_node_wait_sessions(&nodes[i], 5000), 0);
         scratch_node_stop(&nodes[i]);
     }
+    node_loss(scene, bvh);
     node_death();
     CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);
     cv_render_output_free(&local);

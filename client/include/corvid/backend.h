@@ -92,6 +92,9 @@ struct cv_backend {
     cv_result (*submit)(cv_backend_device *bd, void *compiled, uint64_t ticket);
     cv_result (*wait)(cv_backend_device *bd, uint64_t ticket, uint64_t timeout_ns);
     uint64_t (*completed)(cv_backend_device *bd);
+    /* Whether the device is gone for good (a remote node died, the GPU was
+     * lost): every later call on it fails. NULL: never lost. */
+    bool (*lost)(cv_backend_device *bd);
     /* Timings of the latest finished submission of `compiled` (may be NULL: none). */
     cv_result (*timings)(cv_backend_device *bd, void *compiled, cv_pass_timing *out, uint32_t capacity,
                          uint32_t *count);

@@ -92,6 +92,10 @@ cv_result cv_device_wait_idle(cv_device *dev);
 /* Pass timings of a finished submission (the latest submission of its list). */
 cv_result cv_device_timings(cv_device *dev, uint64_t ticket, cv_pass_timing *out, uint32_t capacity, uint32_t *count);
 
+/* Whether the device is gone for good (its node died or disconnected, its GPU
+ * was lost), so that a multi-device frame can go on without it. */
+bool cv_device_is_lost(cv_device *dev);
+
 /* Built-in backends. */
 const cv_backend *cv_mock_backend(void);
 

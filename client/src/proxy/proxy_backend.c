@@ -495,6 +495,13 @@ static uint64_t proxy_completed(cv_backend_device *p) {
     return c;
 }
 
+static bool proxy_lost(cv_backend_device *p) {
+    pthread_mutex_lock(&p->lock);
+    bool lost = p->dead != CV_OK;
+    pthread_mutex_unlock(&p->lock);
+    return lost;
+}
+
 static cv_result proxy_timings(cv_backend_device *p, void *obj, cv_pass_timing *out, uint32_t capacity,
                                uint32_t *count) {
     proxy_list *compiled = obj;
@@ -523,6 +530,7 @@ static const cv_backend proxy_backend = {
     .submit = proxy_submit,
     .wait = proxy_wait,
     .completed = proxy_completed,
+    .lost = proxy_lost,
     .timings = proxy_timings,
 };
 

@@ -54,6 +54,7 @@ typedef struct cv_render_stats {
     uint32_t frames;
     cv_render_device_stats devices[CV_MAX_DEVICES];
     uint64_t rays_total;     /* over all frames */
+    uint32_t devices_lost;   /* secondaries that died during the render; their columns went to the others */
     uint64_t transfer_bytes; /* over all frames, between devices */
     double transfer_ms;
     double upload_ms; /* scene upload to all devices */
