@@ -15,11 +15,13 @@
 #include "corvid/image_files.h"
 #include "corvid/image_png.h"
 #include "corvid/proxy.h"
+#include "corvid/render_log.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_import.h"
 #include "corvid/scene_procedural.h"
 #include "corvid/tonemap.h"
 #include "corvid/vulkan.h"
+#include "render_exr.h"
 
 /* The renderer's limits (cv_renderer_render refuses more). */
 #define MAX_FRAMES 4096
@@ -51,6 +53,10 @@ static void usage(FILE *f) {
             "                     (or CORVID_NODES=LIST); the first node's first device is the primary\n"
             "  --dump-graph FILE  write the frame's render graph (passes, devices, cross-device copies)\n"
             "                     as text to FILE and as Graphviz dot to FILE.dot\n"
+            "  --stats FILE       write per-frame stats as JSON: wall time, per device its columns, rays,\n"
+            "                     pass times and transfers; then a summary (not with --reference)\n"
+            "  --trace FILE       write a Chrome/Perfetto trace (open in ui.perfetto.dev): a track per\n"
+            "                     device with each pass and transfer of every frame (not with --reference)\n"
             "  --validation       enable VK_LAYER_KHRONOS_validation\n"
             "  --list-adapters    print the Vulkan adapters and exit\n"
             "  --quiet            print only errors\n"
@@ -61,6 +67,7 @@ static void usage(FILE *f) {
 typedef struct options {
     const char *scene, *out;
     const char *dump_graph;    /* --dump-graph FILE: text to FILE, dot to FILE.dot */
+    const char *stats, *trace; /* --stats FILE, --trace FILE: JSON of every frame (cv_render_log) */
     const char *nodes;         /* --nodes, or CORVID_NODES; NULL = local devices */
     uint64_t stress_triangles; /* > 0 for --scene stress:N */
     uint32_t seed;
@@ -205,6 +212,20 @@ static bool opt_dump_graph(options *o, const char *name, const char *value) {
     return true;
 }
 
+static bool opt_stats(options *o, const char *name, const char *value) {
+    if (!value[0])
+        return refuse(name, value, "a file name");
+    o->stats = value;
+    return true;
+}
+
+static bool opt_trace(options *o, const char *name, const char *value) {
+    if (!value[0])
+        return refuse(name, value, "a file name");
+    o->trace = value;
+    return true;
+}
+
 static bool opt_validation(options *o, const char *name, const char *value) {
     (void)name, (void)value;
     return o->validation = true;
@@ -244,6 +265,8 @@ static const struct option_def {
     { "--out", true, opt_out },
     { "--nodes", true, opt_nodes },
     { "--dump-graph", true, opt_dump_graph },
+    { "--stats", true, opt_stats },
+    { "--trace", true, opt_trace },
     { "--validation", false, opt_validation },
     { "--quiet", false, opt_quiet },
     { "--list-adapters", false, opt_list_adapters },
@@ -323,6 +346,7 @@ static void progress(uint32_t frame, uint32_t frames, void *user) {
 typedef struct outputs {
     char *exr, *png; /* final names */
     const char *exr_temp, *png_temp;
+    const char *stats_temp, *trace_temp; /* --stats, --trace; NULL when not asked for */
     cv_file_set *set;
     char *made;      /* the folders this run created, to remove on failure; NULL if none */
     size_t made_top; /* length of the top-most folder created */
@@ -412,63 +436,42 @@ static cv_result outputs_reserve(const char *prefix, outputs *out) {
     return CV_OK;
 }
 
-/* Channel c of an RGBA image as its own plane. */
-static float *plane(const float *rgba, size_t pixels, int c) {
-    float *p = malloc(pixels * sizeof(float));
-    for (size_t i = 0; p && i < pixels; i++)
-        p[i] = rgba[i * 4 + c];
-    return p;
+/* --stats and --trace join the set of files written together: a bad
+ * destination is found before rendering, and nothing is written on failure.
+ * They must differ from each other and from PREFIX.exr / .png. */
+static cv_result outputs_reserve_logs(const options *o, outputs *out) {
+    const char *paths[2] = { o->stats, o->trace }, *names[2] = { "--stats", "--trace" };
+    const char **temps[2] = { &out->stats_temp, &out->trace_temp };
+    for (int i = 0; i < 2; i++) {
+        if (!paths[i])
+            continue;
+        const char *clash = !strcmp(paths[i], out->exr)                         ? "the EXR"
+                            : !strcmp(paths[i], out->png)                       ? "the PNG"
+                            : i == 1 && o->stats && !strcmp(paths[1], o->stats) ? "the --stats file"
+                                                                                : NULL;
+        if (clash)
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%s' is also %s", names[i], paths[i], clash);
+        cv_result r = cv_file_set_add(out->set, paths[i], temps[i]);
+        if (r != CV_OK)
+            return cv_error(r, "%s: %s", names[i], cv_last_error());
+    }
+    return CV_OK;
 }
 
-/* Writes both files to their temporaries and renames them into place only
- * when both were written. */
-static cv_result write_images(const options *o, outputs *out, const cv_render_output *img, const cv_camera *camera) {
-    size_t n = (size_t)img->width * img->height;
+/* The recorded frames to the --stats and --trace temporaries. */
+static cv_result write_logs(const outputs *out, const cv_render_log *log, const cv_render_stats *stats) {
     cv_result r = CV_OK;
-    float *depth = malloc(n * sizeof(float));
-    float *planes[8] = { plane(img->albedo, n, 0),     plane(img->albedo, n, 1),    plane(img->albedo, n, 2),
-                         plane(img->normal, n, 0),     plane(img->normal, n, 1),    plane(img->normal, n, 2),
-                         plane(img->visibility, n, 0), plane(img->visibility, n, 1) };
-    for (int i = 0; i < 8; i++)
-        if (!planes[i])
-            r = cv_error(CV_ERROR_OUT_OF_MEMORY, "output planes");
-    if (!depth)
-        r = cv_error(CV_ERROR_OUT_OF_MEMORY, "depth plane");
-    for (size_t i = 0; r == CV_OK && i < n; i++) {
-        const float *p = &img->position[i * 4];
-        float dx = p[0] - camera->position[0], dy = p[1] - camera->position[1], dz = p[2] - camera->position[2];
-        depth[i] = p[3] != 0.0f ? sqrtf(dx * dx + dy * dy + dz * dz) : INFINITY;
-    }
-    if (r == CV_OK) {
-        cv_exr_layer layers[] = {
-            { .channel_count = 4,
-              .channels = { "R", "G", "B", "A" },
-              .type = CV_EXR_FLOAT,
-              .interleaved = img->radiance },
-            { .name = "albedo",
-              .channel_count = 3,
-              .channels = { "R", "G", "B" },
-              .type = CV_EXR_HALF,
-              .planes = { planes[0], planes[1], planes[2] } },
-            { .name = "normal",
-              .channel_count = 3,
-              .channels = { "X", "Y", "Z" },
-              .type = CV_EXR_FLOAT,
-              .planes = { planes[3], planes[4], planes[5] } },
-            { .name = "depth", .channel_count = 1, .channels = { "Z" }, .type = CV_EXR_FLOAT, .planes = { depth } },
-            { .name = "shadow",
-              .channel_count = 1,
-              .channels = { "Y" },
-              .type = CV_EXR_HALF,
-              .planes = { planes[6] } },
-            { .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { planes[7] } },
-        };
-        r = cv_exr_write(out->exr_temp, &(cv_exr_desc){ .width = img->width,
-                                                        .height = img->height,
-                                                        .compression = CV_EXR_ZIP,
-                                                        .layer_count = 6,
-                                                        .layers = layers });
-    }
+    if (out->stats_temp)
+        r = cv_render_log_write_stats(log, stats, out->stats_temp);
+    if (r == CV_OK && out->trace_temp)
+        r = cv_render_log_write_trace(log, out->trace_temp);
+    return r;
+}
+
+/* Writes the EXR and PNG to their temporaries (main commits the set). */
+static cv_result write_images(const options *o, outputs *out, const cv_render_output *img) {
+    size_t n = (size_t)img->width * img->height;
+    cv_result r = render_exr_write(out->exr_temp, img);
     uint8_t *rgb = r == CV_OK ? malloc(n * 3) : NULL;
     if (r == CV_OK && !rgb)
         r = cv_error(CV_ERROR_OUT_OF_MEMORY, "PNG pixels");
@@ -477,12 +480,7 @@ static cv_result write_images(const options *o, outputs *out, const cv_render_ou
                                 img->radiance, 4, img->width, img->height, rgb, 3);
     if (r == CV_OK)
         r = cv_png_write(out->png_temp, img->width, img->height, 3, rgb);
-    if (r == CV_OK)
-        r = cv_file_set_commit(out->set);
     free(rgb);
-    free(depth);
-    for (int i = 0; i < 8; i++)
-        free(planes[i]);
     return r;
 }
 
@@ -570,6 +568,12 @@ int main(int argc, char **argv) {
         if (!opt_nodes(&o, "CORVID_NODES", getenv("CORVID_NODES")))
             return 2;
     }
+    if ((o.stats || o.trace) && o.reference) {
+        fprintf(stderr,
+                "corvid-render: --stats and --trace record the GPU renderer's frames; --reference renders "
+                "on the CPU: give one or the other\n");
+        return 2;
+    }
     if (o.nodes && local_choice) {
         fprintf(stderr,
                 "corvid-render: --nodes renders on the devices the nodes serve; --gpus, --virtual-gpus and "
@@ -587,7 +591,17 @@ int main(int argc, char **argv) {
     cv_render_output image = { 0 };
     cv_render_stats stats = { 0 };
     outputs out = { 0 };
+    cv_render_log *log = NULL;
+    cv_render_observer observer = { 0 };
     cv_result r = outputs_reserve(o.out, &out);
+    if (r == CV_OK)
+        r = outputs_reserve_logs(&o, &out);
+    if (r == CV_OK && (o.stats || o.trace))
+        r = cv_render_log_create(&log);
+    if (r == CV_OK && log) {
+        observer = cv_render_log_observer(log);
+        o.settings.observer = &observer;
+    }
     if (r == CV_OK)
         r = load_scene(&o, &scene);
     if (r == CV_OK && !o.quiet)
@@ -640,14 +654,14 @@ int main(int argc, char **argv) {
     if (r == CV_OK && o.dump_graph && !o.reference)
         r = dump_graph(renderer, o.dump_graph);
     cv_render_settings s = { 0 };
-    cv_camera camera = { 0 };
-    if (r == CV_OK) {
-        s = cv_render_settings_resolve(&o.settings, scene);
-        camera = s.camera < cv_scene_camera_count(scene) ? *cv_scene_camera(scene, s.camera)
-                                                         : cv_scene_framing_camera(scene);
-    }
     if (r == CV_OK)
-        r = write_images(&o, &out, &image, &camera);
+        s = cv_render_settings_resolve(&o.settings, scene);
+    if (r == CV_OK)
+        r = write_images(&o, &out, &image);
+    if (r == CV_OK)
+        r = write_logs(&out, log, &stats);
+    if (r == CV_OK)
+        r = cv_file_set_commit(out.set);
     if (r == CV_OK && !o.quiet && o.reference)
         printf("wrote %s and %s (%ux%u, CPU reference, %u samples x %u AO rays/pixel)\n", out.exr, out.png,
                image.width, image.height, o.reference, s.ao_samples);
@@ -665,6 +679,9 @@ int main(int argc, char **argv) {
         }
         printf("transfers between devices: %.1f MB in %.1f ms; total %.1f s\n", stats.transfer_bytes / 1e6,
                stats.transfer_ms, (now_ms() - t0) / 1e3);
+        if (o.stats || o.trace)
+            printf("wrote%s%s%s%s (%u frames)\n", o.stats ? " stats " : "", o.stats ? o.stats : "",
+                   o.trace ? " trace " : "", o.trace ? o.trace : "", cv_render_log_frame_count(log));
         for (uint32_t d = 0; o.nodes && d < device_count; d++) {
             cv_proxy_stats ps;
             if (cv_proxy_get_stats(devices[d], &ps) == CV_OK)
@@ -682,6 +699,7 @@ int main(int argc, char **argv) {
     if (r != CV_OK)
         outputs_discard(&out);
     outputs_free(&out);
+    cv_render_log_destroy(log);
     cv_render_output_free(&image);
     cv_renderer_destroy(renderer);
     cv_context_destroy(ctx);

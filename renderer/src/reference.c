@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "corvid/trace_cpu.h"
+#include "output_derive.h"
 #include "scene_upload.h"
 
 #define REF_PI 3.14159265358979f
@@ -240,7 +241,12 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
         pthread_join(tid[t], NULL);
     pthread_mutex_destroy(&j.lock);
     free(first);
+    cv_result derived = render_output_derive(&o, j.camera.position, &data); /* depth and direct, as the GPU's */
     render_scene_data_free(&data);
+    if (derived != CV_OK) {
+        cv_render_output_free(&o);
+        return derived;
+    }
     *out = o;
     return CV_OK;
 }

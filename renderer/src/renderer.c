@@ -13,6 +13,8 @@
 
 #include "camera.h"
 #include "corvid/graph.h"
+#include "frame_observer.h"
+#include "output_derive.h"
 #include "scene_upload.h"
 
 enum { PIPE_GBUFFER, PIPE_RAYGEN, PIPE_RESOLVE, PIPE_ACCUMULATE, PIPE_FILTER, PIPE_COMPOSITE, PIPE_COUNT };
@@ -521,6 +523,8 @@ static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_outp
         out->position[i] = out->position[i] != 0.0f ? 1.0f : 0.0f;
     if (res == CV_OK)
         res = cv_device_read_texture(p, r->textures[filtered_texture(iterations)], all, out->visibility);
+    if (res == CV_OK)
+        res = render_output_derive(out, r->camera.position, &r->data);
     if (res != CV_OK)
         cv_render_output_free(out);
     return res;
@@ -532,6 +536,10 @@ void cv_render_output_free(cv_render_output *out) {
     free(out->normal);
     free(out->position);
     free(out->visibility);
+    free(out->depth);
+    free(out->direct);
+    free(out->motion);
+    free(out->reflection);
     memset(out, 0, sizeof(*out));
 }
 
@@ -728,7 +736,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
          * the next one, so the frame ends here. One device: frames are pipelined,
          * up to IN_FLIGHT_FRAMES submitted ahead, so a remote device's latency
          * hides behind the work of the frames before (nothing to balance). */
-        bool wait_now = last || r->count > 1;
+        bool wait_now = last || r->count > 1 || (s.observer && s.observer->frame); /* observers want timings */
         uint32_t n = 0;
         double submitted = now_ms();
         if (res == CV_OK && wait_now) {
@@ -767,6 +775,9 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                                                                   .ms_per_column = ms / cols.width };
             }
         }
+        if (res == CV_OK && wait_now)
+            render_observe_frame(&(render_frame_report){ r->devices, r->count, &part, &s, f, r->height, submitted,
+                                                         frame_wall, timings, n, 64 });
         for (uint32_t d = 0; d < r->count && res == CV_OK; d++)
             st.rays_total += (uint64_t)part.ranges[d].width * r->height * (1 + s.ao_samples);
         if (res == CV_OK && progress)

@@ -20,6 +20,7 @@
 #include "corvid/bvh.h"
 #include "corvid/device.h"
 #include "corvid/partition.h"
+#include "corvid/render_observer.h"
 #include "corvid/scene.h"
 
 /* Rays per trace_rays command: a partition is traced in bands of rows so its
@@ -27,18 +28,20 @@
 #define CV_RENDER_BAND_RAYS (1u << 22)
 
 typedef struct cv_render_settings {
-    uint32_t width, height;    /* [640x360] pixels */
-    uint32_t frames;           /* [4] frames accumulated (more = less noise) */
-    uint32_t ao_samples;       /* [4] AO rays per pixel per frame (0..32) */
-    float ao_radius;           /* [2% of the scene diagonal] AO ray length, metres */
-    float sun_cone_degrees;    /* [1.5] half angle of the sun's cone (soft shadows); < 0 = hard shadows */
-    uint32_t camera;           /* [0] scene camera index; a framing camera if the scene has none */
-    uint32_t tile;             /* [8] partition tile width, pixels */
-    int32_t filter_iterations; /* [3] a-trous iterations (steps 1, 2, 4, ...); -1 = none */
-    uint32_t band_rays;        /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
-    uint32_t first_frame;      /* [0] sample index of the first frame: frames draw the sample sets of
+    uint32_t width, height;             /* [640x360] pixels */
+    uint32_t frames;                    /* [4] frames accumulated (more = less noise) */
+    uint32_t ao_samples;                /* [4] AO rays per pixel per frame (0..32) */
+    float ao_radius;                    /* [2% of the scene diagonal] AO ray length, metres */
+    float sun_cone_degrees;             /* [1.5] half angle of the sun's cone (soft shadows); < 0 = hard shadows */
+    uint32_t camera;                    /* [0] scene camera index; a framing camera if the scene has none */
+    uint32_t tile;                      /* [8] partition tile width, pixels */
+    int32_t filter_iterations;          /* [3] a-trous iterations (steps 1, 2, 4, ...); -1 = none */
+    uint32_t band_rays;                 /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
+    uint32_t first_frame;               /* [0] sample index of the first frame: frames draw the sample sets of
                                  * first_frame .. first_frame + frames - 1 (a render can continue
                                  * another's sequence; tests render single frames of a sequence) */
+    const cv_render_observer *observer; /* [NULL] called after every frame with its timings
+                                         * (corvid/render_observer.h); NULL = none */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
@@ -70,6 +73,13 @@ typedef struct cv_render_output {
     float *position;   /* world position, w = 1 on geometry */
     float *visibility; /* r = sun visibility, g = ambient occlusion (filtered; accumulated in
                                  * float32), b, a = their mean squares over the frames (unfiltered) */
+    /* Planes added for the EXR's per-pass layers; NULL when not produced. */
+    float *depth;      /* ONE float per pixel (width * height): distance from the camera's position to the
+                        * visible surface (camera distance, not view-plane depth); +infinity on sky */
+    float *direct;     /* direct sun light as the composite adds it (albedo * sun * N.L * sun visibility / pi),
+                        * derived on the host from albedo, normal and visibility; alpha 1 on geometry */
+    float *motion;     /* RGBA: x, y = screen-space motion in pixels (the EXR's motion.X, motion.Y) */
+    float *reflection; /* RGBA: reflected radiance (the EXR's reflection.R, G, B) */
 } cv_render_output;
 
 typedef struct cv_renderer cv_renderer;
