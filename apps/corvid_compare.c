@@ -2,7 +2,8 @@
  * layer by layer, over the pixels both cover: RMSE, mean bias (B - A), largest
  * difference and SSIM (8x8 windows; image/include/corvid/image_metrics.h).
  * Reads the EXRs corvid-render writes (beauty R, G, B, A; albedo.RGB;
- * normal.XYZ; depth.Z; shadow.Y; ao.Y). Exit 0 when compared, 2 for bad usage
+ * normal.XYZ; depth.Z; shadow.Y; ao.Y; direct.RGB; reflection.RGB and
+ * motion.XY when the renderer made them). Exit 0 when compared, 2 for bad usage
  * or inputs that cannot be compared (missing or unreadable files, different
  * sizes, no layer in common). */
 #include <math.h>
@@ -25,9 +26,12 @@ static void usage(FILE *f) {
             "  depth     depth.Z\n"
             "  shadow    shadow.Y (sun visibility)\n"
             "  ao        ao.Y (ambient occlusion)\n"
+            "  direct    direct.R, G, B (direct sun light) as luminance\n"
+            "  reflection reflection.R, G, B as luminance\n"
+            "  motion    motion.X, Y (screen-space motion, pixels), each\n"
             "and prints the pixels compared, RMSE, mean bias (B - A), largest |B - A| and SSIM\n"
             "(mean over fully covered 8x8 windows, C1 = (0.01 L)^2, C2 = (0.03 L)^2; L = 1 for\n"
-            "shadow, ao and albedo, 2 for normals, A's largest value for radiance and depth).\n\n"
+            "shadow, ao and albedo, 2 for normals, A's largest |value| for the others).\n\n"
             "  --layer L       only layer L (one of the names above)\n"
             "  --per-channel   radiance and albedo per channel (R, G, B) as well as luminance\n"
             "  --json          one JSON object on stdout instead of the table\n"
@@ -49,6 +53,9 @@ static const layer_def layer_defs[] = {
     { "depth", { "depth.Z" }, 1, false, 0.0 },
     { "shadow", { "shadow.Y" }, 1, false, 1.0 },
     { "ao", { "ao.Y" }, 1, false, 1.0 },
+    { "direct", { "direct.R", "direct.G", "direct.B" }, 3, true, 0.0 },
+    { "reflection", { "reflection.R", "reflection.G", "reflection.B" }, 3, true, 0.0 },
+    { "motion", { "motion.X", "motion.Y" }, 2, false, 0.0 },
 };
 #define LAYER_COUNT (sizeof layer_defs / sizeof layer_defs[0])
 
@@ -184,7 +191,9 @@ int main(int argc, char **argv) {
             if (!strcmp(only, layer_defs[k].name))
                 selected = &layer_defs[k];
         if (!selected) {
-            fprintf(stderr, "corvid-compare: unknown layer '%s' (radiance, albedo, normal, depth, shadow, ao)\n",
+            fprintf(stderr,
+                    "corvid-compare: unknown layer '%s' (radiance, albedo, normal, depth, shadow, ao, direct, "
+                    "reflection, motion)\n",
                     only);
             return 2;
         }
@@ -220,7 +229,7 @@ int main(int argc, char **argv) {
     if (rc == 0 && ncommon == 0) {
         fprintf(stderr,
                 "corvid-compare: %s and %s have no layer in common (radiance R/G/B, albedo.*, normal.*, "
-                "depth.Z, shadow.Y, ao.Y)\n",
+                "depth.Z, shadow.Y, ao.Y, direct.*, reflection.*, motion.*)\n",
                 paths[0], paths[1]);
         rc = 2;
     }
@@ -290,11 +299,11 @@ int main(int argc, char **argv) {
         printf("A: %s\nB: %s\n%ux%u: %llu pixels covered in A, %llu in B, %llu in both (compared)\n", paths[0],
                paths[1], img[0].width, img[0].height, (unsigned long long)covered[0], (unsigned long long)covered[1],
                (unsigned long long)both);
-        printf("%-9s %-3s %9s %11s %11s %11s %9s %8s\n", "layer", "ch", "pixels", "rmse", "bias(B-A)", "max|B-A|",
+        printf("%-10s %-3s %9s %11s %11s %11s %9s %8s\n", "layer", "ch", "pixels", "rmse", "bias(B-A)", "max|B-A|",
                "ssim", "windows");
         for (size_t r = 0; r < nrows; r++) {
             const cv_image_metrics *m = &rows[r].m;
-            printf("%-9s %-3s %9llu %11.6f %+11.6f %11.6f ", rows[r].layer, rows[r].channel,
+            printf("%-10s %-3s %9llu %11.6f %+11.6f %11.6f ", rows[r].layer, rows[r].channel,
                    (unsigned long long)m->pixels, m->rmse, m->bias, m->max_abs);
             if (isnan(m->ssim))
                 printf("%9s", "n/a");

@@ -436,6 +436,20 @@ static cv_result outputs_reserve(const char *prefix, outputs *out) {
     return CV_OK;
 }
 
+/* Whether paths a and b name the same file: the same file name in the same
+ * folder, however the folder is written ("out/x.json", "./out/x.json"). */
+static bool same_destination(const char *a, const char *b) {
+    const char *sa = strrchr(a, '/'), *sb = strrchr(b, '/');
+    if (strcmp(sa ? sa + 1 : a, sb ? sb + 1 : b) != 0)
+        return false;
+    char *da = sa ? strndup(a, sa == a ? 1 : (size_t)(sa - a)) : strdup(".");
+    char *db = sb ? strndup(b, sb == b ? 1 : (size_t)(sb - b)) : strdup(".");
+    char *ra = da ? realpath(da, NULL) : NULL, *rb = db ? realpath(db, NULL) : NULL;
+    bool same = ra && rb ? strcmp(ra, rb) == 0 : da && db && strcmp(da, db) == 0;
+    free(da), free(db), free(ra), free(rb);
+    return same;
+}
+
 /* --stats and --trace join the set of files written together: a bad
  * destination is found before rendering, and nothing is written on failure.
  * They must differ from each other and from PREFIX.exr / .png. */
@@ -445,10 +459,10 @@ static cv_result outputs_reserve_logs(const options *o, outputs *out) {
     for (int i = 0; i < 2; i++) {
         if (!paths[i])
             continue;
-        const char *clash = !strcmp(paths[i], out->exr)                         ? "the EXR"
-                            : !strcmp(paths[i], out->png)                       ? "the PNG"
-                            : i == 1 && o->stats && !strcmp(paths[1], o->stats) ? "the --stats file"
-                                                                                : NULL;
+        const char *clash = same_destination(paths[i], out->exr)                         ? "the EXR"
+                            : same_destination(paths[i], out->png)                       ? "the PNG"
+                            : i == 1 && o->stats && same_destination(paths[1], o->stats) ? "the --stats file"
+                                                                                         : NULL;
         if (clash)
             return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%s' is also %s", names[i], paths[i], clash);
         cv_result r = cv_file_set_add(out->set, paths[i], temps[i]);

@@ -28,12 +28,14 @@ static double uniform(void) {
 }
 static double gaussian(void) { return sqrt(-2.0 * log(uniform())) * cos(6.283185307179586 * uniform()); }
 
-/* A render-like EXR; shadow + shadow_offset, AO + noise_sigma * N(0, 1). */
+/* A render-like EXR; shadow + shadow_offset, AO + noise_sigma * N(0, 1);
+ * direct = 2 * shadow (grey), motion = (10 * shadow_offset + x / 8, -1). */
 static void write_frame(const char *path, uint32_t w, uint32_t h, float shadow_offset, double noise_sigma,
                         int with_ao) {
     size_t n = (size_t)w * h;
     float *rgba = malloc(n * 4 * sizeof(float)), *depth = malloc(n * 4), *shadow = malloc(n * 4), *ao = malloc(n * 4),
-          *nx = malloc(n * 4), *ny = malloc(n * 4), *nz = malloc(n * 4);
+          *nx = malloc(n * 4), *ny = malloc(n * 4), *nz = malloc(n * 4), *direct = malloc(n * 4), *mx = malloc(n * 4),
+          *my = malloc(n * 4);
     for (size_t i = 0; i < n; i++) {
         uint32_t x = i % w, y = i / w;
         int covered = x >= UNCOVERED;
@@ -44,6 +46,9 @@ static void write_frame(const char *path, uint32_t w, uint32_t h, float shadow_o
         nx[i] = 0.0f;
         ny[i] = 1.0f;
         nz[i] = 0.0f;
+        direct[i] = 2.0f * shadow[i];
+        mx[i] = 10.0f * shadow_offset + x / 8.0f;
+        my[i] = -1.0f;
         for (int c = 0; c < 3; c++)
             rgba[i * 4 + c] = covered ? shadow[i] * (0.5f + 0.1f * c) : 0.2f;
         rgba[i * 4 + 3] = covered ? 1.0f : 0.0f;
@@ -57,14 +62,24 @@ static void write_frame(const char *path, uint32_t w, uint32_t h, float shadow_o
           .planes = { nx, ny, nz } },
         { .name = "depth", .channel_count = 1, .channels = { "Z" }, .type = CV_EXR_FLOAT, .planes = { depth } },
         { .name = "shadow", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_FLOAT, .planes = { shadow } },
+        { .name = "direct",
+          .channel_count = 3,
+          .channels = { "R", "G", "B" },
+          .type = CV_EXR_FLOAT,
+          .planes = { direct, direct, direct } },
+        { .name = "motion",
+          .channel_count = 2,
+          .channels = { "X", "Y" },
+          .type = CV_EXR_FLOAT,
+          .planes = { mx, my } },
         { .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_FLOAT, .planes = { ao } },
     };
     CHECK_OK(cv_exr_write(path, &(cv_exr_desc){ .width = w,
                                                 .height = h,
                                                 .compression = CV_EXR_ZIP,
-                                                .layer_count = with_ao ? 5 : 4,
+                                                .layer_count = with_ao ? 7 : 6,
                                                 .layers = layers }));
-    free(rgba), free(depth), free(shadow), free(ao), free(nx), free(ny), free(nz);
+    free(rgba), free(depth), free(shadow), free(ao), free(nx), free(ny), free(nz), free(direct), free(mx), free(my);
 }
 
 /* Runs corvid-compare with `args`; its stdout and stderr in static buffers. */
@@ -135,8 +150,9 @@ int main(int argc, char **argv) {
     CHECK_EQ_INT((int)top_field("compared"), covered);
     CHECK_EQ_INT((int)top_field("covered_a"), covered);
     const char *rows[][2] = { { "radiance", "L" }, { "normal", "X" }, { "normal", "Y" }, { "normal", "Z" },
-                              { "depth", "Z" },    { "shadow", "Y" }, { "ao", "Y" } };
-    for (int r = 0; r < 7; r++) {
+                              { "depth", "Z" },    { "shadow", "Y" }, { "ao", "Y" },     { "direct", "L" },
+                              { "motion", "X" },   { "motion", "Y" } };
+    for (int r = 0; r < 10; r++) {
         CHECK(field(rows[r][0], rows[r][1], "rmse") == 0.0);
         CHECK(field(rows[r][0], rows[r][1], "bias") == 0.0);
         CHECK(field(rows[r][0], rows[r][1], "ssim") == 1.0);
@@ -150,6 +166,11 @@ int main(int argc, char **argv) {
     CHECK(fabs(field("shadow", "Y", "bias") - 0.05) < 1e-6);
     CHECK(fabs(field("shadow", "Y", "rmse") - 0.05) < 1e-6);
     CHECK(field("ao", "Y", "rmse") == 0.0);
+    /* The per-pass layers: direct = 2 * shadow (luminance weights sum to 1), motion.X + 0.5. */
+    CHECK(fabs(field("direct", "L", "bias") - 0.1) < 1e-5);
+    CHECK(fabs(field("motion", "X", "bias") - 0.5) < 1e-6);
+    CHECK(field("motion", "Y", "rmse") == 0.0);
+    CHECK(!strstr(out_text, "\"reflection\"")); /* not in the files */
     snprintf(args, sizeof args, "'%s' '%s' --layer shadow", a, b);
     CHECK_EQ_INT(run(args), 0);
     CHECK(strstr(out_text, "+0.050000") != NULL);

@@ -22,7 +22,7 @@ check "EXR magic" test "$(head -c 4 "$tmp/a/frame.exr" | od -An -tx1 | tr -d ' \
 check "PNG magic" test "$(head -c 8 "$tmp/a/frame.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a"
 # PNG IHDR: width and height as big-endian u32 at bytes 16..23.
 check "PNG is 96x54" test "$(dd if="$tmp/a/frame.png" bs=1 skip=16 count=8 2>/dev/null | od -An -tx1 | tr -d ' \n')" = "0000006000000036"
-for layer in albedo.R normal.X depth.Z shadow.Y ao.Y; do
+for layer in albedo.R normal.X depth.Z shadow.Y ao.Y direct.R direct.G direct.B; do
   check "EXR has $layer" grep -q "$layer" "$tmp/a/frame.exr"
 done
 check "reports both devices" grep -q "gpu1: columns" "$tmp/out.txt"
@@ -40,6 +40,52 @@ check "graph dump: G-buffer multicast" grep -q "transfer 'gbuffer position' afte
 check "graph dump: visibility copied back" grep -q "transfer 'visibility' after 'trace': ISOLATED_TO_ISOLATED: dev1->dev0 \[" "$tmp/g/graph.txt"
 check "graph dot written" grep -q "^digraph corvid_graph" "$tmp/g/graph.txt.dot"
 check "graph dot has the trace node" grep -q 'label="trace' "$tmp/g/graph.txt.dot"
+
+# --stats and --trace: JSON of every frame (tests/renderer/render_outputs_test.c
+# checks the figures against cv_render_stats; here: the files as a user gets them).
+"$render" --gpus 2 --adapters llvmpipe --size 64x32 --frames 3 --ao-samples 1 --quiet --out "$tmp/s/frame" \
+  --stats "$tmp/s/stats.json" --trace="$tmp/s/trace.json" 2> "$tmp/err.txt"
+check "--stats and --trace exit 0" test $? -eq 0
+check "stats: 3 frames of 2 devices, rays add up to the summary" python3 -c '
+import json, sys
+d = json.load(open(sys.argv[1]))
+f, s = d["frames"], d["summary"]
+assert [x["frame"] for x in f] == [0, 1, 2] and s["frames"] == 3 and s["device_count"] == 2
+assert all(len(x["devices"]) == 2 and sum(v["columns"]["width"] for v in x["devices"]) == 64 for x in f)
+assert sum(v["rays"] for x in f for v in x["devices"]) == s["rays_total"] == 3 * 64 * 32 * 2
+assert all(p["ms"] >= 0 for x in f for v in x["devices"] for p in v["passes"])' "$tmp/s/stats.json"
+check "trace: named device processes, one event per pass instance per frame" python3 -c '
+import json, sys
+e = json.load(open(sys.argv[1]))["traceEvents"]
+names = {x["args"]["name"] for x in e if x["ph"] == "M" and x["name"] == "process_name"}
+assert names == {"gpu0", "gpu1", "host"}, names
+passes = [x for x in e if x["ph"] == "X" and x["cat"] == "pass"]
+assert len(passes) == 1 + 3 * 3 + 2, len(passes)
+assert all(x["dur"] >= 0 and x["ts"] >= 0 for x in e if x["ph"] == "X")' "$tmp/s/trace.json"
+compare_direct() { "$(dirname "$render")/corvid-compare" "$1" "$1" --layer direct > /dev/null; }
+check "corvid-compare reads the direct layer" compare_direct "$tmp/s/frame.exr"
+# Bad --stats / --trace destinations fail before the render starts and write nothing.
+"$render" --size 8x8 --frames 1 --out "$tmp/sb/frame" --stats "$tmp/nodir/stats.json" > /dev/null 2> "$tmp/err.txt"
+check "--stats in a missing folder exits 1" test $? -eq 1
+check "--stats in a missing folder explained" grep -qF -- "--stats: $tmp/nodir/stats.json: cannot create a temporary file beside it: No such file or directory" "$tmp/err.txt"
+check "--stats in a missing folder: found before rendering" not grep -q "scene 'room'" "$tmp/err.txt"
+check "--stats in a missing folder: nothing written" test ! -e "$tmp/sb"
+echo plain > "$tmp/plainfile"
+"$render" --size 8x8 --frames 1 --out "$tmp/sb/frame" --trace "$tmp/plainfile/trace.json" > /dev/null 2> "$tmp/err.txt"
+check "--trace under a file exits 1" test $? -eq 1
+check "--trace under a file explained" grep -qF -- "--trace: $tmp/plainfile/trace.json: Not a directory" "$tmp/err.txt"
+check "--trace under a file: nothing written" test ! -e "$tmp/sb"
+"$render" --size 8x8 --frames 1 --out "$tmp/sb/frame" --stats "$tmp/same.json" --trace "$tmp/./same.json" > /dev/null 2> "$tmp/err.txt"
+check "--trace = --stats exits 1" test $? -eq 1
+check "--trace = --stats explained" grep -qF -- "--trace: '$tmp/./same.json' is also the --stats file" "$tmp/err.txt"
+check "--trace = --stats: nothing written" test ! -e "$tmp/same.json"
+"$render" --size 8x8 --frames 1 --out "$tmp/sb/frame" --stats "$tmp/sb/frame.exr" > /dev/null 2> "$tmp/err.txt"
+check "--stats = the EXR exits 1" test $? -eq 1
+check "--stats = the EXR explained" grep -qF -- "is also the EXR" "$tmp/err.txt"
+"$render" --reference 1 --size 8x8 --out "$tmp/sb/frame" --trace "$tmp/t.json" > /dev/null 2> "$tmp/err.txt"
+check "--trace with --reference exits 2" test $? -eq 2
+check "--trace with --reference explained" grep -qF -- "--reference renders on the CPU" "$tmp/err.txt"
+check "nothing written for refused --stats/--trace" test ! -e "$tmp/sb" -a ! -e "$tmp/t.json"
 
 "$render" --scene "$tmp/missing.glb" --out "$tmp/b/frame" > /dev/null 2> "$tmp/err.txt"
 check "missing scene exits 1" test $? -eq 1
@@ -153,6 +199,7 @@ check "a used, bad CORVID_VIRTUAL_GPUS is named" grep -qF "CORVID_VIRTUAL_GPUS: 
 check "help exits 0" test $? -eq 0
 check "help lists --gpus" grep -q -- "--gpus" "$tmp/help.txt"
 check "help lists --dump-graph" grep -q -- "--dump-graph" "$tmp/help.txt"
+check "help lists --stats and --trace" grep -q -- "--stats FILE.*--trace FILE" <(tr -d '\n' < "$tmp/help.txt")
 check "help says what --ao-samples 0 does" grep -q "0 is refused" "$tmp/help.txt"
 
 echo "render_cli: $pass passed, $fail failed"
