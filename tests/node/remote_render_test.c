@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "check.h"
+#include "test_adapter.h"
 #include "corvid/proxy.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_procedural.h"
@@ -25,11 +26,6 @@ static cv_render_settings settings(void) {
     return (cv_render_settings){
         .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = 1.0f, .filter_iterations = 2
     };
-}
-
-static const char *test_adapter(void) {
-    const char *env = getenv("CORVID_TEST_ADAPTER");
-    return env && env[0] ? env : "llvmpipe";
 }
 
 static cv_result render(cv_device **devices, uint32_t count, const cv_scene *scene, const cv_bvh *bvh,
@@ -50,7 +46,7 @@ static cv_result render_local(const cv_scene *scene, const cv_bvh *bvh, cv_rende
     cv_result res = cv_context_create(NULL, &ctx);
     if (res == CV_OK)
         res = cv_device_create(ctx, cv_vulkan_backend(),
-                               &(cv_device_desc){ .adapter = test_adapter(), .validation = true }, &dev);
+                               &(cv_device_desc){ .adapter = cv_test_adapter(), .validation = true }, &dev);
     if (res == CV_OK)
         res = render(&dev, 1, scene, bvh, out);
     if (ctx)
@@ -124,7 +120,7 @@ static void node_loss(const cv_scene *scene, const cv_bvh *bvh) {
     cv_device *devices[3] = { 0 };
     CHECK_OK(cv_context_create(NULL, &ctx));
     CHECK_OK(cv_device_create(ctx, cv_vulkan_backend(),
-                              &(cv_device_desc){ .adapter = test_adapter(), .validation = true }, &devices[0]));
+                              &(cv_device_desc){ .adapter = cv_test_adapter(), .validation = true }, &devices[0]));
     for (int n = 0; n < 2; n++)
         CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = nodes[n].endpoint },
                                   &devices[1 + n]));

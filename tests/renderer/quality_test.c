@@ -20,15 +20,11 @@
 #include <string.h>
 
 #include "check.h"
+#include "test_adapter.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_procedural.h"
 #include "corvid/trace_cpu.h"
 #include "corvid/vulkan.h"
-
-static const char *test_adapter(void) {
-    const char *env = getenv("CORVID_TEST_ADAPTER");
-    return env && env[0] ? env : "llvmpipe";
-}
 
 /* One lavapipe device and a renderer on it for a scene. */
 typedef struct rig {
@@ -42,7 +38,7 @@ static cv_result rig_open(const cv_scene *scene, const cv_bvh *bvh, rig *g) {
     cv_vulkan_gpu_table table;
     cv_result res = cv_context_create(NULL, &g->ctx);
     if (res == CV_OK)
-        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = 1, .adapters = test_adapter() }, &table);
+        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = 1, .adapters = cv_test_adapter() }, &table);
     if (res == CV_OK)
         res = cv_vulkan_create_devices(g->ctx, &table, true, &g->device);
     if (res == CV_OK)

@@ -21,32 +21,11 @@
 #include "corvid/renderer.h"
 #include "corvid/scene_procedural.h"
 #include "corvid/vulkan.h"
-#include "test_adapter.h"
+#include "test_render.h"
 
 #define W 160
 #define H 90
 #define FRAMES 3
-
-static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *s,
-                           cv_render_output *out, cv_render_stats *stats) {
-    cv_context *ctx;
-    cv_device *devices[4] = { 0 };
-    cv_vulkan_gpu_table table;
-    cv_renderer *r = NULL;
-    cv_result res = cv_context_create(NULL, &ctx);
-    if (res == CV_OK)
-        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = gpus, .adapters = cv_test_adapter() },
-                                        &table);
-    if (res == CV_OK)
-        res = cv_vulkan_create_devices(ctx, &table, true, devices);
-    if (res == CV_OK)
-        res = cv_renderer_create(devices, gpus, scene, bvh, &r);
-    if (res == CV_OK)
-        res = cv_renderer_render(r, s, out, stats, NULL, NULL);
-    cv_renderer_destroy(r);
-    cv_context_destroy(ctx);
-    return res;
-}
 
 static void check_depth_and_direct(const cv_render_output *o, const float camera[3], const char *what) {
     CHECK(o->depth != NULL && o->direct != NULL);
@@ -233,7 +212,7 @@ static void test_logs(const cv_scene *scene, const cv_bvh *bvh, uint32_t gpus, c
     cv_render_settings s = { .width = W, .height = H, .frames = FRAMES, .ao_samples = 2, .observer = &obs };
     cv_render_output out = { 0 };
     cv_render_stats st = { 0 };
-    CHECK_OK(render_on(gpus, scene, bvh, &s, &out, &st));
+    CHECK_OK(cv_test_render(gpus, scene, bvh, &s, &out, &st));
     CHECK_EQ_INT(cv_render_log_frame_count(log), FRAMES);
     char stats_path[512], trace_path[512];
     snprintf(stats_path, sizeof stats_path, "%s/stats%u.json", dir, gpus);
@@ -278,7 +257,7 @@ int main(void) {
     cv_render_observer obs = { count_frame, &counted };
     cv_render_settings s = { .width = W, .height = H, .frames = FRAMES, .ao_samples = 1, .observer = &obs };
     cv_render_output out = { 0 };
-    CHECK_OK(render_on(1, scene, bvh, &s, &out, NULL));
+    CHECK_OK(cv_test_render(1, scene, bvh, &s, &out, NULL));
     CHECK_EQ_INT(counted.calls, FRAMES);
     CHECK_EQ_INT(counted.out_of_order, 0);
     CHECK_EQ_INT(counted.without_timings, 0);

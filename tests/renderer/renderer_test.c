@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "test_render.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_procedural.h"
 #include "corvid/trace_cpu.h"
@@ -22,32 +23,6 @@ static cv_render_settings settings(void) {
     return (cv_render_settings){
         .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = -1, .filter_iterations = -1
     };
-}
-
-/* CORVID_TEST_ADAPTER picks the adapter (default lavapipe, as in CI). */
-static const char *test_adapter(void) {
-    const char *env = getenv("CORVID_TEST_ADAPTER");
-    return env && env[0] ? env : "llvmpipe";
-}
-
-static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *s,
-                           cv_render_output *out, cv_render_stats *stats) {
-    cv_context *ctx;
-    cv_device *devices[4] = { 0 };
-    cv_vulkan_gpu_table table;
-    cv_renderer *r = NULL;
-    cv_result res = cv_context_create(NULL, &ctx);
-    if (res == CV_OK)
-        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = gpus, .adapters = test_adapter() }, &table);
-    if (res == CV_OK)
-        res = cv_vulkan_create_devices(ctx, &table, true, devices);
-    if (res == CV_OK)
-        res = cv_renderer_create(devices, gpus, scene, bvh, &r);
-    if (res == CV_OK)
-        res = cv_renderer_render(r, s, out, stats, NULL, NULL);
-    cv_renderer_destroy(r);
-    cv_context_destroy(ctx);
-    return res;
 }
 
 static void sun_direction(const cv_scene *scene, float out[3]) {
@@ -139,18 +114,18 @@ int main(void) {
     cv_render_settings s = settings();
     cv_render_output one = { 0 }, two = { 0 }, three = { 0 };
     cv_render_stats stats;
-    CHECK_OK(render_on(1, scene, bvh, &s, &one, &stats));
-    CHECK_OK(render_on(2, scene, bvh, &s, &two, &stats));
+    CHECK_OK(cv_test_render(1, scene, bvh, &s, &one, &stats));
+    CHECK_OK(cv_test_render(2, scene, bvh, &s, &two, &stats));
     CHECK_EQ_INT(stats.device_count, 2);
     CHECK(stats.devices[0].columns.width > 0 && stats.devices[1].columns.width > 0);
     CHECK_EQ_INT(stats.devices[0].columns.width + stats.devices[1].columns.width, W);
     CHECK(stats.transfer_bytes > 0);
-    CHECK_OK(render_on(3, scene, bvh, &s, &three, &stats));
+    CHECK_OK(cv_test_render(3, scene, bvh, &s, &three, &stats));
     /* Tracing in bands of rows (here ~1000 rays each) changes nothing either. */
     cv_render_settings banded = s;
     banded.band_rays = 1000;
     cv_render_output bands = { 0 };
-    CHECK_OK(render_on(2, scene, bvh, &banded, &bands, &stats));
+    CHECK_OK(cv_test_render(2, scene, bvh, &banded, &bands, &stats));
     size_t bytes = (size_t)W * H * 4 * sizeof(float);
     if (one.radiance && bands.radiance)
         CHECK(memcmp(one.radiance, bands.radiance, bytes) == 0);
@@ -183,7 +158,7 @@ int main(void) {
     cv_render_settings bad = settings();
     bad.ao_samples = 33;
     cv_render_output none = { 0 };
-    CHECK_RESULT(render_on(1, scene, bvh, &bad, &none, NULL), CV_ERROR_OUT_OF_RANGE);
+    CHECK_RESULT(cv_test_render(1, scene, bvh, &bad, &none, NULL), CV_ERROR_OUT_OF_RANGE);
     CHECK(none.radiance == NULL);
     CHECK_RESULT(cv_renderer_create(NULL, 0, scene, bvh, &(cv_renderer *){ NULL }), CV_ERROR_INVALID_ARGUMENT);
     CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "test_render.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_procedural.h"
 #include "corvid/transfer.h"
@@ -14,32 +15,12 @@
 #define W 160
 #define H 90
 
-static const char *test_adapter(void) {
-    const char *env = getenv("CORVID_TEST_ADAPTER");
-    return env && env[0] ? env : "llvmpipe";
-}
-
 static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out,
                            cv_render_stats *stats) {
     cv_render_settings s = {
         .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = -1, .filter_iterations = -1
     };
-    cv_context *ctx;
-    cv_device *devices[4] = { 0 };
-    cv_vulkan_gpu_table table;
-    cv_renderer *r = NULL;
-    cv_result res = cv_context_create(NULL, &ctx);
-    if (res == CV_OK)
-        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = gpus, .adapters = test_adapter() }, &table);
-    if (res == CV_OK)
-        res = cv_vulkan_create_devices(ctx, &table, true, devices);
-    if (res == CV_OK)
-        res = cv_renderer_create(devices, gpus, scene, bvh, &r);
-    if (res == CV_OK)
-        res = cv_renderer_render(r, &s, out, stats, NULL, NULL);
-    cv_renderer_destroy(r);
-    cv_context_destroy(ctx);
-    return res;
+    return cv_test_render(gpus, scene, bvh, &s, out, stats);
 }
 
 int main(void) {

@@ -39,6 +39,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "test_adapter.h"
 #include "corvid/bvh.h"
 #include "corvid/corvid.h"
 #include "corvid/ray_sets.h"
@@ -51,11 +52,6 @@
 #define T_TOLERANCE 1e-4f
 #define GRAZE_SLACK 1e-5f
 #define T_ULPS 8.0f
-
-static const char *test_adapter(void) {
-    const char *env = getenv("CORVID_TEST_ADAPTER");
-    return env && env[0] ? env : "llvmpipe";
-}
 
 /* ---- scenes and their triangles ---------------------------------------------- */
 
@@ -305,7 +301,7 @@ static void check_scene(rig *g, scene_case *s) {
 static cv_device *device_with_env(cv_context *ctx, const char *value, cv_result expected) {
     setenv("CORVID_TRACE_PATH", value, 1);
     cv_device *dev = NULL;
-    cv_device_desc desc = { .adapter = test_adapter(), .validation = true, .label = "env" };
+    cv_device_desc desc = { .adapter = cv_test_adapter(), .validation = true, .label = "env" };
     CHECK_RESULT(cv_device_create(ctx, cv_vulkan_backend(), &desc, &dev), expected);
     unsetenv("CORVID_TRACE_PATH");
     return dev;
@@ -353,7 +349,7 @@ int main(void) {
     unsetenv("CORVID_TRACE_PATH");
     rig g = { 0 };
     CHECK_OK(cv_context_create(NULL, &g.ctx));
-    cv_device_desc desc = { .adapter = test_adapter(), .validation = true, .label = "trace" };
+    cv_device_desc desc = { .adapter = cv_test_adapter(), .validation = true, .label = "trace" };
     CHECK_OK(cv_device_create(g.ctx, cv_vulkan_backend(), &desc, &g.dev));
     if (!g.dev)
         return check_report("trace_paths");
