@@ -64,7 +64,7 @@ typedef struct cv_render_stats {
     double frame_ms;  /* wall time per frame, mean */
 } cv_render_stats;
 
-/* The frame as planes of RGBA floats (width * height * 4 each). */
+/* The frame as planes of RGBA floats (width * height * 4 each; depth: 1 per pixel). */
 typedef struct cv_render_output {
     uint32_t width, height;
     float *radiance; /* linear HDR; alpha 1 on geometry, 0 on sky */
