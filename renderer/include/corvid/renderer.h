@@ -110,7 +110,7 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot);
  * with the same ray rules (origin offset along the geometric normal, below the
  * surface = shadowed, AO mirrored above the geometric plane), accumulated in
  * float32, shaded as render.composite (unfiltered). frames, tile, band_rays,
- * filter_iterations and first_frame are ignored. `threads` pthreads (0 = 2).
+ * filter_iterations, first_frame and observer are ignored. `threads` pthreads (0 = 2).
  * Fills *out like cv_renderer_render; failures leave it untouched. */
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out);
