@@ -111,7 +111,20 @@ int main(void) {
                                    .timing_count = 3,
                                    .timings_cut = 1 };
     obs.frame(&info, obs.user);
-    CHECK_EQ_INT(cv_render_log_frame_count(log), 2);
+    /* Frame 2: "b\"q\\" alone, now device 0: still its own process. */
+    cv_graph_timing f2[] = { timing("trace", 0, 1.0, 0) };
+    info = (cv_render_frame_info){ .frame = 2,
+                                   .frames = 3,
+                                   .submit_ms = 1020.0,
+                                   .wall_ms = 1.5,
+                                   .device_count = 1,
+                                   .device_labels = { "b\"q\\" },
+                                   .columns = { { 0, 96 } },
+                                   .rays = { 96 * 10 * 3 },
+                                   .timings = f2,
+                                   .timing_count = 1 };
+    obs.frame(&info, obs.user);
+    CHECK_EQ_INT(cv_render_log_frame_count(log), 3);
 
     CHECK_OK(cv_render_log_write_trace(log, trace));
     cJSON *root = parse_file(trace);
@@ -128,6 +141,8 @@ int main(void) {
     check_span(events, "trace", 1, 1, 1, 13000.0, 1000.0);
     check_span(events, "accumulate", 1, 1, 1, 14000.0, 1000.0);
     check_span(events, "composite", 1, 1, 1, 15000.0, 2000.0);
+    check_span(events, "trace", 2, 2, 1, 20000.0, 1000.0);
+    CHECK(event(events, "trace", 2, 1) == NULL);
     const cJSON *frame0 = NULL, *e;
     uint32_t names = 0;
     cJSON_ArrayForEach(e, events) {
@@ -160,7 +175,7 @@ int main(void) {
     root = parse_file(stats);
     CHECK(root != NULL);
     const cJSON *frames = cJSON_GetObjectItem(root, "frames"), *summary = cJSON_GetObjectItem(root, "summary");
-    CHECK_EQ_INT(cJSON_GetArraySize(frames), 2);
+    CHECK_EQ_INT(cJSON_GetArraySize(frames), 3);
     const cJSON *fr0 = cJSON_GetArrayItem(frames, 0), *fr1 = cJSON_GetArrayItem(frames, 1);
     CHECK_EQ_INT(number(fr0, "sample"), 7);
     CHECK(number(fr0, "wall_ms") == 12.0);
@@ -181,7 +196,7 @@ int main(void) {
     cJSON_ArrayForEach(p, cJSON_GetObjectItem(summary, "passes")) {
         const char *name = cJSON_GetObjectItem(p, "name")->valuestring;
         double n = number(p, "instances"), ms = number(p, "ms_total");
-        totals += (!strcmp(name, "trace") && n == 3 && ms == 10.0) +
+        totals += (!strcmp(name, "trace") && n == 4 && ms == 11.0) +
                   (!strcmp(name, "accumulate") && n == 2 && ms == 1.5) +
                   (!strcmp(name, "gbuffer") && n == 1 && ms == 2.0) +
                   (!strcmp(name, "composite") && n == 1 && ms == 2.0);
