@@ -36,7 +36,9 @@
  * without waiting at all; cv_graph_collect reads such a frame's timings and
  * feeds the balancer later, once it finished (lagged feedback: the balancer
  * then splits from a frame a few frames old, which converges the same way,
- * only later). A record callback sees its column window and the handles of
+ * only later). CORVID_TRANSFER_ASYNC=0 in the environment (read at every
+ * transfer) makes every transfer synchronous, as before rings existed (for
+ * comparisons: bench/mgpu_frames.sh). A record callback sees its column window and the handles of
  * its resources, never the device count:
  *
  *     static void trace(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {

@@ -98,25 +98,27 @@ static cv_result record_all(cv_graph *g) {
 }
 
 /* The pair's ring if it can take asynchronous transfers on the path in
- * force, with slots for the whole resource (NULL: move synchronously). A
- * ring made for another path, or too small, is replaced. */
+ * force (NULL: move synchronously). A ring made for another path is
+ * replaced. Slots are sized from the first copy (a quarter more, for the
+ * balancer's shifts; at least 1 MiB); a larger copy later takes several. */
 static cv_transfer_ring *pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t bytes) {
     cv_device *src = g->devices[s], *dst = g->devices[d];
-    if (!cv_device_link_async(src) || !cv_device_link_async(dst))
+    const char *async = getenv("CORVID_TRANSFER_ASYNC"); /* "0": synchronous transfers, for comparison */
+    if ((async && strcmp(async, "0") == 0) || !cv_device_link_async(src) || !cv_device_link_async(dst))
         return NULL;
     cv_transfer_path path;
     if (cv_transfer_choose_path(src, dst, &path) != CV_OK || path == CV_TRANSFER_STAGED)
         return NULL; /* (a forced path the pair cannot take: the synchronous call reports it) */
     cv_transfer_ring *ring = g->rings[s][d];
-    uint64_t slot = (bytes + 255) / 256 * 256;
-    if (ring && cv_transfer_ring_path(ring) == path && g->ring_slot[s][d] >= slot)
+    if (ring && cv_transfer_ring_path(ring) == path)
         return ring;
     cv_transfer_ring_destroy(ring);
     g->rings[s][d] = NULL;
+    uint64_t slot = bytes + bytes / 4 > (1u << 20) ? bytes + bytes / 4 : (1u << 20);
+    slot = (slot + 255) / 256 * 256;
     if (cv_transfer_ring_create(src, dst, slot, GRAPH_RING_SLOTS, &ring) != CV_OK)
         return NULL; /* (e.g. out of device memory: the synchronous path still works) */
     g->rings[s][d] = ring;
-    g->ring_slot[s][d] = slot;
     return ring;
 }
 
@@ -127,13 +129,13 @@ static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uin
     double start = now_ms();
     cv_result res = CV_OK;
     *bytes = 0;
-    uint64_t whole_bytes = r->type == CV_HANDLE_TEXTURE
-                               ? (uint64_t)r->texture.width * r->texture.height * cv_format_bytes(r->texture.format)
-                               : r->buffer.size;
     for (uint32_t c = 0; c < st->plan.count && res == CV_OK; c++) {
         const cv_mgpu_copy *cp = &st->plan.copies[c];
         cv_device *src = g->devices[cp->src_device], *dst = g->devices[cp->dst_device];
-        cv_transfer_ring *ring = pair_ring(g, cp->src_device, cp->dst_device, whole_bytes);
+        uint64_t copy_bytes = r->type == CV_HANDLE_TEXTURE ? (uint64_t)cp->columns.width * r->texture.height *
+                                                                 cv_format_bytes(r->texture.format)
+                                                           : r->buffer.size;
+        cv_transfer_ring *ring = pair_ring(g, cp->src_device, cp->dst_device, copy_bytes);
         cv_transfer_stats ts = { 0 };
         cv_transfer_async ta = { 0 };
         if (r->type == CV_HANDLE_TEXTURE) {

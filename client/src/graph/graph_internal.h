@@ -6,8 +6,9 @@
 #include "corvid/graph.h"
 #include "corvid/transfer.h"
 
-/* Slots of each asynchronous transfer ring (a slot holds a whole resource). */
-#define GRAPH_RING_SLOTS 2u
+/* Slots of each asynchronous transfer ring: a copy into a slot waits (on the
+ * GPU) for the read of the copy three before it. */
+#define GRAPH_RING_SLOTS 3u
 
 /* A resource handle's id: index + 1, with this bit set for its history. */
 #define GRAPH_HISTORY_BIT 0x80000000u
@@ -130,7 +131,6 @@ struct cv_graph {
     /* Asynchronous transfer rings per (source, destination) device pair, made
      * on first use where the pair allows them (transfer.h). */
     cv_transfer_ring *rings[CV_MAX_DEVICES][CV_MAX_DEVICES];
-    uint64_t ring_slot[CV_MAX_DEVICES][CV_MAX_DEVICES]; /* their slot sizes */
     cv_balancer balancer;
     uint64_t frame;         /* executes so far: picks the history frames */
     uint64_t history_epoch; /* g->frame when history frames were last created */
