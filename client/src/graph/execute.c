@@ -100,7 +100,7 @@ static cv_result record_all(cv_graph *g) {
 /* The pair's ring if it can take asynchronous transfers on the path in
  * force (NULL: move synchronously). A ring made for another path is
  * replaced. Slots are sized from the first copy (a quarter more, for the
- * balancer's shifts; at least 1 MiB); a larger copy later takes several. */
+ * balancer's shifts; GRAPH_RING_SLOT_MIN..MAX); a larger copy takes several. */
 static cv_transfer_ring *pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t bytes) {
     cv_device *src = g->devices[s], *dst = g->devices[d];
     const char *async = getenv("CORVID_TRANSFER_ASYNC"); /* "0": synchronous transfers, for comparison */
@@ -114,7 +114,8 @@ static cv_transfer_ring *pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t
         return ring;
     cv_transfer_ring_destroy(ring);
     g->rings[s][d] = NULL;
-    uint64_t slot = bytes + bytes / 4 > (1u << 20) ? bytes + bytes / 4 : (1u << 20);
+    uint64_t slot = bytes + bytes / 4;
+    slot = slot < GRAPH_RING_SLOT_MIN ? GRAPH_RING_SLOT_MIN : slot > GRAPH_RING_SLOT_MAX ? GRAPH_RING_SLOT_MAX : slot;
     slot = (slot + 255) / 256 * 256;
     if (cv_transfer_ring_create(src, dst, slot, GRAPH_RING_SLOTS, &ring) != CV_OK)
         return NULL; /* (e.g. out of device memory: the synchronous path still works) */

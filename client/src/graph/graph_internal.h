@@ -6,9 +6,15 @@
 #include "corvid/graph.h"
 #include "corvid/transfer.h"
 
-/* Slots of each asynchronous transfer ring: a copy into a slot waits (on the
- * GPU) for the read of the copy three before it. */
-#define GRAPH_RING_SLOTS 3u
+/* Asynchronous transfer rings: a copy into a slot waits (on the GPU) for the
+ * read of the copy two before it. Slots are bounded: making a ring costs
+ * time in proportion to its memory (host-import pins and imports it into
+ * both devices: on the H200 about 85 ms for a ring of three 41 MB slots,
+ * docs/nvidia.md), and the whole-image G-buffer multicast of a first frame
+ * may as well move in pieces. */
+#define GRAPH_RING_SLOTS 2u
+#define GRAPH_RING_SLOT_MIN (1ull << 20)
+#define GRAPH_RING_SLOT_MAX (16ull << 20)
 
 /* A resource handle's id: index + 1, with this bit set for its history. */
 #define GRAPH_HISTORY_BIT 0x80000000u
