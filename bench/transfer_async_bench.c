@@ -65,8 +65,8 @@ static bool row(cv_context *ctx, cv_device *src, cv_device *dst, cv_transfer_pat
     static double sync_ms[MAX_ROUNDS], async_ms[MAX_ROUNDS];
     uint32_t rounds = 0;
     double spent_sync = 0, spent_async = 0;
-    for (int warm = 1; ok && rounds < MAX_ROUNDS && (warm || rounds < 3 || spent_sync < min_time * 1e3 ||
-                                                     spent_async < min_time * 1e3);
+    for (int warm = 1; ok && rounds < MAX_ROUNDS &&
+                       (warm || rounds < 3 || spent_sync < min_time * 1e3 || spent_async < min_time * 1e3);
          warm = 0) {
         double t0 = bench_now();
         for (int i = 0; i < BATCH && ok; i++)
@@ -135,8 +135,9 @@ int main(int argc, char **argv) {
         } else if (strcmp(argv[i], "--validation") == 0) {
             validation = true;
         } else {
-            fprintf(stderr, "usage: bench_transfer_async [--adapters LIST] [--sizes 1M,8M,64M] [--min-time S] "
-                            "[--validation]\n");
+            fprintf(stderr,
+                    "usage: bench_transfer_async [--adapters LIST] [--sizes 1M,8M,64M] [--min-time S] "
+                    "[--validation]\n");
             return 2;
         }
     }

@@ -669,8 +669,12 @@ static cv_result commit(cv_graph *g, bake_state *s, graph_baked *b) {
         g->list_sets[k] = lists;
     }
     while (res == CV_OK && g->list_count < b->instance_count) {
-        for (uint32_t k = 0; k < CV_GRAPH_FRAMES_KEPT && res == CV_OK; k++)
-            res = cv_cmdlist_create(g->ctx, &g->list_sets[k][g->list_count]);
+        uint32_t made = 0;
+        for (; made < CV_GRAPH_FRAMES_KEPT && res == CV_OK; made++)
+            res = cv_cmdlist_create(g->ctx, &g->list_sets[made][g->list_count]);
+        if (res != CV_OK) /* every set has list_count lists: drop this row's */
+            for (uint32_t k = 0; k + 1 < made; k++)
+                cv_cmdlist_destroy(g->ctx, g->list_sets[k][g->list_count]);
         g->list_count += res == CV_OK;
     }
     return res;
