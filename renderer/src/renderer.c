@@ -712,6 +712,26 @@ static void add_frame_timings(const cv_renderer *r, cv_render_stats *st, const c
     }
 }
 
+/* Before frame f's bake, with several devices: collects the frame `lag`
+ * back (all frames still pending, on the last frame) and adds their timings. */
+static cv_result collect_frames(cv_renderer *r, cv_render_stats *st, cv_graph_timing *timings,
+                                uint64_t uncollected[CV_GRAPH_FRAMES_KEPT],
+                                const cv_partition parts[CV_GRAPH_FRAMES_KEPT], uint32_t f, bool last) {
+    const uint32_t lag = CV_GRAPH_FRAMES_KEPT - 1;
+    double start = now_ms();
+    cv_result res = CV_OK;
+    for (uint32_t k = f >= lag ? f - lag : 0; k < f && res == CV_OK && r->count > 1; k++) {
+        uint32_t slot = k % CV_GRAPH_FRAMES_KEPT, n = 0;
+        if (!uncollected[slot] || (!last && k != f - lag))
+            continue;
+        res = cv_graph_collect(r->graph, uncollected[slot], timings, 64, &n);
+        uncollected[slot] = 0;
+        if (res == CV_OK)
+            add_frame_timings(r, st, timings, n, &parts[slot], now_ms() - start);
+    }
+    return res;
+}
+
 cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings, cv_render_output *out,
                              cv_render_stats *stats, void (*progress)(uint32_t, uint32_t, void *), void *user) {
     if (!r || !out)
@@ -740,29 +760,22 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     /* Several devices: frames submitted but not collected yet, and their partitions (by f % CV_GRAPH_FRAMES_KEPT). */
     uint64_t uncollected[CV_GRAPH_FRAMES_KEPT] = { 0 };
     cv_partition parts[CV_GRAPH_FRAMES_KEPT];
-    const uint32_t lag = CV_GRAPH_FRAMES_KEPT - 1;
+    /* Frames are pipelined on any number of devices: up to IN_FLIGHT_FRAMES
+     * submitted ahead, so a remote device's latency hides behind the work of
+     * the frames before, and transfers between local devices are queued on
+     * the GPUs (graph.h). With several devices the "last frame" whose trace
+     * times the balancer splits from is the one CV_GRAPH_FRAMES_KEPT - 1 back
+     * (collect_frames: lagged feedback; that frame has usually finished, so
+     * collecting it rarely waits), which bounds the frames in flight to
+     * CV_GRAPH_FRAMES_KEPT. The last frame collects every frame still pending,
+     * then executes. */
     for (uint32_t f = 0; f < s.frames && res == CV_OK; f++) {
         bool last = f + 1 == s.frames;
         r->frame = f;
         res = enable_passes(r, f == 0, last);
-        /* Frames are pipelined on any number of devices: up to IN_FLIGHT_FRAMES
-         * submitted ahead, so a remote device's latency hides behind the work of
-         * the frames before, and transfers between local devices are queued on
-         * the GPUs (graph.h). With several devices the balancer learns from the
-         * frame `lag` back (cv_graph_collect; lagged feedback: that frame has
-         * usually finished, so collecting it rarely waits) before it splits this
-         * frame's columns; this bounds the frames in flight to CV_GRAPH_FRAMES_KEPT.
-         * The last frame collects every frame still pending, then executes. */
-        double collect_start = now_ms();
-        for (uint32_t k = f >= lag ? f - lag : 0; k < f && res == CV_OK && r->count > 1; k++) {
-            uint32_t slot = k % CV_GRAPH_FRAMES_KEPT, n = 0;
-            if (!uncollected[slot] || (!last && k != f - lag))
-                continue;
-            res = cv_graph_collect(r->graph, uncollected[slot], timings, 64, &n);
-            uncollected[slot] = 0;
-            if (res == CV_OK)
-                add_frame_timings(r, &st, timings, n, &parts[slot], now_ms() - collect_start);
-        }
+        /* The graph's balancer splits the columns from the last frame's trace times. */
+        if (res == CV_OK)
+            res = collect_frames(r, &st, timings, uncollected, parts, f, last);
         if (res == CV_OK)
             res = cv_graph_bake(r->graph, &(cv_graph_bake_desc){ .width = r->width, .tile = s.tile });
         cv_partition part;
