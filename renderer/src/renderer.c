@@ -647,48 +647,6 @@ static cv_result enable_passes(cv_renderer *r, bool first, bool last) {
     return res;
 }
 
-cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot) {
-    if (!r || (!text && !dot))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_dump_graph: NULL argument");
-    if (!r->graph)
-        return cv_error(CV_ERROR_BAD_STATE, "cv_renderer_dump_graph: nothing rendered yet");
-    /* A frame with every pass (the first frame of a one-frame render), over
-     * the last frame's columns. */
-    cv_partition part;
-    cv_result res = cv_graph_get_partition(r->graph, &part);
-    if (res == CV_OK)
-        res = enable_passes(r, true, true);
-    if (res == CV_OK)
-        res = cv_graph_bake(r->graph,
-                            &(cv_graph_bake_desc){ .width = part.width, .tile = part.tile, .partition = &part });
-    if (res == CV_OK && text)
-        res = cv_graph_dump_text(r->graph, text);
-    if (res == CV_OK && dot)
-        res = cv_graph_dump_dot(r->graph, dot);
-    return res;
-}
-
-/* A secondary device that is gone for good (its node died or disconnected)
- * leaves the renderer: the frame graph is rebuilt for the others, and the
- * frame it failed in is traced again by the survivors. Every pixel's rays
- * depend only on the pixel and the frame, so the image is the same as if the
- * device had never been there. The primary holds the image: without it there
- * is no frame. Returns how many devices were dropped. */
-static uint32_t drop_lost_devices(cv_renderer *r) {
-    if (r->count < 2 || cv_device_is_lost(r->devices[0]))
-        return 0;
-    uint32_t kept = 1;
-    for (uint32_t d = 1; d < r->count; d++)
-        if (!cv_device_is_lost(r->devices[d]))
-            r->devices[kept++] = r->devices[d];
-    uint32_t dropped = r->count - kept;
-    if (dropped) {
-        r->count = kept;
-        destroy_graph(r);
-    }
-    return dropped;
-}
-
 /* Adds one finished frame's graph timings to the render's stats: transfer
  * totals, and each device's trace time over the columns it had then (`used`).
  * frame_wall stands in where a device has no GPU timings. */
@@ -730,6 +688,48 @@ static cv_result collect_frames(cv_renderer *r, cv_render_stats *st, cv_graph_ti
             add_frame_timings(r, st, timings, n, &parts[slot], now_ms() - start);
     }
     return res;
+}
+
+cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot) {
+    if (!r || (!text && !dot))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_dump_graph: NULL argument");
+    if (!r->graph)
+        return cv_error(CV_ERROR_BAD_STATE, "cv_renderer_dump_graph: nothing rendered yet");
+    /* A frame with every pass (the first frame of a one-frame render), over
+     * the last frame's columns. */
+    cv_partition part;
+    cv_result res = cv_graph_get_partition(r->graph, &part);
+    if (res == CV_OK)
+        res = enable_passes(r, true, true);
+    if (res == CV_OK)
+        res = cv_graph_bake(r->graph,
+                            &(cv_graph_bake_desc){ .width = part.width, .tile = part.tile, .partition = &part });
+    if (res == CV_OK && text)
+        res = cv_graph_dump_text(r->graph, text);
+    if (res == CV_OK && dot)
+        res = cv_graph_dump_dot(r->graph, dot);
+    return res;
+}
+
+/* A secondary device that is gone for good (its node died or disconnected)
+ * leaves the renderer: the frame graph is rebuilt for the others, and the
+ * frame it failed in is traced again by the survivors. Every pixel's rays
+ * depend only on the pixel and the frame, so the image is the same as if the
+ * device had never been there. The primary holds the image: without it there
+ * is no frame. Returns how many devices were dropped. */
+static uint32_t drop_lost_devices(cv_renderer *r) {
+    if (r->count < 2 || cv_device_is_lost(r->devices[0]))
+        return 0;
+    uint32_t kept = 1;
+    for (uint32_t d = 1; d < r->count; d++)
+        if (!cv_device_is_lost(r->devices[d]))
+            r->devices[kept++] = r->devices[d];
+    uint32_t dropped = r->count - kept;
+    if (dropped) {
+        r->count = kept;
+        destroy_graph(r);
+    }
+    return dropped;
 }
 
 cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings, cv_render_output *out,
