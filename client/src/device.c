@@ -404,6 +404,54 @@ cv_result cv_device_link_copy(cv_device *dev, void *staging, uint64_t staging_of
     return r;
 }
 
+bool cv_device_link_async(cv_device *dev) {
+    cv_link_caps caps;
+    return cv_device_link_caps(dev, &caps) && dev->backend->link_copy_async && dev->backend->link_release;
+}
+
+cv_result cv_device_link_copy_async(cv_device *dev, void *staging, uint64_t staging_offset, uint64_t id,
+                                    uint64_t offset, uint64_t size, cv_rect rect, bool to_staging, cv_device *after,
+                                    uint64_t after_ticket, uint64_t *ticket) {
+    cv_handle_type type = cv_handle_type_of(id);
+    const char *what = to_staging ? "transfer (source)" : "transfer (destination)";
+    *ticket = 0;
+    if (!dev->backend->link_copy_async)
+        return cv_error(CV_ERROR_UNSUPPORTED, "device '%s' (%s backend) has no asynchronous link copies", dev->label,
+                        dev->backend->name);
+    if (after && after->backend != dev->backend)
+        return cv_error(CV_ERROR_UNSUPPORTED,
+                        "%s on device '%s': cannot wait on the GPU for device '%s' of another "
+                        "backend",
+                        what, dev->label, after->label);
+    /* The other device's backend object never changes: read without its lock (lock order). */
+    cv_link_wait wait = { .device = after && after != dev && after_ticket ? after->bd : NULL,
+                          .ticket = after_ticket };
+    pthread_mutex_lock(&dev->lock);
+    collect_finished(dev);
+    cv_device_resource *s;
+    cv_result r = type == CV_HANDLE_BUFFER || type == CV_HANDLE_TEXTURE
+                      ? cv_device_require(dev, id, type, what, &s)
+                      : cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "%s on device '%s': a %s handle", what, dev->label,
+                                 cv_handle_type_name(type));
+    uint64_t t = dev->last_ticket + 1;
+    if (r == CV_OK)
+        r = dev->backend->link_copy_async(dev->bd, staging, staging_offset, type, s->obj, offset, size, rect,
+                                          to_staging, &wait, t);
+    if (r == CV_OK) {
+        dev->last_ticket = t;
+        s->last_use = t; /* kept alive (deferred release) until the copy finished */
+        *ticket = t;
+    }
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
+void cv_device_link_release(cv_device *dev, void *staging) {
+    pthread_mutex_lock(&dev->lock);
+    dev->backend->link_release(dev->bd, staging);
+    pthread_mutex_unlock(&dev->lock);
+}
+
 cv_result cv_device_write_accel(cv_device *dev, cv_accel accel, const void *nodes, const void *triangles) {
     if (!dev || !nodes || !triangles)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_write_accel: NULL argument");

@@ -61,5 +61,16 @@ bool cv_device_link_caps(cv_device *dev, cv_link_caps *out); /* false: the backe
 cv_result cv_device_link_staging(cv_device *dev, cv_staging_desc *desc, void **out);
 cv_result cv_device_link_copy(cv_device *dev, void *staging, uint64_t staging_offset, uint64_t id, uint64_t offset,
                               uint64_t size, cv_rect rect, bool to_staging);
+/* Asynchronous link copies (backend.h: link_copy_async, link_release).
+ * cv_device_link_async: whether the device has them. link_copy_async submits
+ * the copy after everything submitted to dev, waiting on the GPU first for
+ * `after` to reach after_ticket (after NULL or ticket 0: no wait), and returns
+ * its ticket on dev at once; the resource stays in flight until it. Release
+ * an owned staging only once no submitted copy uses it. */
+bool cv_device_link_async(cv_device *dev);
+cv_result cv_device_link_copy_async(cv_device *dev, void *staging, uint64_t staging_offset, uint64_t id,
+                                    uint64_t offset, uint64_t size, cv_rect rect, bool to_staging, cv_device *after,
+                                    uint64_t after_ticket, uint64_t *ticket);
+void cv_device_link_release(cv_device *dev, void *staging);
 
 #endif

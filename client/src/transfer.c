@@ -15,6 +15,7 @@
 #include <time.h>
 
 #include "device_internal.h"
+#include "transfer_job.h"
 #include "transfer_link.h"
 
 #define CHUNK_BYTES (4u << 20) /* bench_transfer measures this size (bench/README.md) */
@@ -151,20 +152,9 @@ static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transf
 
 /* ---- the moves: one job per transfer, one chunk at a time ---------------------- */
 
-typedef struct job {
-    cv_device *src, *dst;
-    uint64_t src_id, dst_id;
-    bool texture;
-    uint64_t src_offset, dst_offset, size; /* buffers */
-    cv_rect src_rect;                      /* textures */
-    uint32_t dst_x, dst_y, rows_per_chunk;
-    uint64_t chunk_bytes, row_bytes;
-    uint8_t *host[2];   /* STAGED: the slots */
-    transfer_link link; /* SHARED, HOST_IMPORT */
-} job;
-
 /* Chunk i as a buffer range (offset from the start of the transfer, size) or as rows. */
-static void chunk_extent(const job *j, uint64_t i, uint64_t *at, uint64_t *n, uint32_t *first, uint32_t *rows) {
+static void chunk_extent(const transfer_job *j, uint64_t i, uint64_t *at, uint64_t *n, uint32_t *first,
+                         uint32_t *rows) {
     *at = i * j->chunk_bytes;
     *n = j->size - *at < j->chunk_bytes ? j->size - *at : j->chunk_bytes;
     if (j->texture) {
@@ -174,7 +164,7 @@ static void chunk_extent(const job *j, uint64_t i, uint64_t *at, uint64_t *n, ui
 }
 
 static cv_result staged_chunk(void *arg, uint64_t i, uint32_t slot, bool read) {
-    const job *j = arg;
+    const transfer_job *j = arg;
     uint64_t at, n;
     uint32_t first = 0, rows = 0;
     chunk_extent(j, i, &at, &n, &first, &rows);
@@ -191,7 +181,7 @@ static cv_result staged_chunk(void *arg, uint64_t i, uint32_t slot, bool read) {
 }
 
 static cv_result link_chunk(void *arg, uint64_t i, uint32_t slot, bool read) {
-    const job *j = arg;
+    const transfer_job *j = arg;
     uint64_t at, n;
     uint32_t first = 0, rows = 0;
     chunk_extent(j, i, &at, &n, &first, &rows);
@@ -209,7 +199,7 @@ static cv_result link_chunk(void *arg, uint64_t i, uint32_t slot, bool read) {
 }
 
 /* Runs a checked job on the path chosen for the pair. */
-static cv_result run_job(job *j, cv_transfer_stats *stats) {
+static cv_result run_job(transfer_job *j, cv_transfer_stats *stats) {
     cv_transfer_path path;
     cv_result r = cv_transfer_choose_path(j->src, j->dst, &path);
     if (r != CV_OK)
@@ -252,8 +242,8 @@ static cv_result run_job(job *j, cv_transfer_stats *stats) {
     return r;
 }
 
-cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_offset, cv_device *dst,
-                             cv_buffer dst_buffer, uint64_t dst_offset, uint64_t size, cv_transfer_stats *stats) {
+cv_result transfer_buffer_job(cv_device *src, cv_buffer src_buffer, uint64_t src_offset, cv_device *dst,
+                              cv_buffer dst_buffer, uint64_t dst_offset, uint64_t size, transfer_job *out) {
     if (!src || !dst)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_transfer_buffer: NULL device");
     if (!cv_device_has(src, cv_any(src_buffer)) || !cv_device_has(dst, cv_any(dst_buffer)))
@@ -280,18 +270,25 @@ cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_
                         (unsigned long long)size, sd.buffer.label, (unsigned long long)src_offset,
                         (unsigned long long)sd.buffer.size, dd.buffer.label, (unsigned long long)dst_offset,
                         (unsigned long long)dd.buffer.size);
-    job j = { .src = src,
-              .dst = dst,
-              .src_id = src_buffer.id,
-              .dst_id = dst_buffer.id,
-              .src_offset = src_offset,
-              .dst_offset = dst_offset,
-              .size = size };
-    return run_job(&j, stats);
+    *out = (transfer_job){ .src = src,
+                           .dst = dst,
+                           .src_id = src_buffer.id,
+                           .dst_id = dst_buffer.id,
+                           .src_offset = src_offset,
+                           .dst_offset = dst_offset,
+                           .size = size };
+    return CV_OK;
 }
 
-cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect src_rect, cv_device *dst,
-                              cv_texture dst_texture, uint32_t dst_x, uint32_t dst_y, cv_transfer_stats *stats) {
+cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_offset, cv_device *dst,
+                             cv_buffer dst_buffer, uint64_t dst_offset, uint64_t size, cv_transfer_stats *stats) {
+    transfer_job j;
+    cv_result r = transfer_buffer_job(src, src_buffer, src_offset, dst, dst_buffer, dst_offset, size, &j);
+    return r == CV_OK ? run_job(&j, stats) : r;
+}
+
+cv_result transfer_texture_job(cv_device *src, cv_texture src_texture, cv_rect src_rect, cv_device *dst,
+                               cv_texture dst_texture, uint32_t dst_x, uint32_t dst_y, transfer_job *out) {
     if (!src || !dst)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_transfer_texture: NULL device");
     if (!cv_device_has(src, cv_any(src_texture)) || !cv_device_has(dst, cv_any(dst_texture)))
@@ -325,15 +322,22 @@ cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect sr
                         src_rect.width, src_rect.height, sd.texture.label, sd.texture.width, sd.texture.height,
                         src_rect.x, src_rect.y, dd.texture.label, dd.texture.width, dd.texture.height, dst_x, dst_y);
     uint64_t row = (uint64_t)src_rect.width * cv_format_bytes(sd.texture.format);
-    job j = { .src = src,
-              .dst = dst,
-              .src_id = src_texture.id,
-              .dst_id = dst_texture.id,
-              .texture = true,
-              .src_rect = src_rect,
-              .dst_x = dst_x,
-              .dst_y = dst_y,
-              .row_bytes = row,
-              .size = row * src_rect.height };
-    return run_job(&j, stats);
+    *out = (transfer_job){ .src = src,
+                           .dst = dst,
+                           .src_id = src_texture.id,
+                           .dst_id = dst_texture.id,
+                           .texture = true,
+                           .src_rect = src_rect,
+                           .dst_x = dst_x,
+                           .dst_y = dst_y,
+                           .row_bytes = row,
+                           .size = row * src_rect.height };
+    return CV_OK;
+}
+
+cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect src_rect, cv_device *dst,
+                              cv_texture dst_texture, uint32_t dst_x, uint32_t dst_y, cv_transfer_stats *stats) {
+    transfer_job j;
+    cv_result r = transfer_texture_job(src, src_texture, src_rect, dst, dst_texture, dst_x, dst_y, &j);
+    return r == CV_OK ? run_job(&j, stats) : r;
 }

@@ -655,6 +655,49 @@ static cv_result enable_passes(cv_renderer *r, bool first, bool last) {
     return res;
 }
 
+/* Adds one finished frame's graph timings to the render's stats: transfer
+ * totals, and each device's trace time over the columns it had then (`used`).
+ * frame_wall stands in where a device has no GPU timings. */
+static void add_frame_timings(const cv_renderer *r, cv_render_stats *st, const cv_graph_timing *timings, uint32_t n,
+                              const cv_partition *used, double frame_wall) {
+    const cv_render_settings *s = &r->settings;
+    for (uint32_t i = 0; i < n && i < 64; i++) {
+        const cv_graph_timing *t = &timings[i];
+        if (strncmp(t->name, "transfer ", 9) == 0) {
+            st->transfer_bytes += t->bytes;
+            st->transfer_ms += t->ms;
+        } else if (strcmp(t->name, "trace") == 0 && t->device < r->count && t->device < used->device_count) {
+            cv_column_range cols = used->ranges[t->device];
+            double ms = t->ms > 0.0 ? t->ms : frame_wall; /* no GPU timing: the frame's wall time */
+            st->devices[t->device] = (cv_render_device_stats){ .columns = cols,
+                                                               .rays = (uint64_t)cols.width * r->height *
+                                                                       (1 + s->ao_samples),
+                                                               .trace_ms = ms,
+                                                               .ms_per_column = ms / cols.width };
+        }
+    }
+}
+
+/* Before frame f's bake, with several devices: collects the frame `lag`
+ * back (all frames still pending, on the last frame) and adds their timings. */
+static cv_result collect_frames(cv_renderer *r, cv_render_stats *st, cv_graph_timing *timings,
+                                uint64_t uncollected[CV_GRAPH_FRAMES_KEPT],
+                                const cv_partition parts[CV_GRAPH_FRAMES_KEPT], uint32_t f, bool last) {
+    const uint32_t lag = CV_GRAPH_FRAMES_KEPT - 1;
+    double start = now_ms();
+    cv_result res = CV_OK;
+    for (uint32_t k = f >= lag ? f - lag : 0; k < f && res == CV_OK && r->count > 1; k++) {
+        uint32_t slot = k % CV_GRAPH_FRAMES_KEPT, n = 0;
+        if (!uncollected[slot] || (!last && k != f - lag))
+            continue;
+        res = cv_graph_collect(r->graph, uncollected[slot], timings, 64, &n);
+        uncollected[slot] = 0;
+        if (res == CV_OK)
+            add_frame_timings(r, st, timings, n, &parts[slot], now_ms() - start);
+    }
+    return res;
+}
+
 cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot) {
     if (!r || (!text && !dot))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_dump_graph: NULL argument");
@@ -722,21 +765,33 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     cv_graph_timing timings[64];
     double frames_start = now_ms();
     uint64_t accumulated[IN_FLIGHT_FRAMES] = { 0 }; /* the primary's last ticket of recent frames */
+    /* Several devices: frames submitted but not collected yet, and their partitions (by f % CV_GRAPH_FRAMES_KEPT). */
+    uint64_t uncollected[CV_GRAPH_FRAMES_KEPT] = { 0 };
+    cv_partition parts[CV_GRAPH_FRAMES_KEPT];
+    /* Frames are pipelined on any number of devices: up to IN_FLIGHT_FRAMES
+     * submitted ahead, so a remote device's latency hides behind the work of
+     * the frames before, and transfers between local devices are queued on
+     * the GPUs (graph.h). With several devices the "last frame" whose trace
+     * times the balancer splits from is the one CV_GRAPH_FRAMES_KEPT - 1 back
+     * (collect_frames: lagged feedback; that frame has usually finished, so
+     * collecting it rarely waits), which bounds the frames in flight to
+     * CV_GRAPH_FRAMES_KEPT. The last frame collects every frame still pending,
+     * then executes. */
     for (uint32_t f = 0; f < s.frames && res == CV_OK; f++) {
         bool last = f + 1 == s.frames;
         r->frame = f;
         res = enable_passes(r, f == 0, last);
         /* The graph's balancer splits the columns from the last frame's trace times. */
         if (res == CV_OK)
+            res = collect_frames(r, &st, timings, uncollected, parts, f, last);
+        if (res == CV_OK)
             res = cv_graph_bake(r->graph, &(cv_graph_bake_desc){ .width = r->width, .tile = s.tile });
         cv_partition part;
         if (res == CV_OK)
             res = cv_graph_get_partition(r->graph, &part);
-        /* Several devices: the balancer wants this frame's times before it splits
-         * the next one, so the frame ends here. One device: frames are pipelined,
-         * up to IN_FLIGHT_FRAMES submitted ahead, so a remote device's latency
-         * hides behind the work of the frames before (nothing to balance). */
-        bool wait_now = last || r->count > 1 || (s.observer && s.observer->frame); /* observers want timings */
+        /* An observer wants every frame's timings: the frame ends here (no
+         * pipelining); otherwise only the last frame waits. */
+        bool wait_now = last || (s.observer && s.observer->frame);
         uint32_t n = 0;
         double submitted = now_ms();
         if (res == CV_OK && wait_now) {
@@ -745,6 +800,10 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
             uint64_t tickets[CV_MAX_DEVICES];
             res = cv_graph_submit(r->graph, tickets);
             accumulated[f % IN_FLIGHT_FRAMES] = tickets[0];
+            if (res == CV_OK && r->count > 1) {
+                uncollected[f % CV_GRAPH_FRAMES_KEPT] = cv_graph_frame_id(r->graph);
+                parts[f % CV_GRAPH_FRAMES_KEPT] = part;
+            }
             if (res == CV_OK && f + 1 >= IN_FLIGHT_FRAMES && accumulated[(f + 1) % IN_FLIGHT_FRAMES])
                 res = cv_device_wait(r->devices[0], accumulated[(f + 1) % IN_FLIGHT_FRAMES], UINT64_MAX);
         }
@@ -753,6 +812,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
             st.devices_lost += dropped;
             st.device_count = r->count;
             memset(st.devices, 0, sizeof(st.devices));
+            memset(uncollected, 0, sizeof(uncollected)); /* a new graph: the old one's frames are gone */
             res = build_graph(r, (uint32_t)s.filter_iterations, band_capacity(r, &s));
             if (res == CV_OK) {
                 f--; /* this frame again, on the survivors (f wraps to the loop's f++ at 0) */
@@ -760,21 +820,8 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
             }
         }
         double frame_wall = now_ms() - submitted;
-        for (uint32_t i = 0; i < n && i < 64 && res == CV_OK; i++) {
-            const cv_graph_timing *t = &timings[i];
-            if (strncmp(t->name, "transfer ", 9) == 0) {
-                st.transfer_bytes += t->bytes;
-                st.transfer_ms += t->ms;
-            } else if (strcmp(t->name, "trace") == 0 && t->device < r->count) {
-                cv_column_range cols = part.ranges[t->device];
-                double ms = t->ms > 0.0 ? t->ms : frame_wall; /* no GPU timing: the frame's wall time */
-                st.devices[t->device] = (cv_render_device_stats){ .columns = cols,
-                                                                  .rays = (uint64_t)cols.width * r->height *
-                                                                          (1 + s.ao_samples),
-                                                                  .trace_ms = ms,
-                                                                  .ms_per_column = ms / cols.width };
-            }
-        }
+        if (res == CV_OK && wait_now)
+            add_frame_timings(r, &st, timings, n, &part, frame_wall);
         if (res == CV_OK && wait_now)
             render_observe_frame(&(render_frame_report){ r->devices, r->count, &part, &s, f, r->height, submitted,
                                                          frame_wall, timings, n, 64 });

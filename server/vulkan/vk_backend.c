@@ -96,6 +96,8 @@ static const cv_backend vulkan_backend = {
     .link_caps = vk_link_caps,
     .link_staging = vk_link_staging,
     .link_copy = vk_link_copy,
+    .link_copy_async = vk_link_copy_async,
+    .link_release = vk_link_release,
 };
 
 const cv_backend *cv_vulkan_backend(void) { return &vulkan_backend; }

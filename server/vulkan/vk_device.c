@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "vk_device.h"
+#include "vk_bridge.h"
 #include "vk_immediate.h"
 #include "vk_link.h"
 #include "vk_trace.h"
@@ -230,6 +231,8 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     if (r == CV_OK)
         r = vk_immediate_init(bd);
     if (r == CV_OK)
+        r = vk_bridge_init(bd);
+    if (r == CV_OK)
         r = vk_trace_init(bd);
     if (r != CV_OK) {
         vk_device_destroy(bd);
@@ -242,8 +245,10 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
 
 void vk_device_destroy(cv_backend_device *bd) {
     if (bd->device) {
+        vk_bridge_finish(bd); /* before the idle wait: it signals what is still queued */
         vkDeviceWaitIdle(bd->device);
         vk_trace_finish(bd);
+        vk_link_async_finish(bd);
         vk_link_finish(bd);
         vk_immediate_finish(bd);
         if (bd->memory.device)

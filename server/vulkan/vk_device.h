@@ -9,12 +9,37 @@
 #ifndef CORVID_VK_DEVICE_H
 #define CORVID_VK_DEVICE_H
 
+#include <pthread.h>
 #include <stdatomic.h>
 
 #include "vk_adapters.h"
 #include "vk_memory.h"
 
 typedef struct vk_texture vk_texture;
+typedef struct vk_watch vk_watch;
+
+/* vk_bridge.h's state, defined here because the device embeds it. */
+typedef struct vk_bridge_request_item {
+    vk_watch *watch; /* a reference */
+    uint64_t ticket; /* wait until the watched device reached it */
+    uint64_t value;  /* then signal this */
+} vk_bridge_request_item;
+
+typedef struct vk_bridge {
+    VkSemaphore semaphore; /* timeline, on this device */
+    vk_watch *watch;       /* this device's own ticket semaphore, for other bridges */
+    pthread_mutex_t lock;
+    pthread_cond_t changed;
+    pthread_t thread;
+    bool started, stop;
+    uint64_t value; /* the last value handed out (under lock) */
+    vk_bridge_request_item *queue;
+    uint32_t head, count, capacity; /* a ring */
+    /* With the validation layer: held around every host wait, query and
+     * signal of this device's semaphores (vk_bridge.h, vk_host_wait). */
+    pthread_mutex_t host_lock;
+    bool serialize;
+} vk_bridge;
 typedef struct vk_pipeline vk_pipeline;
 typedef struct vk_tracer vk_tracer;
 
@@ -71,6 +96,11 @@ struct cv_backend_device {
     PFN_vkGetMemoryFdKHR get_memory_fd;
     PFN_vkGetMemoryHostPointerPropertiesEXT get_host_pointer_properties;
     struct vk_staging *links; /* cached stagings, linked */
+    /* Asynchronous link copies (vk_link_async.c): command buffers, each free once its ticket finished. */
+    VkCommandPool async_pool;
+    struct vk_async_cmd *async_cmds;
+    uint32_t async_count;
+    vk_bridge bridge; /* GPU waits on other devices' tickets (vk_bridge.h) */
 
     atomic_uint buffers, images, samplers, pipelines; /* live objects, for stats */
 };

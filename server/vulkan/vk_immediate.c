@@ -3,6 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vk_bridge.h"
 #include "vk_immediate.h"
 #include "vk_resources.h"
 
@@ -96,8 +97,7 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
         return vk_fail(vr, "vkEndCommandBuffer (immediate)");
     /* Waiting on the ticket value already reached costs nothing but orders this
      * work after the writes of every finished list (a memory dependency). */
-    uint64_t finished = 0;
-    vkGetSemaphoreCounterValue(bd->device, bd->ticket, &finished);
+    uint64_t finished = vk_host_counter(bd, bd->ticket);
     VkSemaphoreSubmitInfo wait = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO,
                                    .semaphore = bd->ticket,
                                    .value = finished,
@@ -123,7 +123,7 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
                                       .semaphoreCount = 1,
                                       .pSemaphores = &bd->immediate,
                                       .pValues = &bd->immediate_value };
-    vr = vkWaitSemaphores(bd->device, &wait_info, UINT64_MAX);
+    vr = vk_host_wait(bd, &wait_info, UINT64_MAX);
     return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkWaitSemaphores (immediate, device '%s')", bd->label);
 }
 

@@ -19,6 +19,7 @@ typedef struct vk_staging {
     VkDeviceSize size;
     uint32_t memory_type; /* EXPORT: what an importer must allocate */
     VkDeviceSize allocation_size;
+    bool owned; /* the caller's (cv_staging_desc.owned): never cached, freed by vk_link_release */
 } vk_staging;
 
 static atomic_uint_fast64_t next_key = 1;
@@ -60,7 +61,7 @@ static void cache_add(cv_backend_device *bd, vk_staging *s) {
     uint32_t imports = 0;
     vk_staging **link = &bd->links, **oldest = NULL;
     for (; *link; link = &(*link)->next)
-        if ((*link)->kind != CV_STAGING_EXPORT) {
+        if ((*link)->kind != CV_STAGING_EXPORT && !(*link)->owned) {
             imports++;
             oldest = link;
         }
@@ -73,6 +74,8 @@ static void cache_add(cv_backend_device *bd, vk_staging *s) {
 
 static vk_staging *cache_find(cv_backend_device *bd, const cv_staging_desc *d) {
     for (vk_staging *s = bd->links; s; s = s->next) {
+        if (s->owned)
+            continue;
         bool match = d->kind == CV_STAGING_HOST     ? s->kind == CV_STAGING_HOST && s->host == d->host
                      : d->kind == CV_STAGING_EXPORT ? s->kind == CV_STAGING_EXPORT
                                                     : s->kind != CV_STAGING_HOST && s->key == d->key;
@@ -223,9 +226,9 @@ cv_result vk_link_staging(cv_backend_device *bd, cv_staging_desc *d, void **out)
         return cv_error(CV_ERROR_UNSUPPORTED, "device '%s' lacks %s", bd->label,
                         d->kind == CV_STAGING_HOST ? VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME
                                                    : VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
-    vk_staging *s = cache_find(bd, d);
+    vk_staging *s = d->owned ? NULL : cache_find(bd, d);
     /* An import of this device's own export is the export itself. */
-    if (!s && d->kind == CV_STAGING_IMPORT)
+    if (!s && !d->owned && d->kind == CV_STAGING_IMPORT)
         for (vk_staging *e = bd->links; e && !s; e = e->next)
             if (e->kind == CV_STAGING_EXPORT && e->key == d->key)
                 s = e;
@@ -235,6 +238,7 @@ cv_result vk_link_staging(cv_backend_device *bd, cv_staging_desc *d, void **out)
         if (r != CV_OK)
             return r;
         created = true;
+        s->owned = d->owned;
     }
     if (d->kind == CV_STAGING_EXPORT) {
         VkMemoryGetFdInfoKHR info = { .sType = VK_STRUCTURE_TYPE_MEMORY_GET_FD_INFO_KHR,
@@ -252,8 +256,12 @@ cv_result vk_link_staging(cv_backend_device *bd, cv_staging_desc *d, void **out)
         d->memory_type = s->memory_type;
         d->allocation_size = s->allocation_size;
     }
-    if (created)
+    if (created && s->owned) {
+        s->next = bd->links;
+        bd->links = s;
+    } else if (created) {
         cache_add(bd, s);
+    }
     *out = s;
     return CV_OK;
 }
@@ -279,19 +287,9 @@ static void external_barrier(VkCommandBuffer cmd, const cv_backend_device *bd, V
     vkCmdPipelineBarrier2(cmd, &dep);
 }
 
-cv_result vk_link_copy(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type, void *obj,
-                       uint64_t offset, uint64_t size, cv_rect rect, bool to_staging) {
+void vk_link_record(const cv_backend_device *bd, VkCommandBuffer cmd, void *staging, uint64_t staging_offset,
+                    cv_handle_type type, void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging) {
     vk_staging *s = staging;
-    if (type == CV_HANDLE_TEXTURE)
-        size = (uint64_t)rect.width * rect.height * ((vk_texture *)obj)->texel_bytes;
-    if (staging_offset > s->size || size > s->size - staging_offset)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "device '%s': %llu bytes at %llu of a %llu-byte transfer staging",
-                        bd->label, (unsigned long long)size, (unsigned long long)staging_offset,
-                        (unsigned long long)s->size);
-    VkCommandBuffer cmd;
-    cv_result r = vk_immediate_begin(bd, &cmd);
-    if (r != CV_OK)
-        return r;
     bool external = s->kind != CV_STAGING_HOST;
     if (external)
         external_barrier(cmd, bd, s->buffer, true);
@@ -305,5 +303,37 @@ cv_result vk_link_copy(cv_backend_device *bd, void *staging, uint64_t staging_of
     }
     if (external)
         external_barrier(cmd, bd, s->buffer, false);
+}
+
+cv_result vk_link_in_range(const cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
+                           void *obj, uint64_t size, cv_rect rect) {
+    vk_staging *s = staging;
+    if (type == CV_HANDLE_TEXTURE)
+        size = (uint64_t)rect.width * rect.height * ((vk_texture *)obj)->texel_bytes;
+    if (staging_offset <= s->size && size <= s->size - staging_offset)
+        return CV_OK;
+    return cv_error(CV_ERROR_OUT_OF_RANGE, "device '%s': %llu bytes at %llu of a %llu-byte transfer staging",
+                    bd->label, (unsigned long long)size, (unsigned long long)staging_offset,
+                    (unsigned long long)s->size);
+}
+
+cv_result vk_link_copy(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type, void *obj,
+                       uint64_t offset, uint64_t size, cv_rect rect, bool to_staging) {
+    cv_result r = vk_link_in_range(bd, staging, staging_offset, type, obj, size, rect);
+    VkCommandBuffer cmd;
+    if (r == CV_OK)
+        r = vk_immediate_begin(bd, &cmd);
+    if (r != CV_OK)
+        return r;
+    vk_link_record(bd, cmd, staging, staging_offset, type, obj, offset, size, rect, to_staging);
     return vk_immediate_end(bd);
+}
+
+void vk_link_release(cv_backend_device *bd, void *staging) {
+    for (vk_staging **link = &bd->links; *link; link = &(*link)->next)
+        if (*link == staging) {
+            *link = ((vk_staging *)staging)->next;
+            staging_free(bd, staging);
+            return;
+        }
 }

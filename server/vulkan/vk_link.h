@@ -17,7 +17,15 @@
  * like host transfers; the memory barrier at the end of every immediate
  * submission makes the copy's writes available before it signals. Opaque-fd
  * memory is shared with another VkDevice, so each copy first acquires the
- * buffer from VK_QUEUE_FAMILY_EXTERNAL and releases it back after. */
+ * buffer from VK_QUEUE_FAMILY_EXTERNAL and releases it back after.
+ *
+ * Asynchronous copies (vk_link_async.c, backend.h's link_copy_async) record
+ * the same commands into a command buffer of their own, submitted on the
+ * graphics queue with the next ticket: they wait for the previous ticket (so
+ * they follow everything submitted before, as a list does), for the latest
+ * immediate submission, and, when asked, for another device's ticket through
+ * this device's bridge (vk_bridge.h). Stagings made with desc->owned are not
+ * cached; vk_link_release frees one. */
 #ifndef CORVID_VK_LINK_H
 #define CORVID_VK_LINK_H
 
@@ -29,6 +37,17 @@ void vk_link_caps(cv_backend_device *bd, cv_link_caps *out);
 cv_result vk_link_staging(cv_backend_device *bd, cv_staging_desc *desc, void **out);
 cv_result vk_link_copy(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type, void *obj,
                        uint64_t offset, uint64_t size, cv_rect rect, bool to_staging);
+cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
+                             void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging,
+                             const cv_link_wait *wait, uint64_t ticket);
+void vk_link_release(cv_backend_device *bd, void *staging);
+/* For vk_link_async.c: the range check, and the commands of one copy. */
+cv_result vk_link_in_range(const cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
+                           void *obj, uint64_t size, cv_rect rect);
+void vk_link_record(const cv_backend_device *bd, VkCommandBuffer cmd, void *staging, uint64_t staging_offset,
+                    cv_handle_type type, void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging);
+/* Frees the asynchronous copies' command buffers (the device idle). */
+void vk_link_async_finish(cv_backend_device *bd);
 /* Frees every staging (at device destruction, the device idle). */
 void vk_link_finish(cv_backend_device *bd);
 

@@ -1,4 +1,5 @@
 /* Queue submission with timeline semaphores (see vk_submit.h). */
+#include "vk_bridge.h"
 #include "vk_immediate.h"
 #include "vk_submit.h"
 
@@ -61,7 +62,7 @@ cv_result vk_wait(cv_backend_device *bd, uint64_t ticket, uint64_t timeout_ns) {
                                  .semaphoreCount = 1,
                                  .pSemaphores = &bd->ticket,
                                  .pValues = &ticket };
-    VkResult vr = vkWaitSemaphores(bd->device, &info, timeout_ns);
+    VkResult vr = vk_host_wait(bd, &info, timeout_ns);
     if (vr == VK_TIMEOUT)
         return cv_error(CV_ERROR_TIMEOUT, "device '%s': ticket %llu not finished after %llu ns", bd->label,
                         (unsigned long long)ticket, (unsigned long long)timeout_ns);
@@ -70,8 +71,4 @@ cv_result vk_wait(cv_backend_device *bd, uint64_t ticket, uint64_t timeout_ns) {
                                       (unsigned long long)ticket, bd->label);
 }
 
-uint64_t vk_completed(cv_backend_device *bd) {
-    uint64_t value = 0;
-    vkGetSemaphoreCounterValue(bd->device, bd->ticket, &value);
-    return value;
-}
+uint64_t vk_completed(cv_backend_device *bd) { return vk_host_counter(bd, bd->ticket); }

@@ -261,10 +261,77 @@ static void test_enable_and_submit(void) {
     world_close(&w);
 }
 
+/* Frames submitted without waiting, collected later (cv_graph_collect): ids
+ * count evaluations; a collect gives the same timings as an execute would
+ * (one per pass instance and transfer, the bytes moved) and feeds the
+ * balancer with the partition that frame used; a frame is collected once,
+ * only while among the last CV_GRAPH_FRAMES_KEPT, never before it ran. */
+static void test_collect(void) {
+    graph_world w;
+    world_open(&w, 3);
+    cv_buffer src_h, result_h;
+    CHECK_OK(cv_buffer_create(w.ctx, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "src" }, &src_h));
+    CHECK_OK(cv_buffer_create(w.ctx, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "result" }, &result_h));
+    fill_frame f = { .value = 0x44444444u };
+    cv_graph_resource b, result;
+    CHECK_OK(cv_graph_import_buffer(w.graph, src_h, 4, &f.src));
+    CHECK_OK(cv_graph_create_buffer(w.graph, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "b" }, 4, &b));
+    CHECK_OK(cv_graph_import_buffer(w.graph, result_h, 4, &result));
+    cv_graph_pass fill, spread, gather;
+    CHECK_OK(cv_graph_add_pass(w.graph,
+                               &(cv_graph_pass_desc){ .name = "fill",
+                                                      .queue = CV_QUEUE_COMPUTE,
+                                                      .policy = CV_MGPU_PRIMARY_ONLY,
+                                                      .record = fill_src,
+                                                      .user = &f },
+                               &fill));
+    CHECK_OK(cv_graph_write(w.graph, fill, f.src, CV_GRAPH_TRANSFER_DST, CV_GRAPH_TRANSFER_AUTO));
+    CHECK_OK(cv_graph_add_copy_pass(w.graph, "spread", CV_MGPU_ALL_DEVICES, f.src, b, &spread));
+    CHECK_OK(cv_graph_add_copy_pass(w.graph, "gather", CV_MGPU_PRIMARY_ONLY, b, result, &gather));
+    CHECK_OK(cv_graph_output(w.graph, result));
+    CHECK_EQ_INT(cv_graph_frame_id(w.graph), 0);
+    cv_graph_timing t[16];
+    uint32_t n = 99;
+    CHECK_RESULT(cv_graph_collect(w.graph, 1, t, 16, &n), CV_ERROR_BAD_STATE);
+    CHECK(strstr(cv_last_error(), "not evaluated yet") != NULL);
+    CHECK_RESULT(cv_graph_collect(w.graph, 0, t, 16, &n), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(n, 99);
+    uint64_t ids[CV_GRAPH_FRAMES_KEPT + 2];
+    for (uint32_t k = 0; k < CV_GRAPH_FRAMES_KEPT + 2; k++) {
+        CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
+        uint64_t tickets[CV_MAX_DEVICES];
+        CHECK_OK(cv_graph_submit(w.graph, tickets));
+        ids[k] = cv_graph_frame_id(w.graph);
+        CHECK_EQ_INT(ids[k], k + 1);
+    }
+    /* The first two were evaluated more than CV_GRAPH_FRAMES_KEPT frames ago. */
+    CHECK_RESULT(cv_graph_collect(w.graph, ids[0], t, 16, &n), CV_ERROR_BAD_STATE);
+    CHECK(strstr(cv_last_error(), "no longer kept") != NULL);
+    CHECK_RESULT(cv_graph_collect(w.graph, ids[1], t, 16, &n), CV_ERROR_BAD_STATE);
+    uint64_t moved = 0;
+    uint32_t traced = 0;
+    CHECK_OK(cv_graph_collect(w.graph, ids[2], t, 16, &n));
+    for (uint32_t i = 0; i < n && i < 16; i++) {
+        moved += strncmp(t[i].name, "transfer ", 9) == 0 ? t[i].bytes : 0;
+        traced += strcmp(t[i].name, "spread") == 0;
+    }
+    CHECK_EQ_INT(traced, 3); /* one timing per device of the all-devices pass */
+    CHECK_EQ_INT(moved, 2 * COLUMNS * 4 + 2 * (COLUMNS / 3) * 4);
+    CHECK_RESULT(cv_graph_collect(w.graph, ids[2], t, 16, &n), CV_ERROR_BAD_STATE);
+    CHECK(strstr(cv_last_error(), "already collected") != NULL);
+    for (uint32_t k = 3; k < CV_GRAPH_FRAMES_KEPT + 2; k++)
+        CHECK_OK(cv_graph_collect(w.graph, ids[k], t, 16, &n));
+    CHECK_EQ_INT(count_wrong(&w, result_h, 0x44444444u), 0);
+    CHECK_OK(cv_buffer_destroy(w.ctx, src_h));
+    CHECK_OK(cv_buffer_destroy(w.ctx, result_h));
+    world_close(&w);
+}
+
 int main(void) {
     test_barriers();
     test_execute_three_devices();
     test_enable_and_submit();
+    test_collect();
     CHECK_NOTHING_LIVE();
     return check_report("graph_execute_test");
 }

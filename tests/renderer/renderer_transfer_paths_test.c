@@ -1,7 +1,11 @@
 /* The hybrid renderer on 1, 2, 3 and 4 virtual GPUs (lavapipe, validation on)
  * with every cross-device transfer forced onto each path in turn through
  * CORVID_TRANSFER_PATH (staged, host-import, shared): radiance and visibility
- * must be bit-identical to the one-device frame, and validation silent. */
+ * must be bit-identical to the one-device frame, and validation silent.
+ * FRAMES frames, more than CV_GRAPH_FRAMES_KEPT: on host-import and shared
+ * the frames are pipelined with asynchronous transfers (every list set and
+ * ring slot reused several times, the balancer fed from lagged frames, the
+ * last frame collecting the pending ones). */
 #include <stdlib.h>
 #include <string.h>
 
@@ -14,11 +18,12 @@
 
 #define W 160
 #define H 90
+#define FRAMES 12
 
 static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out,
                            cv_render_stats *stats) {
     cv_render_settings s = {
-        .width = W, .height = H, .frames = 2, .ao_samples = 2, .sun_cone_degrees = -1, .filter_iterations = -1
+        .width = W, .height = H, .frames = FRAMES, .ao_samples = 2, .sun_cone_degrees = -1, .filter_iterations = -1
     };
     return cv_test_render(gpus, scene, bvh, &s, out, stats);
 }
@@ -43,6 +48,9 @@ int main(void) {
             CHECK_OK(render_on(gpus, scene, bvh, &many, &stats));
             CHECK_EQ_INT(stats.device_count, gpus);
             CHECK(stats.transfer_bytes > 0);
+            CHECK_EQ_INT(stats.frames, FRAMES);
+            /* Every frame's visibility columns of the secondaries reached the primary (collected frames too). */
+            CHECK(stats.transfer_bytes >= (uint64_t)FRAMES * 8 * H * 8);
             bool same = one.radiance && many.radiance && memcmp(one.radiance, many.radiance, bytes) == 0 &&
                         memcmp(one.visibility, many.visibility, bytes) == 0;
             CHECK(same);

@@ -31,7 +31,18 @@
  *   backend owns stagings (caching them by key) until device_destroy. link_copy
  *   is synchronous like buffer_read/write and is called under the same rule:
  *   when no submitted work uses the resource (or at once, orders_host_access).
- *   Its writes are available to the other device when it returns. */
+ *   Its writes are available to the other device when it returns.
+ * - link_copy_async / link_release (optional, both or neither; need the three
+ *   above) are the asynchronous form: link_copy_async records the same copy,
+ *   submits it on the device's queue ordered after everything submitted there
+ *   (like a submit, it is given the next ticket and signals it when the copy
+ *   is done) and returns at once. If wait->device is set, the copy first waits
+ *   on the GPU until that device (same backend) reached wait->ticket; the
+ *   backend must not touch wait->device after that ticket finished or once it
+ *   began destroying itself. The core calls it at once (no host wait) and
+ *   keeps the resource alive until the ticket. Stagings made with
+ *   desc->owned are the caller's: never cached nor shared, freed by
+ *   link_release once no submitted copy uses them (or at device_destroy). */
 #ifndef CORVID_BACKEND_H
 #define CORVID_BACKEND_H
 
@@ -64,7 +75,14 @@ typedef struct cv_staging_desc {
     void *host;               /* HOST: the allocation */
     uint32_t memory_type;     /* EXPORT: out; IMPORT: in (backend facts passed back unchanged) */
     uint64_t allocation_size; /* likewise */
+    bool owned;               /* a staging of its own (not cached), freed by link_release */
 } cv_staging_desc;
+
+/* A GPU-side wait on another device's ticket (link_copy_async). */
+typedef struct cv_link_wait {
+    cv_backend_device *device; /* NULL: no wait */
+    uint64_t ticket;
+} cv_link_wait;
 
 struct cv_backend {
     const char *name;
@@ -106,6 +124,11 @@ struct cv_backend {
      * packed tightly) and the staging at staging_offset, on the GPU. */
     cv_result (*link_copy)(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
                            void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging);
+    /* Asynchronous copies (optional, see the contract above). */
+    cv_result (*link_copy_async)(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
+                                 void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging,
+                                 const cv_link_wait *wait, uint64_t ticket);
+    void (*link_release)(cv_backend_device *bd, void *staging);
 };
 
 /* A device's representation of one handle. */

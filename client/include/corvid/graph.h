@@ -29,7 +29,16 @@
  * Evaluation (cv_graph_execute) records every pass instance on worker threads
  * through its record callback, submits in step order on each device, runs each
  * cross-device transfer once its source has finished, waits, and returns
- * per-pass timings. A record callback sees its column window and the handles of
+ * per-pass timings. Transfers between devices whose backends have
+ * asynchronous copies on a shared or host-import path (transfer.h: rings, one
+ * per device pair, made by the graph) are queued on both devices with GPU-side
+ * waits: then no step of the frame waits on the host. cv_graph_submit returns
+ * without waiting at all; cv_graph_collect reads such a frame's timings and
+ * feeds the balancer later, once it finished (lagged feedback: the balancer
+ * then splits from a frame a few frames old, which converges the same way,
+ * only later). CORVID_TRANSFER_ASYNC=0 in the environment (read at every
+ * transfer) makes every transfer synchronous, as before rings existed (for
+ * comparisons: bench/mgpu_frames.sh). A record callback sees its column window and the handles of
  * its resources, never the device count:
  *
  *     static void trace(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
@@ -81,6 +90,8 @@ typedef struct cv_graph_pass {
 
 #define CV_GRAPH_MAX_PASSES 1024u
 #define CV_GRAPH_MAX_RESOURCES 1024u
+/* Evaluated frames whose records cv_graph_collect can still read. */
+#define CV_GRAPH_FRAMES_KEPT 8u
 /* Passes and transfers of one bake. */
 #define CV_GRAPH_MAX_STEPS (2u * CV_GRAPH_MAX_PASSES)
 
@@ -196,8 +207,8 @@ int32_t cv_graph_physical_of(const cv_graph *g, cv_graph_resource r);
 typedef struct cv_graph_timing {
     char name[CV_LABEL_MAX]; /* pass name, or "transfer '<resource>'" */
     uint32_t device;         /* device index (a transfer: its source) */
-    double ms;
-    uint64_t bytes; /* a transfer: bytes moved between devices */
+    double ms;               /* GPU time; a transfer: host time (asynchronous: issuing it only) */
+    uint64_t bytes;          /* a transfer: bytes moved between devices */
 } cv_graph_timing;
 
 /* Records, submits, transfers and waits; one timing per pass instance and per
@@ -205,13 +216,27 @@ typedef struct cv_graph_timing {
  * are written). */
 cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capacity, uint32_t *count);
 /* cv_graph_execute without the wait: records, submits and runs the transfers
- * (which synchronize on the host) in step order, then returns with the last
- * submissions still running. No timings, no balancer feedback. tickets[d] is
- * the last ticket submitted to device d (0: none); waiting for it covers the
- * frame on that device (devices run submissions in order). For pipelining
- * frames (keeping several in flight to hide a remote device's latency); the
- * lists are re-recorded on the next call, which submissions in flight allow. */
+ * (asynchronous where the pair allows, else synchronous on the host) in step
+ * order, then returns with the last submissions still running. tickets[d] is
+ * the last ticket of the frame on device d (0: none); waiting for it covers
+ * the frame on that device (devices run submissions in order). For pipelining
+ * frames (keeping several in flight to hide latency); each frame records into
+ * its own set of lists (CV_GRAPH_FRAMES_KEPT sets, used in turn), which
+ * submissions in flight allow. */
 cv_result cv_graph_submit(cv_graph *g, uint64_t tickets[CV_MAX_DEVICES]);
+/* The id of the frame the last execute or submit evaluated (1, 2, ...; 0: none). */
+uint64_t cv_graph_frame_id(const cv_graph *g);
+/* For a frame cv_graph_submit evaluated: waits until it finished (its
+ * tickets; usually done already when it is a few frames old), writes its
+ * timings as cv_graph_execute does and feeds the balancer with them (the
+ * partition that frame used). Once per frame, while it is among the last
+ * CV_GRAPH_FRAMES_KEPT evaluated; CV_ERROR_BAD_STATE otherwise, saying why.
+ *
+ *     cv_graph_submit(g, tickets);
+ *     uint64_t id = cv_graph_frame_id(g);
+ *     ... submit frames id + 1 .. id + 3 ...
+ *     cv_graph_collect(g, id, timings, CV_GRAPH_MAX_STEPS, &n);   // the balancer learns from frame id */
+cv_result cv_graph_collect(cv_graph *g, uint64_t frame, cv_graph_timing *timings, uint32_t capacity, uint32_t *count);
 
 /* The baked graph as stable text (same graph, same bytes) and as Graphviz dot. */
 cv_result cv_graph_dump_text(const cv_graph *g, FILE *f);

@@ -23,7 +23,28 @@
  * environment variable CORVID_TRANSFER_PATH=shared|host-import|staged|auto,
  * read at every transfer, or cv_transfer_set_path (which wins over it) forces
  * one: a forced path that a pair cannot use fails with CV_ERROR_UNSUPPORTED
- * naming both devices and what is missing. */
+ * naming both devices and what is missing.
+ *
+ * Asynchronous transfers (SHARED and HOST_IMPORT pairs whose backends have
+ * asynchronous link copies, Vulkan's): a ring of staging slots owned by one
+ * (source, destination) pair. A transfer through it returns at once: the
+ * source copies into the next slot on its queue, after everything already
+ * submitted there (so it sees the work before it, no host wait), and the
+ * destination copies out of the slot on its queue after waiting on the GPU
+ * for the source's copy; later submissions on the destination see the bytes.
+ * A slot is written again only after the destination's previous read of it,
+ * again a GPU-side wait. The tickets returned are ordinary device tickets
+ * (cv_device_wait works on them). A transfer larger than a slot takes several.
+ *
+ *     cv_transfer_ring *ring;
+ *     if (cv_transfer_ring_create(a, b, 8u << 20, 2, &ring) == CV_OK) {   // else: cv_transfer_texture
+ *         cv_transfer_async t;
+ *         cv_transfer_texture_async(ring, tex, (cv_rect){ x, 0, w, h }, tex, x, 0, &t);
+ *         ... submit b's work that reads tex: it runs after the copy ...
+ *         cv_transfer_ring_destroy(ring);   // before either device
+ *     }
+ *
+ * One thread at a time per ring; rings of different pairs share nothing. */
 #ifndef CORVID_TRANSFER_H
 #define CORVID_TRANSFER_H
 
@@ -61,5 +82,34 @@ void cv_transfer_clear_path(void);
 /* The path a transfer from src to dst would take now (the mode in force,
  * resolved for the pair); CV_ERROR_UNSUPPORTED if a forced path does not fit. */
 cv_result cv_transfer_choose_path(cv_device *src, cv_device *dst, cv_transfer_path *out);
+
+/* ---- asynchronous transfers ---- */
+
+typedef struct cv_transfer_ring cv_transfer_ring;
+
+typedef struct cv_transfer_async {
+    uint64_t bytes;
+    uint64_t src_ticket, dst_ticket; /* the last copy's tickets on each device */
+    cv_transfer_path path;           /* SHARED or HOST_IMPORT */
+} cv_transfer_async;
+
+/* A ring of `slots` (2..64) slots of slot_bytes (a multiple of 256, at least
+ * one row of any texture moved through it) from src to dst, on the path the
+ * mode in force gives the pair (cv_transfer_choose_path). CV_ERROR_UNSUPPORTED,
+ * naming the devices and why, where that path is STAGED or the backends have
+ * no asynchronous copies: use cv_transfer_buffer / cv_transfer_texture then. */
+cv_result cv_transfer_ring_create(cv_device *src, cv_device *dst, uint64_t slot_bytes, uint32_t slots,
+                                  cv_transfer_ring **out);
+/* Waits for the ring's copies on both devices and frees its slots. Destroy a
+ * ring before either of its devices. NULL is ignored. */
+void cv_transfer_ring_destroy(cv_transfer_ring *ring);
+cv_transfer_path cv_transfer_ring_path(const cv_transfer_ring *ring);
+/* As cv_transfer_buffer / cv_transfer_texture (the same checks, the same
+ * errors; a refused transfer changes nothing), between the ring's devices,
+ * without waiting on the host. `out` may be NULL. */
+cv_result cv_transfer_buffer_async(cv_transfer_ring *ring, cv_buffer src_buffer, uint64_t src_offset,
+                                   cv_buffer dst_buffer, uint64_t dst_offset, uint64_t size, cv_transfer_async *out);
+cv_result cv_transfer_texture_async(cv_transfer_ring *ring, cv_texture src_texture, cv_rect src_rect,
+                                    cv_texture dst_texture, uint32_t dst_x, uint32_t dst_y, cv_transfer_async *out);
 
 #endif

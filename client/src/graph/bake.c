@@ -660,15 +660,22 @@ static cv_result commit(cv_graph *g, bake_state *s, graph_baked *b) {
             }
         }
     }
-    if (res == CV_OK && b->instance_count > g->list_count) {
-        cv_cmdlist *lists = realloc(g->lists, b->instance_count * sizeof(*lists));
+    /* Every set of lists (one per frame kept for cv_graph_collect) grows alike. */
+    for (uint32_t k = 0; k < CV_GRAPH_FRAMES_KEPT && res == CV_OK && b->instance_count > g->list_count; k++) {
+        cv_cmdlist *lists = realloc(g->list_sets[k], b->instance_count * sizeof(*lists));
         if (!lists)
             return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake: lists");
-        g->lists = lists;
-        while (res == CV_OK && g->list_count < b->instance_count) {
-            res = cv_cmdlist_create(g->ctx, &g->lists[g->list_count]);
-            g->list_count += res == CV_OK;
-        }
+        memset(lists + g->list_count, 0, (b->instance_count - g->list_count) * sizeof(*lists));
+        g->list_sets[k] = lists;
+    }
+    while (res == CV_OK && g->list_count < b->instance_count) {
+        uint32_t made = 0;
+        for (; made < CV_GRAPH_FRAMES_KEPT && res == CV_OK; made++)
+            res = cv_cmdlist_create(g->ctx, &g->list_sets[made][g->list_count]);
+        if (res != CV_OK) /* every set has list_count lists: drop this row's */
+            for (uint32_t k = 0; k + 1 < made; k++)
+                cv_cmdlist_destroy(g->ctx, g->list_sets[k][g->list_count]);
+        g->list_count += res == CV_OK;
     }
     return res;
 }

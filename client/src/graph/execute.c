@@ -1,7 +1,11 @@
 /* Render graph evaluation (graph.h): every pass instance is recorded on a
  * worker thread into its own list, then the steps run in order: lists are
  * submitted to their devices (which run submissions in order) and each
- * transfer moves its columns once its source's work is done. */
+ * transfer moves its columns once its source's work is done: through the
+ * pair's asynchronous ring (transfer.h) where the pair has one, queued on
+ * both devices with GPU-side waits and no host wait; otherwise synchronously.
+ * What a frame ran is kept (graph_frame, one per list set) so its timings can
+ * be read, and the balancer fed, once it finished (cv_graph_collect). */
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -9,6 +13,7 @@
 #include <time.h>
 
 #include "corvid/transfer.h"
+#include "device_internal.h"
 #include "graph_internal.h"
 
 #define MAX_RECORD_THREADS 8u
@@ -92,7 +97,34 @@ static cv_result record_all(cv_graph *g) {
     return CV_OK;
 }
 
-static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uint64_t *bytes) {
+/* The pair's ring if it can take asynchronous transfers on the path in
+ * force (NULL: move synchronously). A ring made for another path is
+ * replaced. Slots are sized from the first copy (a quarter more, for the
+ * balancer's shifts; GRAPH_RING_SLOT_MIN..MAX); a larger copy takes several. */
+static cv_transfer_ring *pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t bytes) {
+    cv_device *src = g->devices[s], *dst = g->devices[d];
+    const char *async = getenv("CORVID_TRANSFER_ASYNC"); /* "0": synchronous transfers, for comparison */
+    if ((async && strcmp(async, "0") == 0) || !cv_device_link_async(src) || !cv_device_link_async(dst))
+        return NULL;
+    cv_transfer_path path;
+    if (cv_transfer_choose_path(src, dst, &path) != CV_OK || path == CV_TRANSFER_STAGED)
+        return NULL; /* (a forced path the pair cannot take: the synchronous call reports it) */
+    cv_transfer_ring *ring = g->rings[s][d];
+    if (ring && cv_transfer_ring_path(ring) == path)
+        return ring;
+    cv_transfer_ring_destroy(ring);
+    g->rings[s][d] = NULL;
+    uint64_t slot = bytes + bytes / 4;
+    slot = slot < GRAPH_RING_SLOT_MIN ? GRAPH_RING_SLOT_MIN : slot > GRAPH_RING_SLOT_MAX ? GRAPH_RING_SLOT_MAX : slot;
+    slot = (slot + 255) / 256 * 256;
+    if (cv_transfer_ring_create(src, dst, slot, GRAPH_RING_SLOTS, &ring) != CV_OK)
+        return NULL; /* (e.g. out of device memory: the synchronous path still works) */
+    g->rings[s][d] = ring;
+    return ring;
+}
+
+/* Moves a transfer step's copies; last[d] rises to the tickets of asynchronous copies. */
+static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uint64_t *bytes, uint64_t *last) {
     const graph_resource *r = &g->resources[st->resource];
     cv_handle h = graph_handle_of(g, st->resource, false);
     double start = now_ms();
@@ -101,17 +133,32 @@ static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uin
     for (uint32_t c = 0; c < st->plan.count && res == CV_OK; c++) {
         const cv_mgpu_copy *cp = &st->plan.copies[c];
         cv_device *src = g->devices[cp->src_device], *dst = g->devices[cp->dst_device];
+        uint64_t copy_bytes = r->type == CV_HANDLE_TEXTURE ? (uint64_t)cp->columns.width * r->texture.height *
+                                                                 cv_format_bytes(r->texture.format)
+                                                           : r->buffer.size;
+        cv_transfer_ring *ring = pair_ring(g, cp->src_device, cp->dst_device, copy_bytes);
         cv_transfer_stats ts = { 0 };
+        cv_transfer_async ta = { 0 };
         if (r->type == CV_HANDLE_TEXTURE) {
             cv_rect rect = { cp->columns.x, 0, cp->columns.width, r->texture.height };
-            res = cv_transfer_texture(src, (cv_texture){ h.id }, rect, dst, (cv_texture){ h.id }, rect.x, 0, &ts);
+            res = ring ? cv_transfer_texture_async(ring, (cv_texture){ h.id }, rect, (cv_texture){ h.id }, rect.x, 0,
+                                                   &ta)
+                       : cv_transfer_texture(src, (cv_texture){ h.id }, rect, dst, (cv_texture){ h.id }, rect.x, 0,
+                                             &ts);
         } else {
             bool whole = cp->columns.x == 0 && cp->columns.width == g->baked.width;
             uint64_t offset = whole ? 0 : cp->columns.x * r->column_bytes;
             uint64_t size = whole ? r->buffer.size : cp->columns.width * r->column_bytes;
-            res = cv_transfer_buffer(src, (cv_buffer){ h.id }, offset, dst, (cv_buffer){ h.id }, offset, size, &ts);
+            res = ring ? cv_transfer_buffer_async(ring, (cv_buffer){ h.id }, offset, (cv_buffer){ h.id }, offset,
+                                                  size, &ta)
+                       : cv_transfer_buffer(src, (cv_buffer){ h.id }, offset, dst, (cv_buffer){ h.id }, offset, size,
+                                            &ts);
         }
-        *bytes += ts.bytes;
+        *bytes += ring ? ta.bytes : ts.bytes;
+        if (ring && res == CV_OK) {
+            last[cp->src_device] = ta.src_ticket > last[cp->src_device] ? ta.src_ticket : last[cp->src_device];
+            last[cp->dst_device] = ta.dst_ticket > last[cp->dst_device] ? ta.dst_ticket : last[cp->dst_device];
+        }
         if (res != CV_OK)
             res = cv_error(res, "graph: transfer of '%s' after pass '%s' (device %u -> %u): %s", r->name,
                            g->passes[st->pass].name, cp->src_device, cp->dst_device, cv_last_error());
@@ -120,10 +167,10 @@ static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uin
     return res;
 }
 
-static double instance_ms(cv_graph *g, const graph_instance *inst, const char *name, uint64_t ticket) {
+static double instance_ms(cv_graph *g, uint32_t device, const char *name, uint64_t ticket) {
     cv_pass_timing t[4];
     uint32_t n = 0;
-    if (cv_device_timings(g->devices[inst->device], ticket, t, 4, &n) != CV_OK)
+    if (cv_device_timings(g->devices[device], ticket, t, 4, &n) != CV_OK)
         return 0.0;
     for (uint32_t i = 0; i < n && i < 4; i++)
         if (strcmp(t[i].label, name) == 0)
@@ -141,86 +188,108 @@ static void put_timing(cv_graph_timing *out, uint32_t capacity, uint32_t *count,
     (*count)++;
 }
 
-/* Both evaluations: with `wait`, waits, reads timings and feeds the balancer;
- * without, returns each device's last ticket in last[] once all is submitted. */
+static cv_result frame_add(graph_frame *fr, graph_entry e) {
+    if (fr->count == fr->capacity) {
+        uint32_t cap = fr->capacity ? fr->capacity * 2 : 32;
+        graph_entry *grown = realloc(fr->entries, cap * sizeof(*grown));
+        if (!grown)
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: frame record of %u entries", cap);
+        fr->entries = grown;
+        fr->capacity = cap;
+    }
+    fr->entries[fr->count++] = e;
+    return CV_OK;
+}
+
+/* Waits for frame fr, reads its timings and feeds the balancer (fr->partition). */
+static cv_result collect(cv_graph *g, graph_frame *fr, cv_graph_timing *timings, uint32_t capacity, uint32_t *count) {
+    cv_result res = CV_OK;
+    for (uint32_t d = 0; d < g->device_count; d++)
+        if (fr->last[d]) {
+            cv_result w = cv_device_wait(g->devices[d], fr->last[d], UINT64_MAX);
+            res = res == CV_OK ? w : res;
+        }
+    double ms[CV_MAX_DEVICES] = { 0 };
+    bool balanced_pass = false;
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < fr->count && res == CV_OK; i++) {
+        const graph_entry *e = &fr->entries[i];
+        const graph_pass *pass = &g->passes[e->pass];
+        if (e->transfer) {
+            char name[CV_LABEL_MAX + 16];
+            snprintf(name, sizeof(name), "transfer '%s'", g->resources[e->resource].name);
+            put_timing(timings, capacity, &n, name, e->device, e->ms, e->bytes);
+            continue;
+        }
+        double t = instance_ms(g, e->device, pass->name, e->ticket);
+        put_timing(timings, capacity, &n, pass->name, e->device, t, 0);
+        if (pass->policy == CV_MGPU_ALL_DEVICES) {
+            ms[e->device] += t > 0.0 ? t : 1e-6;
+            balanced_pass = true;
+        }
+    }
+    if (res == CV_OK && fr->balanced && balanced_pass && g->device_count > 1)
+        res = cv_balancer_update(&g->balancer, &fr->partition, ms);
+    if (res == CV_OK) {
+        fr->collected = true;
+        if (count)
+            *count = n;
+    }
+    return res;
+}
+
+/* Records and submits the frame; with `wait`, then collects it. */
 static cv_result evaluate(cv_graph *g, bool wait, cv_graph_timing *timings, uint32_t capacity, uint32_t *count,
                           uint64_t *last) {
     if (!g || !g->baked.valid)
         return cv_error(CV_ERROR_BAD_STATE, "cv_graph_%s: the graph is not baked", wait ? "execute" : "submit");
     graph_baked *b = &g->baked;
-    uint64_t *tickets = calloc(b->instance_count + 1, sizeof(uint64_t));
-    double *transfer_ms = calloc(b->step_count + 1, sizeof(double));
-    uint64_t *transfer_bytes = calloc(b->step_count + 1, sizeof(uint64_t));
-    if (!tickets || !transfer_ms || !transfer_bytes) {
-        free(tickets);
-        free(transfer_ms);
-        free(transfer_bytes);
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: execute");
-    }
+    graph_frame *fr = &g->frames[g->frame % CV_GRAPH_FRAMES_KEPT];
+    g->lists = g->list_sets[g->frame % CV_GRAPH_FRAMES_KEPT];
+    fr->id = 0; /* until this frame is fully submitted */
+    fr->collected = false;
+    fr->count = 0;
+    memset(fr->last, 0, sizeof(fr->last));
+    fr->partition = b->partition;
+    fr->balanced = b->balanced;
     /* Record in parallel. */
     cv_result res = record_all(g);
     /* Submit in step order; a transfer waits only for its source's work. */
     for (uint32_t s = 0; s < b->step_count && res == CV_OK; s++) {
         const graph_step *st = &b->steps[s];
         if (st->transfer) {
-            res = run_transfer(g, st, &transfer_ms[s], &transfer_bytes[s]);
+            graph_entry e = {
+                .transfer = true, .pass = st->pass, .resource = st->resource, .device = st->plan.copies[0].src_device
+            };
+            res = run_transfer(g, st, &e.ms, &e.bytes, fr->last);
+            if (res == CV_OK)
+                res = frame_add(fr, e);
             continue;
         }
         for (uint32_t i = 0; i < st->instance_count && res == CV_OK; i++) {
             const graph_instance *inst = &b->instances[st->instance_first + i];
-            res = cv_device_submit(g->devices[inst->device], g->lists[inst->list], &tickets[st->instance_first + i]);
+            graph_entry e = { .pass = st->pass, .device = inst->device };
+            res = cv_device_submit(g->devices[inst->device], g->lists[inst->list], &e.ticket);
             if (res != CV_OK)
                 res = cv_error(res, "graph: pass '%s' on device %u: %s", g->passes[st->pass].name, inst->device,
                                cv_last_error());
-        }
-    }
-    if (!wait) { /* cv_graph_submit: the last tickets; after a failure, wait as below */
-        for (uint32_t d = 0; d < CV_MAX_DEVICES; d++)
-            last[d] = 0;
-        for (uint32_t i = 0; i < b->instance_count && res == CV_OK; i++)
-            if (tickets[i] > last[b->instances[i].device])
-                last[b->instances[i].device] = tickets[i];
-    }
-    /* Wait for everything submitted, even after a failure. */
-    for (uint32_t i = 0; i < b->instance_count && (wait || res != CV_OK); i++)
-        if (tickets[i]) {
-            cv_result w = cv_device_wait(g->devices[b->instances[i].device], tickets[i], UINT64_MAX);
-            res = res == CV_OK ? w : res;
-        }
-    /* Timings, and the balancer's feedback from the ALL_DEVICES passes. */
-    double ms[CV_MAX_DEVICES] = { 0 };
-    bool balanced_pass = false;
-    uint32_t n = 0;
-    for (uint32_t s = 0; s < b->step_count && res == CV_OK && wait; s++) {
-        const graph_step *st = &b->steps[s];
-        const graph_pass *pass = &g->passes[st->pass];
-        if (st->transfer) {
-            char name[CV_LABEL_MAX + 16];
-            snprintf(name, sizeof(name), "transfer '%s'", g->resources[st->resource].name);
-            put_timing(timings, capacity, &n, name, st->plan.copies[0].src_device, transfer_ms[s], transfer_bytes[s]);
-            continue;
-        }
-        for (uint32_t i = 0; i < st->instance_count; i++) {
-            const graph_instance *inst = &b->instances[st->instance_first + i];
-            double t = instance_ms(g, inst, pass->name, tickets[st->instance_first + i]);
-            put_timing(timings, capacity, &n, pass->name, inst->device, t, 0);
-            if (pass->policy == CV_MGPU_ALL_DEVICES) {
-                ms[inst->device] += t > 0.0 ? t : 1e-6;
-                balanced_pass = true;
+            if (res == CV_OK) {
+                if (e.ticket > fr->last[inst->device])
+                    fr->last[inst->device] = e.ticket;
+                res = frame_add(fr, e);
             }
         }
     }
-    if (res == CV_OK && b->balanced && balanced_pass && g->device_count > 1)
-        res = cv_balancer_update(&g->balancer, &b->partition, ms);
-    if (res == CV_OK) {
-        g->frame++;
-        if (count)
-            *count = n;
+    if (res != CV_OK) { /* wait for whatever was submitted */
+        for (uint32_t d = 0; d < g->device_count; d++)
+            cv_device_wait_idle(g->devices[d]);
+        return res;
     }
-    free(tickets);
-    free(transfer_ms);
-    free(transfer_bytes);
-    return res;
+    g->frame++;
+    fr->id = g->frame;
+    if (last)
+        memcpy(last, fr->last, sizeof(fr->last));
+    return wait ? collect(g, fr, timings, capacity, count) : CV_OK;
 }
 
 cv_result cv_graph_execute(cv_graph *g, cv_graph_timing *timings, uint32_t capacity, uint32_t *count) {
@@ -231,4 +300,22 @@ cv_result cv_graph_submit(cv_graph *g, uint64_t tickets[CV_MAX_DEVICES]) {
     if (!tickets)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_submit: NULL tickets");
     return evaluate(g, false, NULL, 0, NULL, tickets);
+}
+
+uint64_t cv_graph_frame_id(const cv_graph *g) { return g ? g->frame : 0; }
+
+cv_result cv_graph_collect(cv_graph *g, uint64_t frame, cv_graph_timing *timings, uint32_t capacity,
+                           uint32_t *count) {
+    if (!g || frame == 0)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_collect: %s", g ? "frame 0 is no frame" : "NULL graph");
+    graph_frame *fr = &g->frames[(frame - 1) % CV_GRAPH_FRAMES_KEPT];
+    if (frame > g->frame || fr->id != frame)
+        return cv_error(CV_ERROR_BAD_STATE,
+                        "cv_graph_collect: frame %llu is %s (the graph keeps the last %u of %llu evaluated)",
+                        (unsigned long long)frame, frame > g->frame ? "not evaluated yet" : "no longer kept",
+                        CV_GRAPH_FRAMES_KEPT, (unsigned long long)g->frame);
+    if (fr->collected)
+        return cv_error(CV_ERROR_BAD_STATE, "cv_graph_collect: frame %llu was already collected",
+                        (unsigned long long)frame);
+    return collect(g, fr, timings, capacity, count);
 }

@@ -74,6 +74,9 @@ static void destroy_handle(cv_graph *g, cv_handle h) {
 void cv_graph_destroy(cv_graph *g) {
     if (!g)
         return;
+    for (uint32_t s = 0; s < CV_MAX_DEVICES; s++)
+        for (uint32_t d = 0; d < CV_MAX_DEVICES; d++)
+            cv_transfer_ring_destroy(g->rings[s][d]); /* waits for its copies */
     for (uint32_t d = 0; d < g->device_count; d++)
         cv_device_wait_idle(g->devices[d]);
     for (uint32_t i = 0; i < g->pool_count; i++)
@@ -81,15 +84,18 @@ void cv_graph_destroy(cv_graph *g) {
     for (uint32_t r = 0; r < g->resource_count; r++)
         for (int f = 0; f < 2; f++)
             destroy_handle(g, g->resources[r].frames[f]);
-    for (uint32_t i = 0; i < g->list_count; i++)
-        destroy_handle(g, cv_any(g->lists[i]));
+    for (uint32_t k = 0; k < CV_GRAPH_FRAMES_KEPT; k++) {
+        for (uint32_t i = 0; g->list_sets[k] && i < g->list_count; i++)
+            destroy_handle(g, cv_any(g->list_sets[k][i]));
+        free(g->list_sets[k]);
+        free(g->frames[k].entries);
+    }
     for (uint32_t p = 0; p < g->pass_count; p++)
         free(g->passes[p].accesses);
     graph_baked_free(&g->baked);
     free(g->resources);
     free(g->passes);
     free(g->pool);
-    free(g->lists);
     free(g);
 }
 

@@ -4,6 +4,17 @@
 #define CORVID_GRAPH_INTERNAL_H
 
 #include "corvid/graph.h"
+#include "corvid/transfer.h"
+
+/* Asynchronous transfer rings: a copy into a slot waits (on the GPU) for the
+ * read of the copy two before it. Slots are bounded: making a ring costs
+ * time in proportion to its memory (host-import pins and imports it into
+ * both devices: on the H200 about 85 ms for a ring of three 41 MB slots,
+ * docs/nvidia.md), and the whole-image G-buffer multicast of a first frame
+ * may as well move in pieces. */
+#define GRAPH_RING_SLOTS 2u
+#define GRAPH_RING_SLOT_MIN (1ull << 20)
+#define GRAPH_RING_SLOT_MAX (16ull << 20)
 
 /* A resource handle's id: index + 1, with this bit set for its history. */
 #define GRAPH_HISTORY_BIT 0x80000000u
@@ -87,6 +98,28 @@ typedef struct graph_baked {
     cv_graph_stats stats;
 } graph_baked;
 
+/* What one evaluated frame ran, for cv_graph_collect: per pass instance its
+ * device, ticket and list, per transfer its bytes and host time. */
+typedef struct graph_entry {
+    bool transfer;
+    uint32_t pass;     /* the pass, or a transfer's source pass */
+    uint32_t resource; /* transfers */
+    uint32_t device;   /* a transfer: its first source device */
+    uint64_t ticket;   /* passes */
+    double ms;         /* transfers: host time issuing (async) or moving (sync) */
+    uint64_t bytes;    /* transfers */
+} graph_entry;
+
+typedef struct graph_frame {
+    uint64_t id; /* cv_graph_frame_id of the frame recorded here; 0: none */
+    bool collected;
+    uint64_t last[CV_MAX_DEVICES]; /* each device's last ticket of the frame (0: none) */
+    graph_entry *entries;
+    uint32_t count, capacity;
+    cv_partition partition;
+    bool balanced;
+} graph_frame;
+
 struct cv_graph {
     cv_context *ctx;
     cv_device *devices[CV_MAX_DEVICES];
@@ -97,8 +130,13 @@ struct cv_graph {
     uint32_t pass_count, pass_capacity;
     graph_physical *pool;
     uint32_t pool_count, pool_capacity;
-    cv_cmdlist *lists;
-    uint32_t list_count;
+    cv_cmdlist *lists; /* the list set of the frame being evaluated: list_sets[frame % CV_GRAPH_FRAMES_KEPT] */
+    cv_cmdlist *list_sets[CV_GRAPH_FRAMES_KEPT];
+    uint32_t list_count; /* lists in each set */
+    graph_frame frames[CV_GRAPH_FRAMES_KEPT];
+    /* Asynchronous transfer rings per (source, destination) device pair, made
+     * on first use where the pair allows them (transfer.h). */
+    cv_transfer_ring *rings[CV_MAX_DEVICES][CV_MAX_DEVICES];
     cv_balancer balancer;
     uint64_t frame;         /* executes so far: picks the history frames */
     uint64_t history_epoch; /* g->frame when history frames were last created */

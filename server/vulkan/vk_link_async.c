@@ -1,0 +1,129 @@
+/* Asynchronous link copies (see vk_link.h, backend.h's link_copy_async). */
+#include <stdlib.h>
+
+#include "vk_bridge.h"
+#include "vk_immediate.h"
+#include "vk_link.h"
+
+/* A command buffer of the async pool and the ticket of its latest use. */
+typedef struct vk_async_cmd {
+    VkCommandBuffer cmd;
+    uint64_t ticket;
+} vk_async_cmd;
+
+void vk_link_async_finish(cv_backend_device *bd) {
+    if (bd->async_pool)
+        vkDestroyCommandPool(bd->device, bd->async_pool, NULL);
+    free(bd->async_cmds);
+    bd->async_pool = VK_NULL_HANDLE;
+    bd->async_cmds = NULL;
+    bd->async_count = 0;
+}
+
+/* A command buffer no submitted work uses (one of the pool's, or a new one). */
+static cv_result take_cmd(cv_backend_device *bd, vk_async_cmd **out) {
+    if (!bd->async_pool) {
+        VkCommandPoolCreateInfo info = { .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
+                                         .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
+                                         .queueFamilyIndex = bd->queues[VK_SLOT_GRAPHICS].family };
+        VkResult vr = vkCreateCommandPool(bd->device, &info, NULL, &bd->async_pool);
+        if (vr != VK_SUCCESS)
+            return vk_fail(vr, "vkCreateCommandPool (asynchronous transfers, device '%s')", bd->label);
+    }
+    uint64_t done = vk_host_counter(bd, bd->ticket);
+    for (uint32_t i = 0; i < bd->async_count; i++)
+        if (bd->async_cmds[i].ticket <= done) {
+            *out = &bd->async_cmds[i];
+            return CV_OK;
+        }
+    vk_async_cmd *grown = realloc(bd->async_cmds, (bd->async_count + 1) * sizeof(*grown));
+    if (!grown)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "device '%s': asynchronous transfer command buffers", bd->label);
+    bd->async_cmds = grown;
+    VkCommandBufferAllocateInfo alloc = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
+                                          .commandPool = bd->async_pool,
+                                          .level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
+                                          .commandBufferCount = 1 };
+    vk_async_cmd *c = &bd->async_cmds[bd->async_count];
+    VkResult vr = vkAllocateCommandBuffers(bd->device, &alloc, &c->cmd);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkAllocateCommandBuffers (asynchronous transfers, device '%s')", bd->label);
+    c->ticket = 0;
+    bd->async_count++;
+    *out = c;
+    return CV_OK;
+}
+
+static VkSemaphoreSubmitInfo semaphore_info(VkSemaphore s, uint64_t value) {
+    return (VkSemaphoreSubmitInfo){ .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO,
+                                    .semaphore = s,
+                                    .value = value,
+                                    .stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT };
+}
+
+cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
+                             void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging,
+                             const cv_link_wait *wait, uint64_t ticket) {
+    cv_result r = vk_link_in_range(bd, staging, staging_offset, type, obj, size, rect);
+    if (r == CV_OK) /* images created since the last submission get their first layout */
+        r = vk_immediate_flush(bd);
+    vk_async_cmd *c = NULL;
+    if (r == CV_OK)
+        r = take_cmd(bd, &c);
+    if (r != CV_OK)
+        return r;
+    VkCommandBufferBeginInfo begin = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+                                       .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT };
+    VkResult vr = vkResetCommandBuffer(c->cmd, 0);
+    if (vr == VK_SUCCESS)
+        vr = vkBeginCommandBuffer(c->cmd, &begin);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkBeginCommandBuffer (asynchronous transfer, device '%s')", bd->label);
+    vk_link_record(bd, c->cmd, staging, staging_offset, type, obj, offset, size, rect, to_staging);
+    /* Writes into the staging reach the other device (through host memory
+     * for HOST stagings) before the ticket signals. */
+    VkMemoryBarrier2 out = { .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                             .srcStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                             .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                             .dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT,
+                             .dstAccessMask = VK_ACCESS_2_HOST_READ_BIT };
+    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
+                             .memoryBarrierCount = 1,
+                             .pMemoryBarriers = &out };
+    if (to_staging)
+        vkCmdPipelineBarrier2(c->cmd, &dep);
+    vr = vkEndCommandBuffer(c->cmd);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkEndCommandBuffer (asynchronous transfer, device '%s')", bd->label);
+    VkSemaphoreSubmitInfo waits[3];
+    uint32_t wait_count = 0;
+    waits[wait_count++] = semaphore_info(bd->ticket, ticket - 1);
+    if (bd->immediate_value)
+        waits[wait_count++] = semaphore_info(bd->immediate, bd->immediate_value);
+    if (wait && wait->device && wait->device != bd) {
+        uint64_t reached = vk_host_counter(wait->device, wait->device->ticket);
+        uint64_t value = 0;
+        if (reached < wait->ticket) {
+            r = vk_bridge_request(bd, wait->device, wait->ticket, &value);
+            if (r != CV_OK)
+                return r;
+            waits[wait_count++] = semaphore_info(bd->bridge.semaphore, value);
+        }
+    }
+    VkSemaphoreSubmitInfo signal = semaphore_info(bd->ticket, ticket);
+    VkCommandBufferSubmitInfo cmd_info = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO,
+                                           .commandBuffer = c->cmd };
+    VkSubmitInfo2 submit = { .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2,
+                             .waitSemaphoreInfoCount = wait_count,
+                             .pWaitSemaphoreInfos = waits,
+                             .commandBufferInfoCount = 1,
+                             .pCommandBufferInfos = &cmd_info,
+                             .signalSemaphoreInfoCount = 1,
+                             .pSignalSemaphoreInfos = &signal };
+    vr = vkQueueSubmit2(bd->queues[VK_SLOT_GRAPHICS].queue, 1, &submit, VK_NULL_HANDLE);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkQueueSubmit2 (asynchronous transfer, ticket %llu, device '%s')",
+                       (unsigned long long)ticket, bd->label);
+    c->ticket = ticket;
+    return CV_OK;
+}
