@@ -29,10 +29,12 @@
 //         float sigma_l; float converged_variance; uint flags; }
 // flags: bit 0 = first iteration (source is the history), bit 1 = last (b, a
 // get the history's mean squares, as render.accumulate wrote them, so the
-// output keeps its documented layout).
+// output keeps its documented layout), bit 2 = moving camera: each pixel's
+// history length is its own (i5's z, render.reproject's), not `frames`.
 // i0: positions, i1: normals (RGBA32F), i2: input (RGBA32F: r = sun, g = AO,
 // b, a = their variances of the mean, or in the first iteration the history's
-// mean squares), i3: output (RGBA32F, as i2), i4: the history (RGBA32F, read only).
+// mean squares), i3: output (RGBA32F, as i2), i4: the history (RGBA32F, read only),
+// i5: motion (RGBA32F, z = history length; read only with bit 2).
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -52,8 +54,14 @@ layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D source;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D target;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D history;
+layout(set = 0, binding = 5, rgba32f) uniform readonly image2D motion;
 
-const uint FIRST = 1u, LAST = 2u;
+const uint FIRST = 1u, LAST = 2u, PER_PIXEL_LENGTH = 4u;
+
+// Frames in q's history.
+float history_length(ivec2 q) {
+    return (pc.flags & PER_PIXEL_LENGTH) != 0u ? max(imageLoad(motion, q).z, 1.0) : float(pc.frames);
+}
 
 bool inside(ivec2 q) {
     return all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, ivec2(pc.width, pc.height)));
@@ -72,7 +80,7 @@ float geometry_weight(vec3 cp, vec3 cn, ivec2 q) {
 // The temporal variance of the mean of shadow and AO at q, from the history.
 vec2 temporal_variance(ivec2 q) {
     vec4 h = imageLoad(history, q);
-    return max(h.ba - h.rg * h.rg, vec2(0.0)) / float(pc.frames);
+    return max(h.ba - h.rg * h.rg, vec2(0.0)) / history_length(q);
 }
 
 // The per-frame variance of shadow and AO around p estimated from the moments
@@ -90,7 +98,7 @@ vec2 spatial_variance(ivec2 p, vec3 cp, vec3 cn) {
             weight += w;
         }
     vec4 m = sum / max(weight, 1e-20);
-    return max(m.ba - m.rg * m.rg, vec2(0.0)) / float(pc.frames);
+    return max(m.ba - m.rg * m.rg, vec2(0.0)) / history_length(p);
 }
 
 void main() {
@@ -110,7 +118,7 @@ void main() {
     // This pixel's variance of the mean (own, for the converged test) and the
     // 3x3 pre-filtered one the signal weights scale with.
     vec2 own, guide;
-    bool spatial = pc.frames < 4u;
+    bool spatial = history_length(p) < 4.0;
     if (first && spatial) {
         own = guide = spatial_variance(p, cp.xyz, cn);
     } else {

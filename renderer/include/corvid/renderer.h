@@ -39,6 +39,15 @@ typedef struct cv_render_settings {
     uint32_t first_frame;      /* [0] sample index of the first frame: frames draw the sample sets of
                                  * first_frame .. first_frame + frames - 1 (a render can continue
                                  * another's sequence; tests render single frames of a sequence) */
+    /* View and light controls (corvid-render --camera, --sun, --orbit); zeros keep the scene's. */
+    float camera_eye[3];      /* with camera_fov_degrees > 0, the camera at camera_eye looks at */
+    float camera_target[3];   /* camera_target, up +y (+z when it looks straight up or down) */
+    float camera_fov_degrees; /* [0 = the scene's camera, `camera`] vertical field of view, (0, 180) */
+    float sun_toward[3];      /* [0,0,0 = the scene's sun] direction toward the sun, any length > 0;
+                               * its cone is sun_cone_degrees */
+    float orbit_degrees;      /* [0] the camera turns by this much per frame (sample index) about the
+                               * vertical axis (its up) through its target: a moving camera, whose
+                               * G-buffer runs every frame and whose history is reprojected */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
@@ -70,6 +79,10 @@ typedef struct cv_render_output {
     float *position;   /* world position, w = 1 on geometry */
     float *visibility; /* r = sun visibility, g = ambient occlusion (filtered; accumulated in
                                  * float32), b, a = their mean squares over the frames (unfiltered) */
+    float *motion;     /* NULL unless produced (cv_renderer_render): xy = where the pixel's surface
+                        * was in the previous frame's image minus the pixel centre, in pixels
+                        * (0 for a still camera and on sky), z = the pixel's history length in
+                        * frames (this one included), w = 1 where the history was reprojected */
 } cv_render_output;
 
 typedef struct cv_renderer cv_renderer;
@@ -99,11 +112,27 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot);
  * and samples * ao_samples cosine AO rays, any-hit with scene/'s cv_trace_ray,
  * with the same ray rules (origin offset along the geometric normal, below the
  * surface = shadowed, AO mirrored above the geometric plane), accumulated in
- * float32, shaded as render.composite (unfiltered). frames, tile, band_rays,
- * filter_iterations and first_frame are ignored. `threads` pthreads (0 = 2).
+ * float32, shaded as render.composite (unfiltered), seen by the camera of the
+ * GPU image's frame (first_frame + frames - 1, which only an orbit changes);
+ * tile, band_rays and filter_iterations are ignored, motion is not produced
+ * (NULL). `threads` pthreads (0 = 2).
  * Fills *out like cv_renderer_render; failures leave it untouched. */
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out);
+
+/* Checks the view and light controls of `s`: finite numbers, camera_fov_degrees
+ * 0 or in (0, 180) with camera_eye != camera_target, sun_toward not 0,0,0 when
+ * set (any finite value is "set"), sun_cone_degrees below 90. The error names
+ * the field and its value; cv_renderer_render and cv_render_reference check
+ * the same. */
+cv_result cv_render_settings_check(const cv_render_settings *s);
+
+/* The camera of sample index `frame` (first_frame + the frame of a render):
+ * camera_eye/target/fov if set, else the scene's camera `camera` (a framing
+ * camera if the scene has none), turned by orbit_degrees * frame about the
+ * vertical axis through its target. The CPU reference renders the camera of
+ * first_frame + frames - 1, the frame cv_renderer_render's image shows. */
+cv_camera cv_render_camera(const cv_render_settings *s, const cv_scene *scene, uint32_t frame);
 
 /* The settings with defaults filled in for this scene. */
 cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene);
