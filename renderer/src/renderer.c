@@ -1,6 +1,7 @@
 /* One hybrid frame across N devices (see renderer.h), declared as a render
- * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame), 'trace'
- * (every device, over its column window), 'accumulate' (primary), 'filter'
+ * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame; every frame
+ * for a moving camera), 'trace' (every device, over its column window),
+ * 'reproject' (primary, moving camera only), 'accumulate' (primary), 'filter'
  * and 'composite' (primary, last frame). The graph multicasts the G-buffer,
  * copies the secondaries' visibility windows back, places barriers and
  * balances the columns from the trace times; no pass sees the device count. */

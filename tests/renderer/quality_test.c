@@ -529,15 +529,18 @@ static void check_filter_converged(const cv_scene *scene, const cv_bvh *bvh) {
 /* Issue 11's one-frame goals on the room at 160x90 (4 AO rays, 3 filter
  * iterations): the filtered shadow and AO of one frame against the reference,
  * over the pixels both cover at the same point, with cv_image_metrics (what
- * corvid-compare prints). The reference here has 1024 samples (the figures in
- * docs/renderer-quality.md are against 4096; the test keeps to seconds).
+ * corvid-compare prints). The reference here has ROOM_REFERENCE_SAMPLES = 256
+ * samples (the figures in docs/renderer-quality.md are against 4096; 1024
+ * took the test past its 300 s under ASan).
  * Pixels whose G-buffer point is not the reference's (silhouettes, raster vs
  * ray) are left out, which corvid-compare does not do. Measured: shadow RMSE
- * 0.0204, SSIM 0.9930; AO RMSE 0.0458, SSIM 0.9308 (before the penumbra-aware
- * shadow kernel and sigma_l 8 in the first frames: 0.0245 / 0.9922 and
+ * 0.0207, SSIM 0.9929; AO RMSE 0.0461, SSIM 0.9299 (against 1024 samples
+ * 0.0204 / 0.9930 and 0.0458 / 0.9308; before the penumbra-aware shadow
+ * kernel and sigma_l 8 in the first frames, against 1024: 0.0245 / 0.9922 and
  * 0.0467 / 0.9292). Goals RMSE 0.02, SSIM 0.97:
  * shadow meets SSIM and comes within 0.0005 of the RMSE; AO meets neither.
  * The tolerances are a little looser than measured, so a regression fails. */
+#define ROOM_REFERENCE_SAMPLES 256
 #define ROOM_SHADOW_RMSE 0.022
 #define ROOM_SHADOW_SSIM 0.990
 #define ROOM_AO_RMSE 0.048
@@ -546,7 +549,7 @@ static void check_room_one_frame(const cv_scene *scene, const cv_bvh *bvh) {
     enum { RW = 160, RH = 90 };
     cv_render_settings s = { .width = RW, .height = RH, .frames = 1 };
     cv_render_output ref = { 0 }, out = { 0 };
-    CHECK_OK(cv_render_reference(scene, bvh, &s, 1024, 2, &ref));
+    CHECK_OK(cv_render_reference(scene, bvh, &s, ROOM_REFERENCE_SAMPLES, 2, &ref));
     CHECK_OK(render_once(scene, bvh, &s, &out));
     uint8_t *mask = calloc(RW * RH, 1);
     float *a = malloc(RW * RH * sizeof(float)), *b = malloc(RW * RH * sizeof(float));
@@ -560,10 +563,10 @@ static void check_room_one_frame(const cv_scene *scene, const cv_bvh *bvh) {
             CHECK_OK(cv_image_metrics_f32(a, b, mask, RW, RH, 1.0, &m[c]));
         }
         fprintf(stderr,
-                "room %ux%u, 1 frame filtered vs 1024 samples (%llu px): shadow RMSE %.4f SSIM %.4f bias %+.4f; "
+                "room %ux%u, 1 frame filtered vs %u samples (%llu px): shadow RMSE %.4f SSIM %.4f bias %+.4f; "
                 "AO RMSE %.4f SSIM %.4f bias %+.4f\n",
-                RW, RH, (unsigned long long)m[0].pixels, m[0].rmse, m[0].ssim, m[0].bias, m[1].rmse, m[1].ssim,
-                m[1].bias);
+                RW, RH, ROOM_REFERENCE_SAMPLES, (unsigned long long)m[0].pixels, m[0].rmse, m[0].ssim, m[0].bias,
+                m[1].rmse, m[1].ssim, m[1].bias);
         CHECK(m[0].pixels > RW * RH / 2);
         CHECK(m[0].rmse < ROOM_SHADOW_RMSE && m[0].ssim > ROOM_SHADOW_SSIM);
         CHECK(m[1].rmse < ROOM_AO_RMSE && m[1].ssim > ROOM_AO_SSIM);

@@ -5,7 +5,8 @@
  *   all devices:  ray generation for their columns (sun shadow rays in a cone,
  *                 cosine AO rays), trace_rays (any hit), resolve to visibility
  *   -> primary:   each device's visibility columns are copied back
- *   primary:      temporal accumulation, edge-avoiding a-trous filter,
+ *   primary:      temporal accumulation (reprojected with motion vectors when
+ *                 the camera orbits), edge-avoiding a-trous filter,
  *                 composite (sun + sky light, emission) to linear HDR
  *
  * Columns are split with partition/ (tile-snapped, rebalanced every frame from
