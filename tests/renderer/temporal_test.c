@@ -9,7 +9,11 @@
  *    behind another surface by the CPU's look at the previous G-buffer) start
  *    their history again (length 1); pixels seen on the same surface keep it;
  *  - with a still camera the filtered image changes by less than 1% from
- *    frame to frame once accumulated (the figure per frame count is printed). */
+ *    frame to frame once accumulated (the figure per frame count is printed);
+ *  - the reprojected history pays: 16 frames of a 1-degree orbit, unfiltered,
+ *    are nearer the CPU reference of the last frame's view than that frame
+ *    alone: measured shadow RMSE 0.0255 vs 0.0315, AO 0.0372 vs 0.0661
+ *    (256-sample reference); asserted below 0.9 and 0.7 of one frame's. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -234,6 +238,52 @@ static void check_motion(const cv_scene *scene, gpu *g) {
     cv_render_output_free(&before);
 }
 
+/* RMSE of visibility channel c of `a` against `ref` over pixels at the same point. */
+static double channel_rmse(const cv_render_output *a, const cv_render_output *ref, int c, uint32_t *pixels) {
+    double sum = 0.0;
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < a->width * a->height; i++) {
+        const float *p = &a->position[i * 4], *q = &ref->position[i * 4];
+        if (p[3] == 0.0f || q[3] == 0.0f || fabsf(p[0] - q[0]) + fabsf(p[1] - q[1]) + fabsf(p[2] - q[2]) > 1e-3f)
+            continue;
+        double d = (double)a->visibility[i * 4 + c] - ref->visibility[i * 4 + c];
+        sum += d * d;
+        n++;
+    }
+    *pixels = n;
+    return n ? sqrt(sum / n) : 1.0;
+}
+
+static void check_orbit_accumulates(const cv_scene *scene, const cv_bvh *bvh, gpu *g) {
+    cv_render_settings s = settings();
+    s.ao_samples = 4;
+    s.frames = 16;
+    s.orbit_degrees = 1.0f;
+    cv_render_output ref = { 0 }, many = { 0 }, one = { 0 };
+    CHECK_OK(cv_render_reference(scene, bvh, &s, 256, 2, &ref));
+    CHECK_OK(cv_renderer_render(g->renderer, &s, &many, NULL, NULL, NULL));
+    s.first_frame = 15;
+    s.frames = 1;
+    CHECK_OK(cv_renderer_render(g->renderer, &s, &one, NULL, NULL, NULL));
+    if (ref.visibility && many.visibility && one.visibility) {
+        uint32_t px;
+        double m[2], o[2];
+        for (int c = 0; c < 2; c++) {
+            m[c] = channel_rmse(&many, &ref, c, &px);
+            o[c] = channel_rmse(&one, &ref, c, &px);
+        }
+        fprintf(stderr,
+                "orbit 1 degree a frame, unfiltered, vs 256 samples at the last view (%u px): shadow RMSE %.4f "
+                "after 16 frames, %.4f one frame; AO %.4f, %.4f\n",
+                px, m[0], o[0], m[1], o[1]);
+        CHECK(px > W * H / 2);
+        CHECK(m[0] < 0.9 * o[0] && m[1] < 0.7 * o[1]);
+    }
+    cv_render_output_free(&ref);
+    cv_render_output_free(&many);
+    cv_render_output_free(&one);
+}
+
 /* Still camera: the filtered image of n + 1 frames against n frames. */
 static double frame_change(gpu *g, uint32_t n) {
     cv_render_settings s = settings();
@@ -270,6 +320,7 @@ int main(void) {
     if (g.renderer) {
         check_settings_refused(scene, &g);
         check_motion(scene, &g);
+        check_orbit_accumulates(scene, bvh, &g);
         static const uint32_t counts[] = { 1, 4, 16, 64 };
         for (size_t k = 0; k < sizeof counts / sizeof counts[0]; k++) {
             double change = frame_change(&g, counts[k]);
