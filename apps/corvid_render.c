@@ -40,6 +40,13 @@ static void usage(FILE *f) {
             "  --ao-samples N     ambient occlusion rays per pixel per frame, 1..%u (default 4;\n"
             "                     AO cannot be turned off, so 0 is refused)\n"
             "  --ao-radius M      AO ray length in scene units, > 0 (default 2%% of the scene diagonal)\n"
+            "  --camera EX,EY,EZ,TX,TY,TZ,FOV\n"
+            "                     the camera at eye EX,EY,EZ looking at TX,TY,TZ, vertical field of view\n"
+            "                     FOV degrees in (0,180), up +y (default: the scene's camera)\n"
+            "  --sun DX,DY,DZ,A   direction toward the sun (not 0,0,0) and its cone's half angle A\n"
+            "                     degrees in [0,90), 0 = hard shadows (default: the scene's sun, 1.5)\n"
+            "  --orbit D          the camera turns D degrees per frame about the vertical axis through\n"
+            "                     its target (a moving camera: reprojected history, motion vectors)\n"
             "  --exposure EV      exposure of the PNG in stops (default 0)\n"
             "  --reference N      render the CPU reference instead (ground truth for the renderer's\n"
             "                     image model): N samples per pixel, 1..65536, unfiltered, float32\n"
@@ -173,6 +180,63 @@ static bool opt_ao_radius(options *o, const char *name, const char *value) {
     return true;
 }
 
+/* Exactly `count` comma-separated finite numbers. */
+static bool parse_floats(const char *value, float *out, int count) {
+    const char *s = value;
+    for (int i = 0; i < count; i++) {
+        char item[64];
+        size_t len = strcspn(s, ",");
+        if (len == 0 || len >= sizeof item || (i + 1 < count) != (s[len] == ','))
+            return false;
+        memcpy(item, s, len);
+        item[len] = '\0';
+        if (!parse_float(item, &out[i]))
+            return false;
+        s += len + (s[len] == ',');
+    }
+    return true;
+}
+
+/* The renderer's own check of the view and light controls, named by option. */
+static bool check_view(const options *o, const char *name, const char *value) {
+    if (cv_render_settings_check(&o->settings) == CV_OK)
+        return true;
+    fprintf(stderr, "corvid-render: %s: '%s': %s (see --help)\n", name, value, cv_last_error());
+    return false;
+}
+
+static bool opt_camera(options *o, const char *name, const char *value) {
+    float v[7];
+    if (!parse_floats(value, v, 7))
+        return refuse(name, value, "7 finite numbers EX,EY,EZ,TX,TY,TZ,FOV");
+    if (!(v[6] > 0.0f && v[6] < 180.0f))
+        return refuse(name, value, "EX,EY,EZ,TX,TY,TZ,FOV with FOV in (0,180) degrees");
+    memcpy(o->settings.camera_eye, v, sizeof(o->settings.camera_eye));
+    memcpy(o->settings.camera_target, v + 3, sizeof(o->settings.camera_target));
+    o->settings.camera_fov_degrees = v[6];
+    return check_view(o, name, value);
+}
+
+/* --sun DX,DY,DZ,A: A = 0 is hard shadows (the settings' negative cone). */
+static bool opt_sun(options *o, const char *name, const char *value) {
+    float v[4];
+    if (!parse_floats(value, v, 4))
+        return refuse(name, value, "4 finite numbers DX,DY,DZ,A");
+    if (v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f)
+        return refuse(name, value, "DX,DY,DZ,A with a direction other than 0,0,0");
+    if (!(v[3] >= 0.0f && v[3] < 90.0f))
+        return refuse(name, value, "DX,DY,DZ,A with A in [0,90) degrees");
+    memcpy(o->settings.sun_toward, v, sizeof(o->settings.sun_toward));
+    o->settings.sun_cone_degrees = v[3] > 0.0f ? v[3] : -1.0f;
+    return check_view(o, name, value);
+}
+
+static bool opt_orbit(options *o, const char *name, const char *value) {
+    if (!parse_float(value, &o->settings.orbit_degrees) || fabsf(o->settings.orbit_degrees) > 360.0f)
+        return refuse(name, value, "a finite number of degrees per frame in -360..360");
+    return true;
+}
+
 static bool opt_reference(options *o, const char *name, const char *value) {
     return set_u32(name, value, 1, 65536, &o->reference);
 }
@@ -260,6 +324,9 @@ static const struct option_def {
     { "--filter", true, opt_filter },
     { "--ao-samples", true, opt_ao_samples },
     { "--ao-radius", true, opt_ao_radius },
+    { "--camera", true, opt_camera },
+    { "--sun", true, opt_sun },
+    { "--orbit", true, opt_orbit },
     { "--exposure", true, opt_exposure },
     { "--reference", true, opt_reference },
     { "--out", true, opt_out },

@@ -10,6 +10,15 @@
 // smooths where the estimate is noisy. Shadow (r) and AO (g) are filtered
 // separately, each with its own variance.
 //
+// Penumbra-aware shadow (seed 000's shadow filter: the kernel follows the
+// penumbra): the shadow's position sigma is the width of the penumbra at p,
+// 2 tan(cone) times the mean blocker distance of the shadow rays that hit
+// something in p's 5x5 same-surface neighbourhood (render.resolve's b, a of
+// the last frame), times penumbra_scale, between position_sigma / 4 and
+// 4 position_sigma: a sharp contact shadow is filtered within its narrow
+// penumbra, a soft one far from its blocker across its width. Without a
+// blocker nearby (lit) the shadow has no variance and is not filtered.
+//
 // Variance: the history holds per pixel the means over n frames of the
 // per-frame value and of its square, so the per-frame variance is
 // m2 - m1^2 and the variance of the mean (var / n). With fewer than 4 frames
@@ -26,13 +35,19 @@
 // by every iteration: a long accumulation comes back unfiltered.
 //
 // Push: { uint width; uint height; uint step; uint frames; float position_sigma;
-//         float sigma_l; float converged_variance; uint flags; }
+//         float sigma_l; float converged_variance; uint flags;
+//         float penumbra_scale (2 tan(cone) x the scale; 0 = off);
+//         float sigma_l_spatial (sigma_l where the variance is the spatial
+//         estimate, fewer than 4 frames); float pad[2]; }
 // flags: bit 0 = first iteration (source is the history), bit 1 = last (b, a
 // get the history's mean squares, as render.accumulate wrote them, so the
-// output keeps its documented layout).
+// output keeps its documented layout), bit 2 = moving camera: each pixel's
+// history length is its own (i5's z, render.reproject's), not `frames`.
 // i0: positions, i1: normals (RGBA32F), i2: input (RGBA32F: r = sun, g = AO,
 // b, a = their variances of the mean, or in the first iteration the history's
-// mean squares), i3: output (RGBA32F, as i2), i4: the history (RGBA32F, read only).
+// mean squares), i3: output (RGBA32F, as i2), i4: the history (RGBA32F, read only),
+// i5: motion (RGBA32F, z = history length; read only with bit 2),
+// i6: the last frame's visibility (RGBA16F, render.resolve's: b = blocker distance, a = blocked).
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -45,6 +60,10 @@ layout(push_constant, std430) uniform Push {
     float sigma_l;
     float converged_variance;
     uint flags;
+    float penumbra_scale;
+    float sigma_l_spatial;
+    float pad1;
+    float pad2;
 } pc;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
@@ -52,27 +71,59 @@ layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D source;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D target;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D history;
+layout(set = 0, binding = 5, rgba32f) uniform readonly image2D motion;
+layout(set = 0, binding = 6, rgba16f) uniform readonly image2D frame_visibility;
 
-const uint FIRST = 1u, LAST = 2u;
+const uint FIRST = 1u, LAST = 2u, PER_PIXEL_LENGTH = 4u;
+
+// Frames in q's history.
+float history_length(ivec2 q) {
+    return (pc.flags & PER_PIXEL_LENGTH) != 0u ? max(imageLoad(motion, q).z, 1.0) : float(pc.frames);
+}
 
 bool inside(ivec2 q) {
     return all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, ivec2(pc.width, pc.height)));
 }
 
-// Normal and position similarity of q to p (0 for sky).
-float geometry_weight(vec3 cp, vec3 cn, ivec2 q) {
+// Normal and position similarity of q to p (0 for sky), for position sigmas
+// (shadow, AO).
+vec2 geometry_weights(vec3 cp, vec3 cn, ivec2 q, vec2 sigma) {
     vec4 qp = imageLoad(gbuffer_position, q);
     if (qp.w == 0.0)
-        return 0.0;
+        return vec2(0.0);
     vec3 qn = imageLoad(gbuffer_normal, q).xyz;
     vec3 d = qp.xyz - cp.xyz;
-    return pow(max(dot(cn, qn), 0.0), 32.0) * exp(-dot(d, d) / (pc.position_sigma * pc.position_sigma));
+    return pow(max(dot(cn, qn), 0.0), 32.0) * exp(-dot(d, d) / (sigma * sigma));
+}
+
+float geometry_weight(vec3 cp, vec3 cn, ivec2 q) {
+    return geometry_weights(cp, cn, q, vec2(pc.position_sigma)).y;
+}
+
+// The shadow's position sigma at p: the penumbra's width (see the header).
+float shadow_sigma(ivec2 p, vec3 cp, vec3 cn) {
+    if (pc.penumbra_scale <= 0.0)
+        return pc.position_sigma;
+    float sum = 0.0, count = 0.0;
+    for (int dy = -2; dy <= 2; dy++)
+        for (int dx = -2; dx <= 2; dx++) {
+            ivec2 q = p + ivec2(dx, dy);
+            if (!inside(q))
+                continue;
+            vec2 b = imageLoad(frame_visibility, q).ba;
+            float w = b.y * geometry_weight(cp, cn, q);
+            sum += b.x * w;
+            count += w;
+        }
+    if (count <= 1e-6)
+        return pc.position_sigma;
+    return clamp(pc.penumbra_scale * sum / count, 0.25 * pc.position_sigma, 8.0 * pc.position_sigma);
 }
 
 // The temporal variance of the mean of shadow and AO at q, from the history.
 vec2 temporal_variance(ivec2 q) {
     vec4 h = imageLoad(history, q);
-    return max(h.ba - h.rg * h.rg, vec2(0.0)) / float(pc.frames);
+    return max(h.ba - h.rg * h.rg, vec2(0.0)) / history_length(q);
 }
 
 // The per-frame variance of shadow and AO around p estimated from the moments
@@ -90,7 +141,7 @@ vec2 spatial_variance(ivec2 p, vec3 cp, vec3 cn) {
             weight += w;
         }
     vec4 m = sum / max(weight, 1e-20);
-    return max(m.ba - m.rg * m.rg, vec2(0.0)) / float(pc.frames);
+    return max(m.ba - m.rg * m.rg, vec2(0.0)) / history_length(p);
 }
 
 void main() {
@@ -110,7 +161,7 @@ void main() {
     // This pixel's variance of the mean (own, for the converged test) and the
     // 3x3 pre-filtered one the signal weights scale with.
     vec2 own, guide;
-    bool spatial = pc.frames < 4u;
+    bool spatial = history_length(p) < 4.0;
     if (first && spatial) {
         own = guide = spatial_variance(p, cp.xyz, cn);
     } else {
@@ -137,15 +188,16 @@ void main() {
     }
 
     const float kernel[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
-    vec2 denom = pc.sigma_l * sqrt(guide) + 1e-4;
+    vec2 denom = (spatial ? pc.sigma_l_spatial : pc.sigma_l) * sqrt(guide) + 1e-4;
+    vec2 sigma = vec2(shadow_sigma(p, cp.xyz, cn), pc.position_sigma);
     vec2 sum = vec2(0.0), weight = vec2(0.0), var_sum = vec2(0.0);
     for (int dy = -2; dy <= 2; dy++) {
         for (int dx = -2; dx <= 2; dx++) {
             ivec2 q = p + ivec2(dx, dy) * int(pc.step);
             if (!inside(q))
                 continue;
-            float wg = kernel[abs(dx)] * kernel[abs(dy)] * geometry_weight(cp.xyz, cn, q);
-            if (wg == 0.0)
+            vec2 wg = kernel[abs(dx)] * kernel[abs(dy)] * geometry_weights(cp.xyz, cn, q, sigma);
+            if (wg.x == 0.0 && wg.y == 0.0)
                 continue;
             vec4 v = imageLoad(source, q);
             vec2 var_q = dx == 0 && dy == 0 ? var_in : (first ? (spatial ? var_in : temporal_variance(q)) : v.ba);

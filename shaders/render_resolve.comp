@@ -1,6 +1,10 @@
 // render.resolve: turns any-hit results of render.raygen's rays into visibility
 // for one band of the partition's pixels: r = sun visibility (0 or 1), g =
-// unoccluded fraction of the AO rays. Written at the pixel's full-image position.
+// unoccluded fraction of the AO rays, b = the distance to the shadow ray's
+// blocker (the any-hit t, at most 65000 to stay finite in half float; 0 when
+// nothing was hit), a = 1 when the shadow ray hit a blocker, else 0 (the
+// penumbra-aware filter averages b over a's). Written at the pixel's
+// full-image position.
 // A shadow ray with tmax < 0 is render.raygen's mark for a surface facing away
 // from the sun: in shadow (0), though tracing it is a miss.
 // Push: { uint x0; uint width; uint height; uint ao_samples; uint y0; uint pad[3]; }.
@@ -45,10 +49,12 @@ void main() {
         return;
     uint first = (local.y * pc.width + local.x) * (pc.ao_samples + 1u);
     bool sun_below = rays[first].tmax < 0.0;
-    float sun = !sun_below && hits[first].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
+    bool blocked = !sun_below && hits[first].triangle != 0xFFFFFFFFu;
+    float sun = !sun_below && !blocked ? 1.0 : 0.0;
     float open = 0.0;
     for (uint k = 0u; k < pc.ao_samples; k++)
         open += hits[first + 1u + k].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
     float ao = pc.ao_samples > 0u ? open / float(pc.ao_samples) : 1.0;
-    imageStore(visibility, ivec2(local.x + pc.x0, local.y + pc.y0), vec4(sun, ao, 0.0, 1.0));
+    vec2 blocker = blocked ? vec2(min(hits[first].t, 65000.0), 1.0) : vec2(0.0);
+    imageStore(visibility, ivec2(local.x + pc.x0, local.y + pc.y0), vec4(sun, ao, blocker));
 }

@@ -1,8 +1,11 @@
-/* Camera matrices (see camera.h). */
+/* Camera matrices, the view and light controls of cv_render_settings and the
+ * orbiting camera (see camera.h and renderer.h). */
 #include "camera.h"
 
 #include <math.h>
 #include <string.h>
+
+#include "corvid/renderer.h"
 
 static void normalize3(float v[3]) {
     float l = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
@@ -52,4 +55,86 @@ void render_camera_view_proj(const cv_camera *camera, float aspect, float near_p
         t / aspect, 0, 0, 0, 0, -t, 0, 0, 0, 0, -far_plane / range, -1, 0, 0, -far_plane * near_plane / range, 0,
     };
     multiply(proj, view, view_proj);
+}
+
+static bool finite3(const float v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
+
+cv_result cv_render_settings_check(const cv_render_settings *s) {
+    if (!s)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_render_settings_check: NULL settings");
+    const float *e = s->camera_eye, *t = s->camera_target, *d = s->sun_toward;
+    if (!finite3(e) || !finite3(t) || !isfinite(s->camera_fov_degrees))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "renderer: camera eye (%g, %g, %g), target (%g, %g, %g), fov %g: not finite numbers", e[0],
+                        e[1], e[2], t[0], t[1], t[2], s->camera_fov_degrees);
+    if (s->camera_fov_degrees != 0.0f) {
+        if (!(s->camera_fov_degrees > 0.0f && s->camera_fov_degrees < 180.0f))
+            return cv_error(CV_ERROR_OUT_OF_RANGE,
+                            "renderer: camera fov %g degrees is outside (0, 180) (0 = the scene's camera)",
+                            s->camera_fov_degrees);
+        if (e[0] == t[0] && e[1] == t[1] && e[2] == t[2])
+            return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                            "renderer: camera eye (%g, %g, %g) equals its target: no view direction", e[0], e[1],
+                            e[2]);
+    }
+    if (!finite3(d))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: sun direction (%g, %g, %g): not finite numbers", d[0],
+                        d[1], d[2]);
+    if (!isfinite(s->sun_cone_degrees) || s->sun_cone_degrees >= 90.0f)
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "renderer: sun cone half angle %g degrees is outside [0, 90) (negative = hard shadows)",
+                        s->sun_cone_degrees);
+    if (!isfinite(s->orbit_degrees))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: orbit %g degrees per frame: not a finite number",
+                        s->orbit_degrees);
+    return CV_OK;
+}
+
+/* v turned by `radians` about the unit axis a (Rodrigues). */
+static void rotate(const float v[3], const float a[3], float radians, float out[3]) {
+    float c = cosf(radians), s = sinf(radians), k = dot3(a, v) * (1.0f - c), x[3];
+    cross3(a, v, x);
+    for (int i = 0; i < 3; i++)
+        out[i] = v[i] * c + x[i] * s + a[i] * k;
+}
+
+cv_camera cv_render_camera(const cv_render_settings *s, const cv_scene *scene, uint32_t frame) {
+    cv_camera cam;
+    if (s->camera_fov_degrees > 0.0f) {
+        cam = (cv_camera){ .vertical_fov = s->camera_fov_degrees * 3.14159265f / 180.0f, .up = { 0.0f, 1.0f, 0.0f } };
+        memcpy(cam.position, s->camera_eye, sizeof(cam.position));
+        memcpy(cam.target, s->camera_target, sizeof(cam.target));
+        float f[3] = { cam.target[0] - cam.position[0], cam.target[1] - cam.position[1],
+                       cam.target[2] - cam.position[2] };
+        normalize3(f);
+        if (fabsf(f[1]) > 0.999f) /* straight up or down: +y is no up */
+            cam.up[1] = 0.0f, cam.up[2] = 1.0f;
+    } else {
+        cam = s->camera < cv_scene_camera_count(scene) ? *cv_scene_camera(scene, s->camera)
+                                                       : cv_scene_framing_camera(scene);
+    }
+    if (s->orbit_degrees != 0.0f && frame != 0) {
+        /* In double: frame * degrees is exact enough for thousands of frames. */
+        float angle = (float)fmod((double)s->orbit_degrees * frame, 360.0) * 3.14159265f / 180.0f;
+        float axis[3] = { cam.up[0], cam.up[1], cam.up[2] };
+        normalize3(axis);
+        float rel[3] = { cam.position[0] - cam.target[0], cam.position[1] - cam.target[1],
+                         cam.position[2] - cam.target[2] },
+              turned[3];
+        rotate(rel, axis, angle, turned);
+        for (int i = 0; i < 3; i++)
+            cam.position[i] = cam.target[i] + turned[i];
+    }
+    return cam;
+}
+
+void render_sun_direction(const cv_render_settings *s, const float scene_sun[3], float out[3]) {
+    const float *d = s->sun_toward;
+    if (d[0] == 0.0f && d[1] == 0.0f && d[2] == 0.0f) {
+        memmove(out, scene_sun, 3 * sizeof(float)); /* out may be scene_sun */
+        return;
+    }
+    for (int i = 0; i < 3; i++)
+        out[i] = -d[i];
+    normalize3(out);
 }

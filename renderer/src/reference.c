@@ -12,6 +12,7 @@
 
 #include "corvid/trace_cpu.h"
 #include "output_derive.h"
+#include "camera.h"
 #include "scene_upload.h"
 
 #define REF_PI 3.14159265358979f
@@ -201,12 +202,16 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
     if (j.s.width > CV_MAX_TEXTURE_DIM || j.s.height > CV_MAX_TEXTURE_DIM || j.s.ao_samples > 32)
         return cv_error(CV_ERROR_OUT_OF_RANGE, "cv_render_reference: %ux%u, %u AO samples (limits %u, 32)", j.s.width,
                         j.s.height, j.s.ao_samples, CV_MAX_TEXTURE_DIM);
-    j.camera = j.s.camera < cv_scene_camera_count(scene) ? *cv_scene_camera(scene, j.s.camera)
-                                                         : cv_scene_framing_camera(scene);
-    render_scene_data data;
-    cv_result res = render_scene_data_build(scene, &data);
+    cv_result res = cv_render_settings_check(&j.s);
     if (res != CV_OK)
         return res;
+    /* The view of the GPU render's image: its last frame (cv_render_camera). */
+    j.camera = cv_render_camera(&j.s, scene, j.s.first_frame + j.s.frames - 1);
+    render_scene_data data;
+    res = render_scene_data_build(scene, &data);
+    if (res != CV_OK)
+        return res;
+    render_sun_direction(&j.s, data.sun_direction, data.sun_direction);
     j.data = &data;
     uint64_t *first = malloc((cv_scene_instance_count(scene) + 1) * sizeof(uint64_t));
     size_t n = (size_t)j.s.width * j.s.height * 4;

@@ -1,6 +1,7 @@
 /* One hybrid frame across N devices (see renderer.h), declared as a render
- * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame), 'trace'
- * (every device, over its column window), 'accumulate' (primary), 'filter'
+ * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame; every frame
+ * for a moving camera), 'trace' (every device, over its column window),
+ * 'reproject' (primary, moving camera only), 'accumulate' (primary), 'filter'
  * and 'composite' (primary, last frame). The graph multicasts the G-buffer,
  * copies the secondaries' visibility windows back, places barriers and
  * balances the columns from the trace times; no pass sees the device count. */
@@ -17,9 +18,19 @@
 #include "output_derive.h"
 #include "scene_upload.h"
 
-enum { PIPE_GBUFFER, PIPE_RAYGEN, PIPE_RESOLVE, PIPE_ACCUMULATE, PIPE_FILTER, PIPE_COMPOSITE, PIPE_COUNT };
+enum {
+    PIPE_GBUFFER,
+    PIPE_RAYGEN,
+    PIPE_RESOLVE,
+    PIPE_ACCUMULATE,
+    PIPE_FILTER,
+    PIPE_COMPOSITE,
+    PIPE_REPROJECT,
+    PIPE_COUNT
+};
 static const char *pipeline_names[PIPE_COUNT] = {
-    "render.gbuffer", "render.raygen", "render.resolve", "render.accumulate", "render.filter", "render.composite",
+    "render.gbuffer", "render.raygen",    "render.resolve",   "render.accumulate",
+    "render.filter",  "render.composite", "render.reproject",
 };
 
 /* Size-dependent textures; `everywhere` ones are loaded on every device. */
@@ -33,6 +44,10 @@ enum {
     TEX_PONG,
     TEX_RADIANCE,
     TEX_ALBEDO,
+    TEX_MOTION,           /* moving camera: render.reproject's motion and history length */
+    TEX_REPROJECTED,      /* moving camera: the history brought to this frame's pixels */
+    TEX_HISTORY_POSITION, /* moving camera: the G-buffer the history was accumulated on */
+    TEX_HISTORY_NORMAL,
     TEX_COUNT
 };
 static const struct {
@@ -52,6 +67,10 @@ static const struct {
     [TEX_PONG] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "filter pong" },
     [TEX_RADIANCE] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "radiance" },
     [TEX_ALBEDO] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "albedo" },
+    [TEX_MOTION] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "motion" },
+    [TEX_REPROJECTED] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reprojected history" },
+    [TEX_HISTORY_POSITION] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "history position" },
+    [TEX_HISTORY_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "history normal" },
 };
 
 /* Resources the frame graph names: the textures above (imported: the
@@ -75,14 +94,16 @@ struct cv_renderer {
      * iterations or the ray buffers' size change). */
     cv_graph *graph;
     uint32_t graph_iterations;
+    bool graph_moving;     /* built for a moving camera: G-buffer every frame, reprojection */
     uint32_t graph_frames; /* frames of this render call: the filter's history length */
     uint64_t graph_rays;   /* rays the ray and hit buffers hold */
     cv_graph_resource tex[TEX_COUNT], buf[BUF_COUNT];
-    cv_graph_pass gbuffer_pass, filter_pass, composite_pass;
+    cv_graph_pass gbuffer_pass, filter_pass, composite_pass, reproject_pass;
     /* What the passes record this frame (set before each bake, read by the
      * record callbacks on the graph's worker threads). */
     cv_render_settings settings;
-    cv_camera camera;
+    cv_camera camera, previous_camera; /* this frame's and the previous frame's */
+    float sun_direction[3];            /* unit, the way the light travels: the scene's or settings.sun_toward */
     uint32_t frame;
     uint64_t band_limit; /* most rays per band on every device */
 };
@@ -244,7 +265,15 @@ static cv_binding bind_texture(cv_texture t) { return (cv_binding){ .resource = 
 static cv_binding bind_buffer(cv_buffer b) { return (cv_binding){ .resource = cv_any(b) }; }
 static uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
 
-/* Pass 'gbuffer' (primary, first frame): position and normal by rasterization. */
+/* The view-projection of `camera` for the G-buffer (and the reprojection). */
+static void view_proj(const cv_renderer *r, const cv_camera *camera, float out[16], float *far_plane) {
+    float near_plane = r->data.diagonal * 1e-4f;
+    *far_plane = r->data.diagonal * 4.0f;
+    render_camera_view_proj(camera, (float)r->width / (float)r->height, near_plane, *far_plane, out);
+}
+
+/* Pass 'gbuffer' (primary; the first frame, every frame for a moving camera):
+ * position and normal by rasterization. */
 static void record_gbuffer(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
     cv_renderer *r = user;
     const cv_camera *camera = &r->camera;
@@ -252,8 +281,8 @@ static void record_gbuffer(const cv_graph_pass_context *pc, cv_command_list *l, 
         float view_proj[16];
         float camera[4];
     } push;
-    float near_plane = r->data.diagonal * 1e-4f, far_plane = r->data.diagonal * 4.0f;
-    render_camera_view_proj(camera, (float)r->width / (float)r->height, near_plane, far_plane, push.view_proj);
+    float far_plane;
+    view_proj(r, camera, push.view_proj, &far_plane);
     memcpy(push.camera, camera->position, sizeof(camera->position));
     push.camera[3] = 1.0f / far_plane; /* render.gbuffer writes depth = view depth / far */
     cv_binding b = bind_buffer(cv_graph_buffer(pc, r->buf[BUF_VERTICES]));
@@ -322,7 +351,7 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
                      cols.width,
                      h,
                      s->ao_samples,
-                     { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
+                     { r->sun_direction[0], r->sun_direction[1], r->sun_direction[2],
                        s->sun_cone_degrees * 3.14159265f / 180.0f },
                      s->first_frame + r->frame,
                      s->ao_radius,
@@ -356,18 +385,69 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
     }
 }
 
-/* Pass 'accumulate' (primary): this frame's visibility into the running mean. */
-static void record_accumulate(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+/* Moving camera: how far a previous frame's surface may lie from this
+ * frame's plane and still be the same surface, per unit of distance from the
+ * eye (render_reproject.comp); and the longest history kept. The error of the
+ * reprojected history grows with its length (room 160x90, 16 frames of an
+ * orbit of 0.05, 0.3 and 1 degree a frame, unfiltered, against 1024 / 4096
+ * samples at the last frame: shadow RMSE 0.0101, 0.0230, 0.0256 with at most
+ * 4 frames; 0.0119, 0.0289, 0.0335 with 8; 0.0148, 0.0337, 0.0384 with 32;
+ * AO alike but at 0.05 degrees, docs/renderer-quality.md), so 4. */
+#define REPROJECT_PLANE_TOLERANCE 0.01f
+#define REPROJECT_MAX_HISTORY 4.0f
+
+/* Pass 'reproject' (primary, moving camera): motion vectors and the history
+ * brought to this frame's pixels (render_reproject.comp). */
+static void record_reproject(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
     cv_renderer *r = user;
     struct {
-        uint32_t width, height, frame, pad;
-    } push = { r->width, r->height, r->frame, 0 };
-    cv_binding b[2] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_VISIBILITY])),
-                        bind_texture(cv_graph_texture(pc, r->tex[TEX_HISTORY])) };
+        float prev_view_proj[16];
+        float eye[4];
+        uint32_t width, height, has_history;
+        float max_history;
+    } push = { .eye = { r->camera.position[0], r->camera.position[1], r->camera.position[2],
+                        REPROJECT_PLANE_TOLERANCE },
+               .width = r->width,
+               .height = r->height,
+               .has_history = r->frame > 0,
+               .max_history = REPROJECT_MAX_HISTORY };
+    float far_plane;
+    view_proj(r, &r->previous_camera, push.prev_view_proj, &far_plane);
+    int tex[7] = { TEX_POSITION, TEX_NORMAL, TEX_HISTORY_POSITION, TEX_HISTORY_NORMAL,
+                   TEX_HISTORY,  TEX_MOTION, TEX_REPROJECTED };
+    cv_binding b[7];
+    for (int i = 0; i < 7; i++)
+        b[i] = bind_texture(cv_graph_texture(pc, r->tex[tex[i]]));
+    cv_cmd_dispatch(l, pc->queue,
+                    &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REPROJECT],
+                                         .bindings = b,
+                                         .bindings_count = 7,
+                                         .push = &push,
+                                         .push_size = sizeof(push),
+                                         .groups_x = groups(r->width, 8),
+                                         .groups_y = groups(r->height, 8),
+                                         .groups_z = 1 });
+}
+
+/* Pass 'accumulate' (primary): this frame's visibility into the running mean;
+ * for a moving camera, into the reprojected history (render_accumulate.comp).
+ * A still camera's pass reads and writes only the visibility and the history:
+ * the slots it does not use get the history again. */
+static void record_accumulate(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+    cv_renderer *r = user;
+    bool moving = r->graph_moving;
+    struct {
+        uint32_t width, height, frame, flags;
+    } push = { r->width, r->height, r->frame, moving ? 1u : 0u };
+    int tex[8] = { TEX_VISIBILITY, TEX_HISTORY, TEX_MOTION,           TEX_REPROJECTED,
+                   TEX_POSITION,   TEX_NORMAL,  TEX_HISTORY_POSITION, TEX_HISTORY_NORMAL };
+    cv_binding b[8];
+    for (int i = 0; i < 8; i++)
+        b[i] = bind_texture(cv_graph_texture(pc, r->tex[moving || i < 2 ? tex[i] : TEX_HISTORY]));
     cv_cmd_dispatch(l, pc->queue,
                     &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_ACCUMULATE],
                                          .bindings = b,
-                                         .bindings_count = 2,
+                                         .bindings_count = 8,
                                          .push = &push,
                                          .push_size = sizeof(push),
                                          .groups_x = groups(r->width, 8),
@@ -381,12 +461,27 @@ static int filtered_texture(uint32_t iterations) {
 }
 
 /* Variance-guided a-trous iterations (steps 1, 2, 4, ...; render_filter.comp)
- * history -> ping -> pong -> ping ... sigma_l: SVGF's 4.
+ * history -> ping -> pong -> ping ... sigma_l: SVGF's 4; 8 while the
+ * variance is the spatial estimate (fewer than 4 frames), where 4 stopped at
+ * noise it could have smoothed: room 160x90, one frame, against 4096 samples,
+ * 8 took shadow / AO RMSE from 0.0262 / 0.0467 to 0.0252 / 0.0458 (16 and 32
+ * gained less than 0.0005 more); at 64 frames 8 blurred (AO 0.0043 -> 0.0057).
  * Converged: a channel whose variance of the mean is below FILTER_CONVERGED_STD^2
  * (standard error 0.02; a binary shadow ray gets there by 625 frames) is left
- * unfiltered. */
+ * unfiltered.
+ * Penumbra scale: the shadow's position sigma in penumbra widths (0.5, 1, 2,
+ * 3, 4 measured on the same frame: 2 is best, shadow RMSE 0.0223 with
+ * sigma_l 8). */
 #define FILTER_SIGMA_L 4.0f
+#define FILTER_SIGMA_L_SPATIAL 8.0f
 #define FILTER_CONVERGED_STD 0.02f
+#define FILTER_PENUMBRA_SCALE 2.0f
+/* The shadow's filter radius is the penumbra's width: 2 tan(cone) times the
+ * blocker distance (render_filter.comp), times FILTER_PENUMBRA_SCALE. */
+static float penumbra_scale(const cv_renderer *r) {
+    return FILTER_PENUMBRA_SCALE * 2.0f * tanf(r->settings.sun_cone_degrees * 3.14159265f / 180.0f);
+}
+
 static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, cv_command_list *l) {
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "filter" });
     for (uint32_t i = 0; i < iterations; i++) {
@@ -395,6 +490,7 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
             uint32_t width, height, step, frames;
             float position_sigma, sigma_l, converged_variance;
             uint32_t flags;
+            float penumbra_scale, sigma_l_spatial, pad[2];
         } push = { r->width,
                    r->height,
                    1u << i,
@@ -402,14 +498,22 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
                    r->data.diagonal * 0.01f,
                    FILTER_SIGMA_L,
                    FILTER_CONVERGED_STD * FILTER_CONVERGED_STD,
-                   (i == 0 ? 1u : 0u) | (i + 1 == iterations ? 2u : 0u) };
-        cv_binding b[5] = { bind_texture(r->textures[TEX_POSITION]), bind_texture(r->textures[TEX_NORMAL]),
-                            bind_texture(r->textures[src]), bind_texture(r->textures[dst]),
-                            bind_texture(r->textures[TEX_HISTORY]) };
+                   (i == 0 ? 1u : 0u) | (i + 1 == iterations ? 2u : 0u) | (r->graph_moving ? 4u : 0u),
+                   penumbra_scale(r),
+                   FILTER_SIGMA_L_SPATIAL,
+                   { 0 } };
+        /* A still camera's history length is `frames` everywhere: no motion texture. */
+        cv_binding b[7] = { bind_texture(r->textures[TEX_POSITION]),
+                            bind_texture(r->textures[TEX_NORMAL]),
+                            bind_texture(r->textures[src]),
+                            bind_texture(r->textures[dst]),
+                            bind_texture(r->textures[TEX_HISTORY]),
+                            bind_texture(r->textures[r->graph_moving ? TEX_MOTION : TEX_HISTORY]),
+                            bind_texture(r->textures[TEX_VISIBILITY]) };
         cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_FILTER],
                                              .bindings = b,
-                                             .bindings_count = 5,
+                                             .bindings_count = 7,
                                              .push = &push,
                                              .push_size = sizeof(push),
                                              .groups_x = groups(r->width, 8),
@@ -423,8 +527,7 @@ static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_lis
     struct {
         float sun[4], sun_color[4], sky[4];
         uint32_t width, height, material_count, light_count;
-    } push = { { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
-                 r->data.sun_irradiance },
+    } push = { { r->sun_direction[0], r->sun_direction[1], r->sun_direction[2], r->data.sun_irradiance },
                { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
                { 0.12f, 0.15f, 0.2f, 0.0f },
                r->width,
@@ -498,7 +601,7 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
     return s;
 }
 
-static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_output *out) {
+static cv_result read_output(cv_renderer *r, uint32_t iterations, uint32_t frames, cv_render_output *out) {
     size_t n = (size_t)r->width * r->height * 4;
     memset(out, 0, sizeof(*out));
     out->width = r->width;
@@ -523,8 +626,24 @@ static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_outp
         out->position[i] = out->position[i] != 0.0f ? 1.0f : 0.0f;
     if (res == CV_OK)
         res = cv_device_read_texture(p, r->textures[filtered_texture(iterations)], all, out->visibility);
-    if (res == CV_OK)
-        res = render_output_derive(out, r->camera.position, &r->data);
+    if (res == CV_OK && !(out->motion = malloc(n * sizeof(float))))
+        res = cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: motion plane");
+    if (res == CV_OK && r->graph_moving) {
+        res = cv_device_read_texture(p, r->textures[TEX_MOTION], all, out->motion);
+    } else if (res == CV_OK) {
+        /* A still camera: no motion; every covered pixel's history is all the frames. */
+        for (size_t i = 0; i < n; i += 4) {
+            bool covered = out->position[i + 3] != 0.0f;
+            out->motion[i] = out->motion[i + 1] = 0.0f;
+            out->motion[i + 2] = covered ? (float)frames : 0.0f;
+            out->motion[i + 3] = covered && frames > 1 ? 1.0f : 0.0f;
+        }
+    }
+    if (res == CV_OK) { /* direct light under the sun this render used (settings.sun_toward or the scene's) */
+        render_scene_data lit = r->data;
+        memcpy(lit.sun_direction, r->sun_direction, sizeof(lit.sun_direction));
+        res = render_output_derive(out, r->camera.position, &lit);
+    }
     if (res != CV_OK)
         cv_render_output_free(out);
     return res;
@@ -543,10 +662,12 @@ void cv_render_output_free(cv_render_output *out) {
     memset(out, 0, sizeof(*out));
 }
 
-/* The frame graph for the current targets, `iterations` filter steps and ray
- * buffers of `rays` rays (built again when any of them changes). */
+/* The frame graph for the current targets, `iterations` filter steps, ray
+ * buffers of `rays` rays and a still or moving camera (settings.orbit_degrees;
+ * built again when any of them changes). */
 static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays) {
-    if (r->graph && r->graph_iterations == iterations && r->graph_rays == rays)
+    bool moving = r->settings.orbit_degrees != 0.0f;
+    if (r->graph && r->graph_iterations == iterations && r->graph_rays == rays && r->graph_moving == moving)
         return CV_OK;
     destroy_graph(r);
     for (uint32_t d = 0; d < r->count; d++)
@@ -563,6 +684,7 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     r->graph = g;
     r->graph_iterations = iterations;
     r->graph_rays = rays;
+    r->graph_moving = moving;
     for (int t = 0; t < TEX_COUNT && res == CV_OK; t++)
         res = cv_graph_import_texture(g, r->textures[t], &r->tex[t]);
     if (res == CV_OK)
@@ -587,8 +709,9 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
 #define WRITE(res_, access) \
     if (res == CV_OK) \
     res = cv_graph_write(g, p, res_, access, CV_GRAPH_TRANSFER_AUTO)
-    /* The G-buffer, on the first frame (the camera is still); the trace on
-     * other devices reads it, so it is multicast. */
+    /* The G-buffer, on the first frame when the camera is still, on every
+     * frame when it moves; the trace on other devices reads it, so it is
+     * multicast. */
     PASS("gbuffer", CV_QUEUE_GRAPHICS, CV_MGPU_PRIMARY_ONLY, record_gbuffer);
     READ(r->buf[BUF_VERTICES], CV_GRAPH_STORAGE_READ);
     WRITE(r->tex[TEX_POSITION], CV_GRAPH_COLOR_TARGET);
@@ -603,10 +726,32 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     WRITE(r->buf[BUF_RAYS], CV_GRAPH_STORAGE_WRITE);
     WRITE(r->buf[BUF_HITS], CV_GRAPH_STORAGE_WRITE);
     WRITE(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_WRITE);
+    /* Moving camera: the history follows the surfaces (motion vectors,
+     * disocclusion), and the accumulate keeps this frame's G-buffer beside it. */
+    r->reproject_pass = (cv_graph_pass){ 0 };
+    if (moving) {
+        PASS("reproject", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_reproject);
+        READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_HISTORY_POSITION], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_HISTORY_NORMAL], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_HISTORY], CV_GRAPH_STORAGE_READ);
+        WRITE(r->tex[TEX_MOTION], CV_GRAPH_STORAGE_WRITE);
+        WRITE(r->tex[TEX_REPROJECTED], CV_GRAPH_STORAGE_WRITE);
+        r->reproject_pass = p;
+    }
     PASS("accumulate", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_accumulate);
     READ(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_READ);
     READ(r->tex[TEX_HISTORY], CV_GRAPH_STORAGE_READ);
     WRITE(r->tex[TEX_HISTORY], CV_GRAPH_STORAGE_WRITE);
+    if (moving) {
+        READ(r->tex[TEX_MOTION], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_REPROJECTED], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+        WRITE(r->tex[TEX_HISTORY_POSITION], CV_GRAPH_STORAGE_WRITE);
+        WRITE(r->tex[TEX_HISTORY_NORMAL], CV_GRAPH_STORAGE_WRITE);
+    }
     /* On the last frame: a-trous iterations, then the composite. */
     r->filter_pass = (cv_graph_pass){ 0 };
     if (iterations > 0) {
@@ -614,6 +759,9 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_HISTORY], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_READ);
+        if (moving)
+            READ(r->tex[TEX_MOTION], CV_GRAPH_STORAGE_READ);
         WRITE(r->tex[TEX_PING], CV_GRAPH_STORAGE_WRITE);
         if (iterations > 1)
             WRITE(r->tex[TEX_PONG], CV_GRAPH_STORAGE_WRITE);
@@ -635,6 +783,12 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
      * accumulate is kept on frames without the composite. */
     if (res == CV_OK)
         res = cv_graph_output(g, r->tex[TEX_HISTORY]);
+    if (res == CV_OK && moving)
+        res = cv_graph_output(g, r->tex[TEX_HISTORY_POSITION]);
+    if (res == CV_OK && moving)
+        res = cv_graph_output(g, r->tex[TEX_HISTORY_NORMAL]);
+    if (res == CV_OK && moving)
+        res = cv_graph_output(g, r->tex[TEX_MOTION]);
     if (res == CV_OK)
         res = cv_graph_output(g, r->tex[TEX_RADIANCE]);
     if (res == CV_OK)
@@ -644,10 +798,10 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     return res;
 }
 
-/* Which passes frame f of `frames` runs: the G-buffer on the first, the
- * filter and composite on the last. */
+/* Which passes frame f of `frames` runs: the G-buffer on the first (every
+ * frame for a moving camera), the filter and composite on the last. */
 static cv_result enable_passes(cv_renderer *r, bool first, bool last) {
-    cv_result res = cv_graph_enable_pass(r->graph, r->gbuffer_pass, first);
+    cv_result res = cv_graph_enable_pass(r->graph, r->gbuffer_pass, first || r->graph_moving);
     if (res == CV_OK && r->filter_pass.id)
         res = cv_graph_enable_pass(r->graph, r->filter_pass, last);
     if (res == CV_OK)
@@ -745,6 +899,9 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     if (!r || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_render: NULL argument");
     cv_render_settings s = cv_render_settings_resolve(settings, r->scene);
+    cv_result res = cv_render_settings_check(&s);
+    if (res != CV_OK)
+        return res;
     if (s.width > CV_MAX_TEXTURE_DIM || s.height > CV_MAX_TEXTURE_DIM || s.ao_samples > 32 || s.frames > 4096 ||
         s.filter_iterations > 8 || s.first_frame > (1u << 24))
         return cv_error(CV_ERROR_OUT_OF_RANGE,
@@ -752,11 +909,10 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                         "first frame %u (limits %u, 32, 4096, 8, 2^24)",
                         s.width, s.height, s.ao_samples, s.frames, s.filter_iterations, s.first_frame,
                         CV_MAX_TEXTURE_DIM);
-    r->camera = s.camera < cv_scene_camera_count(r->scene) ? *cv_scene_camera(r->scene, s.camera)
-                                                           : cv_scene_framing_camera(r->scene);
+    render_sun_direction(&s, r->data.sun_direction, r->sun_direction);
     r->settings = s;
     r->graph_frames = s.frames;
-    cv_result res = ensure_targets(r, s.width, s.height);
+    res = ensure_targets(r, s.width, s.height);
     if (res == CV_OK)
         res = build_graph(r, (uint32_t)s.filter_iterations, band_capacity(r, &s));
     if (res != CV_OK)
@@ -780,6 +936,8 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     for (uint32_t f = 0; f < s.frames && res == CV_OK; f++) {
         bool last = f + 1 == s.frames;
         r->frame = f;
+        r->camera = cv_render_camera(&s, r->scene, s.first_frame + f);
+        r->previous_camera = cv_render_camera(&s, r->scene, s.first_frame + f - (s.first_frame + f > 0));
         res = enable_passes(r, f == 0, last);
         /* The graph's balancer splits the columns from the last frame's trace times. */
         if (res == CV_OK)
@@ -832,7 +990,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     }
     st.frame_ms = (now_ms() - frames_start) / s.frames;
     if (res == CV_OK)
-        res = read_output(r, (uint32_t)s.filter_iterations, out);
+        res = read_output(r, (uint32_t)s.filter_iterations, s.frames, out);
     if (res == CV_OK && stats)
         *stats = st;
     return res;

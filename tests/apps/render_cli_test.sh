@@ -168,7 +168,29 @@ refused "negative stress" "--scene: 'stress:-5' is not stress:N" --scene stress:
 refused "overflowing stress" "--scene: 'stress:18446744073709551616' is not stress:N" --scene stress:18446744073709551616
 refused "flag with a value" "--quiet takes no value" --quiet=1
 refused "AO radius 0" "--ao-radius: '0' is not a finite length > 0" --ao-radius 0
+# The view and light controls: wrong counts, non-finite numbers and values
+# outside their ranges are refused naming the option and the value.
+refused "camera with 3 numbers" "--camera: '1,2,3' is not 7 finite numbers EX,EY,EZ,TX,TY,TZ,FOV" --camera 1,2,3
+refused "camera with 8 numbers" "--camera: '1,2,3,4,5,6,45,1' is not 7 finite numbers" --camera 1,2,3,4,5,6,45,1
+refused "camera with NaN" "--camera: 'nan,0,0,0,0,1,45' is not 7 finite numbers" --camera nan,0,0,0,0,1,45
+refused "camera with inf" "--camera: '0,0,0,0,0,1,inf' is not 7 finite numbers" --camera 0,0,0,0,0,1,inf
+refused "camera fov 180" "--camera: '0,1,5,0,1,0,180' is not EX,EY,EZ,TX,TY,TZ,FOV with FOV in (0,180) degrees" --camera 0,1,5,0,1,0,180
+refused "camera fov 0" "with FOV in (0,180) degrees" --camera 0,1,5,0,1,0,0
+refused "camera eye at target" "--camera: '1,1,1,1,1,1,45': renderer: camera eye (1, 1, 1) equals its target" --camera 1,1,1,1,1,1,45
+refused "camera empty item" "--camera: '1,,1,0,0,0,45' is not 7 finite numbers" --camera 1,,1,0,0,0,45
+refused "sun with 2 numbers" "--sun: '1,2' is not 4 finite numbers DX,DY,DZ,A" --sun 1,2
+refused "sun toward 0,0,0" "--sun: '0,0,0,1' is not DX,DY,DZ,A with a direction other than 0,0,0" --sun 0,0,0,1
+refused "sun angle 90" "--sun: '0,1,0,90' is not DX,DY,DZ,A with A in [0,90) degrees" --sun 0,1,0,90
+refused "sun angle negative" "--sun: '0,1,0,-1' is not DX,DY,DZ,A with A in [0,90) degrees" --sun 0,1,0,-1
+refused "sun with NaN" "--sun: '0,nan,0,1' is not 4 finite numbers" --sun 0,nan,0,1
+refused "orbit inf" "--orbit: 'inf' is not a finite number of degrees per frame in -360..360" --orbit inf
+refused "orbit 400" "--orbit: '400' is not a finite number of degrees per frame" --orbit 400
 check "nothing rendered for refused values" test ! -e "$tmp/r"
+# Accepted: a camera of its own, a hard sun, an orbit (the moving camera's path).
+"$render" --size 32x18 --frames 3 --camera 0.5,1.6,3.5,0,1,0,70 --sun 0.3,1,0.2,0 --orbit 2 --quiet \
+  --out "$tmp/v/frame" 2> "$tmp/err.txt"
+check "camera, sun and orbit render exits 0" test $? -eq 0
+check "camera, sun and orbit render: EXR" test -s "$tmp/v/frame.exr"
 "$render" --scene stress:-5 2> "$tmp/err.txt"
 check "negative number not echoed as 2^64-5" not grep -q 18446744073709551611 "$tmp/err.txt"
 "$render" --out "" 2> "$tmp/err.txt"

@@ -21,6 +21,7 @@
 
 #include "check.h"
 #include "test_adapter.h"
+#include "corvid/image_metrics.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_procedural.h"
 #include "corvid/trace_cpu.h"
@@ -398,7 +399,8 @@ static cv_result render_once(const cv_scene *scene, const cv_bvh *bvh, const cv_
  * measured +0.0052 and +0.0048 with the position/normal-only filter
  * (not the issue's +0.15: at this size and sun cone the room's umbrae are
  * wider than the old filter's reach across surfaces), +0.0030 and +0.0000
- * with the variance-guided one. Tolerances: 0.01 after 1 frame, 0.002
+ * with the variance-guided one, +0.0010 and +0.0000 with its penumbra-aware
+ * shadow kernel. Tolerances: 0.01 after 1 frame, 0.002
  * after 64 (where the old filter's +0.005 fails). */
 #define UMBRA_TOLERANCE_1 0.01
 #define UMBRA_TOLERANCE_64 0.002
@@ -449,8 +451,8 @@ static void check_filter_keeps_umbra(const cv_scene *scene, const cv_bvh *bvh) {
 /* Defect 5, one frame: at 64x36, 4 AO rays, the filtered shadow and AO after
  * one frame against a 256-sample reference (converged to ~0.03 per pixel at
  * worst): RMSE below the unfiltered frame's and below ONE_FRAME_RMSE_*
- * (measured 0.0289 and 0.0638, unfiltered 0.0304 and 0.0669), mean bias
- * within 0.01. */
+ * (measured 0.0289 and 0.0638 before the penumbra-aware shadow kernel, 0.0239
+ * and 0.0630 with it; unfiltered 0.0304 and 0.0669), mean bias within 0.01. */
 #define ONE_FRAME_RMSE_SHADOW 0.035
 #define ONE_FRAME_RMSE_AO 0.07
 static void check_filter_one_frame(const cv_scene *scene, const cv_bvh *bvh) {
@@ -484,7 +486,9 @@ static void check_filter_one_frame(const cv_scene *scene, const cv_bvh *bvh) {
 /* Defect 5, converged: after 1024 frames (1 AO ray) every pixel's variance of
  * the mean is below the filter's threshold (a binary shadow ray: at most
  * 0.25 / 1024), so the filter leaves the accumulation as it is: filtered
- * equals unfiltered within 1e-4 on every pixel. */
+ * equals unfiltered within 1e-4 on every pixel. And issue 11's goal for the
+ * unfiltered accumulation: its mean bias against a 1024-sample reference (1
+ * AO ray, as the frames) is below 0.002 for shadow and AO. */
 static void check_filter_converged(const cv_scene *scene, const cv_bvh *bvh) {
     enum { CW = 64, CH = 36 };
     cv_render_settings s = { .width = CW, .height = CH, .frames = 1024, .ao_samples = 1 };
@@ -504,8 +508,71 @@ static void check_filter_converged(const cv_scene *scene, const cv_bvh *bvh) {
                 worst, over);
         CHECK(worst <= 1e-4);
     }
+    cv_render_output ref = { 0 };
+    CHECK_OK(cv_render_reference(scene, bvh, &s, 1024, 2, &ref));
+    if (raw.visibility && ref.visibility) {
+        vis_error e[2] = { vis_compare(&raw, &ref, 0, NULL), vis_compare(&raw, &ref, 1, NULL) };
+        fprintf(stderr, "1024 frames unfiltered vs 1024 samples (%u px): bias shadow %+.5f, AO %+.5f\n", e[0].pixels,
+                e[0].bias, e[1].bias);
+        CHECK(e[0].pixels > CW * CH / 2);
+        CHECK(fabs(e[0].bias) < 0.002 && fabs(e[1].bias) < 0.002);
+    }
+    cv_render_output_free(&ref);
     cv_render_output_free(&filtered);
     cv_render_output_free(&raw);
+}
+
+/* Issue 11's one-frame goals on the room at 160x90 (4 AO rays, 3 filter
+ * iterations): the filtered shadow and AO of one frame against the reference,
+ * over the pixels both cover at the same point, with cv_image_metrics (what
+ * corvid-compare prints). The reference here has ROOM_REFERENCE_SAMPLES = 256
+ * samples (the figures in docs/renderer-quality.md are against 4096; 1024
+ * took the test past its 300 s under ASan).
+ * Pixels whose G-buffer point is not the reference's (silhouettes, raster vs
+ * ray) are left out, which corvid-compare does not do. Measured: shadow RMSE
+ * 0.0207, SSIM 0.9929; AO RMSE 0.0461, SSIM 0.9299 (against 1024 samples
+ * 0.0204 / 0.9930 and 0.0458 / 0.9308; before the penumbra-aware shadow
+ * kernel and sigma_l 8 in the first frames, against 1024: 0.0245 / 0.9922 and
+ * 0.0467 / 0.9292). Goals RMSE 0.02, SSIM 0.97:
+ * shadow meets SSIM and comes within 0.0005 of the RMSE; AO meets neither.
+ * The tolerances are a little looser than measured, so a regression fails. */
+#define ROOM_REFERENCE_SAMPLES 256
+#define ROOM_SHADOW_RMSE 0.022
+#define ROOM_SHADOW_SSIM 0.990
+#define ROOM_AO_RMSE 0.048
+#define ROOM_AO_SSIM 0.925
+static void check_room_one_frame(const cv_scene *scene, const cv_bvh *bvh) {
+    enum { RW = 160, RH = 90 };
+    cv_render_settings s = { .width = RW, .height = RH, .frames = 1 };
+    cv_render_output ref = { 0 }, out = { 0 };
+    CHECK_OK(cv_render_reference(scene, bvh, &s, ROOM_REFERENCE_SAMPLES, 2, &ref));
+    CHECK_OK(render_once(scene, bvh, &s, &out));
+    uint8_t *mask = calloc(RW * RH, 1);
+    float *a = malloc(RW * RH * sizeof(float)), *b = malloc(RW * RH * sizeof(float));
+    if (ref.visibility && out.visibility && mask && a && b) {
+        for (uint32_t i = 0; i < RW * RH; i++)
+            mask[i] = same_point(&out, &ref, i);
+        cv_image_metrics m[2];
+        for (int c = 0; c < 2; c++) {
+            for (uint32_t i = 0; i < RW * RH; i++)
+                a[i] = ref.visibility[i * 4 + c], b[i] = out.visibility[i * 4 + c];
+            CHECK_OK(cv_image_metrics_f32(a, b, mask, RW, RH, 1.0, &m[c]));
+        }
+        fprintf(stderr,
+                "room %ux%u, 1 frame filtered vs %u samples (%llu px): shadow RMSE %.4f SSIM %.4f bias %+.4f; "
+                "AO RMSE %.4f SSIM %.4f bias %+.4f\n",
+                RW, RH, ROOM_REFERENCE_SAMPLES, (unsigned long long)m[0].pixels, m[0].rmse, m[0].ssim, m[0].bias,
+                m[1].rmse, m[1].ssim, m[1].bias);
+        CHECK(m[0].pixels > RW * RH / 2);
+        CHECK(m[0].rmse < ROOM_SHADOW_RMSE && m[0].ssim > ROOM_SHADOW_SSIM);
+        CHECK(m[1].rmse < ROOM_AO_RMSE && m[1].ssim > ROOM_AO_SSIM);
+        CHECK(fabs(m[0].bias) < 0.005 && fabs(m[1].bias) < 0.005);
+    }
+    free(mask);
+    free(a);
+    free(b);
+    cv_render_output_free(&ref);
+    cv_render_output_free(&out);
 }
 
 int main(void) {
@@ -520,6 +587,7 @@ int main(void) {
         check_filter_keeps_umbra(scene, bvh);
         check_filter_one_frame(scene, bvh);
         check_filter_converged(scene, bvh);
+        check_room_one_frame(scene, bvh);
     }
     check_sphere_unoccluded();
     CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);

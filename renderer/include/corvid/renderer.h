@@ -5,7 +5,8 @@
  *   all devices:  ray generation for their columns (sun shadow rays in a cone,
  *                 cosine AO rays), trace_rays (any hit), resolve to visibility
  *   -> primary:   each device's visibility columns are copied back
- *   primary:      temporal accumulation, edge-avoiding a-trous filter,
+ *   primary:      temporal accumulation (reprojected with motion vectors when
+ *                 the camera orbits), edge-avoiding a-trous filter,
  *                 composite (sun + sky light, emission) to linear HDR
  *
  * Columns are split with partition/ (tile-snapped, rebalanced every frame from
@@ -42,6 +43,15 @@ typedef struct cv_render_settings {
                                  * another's sequence; tests render single frames of a sequence) */
     const cv_render_observer *observer; /* [NULL] called after every frame with its timings
                                          * (corvid/render_observer.h); NULL = none */
+    /* View and light controls (corvid-render --camera, --sun, --orbit); zeros keep the scene's. */
+    float camera_eye[3];      /* with camera_fov_degrees > 0, the camera at camera_eye looks at */
+    float camera_target[3];   /* camera_target, up +y (+z when it looks straight up or down) */
+    float camera_fov_degrees; /* [0 = the scene's camera, `camera`] vertical field of view, (0, 180) */
+    float sun_toward[3];      /* [0,0,0 = the scene's sun] direction toward the sun, any length > 0;
+                               * its cone is sun_cone_degrees */
+    float orbit_degrees;      /* [0] the camera turns by this much per frame (sample index) about the
+                               * vertical axis (its up) through its target: a moving camera, whose
+                               * G-buffer runs every frame and whose history is reprojected */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
@@ -78,7 +88,10 @@ typedef struct cv_render_output {
                         * visible surface (camera distance, not view-plane depth); +infinity on sky */
     float *direct;     /* direct sun light as the composite adds it (albedo * sun * N.L * sun visibility / pi),
                         * derived on the host from albedo, normal and visibility; alpha 1 on geometry */
-    float *motion;     /* RGBA: x, y = screen-space motion in pixels (the EXR's motion.X, motion.Y) */
+    float *motion;     /* NULL unless produced (cv_renderer_render): xy = where the pixel's surface
+                        * was in the previous frame's image minus the pixel centre, in pixels (the EXR's motion.X, motion.Y)
+                        * (0 for a still camera and on sky), z = the pixel's history length in
+                        * frames (this one included), w = 1 where the history was reprojected */
     float *reflection; /* RGBA: reflected radiance (the EXR's reflection.R, G, B) */
 } cv_render_output;
 
@@ -109,11 +122,27 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot);
  * and samples * ao_samples cosine AO rays, any-hit with scene/'s cv_trace_ray,
  * with the same ray rules (origin offset along the geometric normal, below the
  * surface = shadowed, AO mirrored above the geometric plane), accumulated in
- * float32, shaded as render.composite (unfiltered). frames, tile, band_rays,
- * filter_iterations, first_frame and observer are ignored. `threads` pthreads (0 = 2).
+ * float32, shaded as render.composite (unfiltered), seen by the camera of the
+ * GPU image's frame (first_frame + frames - 1, which only an orbit changes);
+ * tile, band_rays, filter_iterations and observer are ignored, motion is not
+ * produced (NULL). `threads` pthreads (0 = 2).
  * Fills *out like cv_renderer_render; failures leave it untouched. */
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out);
+
+/* Checks the view and light controls of `s`: finite numbers, camera_fov_degrees
+ * 0 or in (0, 180) with camera_eye != camera_target, sun_toward not 0,0,0 when
+ * set (any finite value is "set"), sun_cone_degrees below 90. The error names
+ * the field and its value; cv_renderer_render and cv_render_reference check
+ * the same. */
+cv_result cv_render_settings_check(const cv_render_settings *s);
+
+/* The camera of sample index `frame` (first_frame + the frame of a render):
+ * camera_eye/target/fov if set, else the scene's camera `camera` (a framing
+ * camera if the scene has none), turned by orbit_degrees * frame about the
+ * vertical axis through its target. The CPU reference renders the camera of
+ * first_frame + frames - 1, the frame cv_renderer_render's image shows. */
+cv_camera cv_render_camera(const cv_render_settings *s, const cv_scene *scene, uint32_t frame);
 
 /* The settings with defaults filled in for this scene. */
 cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene);
