@@ -39,6 +39,10 @@ typedef struct cv_render_settings {
     uint32_t first_frame;      /* [0] sample index of the first frame: frames draw the sample sets of
                                  * first_frame .. first_frame + frames - 1 (a render can continue
                                  * another's sequence; tests render single frames of a sequence) */
+    int32_t reflections;       /* [1] 1 = GGX reflections (one ray per pixel per frame, shaded with the
+                                 * sun, a shadow ray and the sky), -1 = none (no specular term) */
+    int32_t reflection_radius; /* [2] spatial reuse radius of the reflection filter, pixels (0..8);
+                                 * -1 = none (every pixel keeps its own samples) */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
@@ -70,6 +74,8 @@ typedef struct cv_render_output {
     float *position;   /* world position, w = 1 on geometry */
     float *visibility; /* r = sun visibility, g = ambient occlusion (filtered; accumulated in
                                  * float32), b, a = their mean squares over the frames (unfiltered) */
+    float *reflection; /* rgb = reflected radiance (GGX sample weight G2 / G1 applied, Fresnel not:
+                        * radiance adds F * reflection), a = 1 on geometry; NULL without reflections */
 } cv_render_output;
 
 typedef struct cv_renderer cv_renderer;
