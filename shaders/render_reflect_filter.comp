@@ -2,23 +2,37 @@
 // (render.reflect_shade) and their running mean over frames (seed 000,
 // reflections: spatial reuse of the neighbours' rays, then temporal
 // accumulation; the camera is still, so no reprojection).
+// Two running means are kept: of the reconstructed estimate (low variance,
+// a little bias from reuse) and of the pixel's own samples (unbiased, the
+// CPU reference's estimator); the output blends them per pixel by their
+// estimated errors (luminance): alpha = v_own / (v_own + v_reuse + b^2), with
+// v = variance of each mean (from its second moment, / frames) and b^2 =
+// max(0, (reuse - own)^2 - v_own) the reuse's squared bias, so a pixel moves
+// from the reconstruction to its own samples as they converge (before 4
+// frames: the reconstruction).
 // Spatial reuse (radius > 0, not on mirrors): every neighbour q within
 // `radius` pixels whose surface is p's (shading normals within ~25 degrees,
 // q on p's tangent plane within plane_sigma, roughness within 0.1) lends its
 // sample as if p had drawn it: q's direction l_q is drawn again
 // (render_reflect_common.glsl, same pixel and frame), its hit point seen
-// from p gives p's direction l (the sky: l_q), and the sample counts with the
-// ratio BRDF_p(l) cos / pdf_q(l_q) (Fresnel is render.composite's). The
-// estimate is the mean over the neighbours (a lost sample counts as 0), so a
-// pixel alone gives its own G2 / G1 * L, the estimator of the CPU reference.
-// Mirrors (alpha < ALPHA_MIRROR) keep their own sample.
+// from p gives p's direction l (the sky: l_q), and the sample is weighted by
+// the ratio w = BRDF_p(l) cos / pdf_q(l_q) (Fresnel is render.composite's).
+// The estimate is the ratio estimator E_p * sum(w L) / sum(w) (Stachowiak
+// 2015, stochastic screen-space reflections), where E_p, the integral of
+// BRDF_p cos over the hemisphere (the mean sample weight G2 / G1, lost
+// samples 0), is computed without tracing from 16 stratified VNDF samples.
+// Lost samples of neighbours carry no radiance and are skipped. Mirrors
+// (alpha < ALPHA_MIRROR) and radius 0 keep their own sample, G2 / G1 * L:
+// the estimator of the CPU reference.
 // Push: { uint width; uint height; uint frame (sample index, as
 //         render.reflect_raygen's); uint accumulated (frames before this one
 //         in the running mean); vec4 camera (xyz = eye, w = plane_sigma);
 //         int radius; uint material_count; uint pad[2]; }.
 // i0: G-buffer positions, i1: G-buffer normals (w = material), b2: Material[],
-// i3: this frame's samples (RGBA32F), i4: history (RGBA32F: rgb = mean
-// reflected radiance, a = 1 on geometry, 0 elsewhere; read and written).
+// i3: this frame's samples (RGBA32F), i4: reconstruction history, i5: own
+// history (RGBA32F: rgb = mean, a = mean squared luminance; read and
+// written), i6: output (RGBA32F: rgb = reflected radiance, a = 1 on
+// geometry, 0 elsewhere).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_reflect_common.glsl"
@@ -46,6 +60,22 @@ layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
 layout(set = 0, binding = 2, std430) readonly buffer Materials { Material materials[]; };
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D samples;
 layout(set = 0, binding = 4, rgba32f) uniform image2D history;
+layout(set = 0, binding = 5, rgba32f) uniform image2D own_history;
+layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D result;
+
+const uint BLEND_FRAMES = 16u;
+
+float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
+// The running mean h of (rgb, luminance^2) with this frame's m; the variance of its mean in *v.
+vec4 accumulate(vec4 h, vec3 c, out float v) {
+    float y = luminance(c);
+    vec4 m = vec4(c, y * y);
+    h = pc.accumulated == 0u ? m : h + (m - h) / float(pc.accumulated + 1u);
+    float n = float(pc.accumulated + 1u), my = luminance(h.rgb);
+    v = max(h.a - my * my, 0.0) / n;
+    return h;
+}
 
 float roughness_of(float w) { return materials[min(uint(w), pc.material_count - 1u)].base_color_roughness.w; }
 
@@ -56,21 +86,32 @@ void main() {
     vec4 pos = imageLoad(gbuffer_position, p);
     if (pos.w == 0.0) {
         imageStore(history, p, vec4(0.0));
+        imageStore(own_history, p, vec4(0.0));
+        imageStore(result, p, vec4(0.0));
         return;
     }
     vec4 nm = imageLoad(gbuffer_normal, p);
     vec3 ng = unpack_normal(pos.w), v = normalize(pc.camera.xyz - pos.xyz);
     float roughness = roughness_of(nm.w), alpha = roughness * roughness;
-    vec3 estimate = vec3(0.0);
-    if (pc.radius <= 0 || alpha < ALPHA_MIRROR) {
+    vec3 own = vec3(0.0), estimate = vec3(0.0);
+    {
         vec4 s = imageLoad(samples, p);
         vec3 l;
         float weight;
         if (s.a >= 0.0 && reflect_sample(v, nm.xyz, ng, roughness, reflect_sample_point(uvec2(p), pc.frame), l, weight))
-            estimate = s.rgb * weight;
-    } else {
+            own = s.rgb * weight;
+    }
+    bool reuse = pc.radius > 0 && alpha >= ALPHA_MIRROR;
+    if (reuse) {
         vec3 sum = vec3(0.0);
-        float count = 0.0;
+        float total = 0.0, albedo = 0.0;
+        for (uint k = 0u; k < 16u; k++) {
+            vec3 l;
+            float weight;
+            vec2 u = (vec2(float(k & 3u), float(k >> 2u)) + 0.5) / 4.0;
+            if (reflect_sample(v, nm.xyz, ng, roughness, u, l, weight))
+                albedo += weight / 16.0;
+        }
         for (int dy = -pc.radius; dy <= pc.radius; dy++)
             for (int dx = -pc.radius; dx <= pc.radius; dx++) {
                 ivec2 q = p + ivec2(dx, dy);
@@ -84,7 +125,6 @@ void main() {
                 if (dot(nm.xyz, qnm.xyz) < 0.9 || abs(dot(nm.xyz, qpos.xyz - pos.xyz)) > pc.camera.w ||
                     abs(qrough - roughness) > 0.1 || qalpha < ALPHA_MIRROR)
                     continue;
-                count += 1.0;
                 vec4 s = imageLoad(samples, q);
                 if (s.a < 0.0)
                     continue;
@@ -95,18 +135,32 @@ void main() {
                     continue;
                 if (q == p) {
                     sum += s.rgb * qweight;
+                    total += qweight;
                     continue;
                 }
                 vec3 l = s.a >= 1e29 ? lq : normalize(qpos.xyz + lq * s.a - pos.xyz);
                 if (dot(l, ng) <= 0.0)
                     continue;
                 float pdf = ggx_pdf(qv, qnm.xyz, lq, qalpha);
-                if (pdf > 0.0)
-                    sum += s.rgb * (ggx_brdf_cos(v, nm.xyz, l, alpha) / pdf);
+                if (pdf > 0.0) {
+                    float w = ggx_brdf_cos(v, nm.xyz, l, alpha) / pdf;
+                    sum += s.rgb * w;
+                    total += w;
+                }
             }
-        estimate = count > 0.0 ? sum / count : vec3(0.0);
+        estimate = total > 0.0 ? sum * (albedo / total) : vec3(0.0);
     }
-    vec4 m = vec4(estimate, 1.0);
-    vec4 h = pc.accumulated == 0u ? m : imageLoad(history, p);
-    imageStore(history, p, h + (m - h) / float(pc.accumulated + 1u));
+    float v_own, v_reuse;
+    vec4 ho = accumulate(imageLoad(own_history, p), own, v_own);
+    imageStore(own_history, p, ho);
+    vec3 color = ho.rgb;
+    if (reuse) {
+        vec4 hr = accumulate(imageLoad(history, p), estimate, v_reuse);
+        imageStore(history, p, hr);
+        v_own = max(v_own, v_reuse);
+        float d = luminance(hr.rgb) - luminance(ho.rgb), b2 = max(d * d - v_own, 0.0);
+        float a = pc.accumulated + 1u < BLEND_FRAMES ? 1.0 : v_own / max(v_own + v_reuse + b2, 1e-20);
+        color = mix(ho.rgb, hr.rgb, a);
+    }
+    imageStore(result, p, vec4(color, 1.0));
 }

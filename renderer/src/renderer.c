@@ -29,9 +29,9 @@ enum {
     PIPE_COUNT
 };
 static const char *pipeline_names[PIPE_COUNT] = {
-    "render.gbuffer",        "render.raygen",         "render.resolve",       "render.accumulate",
-    "render.filter",         "render.composite",      "render.reflect_raygen", "render.reflect_shadow",
-    "render.reflect_shade",  "render.reflect_filter",
+    "render.gbuffer",       "render.raygen",         "render.resolve",        "render.accumulate",
+    "render.filter",        "render.composite",      "render.reflect_raygen", "render.reflect_shadow",
+    "render.reflect_shade", "render.reflect_filter",
 };
 
 /* Size-dependent textures; `everywhere` ones are loaded on every device. */
@@ -47,6 +47,8 @@ enum {
     TEX_ALBEDO,
     TEX_REFLECT,
     TEX_REFLECT_HISTORY,
+    TEX_REFLECT_OWN,
+    TEX_REFLECT_OUT,
     TEX_COUNT
 };
 static const struct {
@@ -67,7 +69,9 @@ static const struct {
     [TEX_RADIANCE] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "radiance" },
     [TEX_ALBEDO] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "albedo" },
     [TEX_REFLECT] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, true, "reflection samples" },
-    [TEX_REFLECT_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection" },
+    [TEX_REFLECT_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection history" },
+    [TEX_REFLECT_OWN] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection own history" },
+    [TEX_REFLECT_OUT] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection" },
 };
 
 /* Resources the frame graph names: the textures above (imported: the
@@ -79,11 +83,11 @@ enum {
     BUF_LIGHTS,
     BUF_RAYS,
     BUF_HITS,
-    BUF_INSTANCES,     /* instance -> its first triangle in the vertex list (reflection hits) */
-    BUF_REFLECT_RAYS,  /* transients of pass 'reflect', one band each: reflection rays, */
-    BUF_REFLECT_HITS,  /* their closest hits, */
-    BUF_SHADOW_RAYS,   /* shadow rays from those hits */
-    BUF_SHADOW_HITS,   /* and their any hits */
+    BUF_INSTANCES,    /* instance -> its first triangle in the vertex list (reflection hits) */
+    BUF_REFLECT_RAYS, /* transients of pass 'reflect', one band each: reflection rays, */
+    BUF_REFLECT_HITS, /* their closest hits, */
+    BUF_SHADOW_RAYS,  /* shadow rays from those hits */
+    BUF_SHADOW_HITS,  /* and their any hits */
     BUF_COUNT
 };
 
@@ -103,10 +107,10 @@ struct cv_renderer {
      * iterations or the ray buffers' size change). */
     cv_graph *graph;
     uint32_t graph_iterations;
-    uint32_t graph_frames; /* frames of this render call: the filter's history length */
-    uint64_t graph_rays;   /* rays the ray and hit buffers hold */
-    bool graph_reflect;           /* the graph has passes 'reflect' and 'reflect_filter' */
-    uint64_t graph_reflect_rays;  /* rays each of the reflect pass's buffers holds */
+    uint32_t graph_frames;       /* frames of this render call: the filter's history length */
+    uint64_t graph_rays;         /* rays the ray and hit buffers hold */
+    bool graph_reflect;          /* the graph has passes 'reflect' and 'reflect_filter' */
+    uint64_t graph_reflect_rays; /* rays each of the reflect pass's buffers holds */
     cv_graph_resource tex[TEX_COUNT], buf[BUF_COUNT];
     cv_graph_pass gbuffer_pass, filter_pass, composite_pass;
     /* What the passes record this frame (set before each bake, read by the
@@ -431,7 +435,8 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
     cv_renderer *r = user;
     const cv_render_settings *s = &r->settings;
     cv_column_range cols = { pc->x, pc->width };
-    cv_buffer rays = cv_graph_buffer(pc, r->buf[BUF_REFLECT_RAYS]), hits = cv_graph_buffer(pc, r->buf[BUF_REFLECT_HITS]),
+    cv_buffer rays = cv_graph_buffer(pc, r->buf[BUF_REFLECT_RAYS]),
+              hits = cv_graph_buffer(pc, r->buf[BUF_REFLECT_HITS]),
               shadow_rays = cv_graph_buffer(pc, r->buf[BUF_SHADOW_RAYS]),
               shadow_hits = cv_graph_buffer(pc, r->buf[BUF_SHADOW_HITS]);
     cv_binding positions = bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
@@ -548,15 +553,17 @@ static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_li
                s->reflection_radius,
                r->data.material_count,
                { 0, 0 } };
-    cv_binding b[5] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
+    cv_binding b[7] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])),
                         bind_buffer(cv_graph_buffer(pc, r->buf[BUF_MATERIALS])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT])),
-                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_HISTORY])) };
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_HISTORY])),
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_OWN])),
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_OUT])) };
     cv_cmd_dispatch(l, pc->queue,
                     &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_FILTER],
                                          .bindings = b,
-                                         .bindings_count = 5,
+                                         .bindings_count = 7,
                                          .push = &push,
                                          .push_size = sizeof(push),
                                          .groups_x = groups(r->width, 8),
@@ -613,16 +620,16 @@ static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_lis
         float sun[4], sun_color[4], sky[4];
         uint32_t width, height, material_count, light_count;
         float camera[4]; /* w: 1 = add the reflection */
-    } push = { { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
-                 r->data.sun_irradiance },
-               { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
-               { 0.12f, 0.15f, 0.2f, 0.0f },
-               r->width,
-               r->height,
-               r->data.material_count,
-               r->data.light_count,
-               { r->camera.position[0], r->camera.position[1], r->camera.position[2],
-                 r->graph_reflect ? 1.0f : 0.0f } };
+    } push = {
+        { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2], r->data.sun_irradiance },
+        { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
+        { 0.12f, 0.15f, 0.2f, 0.0f },
+        r->width,
+        r->height,
+        r->data.material_count,
+        r->data.light_count,
+        { r->camera.position[0], r->camera.position[1], r->camera.position[2], r->graph_reflect ? 1.0f : 0.0f }
+    };
     cv_binding b[8] = { bind_texture(r->textures[TEX_POSITION]),
                         bind_texture(r->textures[TEX_NORMAL]),
                         bind_texture(r->textures[filtered_texture(iterations)]),
@@ -630,7 +637,7 @@ static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_lis
                         bind_texture(r->textures[TEX_RADIANCE]),
                         bind_texture(r->textures[TEX_ALBEDO]),
                         bind_buffer(r->lights),
-                        bind_texture(r->textures[TEX_REFLECT_HISTORY]) };
+                        bind_texture(r->textures[TEX_REFLECT_OUT]) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "composite" });
     cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
                     &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_COMPOSITE],
@@ -724,7 +731,7 @@ static cv_result read_output(cv_renderer *r, uint32_t iterations, cv_render_outp
         res = cv_device_read_texture(p, r->textures[filtered_texture(iterations)], all, out->visibility);
     if (res == CV_OK && r->graph_reflect) {
         out->reflection = malloc(n * sizeof(float));
-        res = out->reflection ? cv_device_read_texture(p, r->textures[TEX_REFLECT_HISTORY], all, out->reflection)
+        res = out->reflection ? cv_device_read_texture(p, r->textures[TEX_REFLECT_OUT], all, out->reflection)
                               : cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: reflection plane");
     }
     if (res != CV_OK)
@@ -841,7 +848,10 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_REFLECT], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_REFLECT_HISTORY], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_REFLECT_OWN], CV_GRAPH_STORAGE_READ);
         WRITE(r->tex[TEX_REFLECT_HISTORY], CV_GRAPH_STORAGE_WRITE);
+        WRITE(r->tex[TEX_REFLECT_OWN], CV_GRAPH_STORAGE_WRITE);
+        WRITE(r->tex[TEX_REFLECT_OUT], CV_GRAPH_STORAGE_WRITE);
     }
     PASS("accumulate", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_accumulate);
     READ(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_READ);
@@ -866,7 +876,7 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
     READ(r->buf[BUF_LIGHTS], CV_GRAPH_STORAGE_READ);
     if (reflect)
-        READ(r->tex[TEX_REFLECT_HISTORY], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_REFLECT_OUT], CV_GRAPH_STORAGE_READ);
     WRITE(r->tex[TEX_RADIANCE], CV_GRAPH_STORAGE_WRITE);
     WRITE(r->tex[TEX_ALBEDO], CV_GRAPH_STORAGE_WRITE);
     r->composite_pass = p;
@@ -879,6 +889,10 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         res = cv_graph_output(g, r->tex[TEX_HISTORY]);
     if (res == CV_OK && reflect)
         res = cv_graph_output(g, r->tex[TEX_REFLECT_HISTORY]);
+    if (res == CV_OK && reflect)
+        res = cv_graph_output(g, r->tex[TEX_REFLECT_OWN]);
+    if (res == CV_OK && reflect)
+        res = cv_graph_output(g, r->tex[TEX_REFLECT_OUT]);
     if (res == CV_OK)
         res = cv_graph_output(g, r->tex[TEX_RADIANCE]);
     if (res == CV_OK)
