@@ -38,6 +38,9 @@ static void usage(FILE *f) {
             "  --ao-samples N     ambient occlusion rays per pixel per frame, 1..%u (default 4;\n"
             "                     AO cannot be turned off, so 0 is refused)\n"
             "  --ao-radius M      AO ray length in scene units, > 0 (default 2%% of the scene diagonal)\n"
+            "  --reflections on|off  GGX reflections (default on; off: no specular term)\n"
+            "  --reflect-radius N spatial reuse radius of the reflection filter, pixels, 0..8 (default 1;\n"
+            "                     0 = every pixel keeps its own samples)\n"
             "  --exposure EV      exposure of the PNG in stops (default 0)\n"
             "  --reference N      render the CPU reference instead (ground truth for the renderer's\n"
             "                     image model): N samples per pixel, 1..65536, unfiltered, float32\n"
@@ -156,6 +159,22 @@ static bool opt_filter(options *o, const char *name, const char *value) {
     return true;
 }
 
+static bool opt_reflections(options *o, const char *name, const char *value) {
+    if (strcmp(value, "on") == 0 || strcmp(value, "off") == 0) {
+        o->settings.reflections = strcmp(value, "on") == 0 ? 1 : -1;
+        return true;
+    }
+    return refuse(name, value, "on or off");
+}
+
+static bool opt_reflect_radius(options *o, const char *name, const char *value) {
+    uint32_t n;
+    if (!set_u32(name, value, 0, 8, &n))
+        return false;
+    o->settings.reflection_radius = n ? (int32_t)n : -1;
+    return true;
+}
+
 static bool opt_ao_samples(options *o, const char *name, const char *value) {
     return set_u32(name, value, 1, MAX_AO_SAMPLES, &o->settings.ao_samples);
 }
@@ -239,6 +258,8 @@ static const struct option_def {
     { "--filter", true, opt_filter },
     { "--ao-samples", true, opt_ao_samples },
     { "--ao-radius", true, opt_ao_radius },
+    { "--reflections", true, opt_reflections },
+    { "--reflect-radius", true, opt_reflect_radius },
     { "--exposure", true, opt_exposure },
     { "--reference", true, opt_reference },
     { "--out", true, opt_out },

@@ -698,7 +698,7 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
     if (s.reflections == 0)
         s.reflections = 1;
     if (s.reflection_radius == 0)
-        s.reflection_radius = 2;
+        s.reflection_radius = 1;
     if (s.reflection_radius < 0)
         s.reflection_radius = 0;
     return s;

@@ -41,7 +41,7 @@ typedef struct cv_render_settings {
                                  * another's sequence; tests render single frames of a sequence) */
     int32_t reflections;       /* [1] 1 = GGX reflections (one ray per pixel per frame, shaded with the
                                  * sun, a shadow ray and the sky), -1 = none (no specular term) */
-    int32_t reflection_radius; /* [2] spatial reuse radius of the reflection filter, pixels (0..8);
+    int32_t reflection_radius; /* [1] spatial reuse radius of the reflection filter, pixels (0..8);
                                  * -1 = none (every pixel keeps its own samples) */
 } cv_render_settings;
 
