@@ -1,8 +1,10 @@
 /* One hybrid frame across N devices (see renderer.h), declared as a render
  * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame), 'trace'
- * (every device, over its column window), 'accumulate' (primary), 'filter'
- * and 'composite' (primary, last frame). The graph multicasts the G-buffer,
- * copies the secondaries' visibility windows back, places barriers and
+ * (every device, over its column window), with reflections 'reflect' (every
+ * device, its window) and 'reflect_filter' (primary), 'accumulate'
+ * (primary), 'filter' and 'composite' (primary, last frame). The graph
+ * multicasts the G-buffer, copies the secondaries' visibility and reflection
+ * windows back, places barriers and
  * balances the columns from the trace times; no pass sees the device count. */
 #include "corvid/renderer.h"
 

@@ -3,10 +3,14 @@
  *   primary:      G-buffer raster (world position, normal, material)
  *   primary ->    each device gets the G-buffer columns of its partition
  *   all devices:  ray generation for their columns (sun shadow rays in a cone,
- *                 cosine AO rays), trace_rays (any hit), resolve to visibility
- *   -> primary:   each device's visibility columns are copied back
+ *                 cosine AO rays), trace_rays (any hit), resolve to visibility;
+ *                 reflections: one GGX-sampled ray per pixel (closest hit),
+ *                 a shadow ray at each hit, shading of the hit
+ *   -> primary:   each device's visibility and reflection columns are copied back
  *   primary:      temporal accumulation, edge-avoiding a-trous filter,
- *                 composite (sun + sky light, emission) to linear HDR
+ *                 reflection reconstruction (spatial reuse) and accumulation,
+ *                 composite (sun + sky light, emission, Fresnel times the
+ *                 reflection; metal/roughness materials) to linear HDR
  *
  * Columns are split with partition/ (tile-snapped, rebalanced every frame from
  * each device's measured trace time). Devices are any cv_device: virtual GPUs on
@@ -105,8 +109,12 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot);
  * and samples * ao_samples cosine AO rays, any-hit with scene/'s cv_trace_ray,
  * with the same ray rules (origin offset along the geometric normal, below the
  * surface = shadowed, AO mirrored above the geometric plane), accumulated in
- * float32, shaded as render.composite (unfiltered). frames, tile, band_rays,
- * filter_iterations and first_frame are ignored. `threads` pthreads (0 = 2).
+ * float32, shaded as render.composite (unfiltered). With reflections on,
+ * `samples` GGX reflection samples per pixel (renderer/src/reflect_model.h,
+ * from their own random stream), each shaded at its closest hit as
+ * render.reflect_shade (sun with a shadow ray, emission; the sky on a miss),
+ * fill the reflection plane (unreconstructed). frames, tile, band_rays,
+ * filter_iterations, first_frame and reflection_radius are ignored. `threads` pthreads (0 = 2).
  * Fills *out like cv_renderer_render; failures leave it untouched. */
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out);
