@@ -41,6 +41,8 @@ static void usage(FILE *f) {
             "  --reflections on|off  GGX reflections (default on; off: no specular term)\n"
             "  --reflect-radius N spatial reuse radius of the reflection filter, pixels, 0..8 (default 1;\n"
             "                     0 = every pixel keeps its own samples)\n"
+            "  --reflection-scale S  1 (default) or 0.5: half resolution, one reflection ray per 2x2\n"
+            "                     pixels per frame\n"
             "  --exposure EV      exposure of the PNG in stops (default 0)\n"
             "  --reference N      render the CPU reference instead (ground truth for the renderer's\n"
             "                     image model): N samples per pixel, 1..65536, unfiltered, float32\n"
@@ -175,6 +177,13 @@ static bool opt_reflect_radius(options *o, const char *name, const char *value) 
     return true;
 }
 
+static bool opt_reflection_scale(options *o, const char *name, const char *value) {
+    if (strcmp(value, "1") != 0 && strcmp(value, "0.5") != 0)
+        return refuse(name, value, "1 or 0.5");
+    o->settings.reflection_scale = strcmp(value, "1") == 0 ? 1.0f : 0.5f;
+    return true;
+}
+
 static bool opt_ao_samples(options *o, const char *name, const char *value) {
     return set_u32(name, value, 1, MAX_AO_SAMPLES, &o->settings.ao_samples);
 }
@@ -260,6 +269,7 @@ static const struct option_def {
     { "--ao-radius", true, opt_ao_radius },
     { "--reflections", true, opt_reflections },
     { "--reflect-radius", true, opt_reflect_radius },
+    { "--reflection-scale", true, opt_reflection_scale },
     { "--exposure", true, opt_exposure },
     { "--reference", true, opt_reference },
     { "--out", true, opt_out },

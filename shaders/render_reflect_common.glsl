@@ -10,6 +10,9 @@
 // A pixel's sample depends only on the pixel and the frame: a Halton (2, 3)
 // point indexed by frame, Cranley-Patterson rotated by a hash of the pixel
 // (another hash than render.raygen's, so it is not the shadow ray's point).
+// At quarter rate a pixel is traced every 4th frame and its point is indexed
+// by frame / 4: a stride-4 subsequence of Halton (2, 3) would keep the first
+// coordinate in one quarter of [0, 1).
 
 const float PI = 3.14159265358979;
 const float ALPHA_MIRROR = 1e-3;
@@ -31,7 +34,9 @@ uint hash(uint x) {
     return x;
 }
 
-vec2 reflect_sample_point(uvec2 pixel, uint frame) {
+vec2 reflect_sample_point(uvec2 pixel, uint frame, bool quarter) {
+    if (quarter)
+        frame /= 4u;
     uint h = hash((pixel.x * 2654435761u) ^ (pixel.y * 40503u) ^ 0x9e3779b9u);
     vec2 rotation = vec2(float(h & 0xFFFFu), float(h >> 16)) / 65536.0;
     uint index = frame + 1u;

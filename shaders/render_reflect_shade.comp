@@ -3,7 +3,8 @@
 // hit, base color * sun (Lambertian, the shadow ray's visibility) + emission
 // (no AO, point lights or further bounces at the hit). Stored as
 // (rgb = radiance L, a = hit distance; 1e30 for the sky, -1 where there is
-// no sample: no geometry, or the sample was lost; rgb 0 then).
+// no sample: no geometry, or the sample was lost; -2 where the pixel was not
+// traced this frame (quarter rate); rgb 0 then).
 // Records are pixel-major over the band (width x height).
 // Push: { uint x0; uint width; uint height; uint y0; vec4 sun (xyz = unit
 //         direction the light travels, w = irradiance); vec4 sun_color;
@@ -55,6 +56,8 @@ void main() {
     uint i = local.y * pc.width + local.x;
     Ray r = rays[i];
     vec4 result = vec4(0.0, 0.0, 0.0, -1.0);
+    if (imageLoad(gbuffer_position, pixel).w != 0.0 && r.tmax == 0.0)
+        result.a = -2.0;
     if (imageLoad(gbuffer_position, pixel).w != 0.0 && r.tmax > 0.0) {
         Hit h = hits[i];
         if (h.triangle == 0xFFFFFFFFu) {

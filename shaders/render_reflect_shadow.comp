@@ -6,7 +6,8 @@
 // triangle's geometric normal on the side the reflection ray came from
 // (render_reflect_hit.glsl); a sun below that side or below the shading
 // normal gets tmax -1: shadowed.
-// Missed or lost reflection rays get empty shadow rays (tmax 0).
+// Missed, lost or untraced reflection rays get empty shadow rays (tmin 1,
+// tmax 0: rejected at the root).
 // One invocation per pixel of the band (width x height, pixel-major records).
 // Push: { uint width; uint height; float bias; uint pad; vec4 sun (xyz = unit
 //         direction the light travels) }.
@@ -39,7 +40,7 @@ void main() {
     Ray r = rays[i];
     Hit h = hits[i];
     if (!(r.tmax > 0.0) || h.triangle == 0xFFFFFFFFu) {
-        shadow_rays[i] = Ray(vec3(0.0), 0.0, vec3(0.0, 0.0, 1.0), 0.0);
+        shadow_rays[i] = Ray(vec3(0.0), 1.0, vec3(0.0, 0.0, 1.0), 0.0);
         return;
     }
     uint first = 3u * (instance_first[h.instance] + h.triangle);

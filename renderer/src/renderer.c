@@ -454,7 +454,7 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
         struct {
             uint32_t x0, width, height, y0;
             float camera[4];
-            uint32_t frame, material_count, pad[2];
+            uint32_t frame, material_count, quarter, pad;
         } gen = { cols.x,
                   cols.width,
                   h,
@@ -462,7 +462,8 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
                   { r->camera.position[0], r->camera.position[1], r->camera.position[2], bias },
                   s->first_frame + r->frame,
                   r->data.material_count,
-                  { 0, 0 } };
+                  s->reflection_scale < 1.0f ? 1u : 0u,
+                  0 };
         struct {
             uint32_t width, height;
             float bias;
@@ -546,15 +547,16 @@ static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_li
         uint32_t width, height, frame, accumulated;
         float camera[4];
         int32_t radius;
-        uint32_t material_count, pad[2];
+        uint32_t material_count, quarter, pad;
     } push = { r->width,
                r->height,
                s->first_frame + r->frame,
                r->frame,
                { r->camera.position[0], r->camera.position[1], r->camera.position[2], r->data.diagonal * 0.01f },
-               s->reflection_radius,
+               s->reflection_scale < 1.0f ? s->reflection_radius + 1 : s->reflection_radius,
                r->data.material_count,
-               { 0, 0 } };
+               s->reflection_scale < 1.0f ? 1u : 0u,
+               0 };
     cv_binding b[7] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])),
                         bind_buffer(cv_graph_buffer(pc, r->buf[BUF_MATERIALS])),
@@ -703,6 +705,8 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
         s.reflection_radius = 1;
     if (s.reflection_radius < 0)
         s.reflection_radius = 0;
+    if (s.reflection_scale == 0.0f)
+        s.reflection_scale = 1.0f;
     return s;
 }
 
@@ -760,6 +764,9 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     if (s->reflection_radius > 8)
         return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflection radius %d pixels (limit 8)",
                         s->reflection_radius);
+    if (s->reflection_scale != 1.0f && s->reflection_scale != 0.5f)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflection scale %g (1 or 0.5)",
+                        (double)s->reflection_scale);
     bool reflect = s->reflections == 1;
     uint64_t reflect_rays = reflect_capacity(r, s);
     if (r->graph && r->graph_iterations == iterations && r->graph_rays == rays && r->graph_reflect == reflect &&

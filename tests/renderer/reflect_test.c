@@ -246,7 +246,7 @@ static void compare_reflection(const cv_render_output *gpu, const cv_render_outp
 
 /* The goal of issue 11: RMSE 0.03 over covered pixels after convergence (64
  * frames), with spatial reuse (the default radius, 1) and without, and |bias|
- * 0.01 (measured: see docs/renderer-quality.md). The reconstruction earns its
+ * 0.01 (measured: see docs/renderer-quality.md); half resolution below. The reconstruction earns its
  * place early: at 4 frames its RMSE is below 3/4 of the unreconstructed one
  * (measured 0.057 vs 0.113). */
 static void check_room_against_reference(const cv_scene *scene, const cv_bvh *bvh) {
@@ -255,23 +255,30 @@ static void check_room_against_reference(const cv_scene *scene, const cv_bvh *bv
     cv_render_output ref = { 0 };
     CHECK_OK(cv_render_reference(scene, bvh, &s, SAMPLES, 2, &ref));
     static const uint32_t frames[2] = { 4, 64 };
-    double rmse[2][2] = { { 0 } }, bias[2][2] = { { 0 } };
+    static const char *modes[3] = { "without reuse", "with reuse (radius 1)", "half resolution (reuse radius 2)" };
+    double rmse[2][3] = { { 0 } }, bias[2][3] = { { 0 } };
     for (int f = 0; f < 2 && ref.reflection; f++)
-        for (int reuse = 0; reuse < 2; reuse++) {
+        for (int mode = 0; mode < 3; mode++) {
             s.frames = frames[f];
-            s.reflection_radius = reuse ? 0 : -1; /* 0: the default, 1 */
+            s.reflection_radius = mode ? 0 : -1; /* 0: the default, 1 (2 at half resolution) */
+            s.reflection_scale = mode == 2 ? 0.5f : 1.0f;
             cv_render_output o = { 0 };
             CHECK_OK(render_on(1, scene, bvh, &s, &o));
             if (o.reflection)
-                compare_reflection(&o, &ref, &rmse[f][reuse], &bias[f][reuse]);
+                compare_reflection(&o, &ref, &rmse[f][mode], &bias[f][mode]);
             cv_render_output_free(&o);
             fprintf(stderr,
                     "room %ux%u, reflection, GPU %u frames %s vs reference %u samples: RMSE %.4f, bias %+.4f\n", RW,
-                    RH, frames[f], reuse ? "with reuse (radius 1)" : "without reuse", SAMPLES, rmse[f][reuse],
-                    bias[f][reuse]);
+                    RH, frames[f], modes[mode], SAMPLES, rmse[f][mode], bias[f][mode]);
         }
-    CHECK(rmse[1][0] > 0.0 && rmse[1][0] < 0.03 && rmse[1][1] > 0.0 && rmse[1][1] < 0.03);
-    CHECK(fabs(bias[1][0]) < 0.01 && fabs(bias[1][1]) < 0.01);
+    for (int mode = 0; mode < 2; mode++) {
+        CHECK(rmse[1][mode] > 0.0 && rmse[1][mode] < 0.03);
+        CHECK(fabs(bias[1][mode]) < 0.01);
+    }
+    /* Half resolution: 64 frames are 16 rays per pixel (full rate at 16 frames
+     * measured 0.029): RMSE 0.04, |bias| 0.015 (measured 0.032, -0.009). */
+    CHECK(rmse[1][2] > 0.0 && rmse[1][2] < 0.04);
+    CHECK(fabs(bias[1][2]) < 0.015);
     CHECK(rmse[0][1] > 0.0 && rmse[0][1] < 0.75 * rmse[0][0]);
     cv_render_output_free(&ref);
 }
@@ -279,11 +286,21 @@ static void check_room_against_reference(const cv_scene *scene, const cv_bvh *bv
 static void check_multi_device(const cv_scene *scene, const cv_bvh *bvh) {
     enum { DW = 96, DH = 54 };
     cv_render_settings s = { .width = DW, .height = DH, .frames = 2, .tile = 8 };
-    cv_render_output one = { 0 }, two = { 0 }, three = { 0 };
+    cv_render_output one = { 0 }, two = { 0 }, three = { 0 }, half_one = { 0 }, half_two = { 0 };
     CHECK_OK(render_on(1, scene, bvh, &s, &one));
     CHECK_OK(render_on(2, scene, bvh, &s, &two));
     CHECK_OK(render_on(3, scene, bvh, &s, &three));
+    s.reflection_scale = 0.5f;
+    CHECK_OK(render_on(1, scene, bvh, &s, &half_one));
+    CHECK_OK(render_on(2, scene, bvh, &s, &half_two));
     size_t bytes = (size_t)DW * DH * 4 * sizeof(float);
+    if (half_one.reflection && half_two.reflection) {
+        CHECK(memcmp(half_one.reflection, half_two.reflection, bytes) == 0);
+        CHECK(memcmp(half_one.radiance, half_two.radiance, bytes) == 0);
+        CHECK(memcmp(half_one.reflection, one.reflection, bytes) != 0); /* a quarter of the rays: another image */
+    }
+    cv_render_output_free(&half_one);
+    cv_render_output_free(&half_two);
     if (one.reflection && two.reflection && three.reflection) {
         CHECK(memcmp(one.reflection, two.reflection, bytes) == 0);
         CHECK(memcmp(one.reflection, three.reflection, bytes) == 0);
@@ -314,6 +331,12 @@ static void check_settings(const cv_scene *scene, const cv_bvh *bvh) {
     CHECK_EQ_INT(render_on(1, scene, bvh, &s, &o), CV_ERROR_OUT_OF_RANGE);
     CHECK(strstr(cv_last_error(), "reflection radius 9") != NULL);
     CHECK(o.radiance == NULL);
+    s.reflection_radius = 0;
+    s.reflection_scale = 0.7f;
+    CHECK_EQ_INT(render_on(1, scene, bvh, &s, &o), CV_ERROR_OUT_OF_RANGE);
+    CHECK(strstr(cv_last_error(), "reflection scale 0.7") != NULL);
+    CHECK(o.radiance == NULL);
+    s.reflection_scale = 0.0f;
     s.reflection_radius = 0;
     s.reflections = 3;
     CHECK_EQ_INT(cv_render_reference(scene, bvh, &s, 1, 1, &o), CV_ERROR_OUT_OF_RANGE);

@@ -47,6 +47,9 @@ typedef struct cv_render_settings {
                                  * sun, a shadow ray and the sky), -1 = none (no specular term) */
     int32_t reflection_radius; /* [1] spatial reuse radius of the reflection filter, pixels (0..8);
                                  * -1 = none (every pixel keeps its own samples) */
+    float reflection_scale;    /* [1] reflection rays per pixel side: 1, or 0.5 = half resolution (one
+                                 * ray per 2x2 quad per frame, the quad's pixels in turn; the filter
+                                 * fills the others, its reuse radius one pixel wider) */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
