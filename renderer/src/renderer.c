@@ -4,8 +4,8 @@
  * device, its window) and 'reflect_filter' (primary), 'accumulate'
  * (primary), 'filter' and 'composite' (primary, last frame). The graph
  * multicasts the G-buffer, copies the secondaries' visibility and reflection
- * windows back, places barriers and
- * balances the columns from the trace times; no pass sees the device count. */
+ * windows back, places barriers and balances the columns from the trace
+ * times; no pass sees the device count. */
 #include "corvid/renderer.h"
 
 #include <math.h>
@@ -109,10 +109,8 @@ struct cv_renderer {
      * iterations or the ray buffers' size change). */
     cv_graph *graph;
     uint32_t graph_iterations;
-    uint32_t graph_frames;       /* frames of this render call: the filter's history length */
-    uint64_t graph_rays;         /* rays the ray and hit buffers hold */
-    bool graph_reflect;          /* the graph has passes 'reflect' and 'reflect_filter' */
-    uint64_t graph_reflect_rays; /* rays each of the reflect pass's buffers holds */
+    uint32_t graph_frames; /* frames of this render call: the filter's history length */
+    uint64_t graph_rays;   /* rays the ray and hit buffers hold */
     cv_graph_resource tex[TEX_COUNT], buf[BUF_COUNT];
     cv_graph_pass gbuffer_pass, filter_pass, composite_pass;
     /* What the passes record this frame (set before each bake, read by the
@@ -121,6 +119,10 @@ struct cv_renderer {
     cv_camera camera;
     uint32_t frame;
     uint64_t band_limit; /* most rays per band on every device */
+
+    /* Reflections in the graph (built again when these change). */
+    bool graph_reflect;          /* the graph has passes 'reflect' and 'reflect_filter' */
+    uint64_t graph_reflect_rays; /* rays each of the reflect pass's buffers holds */
 };
 
 /* Frames a single-device render keeps submitted ahead of the one it waits for:

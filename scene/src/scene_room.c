@@ -52,7 +52,7 @@ static cv_result add_materials(cv_scene *s, room_materials *m) {
         { 0.95f, 0.95f, 0.95f, 0.02f },
         { 0.95f, 0.64f, 0.54f, 0.35f },
     };
-    cv_result r = add_material(s, 0.55f, 0.55f, 0.58f, 0.25f, 0, 0, 0, &m->floor);
+    cv_result r = add_material(s, 0.55f, 0.55f, 0.58f, 0.35f, 0, 0, 0, &m->floor);
     if (r == CV_OK)
         r = add_material(s, 0.85f, 0.83f, 0.80f, 0.9f, 0, 0, 0, &m->wall);
     if (r == CV_OK)
