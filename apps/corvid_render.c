@@ -47,6 +47,11 @@ static void usage(FILE *f) {
             "                     degrees in [0,90), 0 = hard shadows (default: the scene's sun, 1.5)\n"
             "  --orbit D          the camera turns D degrees per frame about the vertical axis through\n"
             "                     its target (a moving camera: reprojected history, motion vectors)\n"
+            "  --reflections on|off  GGX reflections (default on; off: no specular term)\n"
+            "  --reflect-radius N spatial reuse radius of the reflection filter, pixels, 0..8 (default 1;\n"
+            "                     0 = every pixel keeps its own samples)\n"
+            "  --reflection-scale S  1 (default) or 0.5: half resolution, one reflection ray per 2x2\n"
+            "                     pixels per frame\n"
             "  --exposure EV      exposure of the PNG in stops (default 0)\n"
             "  --reference N      render the CPU reference instead (ground truth for the renderer's\n"
             "                     image model): N samples per pixel, 1..65536, unfiltered, float32\n"
@@ -167,6 +172,29 @@ static bool opt_filter(options *o, const char *name, const char *value) {
     if (!set_u32(name, value, 0, 8, &n))
         return false;
     o->settings.filter_iterations = n ? (int32_t)n : -1;
+    return true;
+}
+
+static bool opt_reflections(options *o, const char *name, const char *value) {
+    if (strcmp(value, "on") == 0 || strcmp(value, "off") == 0) {
+        o->settings.reflections = strcmp(value, "on") == 0 ? 1 : -1;
+        return true;
+    }
+    return refuse(name, value, "on or off");
+}
+
+static bool opt_reflect_radius(options *o, const char *name, const char *value) {
+    uint32_t n;
+    if (!set_u32(name, value, 0, 8, &n))
+        return false;
+    o->settings.reflection_radius = n ? (int32_t)n : -1;
+    return true;
+}
+
+static bool opt_reflection_scale(options *o, const char *name, const char *value) {
+    if (strcmp(value, "1") != 0 && strcmp(value, "0.5") != 0)
+        return refuse(name, value, "1 or 0.5");
+    o->settings.reflection_scale = strcmp(value, "1") == 0 ? 1.0f : 0.5f;
     return true;
 }
 
@@ -327,6 +355,9 @@ static const struct option_def {
     { "--camera", true, opt_camera },
     { "--sun", true, opt_sun },
     { "--orbit", true, opt_orbit },
+    { "--reflections", true, opt_reflections },
+    { "--reflect-radius", true, opt_reflect_radius },
+    { "--reflection-scale", true, opt_reflection_scale },
     { "--exposure", true, opt_exposure },
     { "--reference", true, opt_reference },
     { "--out", true, opt_out },

@@ -2,13 +2,19 @@
 // HDR radiance: Lambertian sun light (with soft shadow visibility), the scene's
 // point lights (Lambertian, inverse-square, unshadowed, scaled by AO), sky light
 // scaled by ambient occlusion, plus emission; the sky color where there is no
-// geometry. Also writes the albedo AOV.
+// geometry. Also writes the albedo AOV (the diffuse albedo).
+// Materials are metal/roughness: the diffuse albedo is base color * (1 -
+// metallic); the specular term is Schlick's Fresnel at the view, F0 =
+// mix(0.04, base color, metallic), times the reconstructed reflection
+// (render.reflect_filter: GGX-sampled reflected radiance, weighted by G2 / G1).
 // Push: { vec4 sun (xyz = unit direction the light travels, w = irradiance);
-//         vec4 sun_color; vec4 sky (rgb radiance); uint width; uint height; uint material_count; uint pad; }.
+//         vec4 sun_color; vec4 sky (rgb radiance); uint width; uint height; uint material_count;
+//         uint light_count; vec4 camera (xyz = eye, w = 1 with reflections, 0 without); }.
 // i0: positions, i1: normals (w = material), i2: visibility (RGBA32F: r = sun, g = AO),
 // b3: Material { vec4 base_color_roughness; vec4 emission_metalness; }[],
 // i4: radiance out (RGBA32F), i5: albedo out (RGBA32F),
-// b6: PointLight { vec3 position; float intensity; vec3 color; float pad; }[light_count].
+// b6: PointLight { vec3 position; float intensity; vec3 color; float pad; }[light_count],
+// i7: reflection (RGBA32F, rgb; read only when camera.w is 1).
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -25,6 +31,7 @@ layout(push_constant, std430) uniform Push {
     uint height;
     uint material_count;
     uint light_count;
+    vec4 camera;
 } pc;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
@@ -41,6 +48,7 @@ struct PointLight {
     float pad;
 };
 layout(set = 0, binding = 6, std430) readonly buffer Lights { PointLight lights[]; };
+layout(set = 0, binding = 7, rgba32f) uniform readonly image2D reflection;
 
 const float PI = 3.14159265358979;
 
@@ -57,7 +65,9 @@ void main() {
     vec4 nm = imageLoad(gbuffer_normal, p);
     uint id = min(uint(nm.w), pc.material_count - 1u);
     Material m = materials[id];
-    vec3 albedo = m.base_color_roughness.rgb * (1.0 - m.emission_metalness.w * 0.5);
+    vec3 base = m.base_color_roughness.rgb;
+    float metallic = m.emission_metalness.w;
+    vec3 albedo = base * (1.0 - metallic);
     vec2 vis = imageLoad(visibility, p).rg;
     float n_dot_l = max(dot(nm.xyz, -pc.sun.xyz), 0.0);
     vec3 direct = pc.sun_color.rgb * pc.sun.w * n_dot_l * vis.x / PI;
@@ -70,6 +80,13 @@ void main() {
         local += lights[i].color * lights[i].intensity * n_dot / (d2 * PI);
     }
     vec3 color = albedo * (direct + ambient + local * vis.y) + m.emission_metalness.rgb;
+    if (pc.camera.w != 0.0) {
+        float n_dot_v = clamp(dot(nm.xyz, normalize(pc.camera.xyz - pos.xyz)), 0.0, 1.0);
+        vec3 f0 = mix(vec3(0.04), base, metallic);
+        float k = 1.0 - n_dot_v, k2 = k * k;
+        vec3 fresnel = f0 + (1.0 - f0) * (k2 * k2 * k);
+        color += fresnel * imageLoad(reflection, p).rgb;
+    }
     imageStore(radiance, p, vec4(color, 1.0));
     imageStore(albedo_out, p, vec4(albedo, 1.0));
 }

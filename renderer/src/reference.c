@@ -13,6 +13,7 @@
 #include "corvid/trace_cpu.h"
 #include "output_derive.h"
 #include "camera.h"
+#include "reflect_model.h"
 #include "scene_upload.h"
 
 #define REF_PI 3.14159265358979f
@@ -64,6 +65,53 @@ static bool occluded(const reference_job *j, const float o[3], const float d[3],
     cv_ray ray = { { o[0], o[1], o[2] }, 0.0f, { d[0], d[1], d[2] }, tmax };
     cv_hit hit;
     return cv_trace_ray(&j->target, &ray, CV_TRACE_ANY_HIT, &hit);
+}
+
+/* The radiance a reflection ray brings back, as render.reflect_shadow and
+ * render.reflect_shade: the sky on a miss; on a hit, base color * sun
+ * (Lambertian, a shadow ray toward the sun's centre from the hit, offset
+ * along its geometric normal) + emission. */
+static void reflected_radiance(const reference_job *j, const float o[3], const float d[3], float out[3]) {
+    static const float sky[3] = { 0.12f, 0.15f, 0.2f };
+    const render_scene_data *data = j->data;
+    cv_ray ray = { { o[0], o[1], o[2] }, 0.0f, { d[0], d[1], d[2] }, 1e30f };
+    cv_hit hit;
+    if (!cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, &hit)) {
+        memcpy(out, sky, sizeof(sky));
+        return;
+    }
+    const render_vertex *v = &data->vertices[j->first_vertex[hit.instance] + 3ull * hit.triangle];
+    float x[3], n[3], ng[3], e1[3], e2[3], w = 1.0f - hit.u - hit.v;
+    for (int k = 0; k < 3; k++) {
+        x[k] = o[k] + d[k] * hit.t;
+        n[k] = v[0].normal[k] * w + v[1].normal[k] * hit.u + v[2].normal[k] * hit.v;
+        e1[k] = v[1].position[k] - v[0].position[k];
+        e2[k] = v[2].position[k] - v[0].position[k];
+    }
+    normalize3(n);
+    cross3(e1, e2, ng);
+    normalize3(ng);
+    float nsum[3] = { v[0].normal[0] + v[1].normal[0] + v[2].normal[0],
+                      v[0].normal[1] + v[1].normal[1] + v[2].normal[1],
+                      v[0].normal[2] + v[1].normal[2] + v[2].normal[2] };
+    if (dot3(ng, nsum) < 0.0f)
+        for (int k = 0; k < 3; k++)
+            ng[k] = -ng[k];
+    if (dot3(ng, d) > 0.0f)
+        for (int k = 0; k < 3; k++)
+            ng[k] = -ng[k], n[k] = -n[k];
+    float to_sun[3] = { -data->sun_direction[0], -data->sun_direction[1], -data->sun_direction[2] }, origin[3];
+    float bias = data->diagonal * 2e-5f;
+    for (int k = 0; k < 3; k++)
+        origin[k] = x[k] + ng[k] * bias;
+    bool visible = dot3(to_sun, ng) > 0.0f && dot3(to_sun, n) > 0.0f && !occluded(j, origin, to_sun, 1e30f);
+    uint32_t m = v[0].material < data->material_count ? v[0].material : data->material_count - 1;
+    const render_material *mat = &data->materials[m];
+    float ndl = fmaxf(dot3(n, to_sun), 0.0f);
+    for (int k = 0; k < 3; k++)
+        out[k] = mat->base_color_roughness[k] * data->sun_color[k] * data->sun_irradiance * ndl *
+                     (visible ? 1.0f : 0.0f) / REF_PI +
+                 mat->emission_metalness[k];
 }
 
 static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
@@ -148,12 +196,32 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
     }
     sun /= (float)j->samples;
     ao /= (float)j->samples * (float)j->s.ao_samples;
-    /* render_composite.comp's model. */
     uint32_t m = v[0].material < data->material_count ? v[0].material : data->material_count - 1;
     const render_material *mat = &data->materials[m];
+    /* Reflections: `samples` GGX samples (reflect_model.h) from their own
+     * stream, so the shadow and AO samples are those of a render without. */
+    float reflection[3] = { 0.0f, 0.0f, 0.0f }, view[3] = { -d[0], -d[1], -d[2] };
+    if (out->reflection) {
+        uint64_t rng2 = ((uint64_t)(y * j->s.width + x) << 20) ^ 0x0EF1EC7ull;
+        for (uint32_t sample = 0; sample < j->samples; sample++) {
+            float uv[2] = { next_float(&rng2), next_float(&rng2) }, l[3], weight, radiance[3];
+            if (!reflect_sample(view, n, ng, mat->base_color_roughness[3], uv, l, &weight))
+                continue;
+            reflected_radiance(j, origin, l, radiance);
+            for (int k = 0; k < 3; k++)
+                reflection[k] += weight * radiance[k];
+        }
+        for (int k = 0; k < 3; k++)
+            reflection[k] /= (float)j->samples;
+        memcpy(&out->reflection[i], reflection, sizeof(reflection));
+        out->reflection[i + 3] = 1.0f;
+    }
+    float fresnel[3];
+    reflect_fresnel(mat->base_color_roughness, mat->emission_metalness[3], dot3(n, view), fresnel);
+    /* render_composite.comp's model. */
     float albedo[3], color[3], ndl = fmaxf(dot3(n, to_sun), 0.0f), sky[3] = { 0.12f, 0.15f, 0.2f };
     for (int k = 0; k < 3; k++) {
-        albedo[k] = mat->base_color_roughness[k] * (1.0f - mat->emission_metalness[3] * 0.5f);
+        albedo[k] = mat->base_color_roughness[k] * (1.0f - mat->emission_metalness[3]);
         float local = 0.0f;
         for (uint32_t l = 0; l < data->light_count; l++) {
             const render_light *li = &data->lights[l];
@@ -162,7 +230,8 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
             local += li->color[k] * li->intensity * nd / (d2 * REF_PI);
         }
         float direct = data->sun_color[k] * data->sun_irradiance * ndl * sun / REF_PI;
-        color[k] = albedo[k] * (direct + sky[k] * ao + local * ao) + mat->emission_metalness[k];
+        color[k] = albedo[k] * (direct + sky[k] * ao + local * ao) + mat->emission_metalness[k] +
+                   fresnel[k] * reflection[k];
     }
     memcpy(&out->radiance[i], color, sizeof(color));
     out->radiance[i + 3] = 1.0f;
@@ -199,9 +268,11 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
                         .s = cv_render_settings_resolve(settings, scene),
                         .samples = samples,
                         .out = out };
-    if (j.s.width > CV_MAX_TEXTURE_DIM || j.s.height > CV_MAX_TEXTURE_DIM || j.s.ao_samples > 32)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "cv_render_reference: %ux%u, %u AO samples (limits %u, 32)", j.s.width,
-                        j.s.height, j.s.ao_samples, CV_MAX_TEXTURE_DIM);
+    if (j.s.width > CV_MAX_TEXTURE_DIM || j.s.height > CV_MAX_TEXTURE_DIM || j.s.ao_samples > 32 ||
+        (j.s.reflections != 1 && j.s.reflections != -1))
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "cv_render_reference: %ux%u, %u AO samples, reflections %d (limits %u, 32; 1 or -1)",
+                        j.s.width, j.s.height, j.s.ao_samples, j.s.reflections, CV_MAX_TEXTURE_DIM);
     cv_result res = cv_render_settings_check(&j.s);
     if (res != CV_OK)
         return res;
@@ -216,9 +287,10 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
     uint64_t *first = malloc((cv_scene_instance_count(scene) + 1) * sizeof(uint64_t));
     size_t n = (size_t)j.s.width * j.s.height * 4;
     cv_render_output o = { .width = j.s.width, .height = j.s.height };
-    float **planes[5] = { &o.radiance, &o.albedo, &o.normal, &o.position, &o.visibility };
+    float **planes[6] = { &o.radiance, &o.albedo, &o.normal, &o.position, &o.visibility, &o.reflection };
+    int plane_count = j.s.reflections == 1 ? 6 : 5;
     bool ok = first != NULL;
-    for (int p = 0; p < 5; p++)
+    for (int p = 0; p < plane_count; p++)
         ok = (*planes[p] = calloc(n, sizeof(float))) && ok;
     if (!ok) {
         free(first);

@@ -1,10 +1,12 @@
 /* One hybrid frame across N devices (see renderer.h), declared as a render
  * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame; every frame
- * for a moving camera), 'trace' (every device, over its column window),
- * 'reproject' (primary, moving camera only), 'accumulate' (primary), 'filter'
- * and 'composite' (primary, last frame). The graph multicasts the G-buffer,
- * copies the secondaries' visibility windows back, places barriers and
- * balances the columns from the trace times; no pass sees the device count. */
+ * for a moving camera), 'trace' (every device, over its column window), with
+ * reflections 'reflect' (every device, its window) and 'reflect_filter'
+ * (primary), 'reproject' (primary, moving camera only), 'accumulate'
+ * (primary), 'filter' and 'composite' (primary, last frame). The graph
+ * multicasts the G-buffer, copies the secondaries' visibility and reflection
+ * windows back, places barriers and balances the columns from the trace
+ * times; no pass sees the device count. */
 #include "corvid/renderer.h"
 
 #include <math.h>
@@ -26,11 +28,16 @@ enum {
     PIPE_FILTER,
     PIPE_COMPOSITE,
     PIPE_REPROJECT,
+    PIPE_REFLECT_RAYGEN,
+    PIPE_REFLECT_SHADOW,
+    PIPE_REFLECT_SHADE,
+    PIPE_REFLECT_FILTER,
     PIPE_COUNT
 };
 static const char *pipeline_names[PIPE_COUNT] = {
-    "render.gbuffer", "render.raygen",    "render.resolve",   "render.accumulate",
-    "render.filter",  "render.composite", "render.reproject",
+    "render.gbuffer",        "render.raygen",         "render.resolve",       "render.accumulate",
+    "render.filter",         "render.composite",      "render.reproject",     "render.reflect_raygen",
+    "render.reflect_shadow", "render.reflect_shade",  "render.reflect_filter",
 };
 
 /* Size-dependent textures; `everywhere` ones are loaded on every device. */
@@ -48,6 +55,10 @@ enum {
     TEX_REPROJECTED,      /* moving camera: the history brought to this frame's pixels */
     TEX_HISTORY_POSITION, /* moving camera: the G-buffer the history was accumulated on */
     TEX_HISTORY_NORMAL,
+    TEX_REFLECT,
+    TEX_REFLECT_HISTORY,
+    TEX_REFLECT_OWN,
+    TEX_REFLECT_OUT,
     TEX_COUNT
 };
 static const struct {
@@ -71,12 +82,28 @@ static const struct {
     [TEX_REPROJECTED] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reprojected history" },
     [TEX_HISTORY_POSITION] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "history position" },
     [TEX_HISTORY_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "history normal" },
+    [TEX_REFLECT] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, true, "reflection samples" },
+    [TEX_REFLECT_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection history" },
+    [TEX_REFLECT_OWN] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection own history" },
+    [TEX_REFLECT_OUT] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection" },
 };
 
 /* Resources the frame graph names: the textures above (imported: the
  * renderer keeps them from call to call), the scene buffers (imported) and
  * each device's ray and hit buffers (transients, one band of its window). */
-enum { BUF_VERTICES, BUF_MATERIALS, BUF_LIGHTS, BUF_RAYS, BUF_HITS, BUF_COUNT };
+enum {
+    BUF_VERTICES,
+    BUF_MATERIALS,
+    BUF_LIGHTS,
+    BUF_RAYS,
+    BUF_HITS,
+    BUF_INSTANCES,    /* instance -> its first triangle in the vertex list (reflection hits) */
+    BUF_REFLECT_RAYS, /* transients of pass 'reflect', one band each: reflection rays, */
+    BUF_REFLECT_HITS, /* their closest hits, */
+    BUF_SHADOW_RAYS,  /* shadow rays from those hits */
+    BUF_SHADOW_HITS,  /* and their any hits */
+    BUF_COUNT
+};
 
 struct cv_renderer {
     cv_context *ctx;
@@ -84,7 +111,7 @@ struct cv_renderer {
     uint32_t count;
     const cv_scene *scene;
     render_scene_data data;
-    cv_buffer vertices, materials, lights;
+    cv_buffer vertices, materials, lights, instances;
     cv_accel accel;
     cv_pipeline pipelines[PIPE_COUNT];
     uint32_t width, height; /* of the textures below; 0 = none yet */
@@ -106,6 +133,10 @@ struct cv_renderer {
     float sun_direction[3];            /* unit, the way the light travels: the scene's or settings.sun_toward */
     uint32_t frame;
     uint64_t band_limit; /* most rays per band on every device */
+
+    /* Reflections in the graph (built again when these change). */
+    bool graph_reflect;          /* the graph has passes 'reflect' and 'reflect_filter' */
+    uint64_t graph_reflect_rays; /* rays each of the reflect pass's buffers holds */
 };
 
 /* Frames a single-device render keeps submitted ahead of the one it waits for:
@@ -175,6 +206,9 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
     if (res == CV_OK)
         res = upload_buffer(r, r->data.lights, (r->data.light_count + 1) * sizeof(render_light), "point lights",
                             &r->lights);
+    if (res == CV_OK)
+        res = upload_buffer(r, r->data.instance_first, (r->data.instance_count + 1) * sizeof(uint32_t),
+                            "instance first triangles", &r->instances);
     /* Immutable scene data goes to every device once (the multicast rule). */
     if (res == CV_OK)
         res = cv_accel_create(r->ctx,
@@ -232,6 +266,7 @@ void cv_renderer_destroy(cv_renderer *r) {
     destroy_handle(r, r->vertices.id);
     destroy_handle(r, r->materials.id);
     destroy_handle(r, r->lights.id);
+    destroy_handle(r, r->instances.id);
     destroy_handle(r, r->accel.id);
     for (int p = 0; p < PIPE_COUNT; p++)
         destroy_handle(r, r->pipelines[p].id);
@@ -455,6 +490,168 @@ static void record_accumulate(const cv_graph_pass_context *pc, cv_command_list *
                                          .groups_z = 1 });
 }
 
+/* Reflections (seed 000: reflections from the G-buffer, ray-traced shadows at
+ * their hits, reconstruction, temporal accumulation). */
+
+/* Rays of one band of pass 'reflect' (one per pixel): each of its four
+ * buffers holds a band of any window (at least a row; half the trace pass's
+ * band, as two buffers of rays are live at once). */
+static uint64_t reflect_capacity(const cv_renderer *r, const cv_render_settings *s) {
+    uint64_t band = band_rays(r, s) / 2, image = (uint64_t)r->width * r->height;
+    if (band < r->width)
+        band = r->width;
+    return band < image ? band : image;
+}
+
+/* Pass 'reflect' (every device, its window): for each band of rows, one GGX
+ * reflection ray per pixel (render.reflect_raygen), closest hit, a shadow ray
+ * from each hit toward the sun (render.reflect_shadow), any hit, and the
+ * radiance each reflection ray brings back (render.reflect_shade) into the
+ * window of the reflection samples. */
+static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+    cv_renderer *r = user;
+    const cv_render_settings *s = &r->settings;
+    cv_column_range cols = { pc->x, pc->width };
+    cv_buffer rays = cv_graph_buffer(pc, r->buf[BUF_REFLECT_RAYS]),
+              hits = cv_graph_buffer(pc, r->buf[BUF_REFLECT_HITS]),
+              shadow_rays = cv_graph_buffer(pc, r->buf[BUF_SHADOW_RAYS]),
+              shadow_hits = cv_graph_buffer(pc, r->buf[BUF_SHADOW_HITS]);
+    cv_binding positions = bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
+               normals = bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])),
+               vertices = bind_buffer(cv_graph_buffer(pc, r->buf[BUF_VERTICES])),
+               materials = bind_buffer(cv_graph_buffer(pc, r->buf[BUF_MATERIALS])),
+               instances = bind_buffer(cv_graph_buffer(pc, r->buf[BUF_INSTANCES]));
+    uint64_t rows64 = reflect_capacity(r, s) / cols.width;
+    uint32_t rows = rows64 == 0 ? 1 : rows64 < r->height ? (uint32_t)rows64 : r->height;
+    float bias = r->data.diagonal * 2e-5f;
+    for (uint32_t y0 = 0; y0 < r->height; y0 += rows) {
+        uint32_t h = r->height - y0 < rows ? r->height - y0 : rows, count = cols.width * h;
+        struct {
+            uint32_t x0, width, height, y0;
+            float camera[4];
+            uint32_t frame, material_count, quarter, pad;
+        } gen = { cols.x,
+                  cols.width,
+                  h,
+                  y0,
+                  { r->camera.position[0], r->camera.position[1], r->camera.position[2], bias },
+                  s->first_frame + r->frame,
+                  r->data.material_count,
+                  s->reflection_scale < 1.0f ? 1u : 0u,
+                  0 };
+        struct {
+            uint32_t width, height;
+            float bias;
+            uint32_t pad;
+            float sun[4];
+        } shadow = { cols.width,
+                     h,
+                     bias,
+                     0,
+                     { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2], 0.0f } };
+        struct {
+            uint32_t x0, width, height, y0;
+            float sun[4], sun_color[4], sky[4];
+            uint32_t material_count, pad[3];
+        } shade = { cols.x,
+                    cols.width,
+                    h,
+                    y0,
+                    { r->data.sun_direction[0], r->data.sun_direction[1], r->data.sun_direction[2],
+                      r->data.sun_irradiance },
+                    { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
+                    { 0.12f, 0.15f, 0.2f, 0.0f },
+                    r->data.material_count,
+                    { 0, 0, 0 } };
+        cv_binding gen_b[4] = { positions, normals, materials, bind_buffer(rays) };
+        cv_binding shadow_b[5] = { bind_buffer(rays), bind_buffer(hits), vertices, instances,
+                                   bind_buffer(shadow_rays) };
+        cv_binding shade_b[9] = { positions,
+                                  bind_buffer(rays),
+                                  bind_buffer(hits),
+                                  bind_buffer(shadow_rays),
+                                  bind_buffer(shadow_hits),
+                                  vertices,
+                                  instances,
+                                  materials,
+                                  bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT])) };
+        cv_cmd_dispatch(l, pc->queue,
+                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_RAYGEN],
+                                             .bindings = gen_b,
+                                             .bindings_count = 4,
+                                             .push = &gen,
+                                             .push_size = sizeof(gen),
+                                             .groups_x = groups(cols.width, 8),
+                                             .groups_y = groups(h, 8),
+                                             .groups_z = 1 });
+        cv_cmd_trace_rays(l, pc->queue,
+                          &(cv_trace_rays_args){ .accel = r->accel, .rays = rays, .hits = hits, .count = count });
+        cv_cmd_dispatch(l, pc->queue,
+                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADOW],
+                                             .bindings = shadow_b,
+                                             .bindings_count = 5,
+                                             .push = &shadow,
+                                             .push_size = sizeof(shadow),
+                                             .groups_x = groups(cols.width, 8),
+                                             .groups_y = groups(h, 8),
+                                             .groups_z = 1 });
+        cv_cmd_trace_rays(l, pc->queue,
+                          &(cv_trace_rays_args){ .accel = r->accel,
+                                                 .rays = shadow_rays,
+                                                 .hits = shadow_hits,
+                                                 .count = count,
+                                                 .flags = CV_TRACE_ANY_HIT });
+        cv_cmd_dispatch(l, pc->queue,
+                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADE],
+                                             .bindings = shade_b,
+                                             .bindings_count = 9,
+                                             .push = &shade,
+                                             .push_size = sizeof(shade),
+                                             .groups_x = groups(cols.width, 8),
+                                             .groups_y = groups(h, 8),
+                                             .groups_z = 1 });
+    }
+}
+
+/* Pass 'reflect_filter' (primary, every frame): spatial reuse of this frame's
+ * reflection samples, into the running mean (render_reflect_filter.comp). */
+static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+    cv_renderer *r = user;
+    const cv_render_settings *s = &r->settings;
+    struct {
+        uint32_t width, height, frame, accumulated;
+        float camera[4];
+        int32_t radius;
+        uint32_t material_count, quarter, pad;
+    } push = { r->width,
+               r->height,
+               s->first_frame + r->frame,
+               /* A moving camera: no reflection history (hit points are not
+                * reprojected), every frame's reflection stands alone. */
+               r->graph_moving ? 0u : r->frame,
+               { r->camera.position[0], r->camera.position[1], r->camera.position[2], r->data.diagonal * 0.01f },
+               s->reflection_scale < 1.0f ? s->reflection_radius + 1 : s->reflection_radius,
+               r->data.material_count,
+               s->reflection_scale < 1.0f ? 1u : 0u,
+               0 };
+    cv_binding b[7] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_MATERIALS])),
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT])),
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_HISTORY])),
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_OWN])),
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_OUT])) };
+    cv_cmd_dispatch(l, pc->queue,
+                    &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_FILTER],
+                                         .bindings = b,
+                                         .bindings_count = 7,
+                                         .push = &push,
+                                         .push_size = sizeof(push),
+                                         .groups_x = groups(r->width, 8),
+                                         .groups_y = groups(r->height, 8),
+                                         .groups_z = 1 });
+}
+
 /* The texture holding the final visibility after `iterations` filter steps. */
 static int filtered_texture(uint32_t iterations) {
     return iterations == 0 ? TEX_HISTORY : (iterations % 2 ? TEX_PING : TEX_PONG);
@@ -527,25 +724,30 @@ static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_lis
     struct {
         float sun[4], sun_color[4], sky[4];
         uint32_t width, height, material_count, light_count;
-    } push = { { r->sun_direction[0], r->sun_direction[1], r->sun_direction[2], r->data.sun_irradiance },
-               { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
-               { 0.12f, 0.15f, 0.2f, 0.0f },
-               r->width,
-               r->height,
-               r->data.material_count,
-               r->data.light_count };
-    cv_binding b[7] = { bind_texture(r->textures[TEX_POSITION]),
+        float camera[4]; /* w: 1 = add the reflection */
+    } push = {
+        { r->sun_direction[0], r->sun_direction[1], r->sun_direction[2], r->data.sun_irradiance },
+        { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
+        { 0.12f, 0.15f, 0.2f, 0.0f },
+        r->width,
+        r->height,
+        r->data.material_count,
+        r->data.light_count,
+        { r->camera.position[0], r->camera.position[1], r->camera.position[2], r->graph_reflect ? 1.0f : 0.0f }
+    };
+    cv_binding b[8] = { bind_texture(r->textures[TEX_POSITION]),
                         bind_texture(r->textures[TEX_NORMAL]),
                         bind_texture(r->textures[filtered_texture(iterations)]),
                         bind_buffer(r->materials),
                         bind_texture(r->textures[TEX_RADIANCE]),
                         bind_texture(r->textures[TEX_ALBEDO]),
-                        bind_buffer(r->lights) };
+                        bind_buffer(r->lights),
+                        bind_texture(r->textures[TEX_REFLECT_OUT]) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "composite" });
     cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
                     &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_COMPOSITE],
                                          .bindings = b,
-                                         .bindings_count = 7,
+                                         .bindings_count = 8,
                                          .push = &push,
                                          .push_size = sizeof(push),
                                          .groups_x = groups(r->width, 8),
@@ -598,6 +800,14 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
         s.filter_iterations = 0;
     if (!s.band_rays)
         s.band_rays = CV_RENDER_BAND_RAYS;
+    if (s.reflections == 0)
+        s.reflections = 1;
+    if (s.reflection_radius == 0)
+        s.reflection_radius = 1;
+    if (s.reflection_radius < 0)
+        s.reflection_radius = 0;
+    if (s.reflection_scale == 0.0f)
+        s.reflection_scale = 1.0f;
     return s;
 }
 
@@ -644,6 +854,11 @@ static cv_result read_output(cv_renderer *r, uint32_t iterations, uint32_t frame
         memcpy(lit.sun_direction, r->sun_direction, sizeof(lit.sun_direction));
         res = render_output_derive(out, r->camera.position, &lit);
     }
+    if (res == CV_OK && r->graph_reflect) {
+        out->reflection = malloc(n * sizeof(float));
+        res = out->reflection ? cv_device_read_texture(p, r->textures[TEX_REFLECT_OUT], all, out->reflection)
+                              : cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: reflection plane");
+    }
     if (res != CV_OK)
         cv_render_output_free(out);
     return res;
@@ -666,8 +881,20 @@ void cv_render_output_free(cv_render_output *out) {
  * buffers of `rays` rays and a still or moving camera (settings.orbit_degrees;
  * built again when any of them changes). */
 static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays) {
-    bool moving = r->settings.orbit_degrees != 0.0f;
-    if (r->graph && r->graph_iterations == iterations && r->graph_rays == rays && r->graph_moving == moving)
+    const cv_render_settings *s = &r->settings;
+    if (s->reflections != 1 && s->reflections != -1)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflections %d (1 = on, -1 = off)", s->reflections);
+    if (s->reflection_radius > 8)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflection radius %d pixels (limit 8)",
+                        s->reflection_radius);
+    if (s->reflection_scale != 1.0f && s->reflection_scale != 0.5f)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflection scale %g (1 or 0.5)",
+                        (double)s->reflection_scale);
+    bool moving = s->orbit_degrees != 0.0f;
+    bool reflect = s->reflections == 1;
+    uint64_t reflect_rays = reflect_capacity(r, s);
+    if (r->graph && r->graph_iterations == iterations && r->graph_rays == rays && r->graph_moving == moving &&
+        r->graph_reflect == reflect && r->graph_reflect_rays == reflect_rays)
         return CV_OK;
     destroy_graph(r);
     for (uint32_t d = 0; d < r->count; d++)
@@ -685,6 +912,8 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     r->graph_iterations = iterations;
     r->graph_rays = rays;
     r->graph_moving = moving;
+    r->graph_reflect = reflect;
+    r->graph_reflect_rays = reflect_rays;
     for (int t = 0; t < TEX_COUNT && res == CV_OK; t++)
         res = cv_graph_import_texture(g, r->textures[t], &r->tex[t]);
     if (res == CV_OK)
@@ -699,6 +928,15 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     if (res == CV_OK)
         res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_HIT_BYTES, .label = "hits" }, 0,
                                      &r->buf[BUF_HITS]);
+    if (res == CV_OK && reflect)
+        res = cv_graph_import_buffer(g, r->instances, 0, &r->buf[BUF_INSTANCES]);
+    static const char *reflect_labels[4] = { "reflect rays", "reflect hits", "reflect shadow rays",
+                                             "reflect shadow hits" };
+    for (int k = 0; k < 4 && res == CV_OK && reflect; k++) {
+        cv_buffer_desc desc = { .size = reflect_rays * (k % 2 ? CV_HIT_BYTES : CV_RAY_BYTES) };
+        strncpy(desc.label, reflect_labels[k], sizeof(desc.label) - 1);
+        res = cv_graph_create_buffer(g, &desc, 0, &r->buf[BUF_REFLECT_RAYS + k]);
+    }
     cv_graph_pass p = { 0 };
 #define PASS(name, queue, policy, fn) \
     if (res == CV_OK) \
@@ -740,6 +978,30 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         WRITE(r->tex[TEX_REPROJECTED], CV_GRAPH_STORAGE_WRITE);
         r->reproject_pass = p;
     }
+    /* Reflections: every device traces its window as in 'trace' (the graph
+     * copies the sample windows back); the primary reconstructs and
+     * accumulates them every frame. */
+    if (reflect) {
+        PASS("reflect", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES, record_reflect);
+        READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_VERTICES], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_INSTANCES], CV_GRAPH_STORAGE_READ);
+        for (int k = BUF_REFLECT_RAYS; k <= BUF_SHADOW_HITS; k++)
+            WRITE(r->buf[k], CV_GRAPH_STORAGE_WRITE);
+        WRITE(r->tex[TEX_REFLECT], CV_GRAPH_STORAGE_WRITE);
+        PASS("reflect_filter", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_reflect_filter);
+        READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_REFLECT], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_REFLECT_HISTORY], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_REFLECT_OWN], CV_GRAPH_STORAGE_READ);
+        WRITE(r->tex[TEX_REFLECT_HISTORY], CV_GRAPH_STORAGE_WRITE);
+        WRITE(r->tex[TEX_REFLECT_OWN], CV_GRAPH_STORAGE_WRITE);
+        WRITE(r->tex[TEX_REFLECT_OUT], CV_GRAPH_STORAGE_WRITE);
+    }
     PASS("accumulate", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_accumulate);
     READ(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_READ);
     READ(r->tex[TEX_HISTORY], CV_GRAPH_STORAGE_READ);
@@ -773,6 +1035,8 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     READ(r->tex[filtered_texture(iterations)], CV_GRAPH_STORAGE_READ);
     READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
     READ(r->buf[BUF_LIGHTS], CV_GRAPH_STORAGE_READ);
+    if (reflect)
+        READ(r->tex[TEX_REFLECT_OUT], CV_GRAPH_STORAGE_READ);
     WRITE(r->tex[TEX_RADIANCE], CV_GRAPH_STORAGE_WRITE);
     WRITE(r->tex[TEX_ALBEDO], CV_GRAPH_STORAGE_WRITE);
     r->composite_pass = p;
@@ -789,6 +1053,12 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         res = cv_graph_output(g, r->tex[TEX_HISTORY_NORMAL]);
     if (res == CV_OK && moving)
         res = cv_graph_output(g, r->tex[TEX_MOTION]);
+    if (res == CV_OK && reflect)
+        res = cv_graph_output(g, r->tex[TEX_REFLECT_HISTORY]);
+    if (res == CV_OK && reflect)
+        res = cv_graph_output(g, r->tex[TEX_REFLECT_OWN]);
+    if (res == CV_OK && reflect)
+        res = cv_graph_output(g, r->tex[TEX_REFLECT_OUT]);
     if (res == CV_OK)
         res = cv_graph_output(g, r->tex[TEX_RADIANCE]);
     if (res == CV_OK)

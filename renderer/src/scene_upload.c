@@ -110,7 +110,9 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
     out->vertices = malloc(out->vertex_count * sizeof(render_vertex));
     out->material_count = cv_scene_material_count(scene) ? cv_scene_material_count(scene) : 1;
     out->materials = calloc(out->material_count, sizeof(render_material));
-    if (!out->vertices || !out->materials) {
+    out->instance_count = cv_scene_instance_count(scene);
+    out->instance_first = calloc(out->instance_count + 1, sizeof(uint32_t));
+    if (!out->vertices || !out->materials || !out->instance_first) {
         render_scene_data_free(out);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: %llu vertices", (unsigned long long)out->vertex_count);
     }
@@ -121,6 +123,7 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
         float nm[3][3];
         normal_matrix(inst->transform, nm);
         uint32_t material = inst->material < out->material_count ? inst->material : 0;
+        out->instance_first[i] = (uint32_t)(v / 3); /* < 2^31 triangles (the BVH builders' limit) */
         bool ok;
         float closed = mesh_closed(mesh, &ok) ? 1.0f : 0.0f;
         if (!ok) {
@@ -187,6 +190,7 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
 void render_scene_data_free(render_scene_data *d) {
     free(d->vertices);
     free(d->materials);
+    free(d->instance_first);
     free(d->lights);
     memset(d, 0, sizeof(*d));
 }

@@ -33,6 +33,10 @@ typedef struct render_scene_data {
     uint64_t vertex_count;
     render_material *materials;
     uint32_t material_count;
+    uint32_t *instance_first; /* per instance (at least one entry): the index of its first triangle in
+                               * `vertices` (three vertices each); a trace hit (instance, triangle) is
+                               * vertices[3 * (instance_first[instance] + triangle)] */
+    uint32_t instance_count;
     render_light *lights;   /* point lights; at least one entry (intensity 0 if none) */
     uint32_t light_count;   /* real point lights */
     float sun_direction[3]; /* unit, the way light travels */

@@ -1,6 +1,8 @@
 /* See gltf_check.h. */
 #include "gltf_check.h"
 
+#include "gltf_materials.h"
+
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <stdint.h>
@@ -250,6 +252,8 @@ cv_result gltf_check(const char *path) {
         r = parse_failure(path, json, size, end);
     else
         r = check_nodes(path, root);
+    if (r == CV_OK && root)
+        r = gltf_check_materials(path, root);
     cJSON_Delete(root);
     free(json);
     return r;

@@ -28,7 +28,8 @@ bool gltf_is_gltf(const char *path);
  * it. For both: the JSON parses (a parse failure at its end is reported as
  * a truncated file), child indices are valid, the node graph has no cycle
  * and is at most IMPORT_MAX_NODE_DEPTH deep and expands to at most
- * IMPORT_MAX_NODE_INSTANCES instances.
+ * IMPORT_MAX_NODE_INSTANCES instances; material factors are in glTF's ranges
+ * (gltf_materials.h).
  * CV_ERROR_MALFORMED, CV_ERROR_LIMIT_EXCEEDED or CV_ERROR_IO, naming the file. */
 cv_result gltf_check(const char *path);
 

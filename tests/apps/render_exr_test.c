@@ -1,7 +1,8 @@
 /* corvid-render's EXR as a user gets it (GPU render on 2 virtual GPUs, and
  * the CPU reference): the right size, every per-pass layer with its channels
  * (beauty R G B A; direct.R G B; shadow.Y; ao.Y; albedo.R G B; normal.X Y Z;
- * depth.Z), none for passes the renderer did not make (reflection, motion),
+ * depth.Z; reflection.R G B with reflections on, the default; motion.X Y from
+ * the GPU render, which always makes it, not from the reference),
  * and sane values: depth.Z finite and > 0 where A = 1, +inf where A = 0;
  * direct within 0 .. beauty per channel (shadow.Y is half: a visibility of
  * 1e-8 reads 0 there, so "0 in shadow" is checked on the float planes in
@@ -26,18 +27,19 @@ static const char *expected[] = { "R",        "G",        "B",        "A",      
                                   "normal.X", "normal.Y", "normal.Z", "depth.Z" };
 #define EXPECTED (sizeof expected / sizeof expected[0])
 
-static void check_frame(const char *path, const char *what) {
+static void check_frame(const char *path, const char *what, bool motion) {
     cv_exr_image img = { 0 };
     CHECK_OK(cv_exr_read(path, &img));
     CHECK_EQ_INT(img.width, W);
     CHECK_EQ_INT(img.height, H);
-    CHECK_EQ_INT(img.channel_count, EXPECTED);
+    CHECK_EQ_INT(img.channel_count, EXPECTED + 3 + (motion ? 2 : 0));
     for (size_t c = 0; c < EXPECTED; c++)
         if (!cv_exr_image_find(&img, expected[c])) {
             check_failures++;
             fprintf(stderr, "%s: no channel %s\n", what, expected[c]);
         }
-    CHECK(!cv_exr_image_find(&img, "reflection.R") && !cv_exr_image_find(&img, "motion.X"));
+    CHECK(cv_exr_image_find(&img, "reflection.R") && cv_exr_image_find(&img, "reflection.B"));
+    CHECK((cv_exr_image_find(&img, "motion.X") != NULL) == motion);
     const float *a = cv_exr_image_find(&img, "A"), *z = cv_exr_image_find(&img, "depth.Z"),
                 *shadow = cv_exr_image_find(&img, "shadow.Y"), *ao = cv_exr_image_find(&img, "ao.Y");
     const float *beauty[3] = { cv_exr_image_find(&img, "R"), cv_exr_image_find(&img, "G"),
@@ -96,7 +98,7 @@ int main(int argc, char **argv) {
              argv[1], W, H, dir);
     CHECK_EQ_INT(run(cmd), 0);
     snprintf(path, sizeof path, "%s/gpu.exr", dir);
-    check_frame(path, "GPU render");
+    check_frame(path, "GPU render", true);
     remove(path);
     snprintf(path, sizeof path, "%s/gpu.png", dir);
     remove(path);
@@ -104,7 +106,7 @@ int main(int argc, char **argv) {
              dir);
     CHECK_EQ_INT(run(cmd), 0);
     snprintf(path, sizeof path, "%s/ref.exr", dir);
-    check_frame(path, "CPU reference");
+    check_frame(path, "CPU reference", false);
     remove(path);
     snprintf(path, sizeof path, "%s/ref.png", dir);
     remove(path);

@@ -164,8 +164,8 @@ int main(void) {
     orbit.orbit_degrees = 2.0f;
     orbit.filter_iterations = 3;
     cv_render_output orbit1 = { 0 }, orbit4 = { 0 };
-    CHECK_OK(render_on(1, scene, bvh, &orbit, &orbit1, &stats));
-    CHECK_OK(render_on(4, scene, bvh, &orbit, &orbit4, &stats));
+    CHECK_OK(cv_test_render(1, scene, bvh, &orbit, &orbit1, &stats));
+    CHECK_OK(cv_test_render(4, scene, bvh, &orbit, &orbit4, &stats));
     CHECK_EQ_INT(stats.device_count, 4);
     if (orbit1.radiance && orbit4.radiance) {
         CHECK(memcmp(orbit1.radiance, orbit4.radiance, bytes) == 0);

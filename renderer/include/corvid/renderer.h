@@ -3,11 +3,15 @@
  *   primary:      G-buffer raster (world position, normal, material)
  *   primary ->    each device gets the G-buffer columns of its partition
  *   all devices:  ray generation for their columns (sun shadow rays in a cone,
- *                 cosine AO rays), trace_rays (any hit), resolve to visibility
- *   -> primary:   each device's visibility columns are copied back
+ *                 cosine AO rays), trace_rays (any hit), resolve to visibility;
+ *                 reflections: one GGX-sampled ray per pixel (closest hit),
+ *                 a shadow ray at each hit, shading of the hit
+ *   -> primary:   each device's visibility and reflection columns are copied back
  *   primary:      temporal accumulation (reprojected with motion vectors when
  *                 the camera orbits), edge-avoiding a-trous filter,
- *                 composite (sun + sky light, emission) to linear HDR
+ *                 reflection reconstruction (spatial reuse) and accumulation,
+ *                 composite (sun + sky light, emission, Fresnel times the
+ *                 reflection; metal/roughness materials) to linear HDR
  *
  * Columns are split with partition/ (tile-snapped, rebalanced every frame from
  * each device's measured trace time). Devices are any cv_device: virtual GPUs on
@@ -52,6 +56,13 @@ typedef struct cv_render_settings {
     float orbit_degrees;      /* [0] the camera turns by this much per frame (sample index) about the
                                * vertical axis (its up) through its target: a moving camera, whose
                                * G-buffer runs every frame and whose history is reprojected */
+    int32_t reflections;       /* [1] 1 = GGX reflections (one ray per pixel per frame, shaded with the
+                                 * sun, a shadow ray and the sky), -1 = none (no specular term) */
+    int32_t reflection_radius; /* [1] spatial reuse radius of the reflection filter, pixels (0..8);
+                                 * -1 = none (every pixel keeps its own samples) */
+    float reflection_scale;    /* [1] reflection rays per pixel side: 1, or 0.5 = half resolution (one
+                                 * ray per 2x2 quad per frame, the quad's pixels in turn; the filter
+                                 * fills the others, its reuse radius one pixel wider) */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
@@ -92,7 +103,9 @@ typedef struct cv_render_output {
                         * was in the previous frame's image minus the pixel centre, in pixels (the EXR's motion.X, motion.Y)
                         * (0 for a still camera and on sky), z = the pixel's history length in
                         * frames (this one included), w = 1 where the history was reprojected */
-    float *reflection; /* RGBA: reflected radiance (the EXR's reflection.R, G, B) */
+    float *reflection; /* rgb = reflected radiance (GGX sample weight G2 / G1 applied, Fresnel not:
+                        * radiance adds F * reflection), a = 1 on geometry; NULL without reflections
+                        * (the EXR's reflection.R, G, B) */
 } cv_render_output;
 
 typedef struct cv_renderer cv_renderer;
@@ -123,9 +136,13 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot);
  * with the same ray rules (origin offset along the geometric normal, below the
  * surface = shadowed, AO mirrored above the geometric plane), accumulated in
  * float32, shaded as render.composite (unfiltered), seen by the camera of the
- * GPU image's frame (first_frame + frames - 1, which only an orbit changes);
- * tile, band_rays, filter_iterations and observer are ignored, motion is not
- * produced (NULL). `threads` pthreads (0 = 2).
+ * GPU image's frame (first_frame + frames - 1, which only an orbit changes).
+ * With reflections on, `samples` GGX reflection samples per pixel
+ * (renderer/src/reflect_model.h, from their own random stream), each shaded at
+ * its closest hit as render.reflect_shade (sun with a shadow ray, emission; the
+ * sky on a miss), fill the reflection plane (unreconstructed). tile,
+ * band_rays, filter_iterations, reflection_radius and observer are ignored,
+ * motion is not produced (NULL). `threads` pthreads (0 = 2).
  * Fills *out like cv_renderer_render; failures leave it untouched. */
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out);

@@ -1,0 +1,72 @@
+/* See gltf_materials.h. */
+#include "gltf_materials.h"
+
+#include <math.h>
+#include <stdio.h>
+
+/* Checks `count` numbers of `value` (an array when count > 1) against [lo, hi]. */
+static cv_result check_factor(const char *path, int index, const char *name, const cJSON *value, const char *key,
+                              int count, double lo, double hi) {
+    if (!value)
+        return CV_OK;
+    if (count > 1 && (!cJSON_IsArray(value) || cJSON_GetArraySize(value) != count))
+        return cv_error(CV_ERROR_MALFORMED, "%s: material %d ('%s'): %s is not an array of %d numbers", path, index,
+                        name, key, count);
+    for (int k = 0; k < count; k++) {
+        const cJSON *v = count > 1 ? cJSON_GetArrayItem(value, k) : value;
+        if (!cJSON_IsNumber(v))
+            return cv_error(CV_ERROR_MALFORMED, "%s: material %d ('%s'): %s is not a number", path, index, name, key);
+        double x = v->valuedouble;
+        if (!isfinite(x) || x < lo || x > hi) {
+            char range[32];
+            if (isinf(hi))
+                snprintf(range, sizeof range, ">= %g", lo);
+            else
+                snprintf(range, sizeof range, "in [%g, %g]", lo, hi);
+            if (count > 1)
+                return cv_error(CV_ERROR_MALFORMED, "%s: material %d ('%s'): %s[%d] = %g is not a number %s", path,
+                                index, name, key, k, x, range);
+            return cv_error(CV_ERROR_MALFORMED, "%s: material %d ('%s'): %s %g is not a number %s", path, index, name,
+                            key, x, range);
+        }
+    }
+    return CV_OK;
+}
+
+cv_result gltf_check_materials(const char *path, const cJSON *root) {
+    const cJSON *materials = cJSON_GetObjectItemCaseSensitive(root, "materials");
+    if (!materials)
+        return CV_OK;
+    if (!cJSON_IsArray(materials))
+        return cv_error(CV_ERROR_MALFORMED, "%s: 'materials' is not an array", path);
+    int index = 0;
+    cv_result r = CV_OK;
+    for (const cJSON *m = materials->child; m && r == CV_OK; m = m->next, index++) {
+        if (!cJSON_IsObject(m))
+            return cv_error(CV_ERROR_MALFORMED, "%s: material %d is not an object", path, index);
+        const cJSON *n = cJSON_GetObjectItemCaseSensitive(m, "name");
+        const char *name = cJSON_IsString(n) ? n->valuestring : "";
+        const cJSON *pbr = cJSON_GetObjectItemCaseSensitive(m, "pbrMetallicRoughness");
+        if (pbr && !cJSON_IsObject(pbr))
+            return cv_error(CV_ERROR_MALFORMED, "%s: material %d ('%s'): pbrMetallicRoughness is not an object", path,
+                            index, name);
+        if (pbr)
+            r = check_factor(path, index, name, cJSON_GetObjectItemCaseSensitive(pbr, "baseColorFactor"),
+                             "baseColorFactor", 4, 0.0, 1.0);
+        if (pbr && r == CV_OK)
+            r = check_factor(path, index, name, cJSON_GetObjectItemCaseSensitive(pbr, "metallicFactor"),
+                             "metallicFactor", 1, 0.0, 1.0);
+        if (pbr && r == CV_OK)
+            r = check_factor(path, index, name, cJSON_GetObjectItemCaseSensitive(pbr, "roughnessFactor"),
+                             "roughnessFactor", 1, 0.0, 1.0);
+        if (r == CV_OK)
+            r = check_factor(path, index, name, cJSON_GetObjectItemCaseSensitive(m, "emissiveFactor"),
+                             "emissiveFactor", 3, 0.0, 1.0);
+        const cJSON *ext = cJSON_GetObjectItemCaseSensitive(m, "extensions");
+        const cJSON *strength = cJSON_GetObjectItemCaseSensitive(
+            cJSON_GetObjectItemCaseSensitive(ext, "KHR_materials_emissive_strength"), "emissiveStrength");
+        if (r == CV_OK)
+            r = check_factor(path, index, name, strength, "emissiveStrength", 1, 0.0, INFINITY);
+    }
+    return r;
+}

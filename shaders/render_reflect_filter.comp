@@ -1,0 +1,201 @@
+// render.reflect_filter: reconstruction of the frame's reflection samples
+// (render.reflect_shade) and their running mean over frames (seed 000,
+// reflections: spatial reuse of the neighbours' rays, then temporal
+// accumulation; the camera is still, so no reprojection).
+// Two running means are kept: of the reconstructed estimate (low variance,
+// a little bias from reuse) and of the pixel's own samples (unbiased, the
+// CPU reference's estimator); the output blends them per pixel by their
+// estimated errors (luminance): alpha = v_own / (v_own + v_reuse + b^2), with
+// v = variance of each mean (from its second moment, / frames) and b^2 =
+// max(0, (reuse - own)^2 - v_own) the reuse's squared bias, so a pixel moves
+// from the reconstruction to its own samples as they converge (before 4
+// frames: the reconstruction).
+// Spatial reuse (radius > 0, not on mirrors): every neighbour q within
+// `radius` pixels whose surface is p's (shading normals within ~25 degrees,
+// q on p's tangent plane within plane_sigma, roughness within 0.1) lends its
+// sample as if p had drawn it: q's direction l_q is drawn again
+// (render_reflect_common.glsl, same pixel and frame), its hit point seen
+// from p gives p's direction l (the sky: l_q), and the sample is weighted by
+// the ratio w = BRDF_p(l) cos / pdf_q(l_q) (Fresnel is render.composite's).
+// The estimate is the ratio estimator E_p * sum(w L) / sum(w) (Stachowiak
+// 2015, stochastic screen-space reflections), where E_p, the integral of
+// BRDF_p cos over the hemisphere (the mean sample weight G2 / G1, lost
+// samples 0), is computed without tracing from 16 stratified VNDF samples.
+// Lost samples of neighbours carry no radiance and are skipped. Mirrors
+// (alpha < ALPHA_MIRROR) and radius 0 keep their own sample, G2 / G1 * L:
+// the estimator of the CPU reference.
+// Quarter rate (render.reflect_raygen traced one pixel per 2x2 quad; samples
+// marked -2 were not traced): the own mean of a pixel counts only the frames
+// it was traced in; the reconstruction uses the traced neighbours (a frame
+// where none qualifies repeats the current mean); a mirror pixel not yet
+// traced shows the mean of its traced same-surface neighbours.
+// Push: { uint width; uint height; uint frame (sample index, as
+//         render.reflect_raygen's); uint accumulated (frames before this one
+//         in the running mean); vec4 camera (xyz = eye, w = plane_sigma);
+//         int radius; uint material_count; uint quarter; uint pad; }.
+// i0: G-buffer positions, i1: G-buffer normals (w = material), b2: Material[],
+// i3: this frame's samples (RGBA32F), i4: reconstruction history, i5: own
+// history (RGBA32F: rgb = mean, a = mean squared luminance; read and
+// written), i6: output (RGBA32F: rgb = reflected radiance, a = 1 on
+// geometry, 0 elsewhere).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "render_reflect_common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+struct Material {
+    vec4 base_color_roughness;
+    vec4 emission_metalness;
+};
+
+layout(push_constant, std430) uniform Push {
+    uint width;
+    uint height;
+    uint frame;
+    uint accumulated;
+    vec4 camera;
+    int radius;
+    uint material_count;
+    uint quarter;
+    uint pad;
+} pc;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
+layout(set = 0, binding = 2, std430) readonly buffer Materials { Material materials[]; };
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D samples;
+layout(set = 0, binding = 4, rgba32f) uniform image2D history;
+layout(set = 0, binding = 5, rgba32f) uniform image2D own_history;
+layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D result;
+
+const uint BLEND_FRAMES = 16u;
+const float NOT_TRACED = -2.0;
+
+float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
+float roughness_of(float w) { return materials[min(uint(w), pc.material_count - 1u)].base_color_roughness.w; }
+
+// Frames f in [0, n) in which a pixel of quad slot q is traced.
+uint traced_before(uint n, uint q) { return pc.quarter != 0u ? (n + 3u - q) / 4u : n; }
+
+// The running mean h (rgb, luminance^2) of n - 1 values, with value c added;
+// the variance of the mean in v.
+vec4 accumulate(vec4 h, vec3 c, uint n, out float v) {
+    float y = luminance(c);
+    vec4 m = vec4(c, y * y);
+    h = n <= 1u ? m : h + (m - h) / float(n);
+    float my = luminance(h.rgb);
+    v = max(h.a - my * my, 0.0) / float(max(n, 1u));
+    return h;
+}
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (p.x >= int(pc.width) || p.y >= int(pc.height))
+        return;
+    vec4 pos = imageLoad(gbuffer_position, p);
+    if (pos.w == 0.0) {
+        imageStore(history, p, vec4(0.0));
+        imageStore(own_history, p, vec4(0.0));
+        imageStore(result, p, vec4(0.0));
+        return;
+    }
+    vec4 nm = imageLoad(gbuffer_normal, p);
+    vec3 ng = unpack_normal(pos.w), v = normalize(pc.camera.xyz - pos.xyz);
+    float roughness = roughness_of(nm.w), alpha = roughness * roughness;
+
+    // The pixel's own sample, if it was traced this frame.
+    vec4 own_sample = imageLoad(samples, p);
+    bool traced = own_sample.a != NOT_TRACED;
+    vec3 own = vec3(0.0);
+    {
+        vec3 l;
+        float weight;
+        if (own_sample.a >= 0.0 &&
+            reflect_sample(v, nm.xyz, ng, roughness, reflect_sample_point(uvec2(p), pc.frame, pc.quarter != 0u), l, weight))
+            own = own_sample.rgb * weight;
+    }
+
+    // Spatial reuse (also gathers the traced same-surface neighbours of a mirror at quarter rate).
+    bool mirror = alpha < ALPHA_MIRROR, reuse = pc.radius > 0 && !mirror;
+    vec3 sum = vec3(0.0), fill = vec3(0.0);
+    float total = 0.0, albedo = 0.0, filled = 0.0;
+    if (reuse) {
+        for (uint k = 0u; k < 16u; k++) {
+            vec3 l;
+            float weight;
+            vec2 u = (vec2(float(k & 3u), float(k >> 2u)) + 0.5) / 4.0;
+            if (reflect_sample(v, nm.xyz, ng, roughness, u, l, weight))
+                albedo += weight / 16.0;
+        }
+    }
+    int radius = reuse ? pc.radius : (mirror && pc.quarter != 0u ? 1 : 0);
+    for (int dy = -radius; dy <= radius; dy++)
+        for (int dx = -radius; dx <= radius; dx++) {
+            ivec2 q = p + ivec2(dx, dy);
+            if (q.x < 0 || q.y < 0 || q.x >= int(pc.width) || q.y >= int(pc.height))
+                continue;
+            vec4 qpos = imageLoad(gbuffer_position, q);
+            if (qpos.w == 0.0)
+                continue;
+            vec4 qnm = imageLoad(gbuffer_normal, q);
+            float qrough = roughness_of(qnm.w), qalpha = qrough * qrough;
+            if (dot(nm.xyz, qnm.xyz) < 0.9 || abs(dot(nm.xyz, qpos.xyz - pos.xyz)) > pc.camera.w ||
+                abs(qrough - roughness) > 0.1 || (qalpha < ALPHA_MIRROR) != mirror)
+                continue;
+            vec4 s = imageLoad(samples, q);
+            if (s.a < 0.0) /* lost or not traced: no radiance to lend */
+                continue;
+            vec3 qv = normalize(pc.camera.xyz - qpos.xyz), lq;
+            float qweight;
+            if (!reflect_sample(qv, qnm.xyz, unpack_normal(qpos.w), qrough, reflect_sample_point(uvec2(q), pc.frame, pc.quarter != 0u),
+                                lq, qweight))
+                continue;
+            if (mirror) {
+                fill += s.rgb * qweight;
+                filled += 1.0;
+                continue;
+            }
+            if (q == p) {
+                sum += s.rgb * qweight;
+                total += qweight;
+                continue;
+            }
+            vec3 l = s.a >= 1e29 ? lq : normalize(qpos.xyz + lq * s.a - pos.xyz);
+            if (dot(l, ng) <= 0.0)
+                continue;
+            float pdf = ggx_pdf(qv, qnm.xyz, lq, qalpha);
+            if (pdf > 0.0) {
+                float w = ggx_brdf_cos(v, nm.xyz, l, alpha) / pdf;
+                sum += s.rgb * w;
+                total += w;
+            }
+        }
+
+    // The own mean counts the frames the pixel was traced in.
+    uint slot = uint(p.x & 1) + 2u * uint(p.y & 1), first = pc.frame - pc.accumulated;
+    uint own_n = traced_before(pc.frame + 1u, slot) - traced_before(first, slot);
+    float v_own = 0.0, v_reuse = 0.0;
+    vec4 ho = imageLoad(own_history, p);
+    if (traced)
+        ho = accumulate(ho, own, own_n, v_own);
+    else if (own_n > 0u)
+        v_own = max(ho.a - luminance(ho.rgb) * luminance(ho.rgb), 0.0) / float(own_n);
+    else
+        ho = vec4(0.0);
+    imageStore(own_history, p, ho);
+    vec3 color = ho.rgb;
+    if (mirror && own_n == 0u)
+        color = filled > 0.0 ? fill / filled : vec3(0.0);
+    if (reuse) {
+        vec4 hr = imageLoad(history, p);
+        vec3 estimate = total > 0.0 ? sum * (albedo / total) : (traced || pc.accumulated == 0u ? vec3(0.0) : hr.rgb);
+        hr = accumulate(hr, estimate, pc.accumulated + 1u, v_reuse);
+        imageStore(history, p, hr);
+        v_own = max(v_own, v_reuse);
+        float d = luminance(hr.rgb) - luminance(ho.rgb), b2 = max(d * d - v_own, 0.0);
+        float a = pc.accumulated + 1u < BLEND_FRAMES || own_n < 4u ? 1.0 : v_own / max(v_own + v_reuse + b2, 1e-20);
+        color = mix(ho.rgb, hr.rgb, a);
+    }
+    imageStore(result, p, vec4(color, 1.0));
+}

@@ -1,0 +1,78 @@
+// render.reflect_shade: the radiance each reflection ray of a band brings
+// back, written at its pixel's full-image position: the sky on a miss; on a
+// hit, base color * sun (Lambertian, the shadow ray's visibility) + emission
+// (no AO, point lights or further bounces at the hit). Stored as
+// (rgb = radiance L, a = hit distance; 1e30 for the sky, -1 where there is
+// no sample: no geometry, or the sample was lost; -2 where the pixel was not
+// traced this frame (quarter rate); rgb 0 then).
+// Records are pixel-major over the band (width x height).
+// Push: { uint x0; uint width; uint height; uint y0; vec4 sun (xyz = unit
+//         direction the light travels, w = irradiance); vec4 sun_color;
+//         vec4 sky (rgb radiance); uint material_count; uint pad[3]; }.
+// i0: G-buffer positions, b1: reflection cv_ray[], b2: their cv_hit[],
+// b3: shadow cv_ray[] (render.reflect_shadow), b4: their cv_hit[], b5: Vertex[],
+// b6: uint instance_first[], b7: Material[], i8: reflection sample (RGBA32F, written).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "render_reflect_hit.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+struct Material {
+    vec4 base_color_roughness;
+    vec4 emission_metalness;
+};
+
+layout(push_constant, std430) uniform Push {
+    uint x0;
+    uint width;
+    uint height;
+    uint y0;
+    vec4 sun;
+    vec4 sun_color;
+    vec4 sky;
+    uint material_count;
+    uint pad0;
+    uint pad1;
+    uint pad2;
+} pc;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
+layout(set = 0, binding = 1, std430) readonly buffer Rays { Ray rays[]; };
+layout(set = 0, binding = 2, std430) readonly buffer Hits { Hit hits[]; };
+layout(set = 0, binding = 3, std430) readonly buffer ShadowRays { Ray shadow_rays[]; };
+layout(set = 0, binding = 4, std430) readonly buffer ShadowHits { Hit shadow_hits[]; };
+layout(set = 0, binding = 5, std430) readonly buffer Vertices { Vertex vertices[]; };
+layout(set = 0, binding = 6, std430) readonly buffer InstanceFirst { uint instance_first[]; };
+layout(set = 0, binding = 7, std430) readonly buffer Materials { Material materials[]; };
+layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D sample_out;
+
+const float PI = 3.14159265358979;
+
+void main() {
+    uvec2 local = gl_GlobalInvocationID.xy;
+    if (local.x >= pc.width || local.y >= pc.height)
+        return;
+    ivec2 pixel = ivec2(local.x + pc.x0, local.y + pc.y0);
+    uint i = local.y * pc.width + local.x;
+    Ray r = rays[i];
+    vec4 result = vec4(0.0, 0.0, 0.0, -1.0);
+    if (imageLoad(gbuffer_position, pixel).w != 0.0 && r.tmax == 0.0)
+        result.a = -2.0;
+    if (imageLoad(gbuffer_position, pixel).w != 0.0 && r.tmax > 0.0) {
+        Hit h = hits[i];
+        if (h.triangle == 0xFFFFFFFFu) {
+            result = vec4(pc.sky.rgb, 1e30);
+        } else {
+            uint first = 3u * (instance_first[h.instance] + h.triangle);
+            Vertex a = vertices[first], b = vertices[first + 1u], c = vertices[first + 2u];
+            vec3 ng, n;
+            hit_frame(a, b, c, h, r.dir, ng, n);
+            Material m = materials[min(a.material, pc.material_count - 1u)];
+            float visible = shadow_rays[i].tmax > 0.0 && shadow_hits[i].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
+            float n_dot_l = max(dot(n, -pc.sun.xyz), 0.0);
+            vec3 direct = pc.sun_color.rgb * pc.sun.w * n_dot_l * visible / PI;
+            result = vec4(m.base_color_roughness.rgb * direct + m.emission_metalness.rgb, h.t);
+        }
+    }
+    imageStore(sample_out, pixel, result);
+}
