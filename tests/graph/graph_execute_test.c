@@ -244,9 +244,14 @@ static void test_enable_and_submit(void) {
     /* Submitted without waiting: the last ticket per device covers the frame. */
     uint64_t tickets[CV_MAX_DEVICES];
     CHECK_OK(cv_graph_submit(w.graph, tickets));
+    /* (The balancer may give a device no columns when the machine is busy:
+     * the mock's timings are CPU times. Such a device has no work this frame.) */
+    cv_partition used;
+    CHECK_OK(cv_graph_get_partition(w.graph, &used));
     for (uint32_t d = 0; d < 3; d++) {
-        CHECK(tickets[d] > 0);
-        CHECK_OK(cv_device_wait(w.devices[d], tickets[d], UINT64_MAX));
+        CHECK(tickets[d] > 0 || used.ranges[d].width == 0);
+        if (tickets[d])
+            CHECK_OK(cv_device_wait(w.devices[d], tickets[d], UINT64_MAX));
     }
     CHECK_EQ_INT(tickets[3], 0);
     CHECK_EQ_INT(count_wrong(&w, result_h, 0x22222222u), 0);

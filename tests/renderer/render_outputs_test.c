@@ -186,10 +186,12 @@ static void check_trace(const char *path, uint32_t gpus) {
     }
     CHECK_EQ_INT(named, gpus + 1);
     CHECK_EQ_INT(negative, 0);
-    CHECK_EQ_INT(passes, 1 + FRAMES * (gpus + 1) + 2);
+    /* per frame: trace and reflect on every device, accumulate and reflect_filter on the primary;
+     * gbuffer on the first frame, filter and composite on the last */
+    CHECK_EQ_INT(passes, 1 + FRAMES * (2 * gpus + 2) + 2);
     for (uint32_t f = 0; f < FRAMES; f++) {
         CHECK_EQ_INT(traces[f], gpus);
-        CHECK_EQ_INT(per_frame[f], gpus + 1 + (f == 0) + 2 * (f == FRAMES - 1));
+        CHECK_EQ_INT(per_frame[f], 2 * gpus + 2 + (f == 0) + 2 * (f == FRAMES - 1));
     }
     if (gpus > 1)
         CHECK(transfers >= FRAMES); /* at least the visibility copy-back every frame */
