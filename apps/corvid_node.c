@@ -38,6 +38,8 @@ typedef struct options {
     uint32_t drain_timeout_s;
     uint32_t max_sessions;
     uint32_t mock_devices;
+    uint32_t peer_deadline_ms, peer_keepalive_ms;
+    const char *peer_tls_ca;
     bool validation;
     bool quiet;
 } options;
@@ -58,6 +60,11 @@ static void usage(FILE *f) {
             "  --idle-timeout SEC     end sessions silent for this long [300] (1..86400)\n"
             "  --drain-timeout SEC    on SIGTERM, how long running sessions may go on [30] (0..3600)\n"
             "  --max-sessions N       concurrent sessions [256] (1..65536)\n"
+            "  --peer-deadline-ms MS  clusters: how long a session waits for a partition another node sends\n"
+            "                         it, and a send to another node may take [10000] (100..600000)\n"
+            "  --peer-keepalive-ms MS clusters: keepalive of the channels to other nodes [10000] (100..600000)\n"
+            "  --peer-tls-ca FILE     clusters: reach other nodes over TLS, trusting this CA (they present\n"
+            "                         this node's --token-file token, so a cluster shares one token)\n"
             "  --name NAME            the name clients see [the host name]\n"
             "  --port-file FILE       write the bound port to FILE once listening\n"
             "  --metrics-port PORT    serve Prometheus metrics at /metrics on PORT (0 picks a free one) [off]\n"
@@ -173,6 +180,12 @@ static int parse_args(int argc, char **argv, options *o) {
             bad = parse_u32(name, value, 1, 86400, &o->idle_timeout_s);
         } else if (!strcmp(name, "--drain-timeout")) {
             bad = parse_u32(name, value, 0, 3600, &o->drain_timeout_s);
+        } else if (!strcmp(name, "--peer-deadline-ms")) {
+            bad = parse_u32(name, value, 100, 600000, &o->peer_deadline_ms);
+        } else if (!strcmp(name, "--peer-keepalive-ms")) {
+            bad = parse_u32(name, value, 100, 600000, &o->peer_keepalive_ms);
+        } else if (!strcmp(name, "--peer-tls-ca")) {
+            o->peer_tls_ca = value;
         } else if (!strcmp(name, "--max-sessions")) {
             bad = parse_u32(name, value, 1, 65536, &o->max_sessions);
         } else if (!strcmp(name, "--name")) {
@@ -338,10 +351,14 @@ int main(int argc, char **argv) {
         .tls_key_file = o.tls_key,
         .tls_client_ca_file = o.tls_client_ca,
         .quota = o.quota,
+        .peer_token = o.token_file ? token : NULL,
+        .peer_tls_ca_file = o.peer_tls_ca,
+        .peer_deadline_ms = o.peer_deadline_ms,
+        .peer_keepalive_ms = o.peer_keepalive_ms,
     };
     cv_node *node;
     r = cv_node_start(&config, &node);
-    memset(token, 0, sizeof(token)); /* the node keeps only its hash */
+    memset(token, 0, sizeof(token)); /* the node keeps its hash, and a copy to present to peer nodes */
     if (r != CV_OK) {
         fprintf(stderr, "corvid-node: %s\n", cv_last_error());
         return 1;

@@ -12,6 +12,7 @@
 
 #include "health.pb-c.h"
 #include "node_internal.h"
+#include "peer.h"
 
 enum {
     STATUS_OK = 0,
@@ -22,7 +23,8 @@ enum {
 };
 
 static const char *const stream_methods[] = { CV_NODE_METHOD_SESSION, NULL };
-static const char *const unary_methods[] = { CV_NODE_METHOD_INFO, CV_HEALTH_METHOD_CHECK, NULL };
+static const char *const unary_methods[] = { CV_NODE_METHOD_INFO, CV_HEALTH_METHOD_CHECK, CV_NODE_METHOD_PEER_PIECE,
+                                             NULL };
 
 static void on_stream(cv_rpc_stream *stream, const char *method, void *user) {
     (void)method; /* the only stream method */
@@ -169,11 +171,18 @@ static int on_unary(const char *method, const void *request, size_t size, void *
     cv_node *node = user;
     if (strcmp(method, CV_HEALTH_METHOD_CHECK) == 0)
         return answer_health(node, request, size, response, response_size, message, message_cap);
+    if (strcmp(method, CV_NODE_METHOD_PEER_PIECE) == 0) {
+        *response = NULL;
+        *response_size = 0;
+        return peer_on_piece(node, request, size, message, message_cap);
+    }
     return answer_info(node, response, response_size, message, message_cap);
 }
 
 static void free_node(cv_node *node) {
     OPENSSL_cleanse(node->token_sha, sizeof(node->token_sha));
+    OPENSSL_cleanse(node->peer_token, sizeof(node->peer_token));
+    peer_state_destroy(node->peer);
     if (node->store)
         cv_content_store_close(node->store);
     cv_node_metrics_destroy(node->metrics);
@@ -259,10 +268,17 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     node->config.listen = NULL;
     node->config.cache_dir = NULL; /* used only here, below */
     node->config.token = NULL;     /* only its hash is kept */
+    if (config->peer_token)
+        snprintf(node->peer_token, sizeof(node->peer_token), "%s", config->peer_token);
+    if (config->peer_tls_ca_file)
+        snprintf(node->peer_tls_ca, sizeof(node->peer_tls_ca), "%s", config->peer_tls_ca_file);
+    node->config.peer_token = node->config.peer_tls_ca_file = NULL; /* the copies above */
     node->config.tls_cert_file = node->config.tls_key_file = node->config.tls_client_ca_file = NULL;
     node->config.quota = node->quota;
 
     cv_result r = probe_devices(node);
+    if (r == CV_OK)
+        r = peer_state_create(node, &node->peer);
     if (r == CV_OK)
         r = cv_content_store_open(config->cache_dir, config->cache_bytes ? config->cache_bytes : 4ull << 30,
                                   &node->store);
@@ -323,5 +339,10 @@ cv_node_stats cv_node_get_stats(cv_node *node) {
         .cache_bytes = cs.bytes,
         .unauthenticated = atomic_load(&node->unauthenticated),
         .quota_refusals = atomic_load(&node->quota_refusals),
+        .peer_raw_out = atomic_load(&node->peer_raw_out),
+        .peer_bytes_out = atomic_load(&node->peer_bytes_out),
+        .peer_bytes_in = atomic_load(&node->peer_bytes_in),
+        .peer_failures = atomic_load(&node->peer_failures),
+        .transfer_failures = atomic_load(&node->transfer_failures),
     };
 }

@@ -76,7 +76,20 @@ typedef struct cv_node_config {
     const char *tls_cert_file, *tls_key_file; /* TLS (PEM files): both or neither */
     const char *tls_client_ca_file;           /* mutual TLS: clients need a certificate signed by this CA */
     cv_node_quota quota;
+
+    /* Clusters (docs/node.md, "Clusters"): node-to-node transfers. peer_token: the bearer token this node
+       presents to the nodes it sends partitions to (NULL = none; corvid-node uses its own --token-file, so a
+       cluster shares one token); peer_tls_ca_file: TLS to those nodes, trusting this CA (NULL = plaintext).
+       peer_deadline_ms: how long a session's AwaitTransfer waits for a peer's data, and a piece's send may
+       take [CV_NODE_DEFAULT_PEER_DEADLINE_MS]; peer_keepalive_ms: keepalive ping interval (and timeout) of
+       the channels to peers (0 = the rpc layer's 10 s + 5 s). */
+    const char *peer_token;
+    const char *peer_tls_ca_file;
+    uint32_t peer_deadline_ms;
+    uint32_t peer_keepalive_ms;
 } cv_node_config;
+
+#define CV_NODE_DEFAULT_PEER_DEADLINE_MS 10000u
 
 typedef struct cv_node_stats {
     uint64_t sessions_started, sessions_active;
@@ -85,6 +98,9 @@ typedef struct cv_node_stats {
     uint64_t cache_hits, cache_misses, cache_bytes;
     uint64_t unauthenticated; /* calls refused for a missing or wrong token */
     uint64_t quota_refusals;  /* requests refused by a session quota */
+    /* Clusters: partitions this node sent to peers (raw bytes read, compressed bytes on the wire), compressed
+       bytes it received from peers, transfers it could not deliver, and awaits that failed here. */
+    uint64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;
 } cv_node_stats;
 
 /* True if `listen` ("host:port") is reachable from this machine only: 127.0.0.0/8, ::1, localhost, unix:. */

@@ -93,6 +93,9 @@ static cv_result proxy_device_create(const cv_device_desc *desc, cv_device_info 
     p->remote_device = remote;
     const char *timeout = getenv("CORVID_NODE_TIMEOUT_MS");
     p->timeout_ms = timeout && atoi(timeout) > 0 ? (uint32_t)atoi(timeout) : DEFAULT_TIMEOUT_MS;
+    const char *deadline = getenv("CORVID_NODE_PEER_DEADLINE_MS");
+    p->peer_deadline_ms = deadline && atoi(deadline) > 0 ? (uint32_t)atoi(deadline) : 0;
+    proxy_peer_register();
     pthread_mutex_init(&p->lock, NULL);
     pthread_cond_init(&p->cond, NULL);
     r = proxy_session_open(p, info);
@@ -483,7 +486,9 @@ static cv_result proxy_wait(cv_backend_device *p, uint64_t ticket, uint64_t time
         }
     }
     pthread_mutex_unlock(&p->lock);
-    return r == CV_OK ? proxy_health(p) : r;
+    if (r == CV_OK)
+        r = proxy_health(p);
+    return r == CV_OK ? proxy_report_failure(p, ticket) : r;
 }
 
 static uint64_t proxy_completed(cv_backend_device *p) {

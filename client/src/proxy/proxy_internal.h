@@ -43,6 +43,9 @@ typedef struct proxy_pending {
     uint64_t read_size, read_received;
     bool *present; /* blob queries: one flag per hash */
     size_t present_count;
+    uint8_t session_key[CV_NODE_SESSION_KEY_BYTES]; /* hello: the session's capability */
+    bool has_session_key;
+    uint64_t transfer_failure; /* refused because of this transfer failure (the caller learns of it) */
 } proxy_pending;
 
 typedef struct proxy_inflight {
@@ -82,6 +85,17 @@ struct cv_backend_device {
     uint32_t list_count, list_capacity;
 
     cv_proxy_stats stats; /* under lock */
+
+    /* Clusters (proxy_peer.c). The session's capability for node-to-node transfers (HelloReply). */
+    uint8_t session_key[CV_NODE_SESSION_KEY_BYTES];
+    bool has_session_key;
+    uint32_t peer_deadline_ms; /* asked of the node for each await; 0 = the node's */
+    /* A failed await the node reported (Reply or Completed.transfer_failure) and no caller has learned of yet:
+       the next wait for a ticket >= soft_ticket returns it, once, and sends ResumeAfterFailure. Failures up to
+       `resumed` belong to frames already reported and are ignored. Not an async_error: the device goes on. */
+    uint64_t soft_failure, soft_ticket, resumed;
+    cv_result soft_result;
+    char soft_message[512];
 };
 
 typedef struct cv_backend_device proxy_device;
@@ -99,9 +113,19 @@ cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending
 /* The error every call returns once the session is unusable, or CV_OK. */
 cv_result proxy_health(proxy_device *p);
 
+/* Records a transfer failure the node reported (lock held); see soft_failure. */
+void proxy_note_failure(proxy_device *p, uint64_t failure, uint64_t ticket, cv_result result, const char *message);
+/* If a transfer failure waits to be reported to a wait for `ticket`: returns its error (naming the node) and
+ * tells the node the client knows (ResumeAfterFailure); else CV_OK. Lock not held. */
+cv_result proxy_report_failure(proxy_device *p, uint64_t ticket);
+/* Registers the proxy's peer transfer path with the core (proxy_peer.c). */
+void proxy_peer_register(void);
+
 /* The rpc client configuration for talking to a node, from the environment: CORVID_NODE_TOKEN_FILE (the bearer
  * token, read from the file into `token`, cap >= 1025), CORVID_NODE_TLS_CA (TLS, trusting that CA), and
- * CORVID_NODE_TLS_CERT / CORVID_NODE_TLS_KEY (a client certificate for mutual TLS). Errors name the variable. */
+ * CORVID_NODE_TLS_CERT / CORVID_NODE_TLS_KEY (a client certificate for mutual TLS), CORVID_NODE_KEEPALIVE_MS (keepalive
+ * ping interval and timeout, so a node that stops answering is noticed within about twice that; default 10 s + 5 s).
+ * Errors name the variable. */
 cv_result proxy_client_config(cv_rpc_client_config *cc, char *token, size_t cap);
 
 #endif
