@@ -38,6 +38,8 @@ struct peer_inbox {
     uint32_t count;
     uint64_t bytes;      /* compressed bytes held */
     uint64_t refuse_below; /* pieces for smaller ids are refused: they were awaited (or given up) */
+    uint64_t aborted[16];  /* ids the client gave up (a ring): their awaits fail at once */
+    uint32_t aborted_next;
 };
 
 typedef struct send_job {
@@ -127,6 +129,13 @@ static void deadline_after(struct timespec *ts, uint32_t ms) {
     }
 }
 
+static bool is_aborted(const peer_inbox *in, uint64_t transfer_id) {
+    for (uint32_t i = 0; i < 16; i++)
+        if (in->aborted[i] == transfer_id)
+            return true;
+    return false;
+}
+
 static int find_entry(const peer_inbox *in, uint64_t transfer_id) {
     for (uint32_t i = 0; i < in->count; i++)
         if (in->entries[i].transfer_id == transfer_id)
@@ -161,6 +170,12 @@ cv_result peer_inbox_take(peer_inbox *in, uint64_t transfer_id, uint64_t raw_byt
         e = find_entry(in, transfer_id);
         if (e >= 0 && in->entries[e].received == in->entries[e].compressed_size)
             break;
+        if (is_aborted(in, transfer_id)) {
+            r = cv_error(CV_ERROR_CONNECTION, "transfer %" PRIu64 " was given up by the client (its source device "
+                                              "was lost)",
+                         transfer_id);
+            break;
+        }
         if (pthread_cond_timedwait(&in->arrived, lock, &deadline) != 0) {
             e = find_entry(in, transfer_id);
             r = cv_error(CV_ERROR_TIMEOUT,
@@ -207,7 +222,17 @@ static int deposit(peer_state *ps, const Corvid__PeerPiece *m, char *message, si
         snprintf(message, cap, "peer_piece: no session of this node holds that session key");
         return STATUS_PERMISSION_DENIED;
     }
-    if (m->transfer_id < in->refuse_below) {
+    if (m->abort) { /* the client gives it up: an await of it (now or later) fails at once */
+        if (m->transfer_id >= in->refuse_below && !is_aborted(in, m->transfer_id)) {
+            in->aborted[in->aborted_next++ % 16] = m->transfer_id;
+            int e = find_entry(in, m->transfer_id);
+            if (e >= 0)
+                drop_entry(in, (uint32_t)e);
+            pthread_cond_broadcast(&in->arrived);
+        }
+        return STATUS_OK;
+    }
+    if (m->transfer_id < in->refuse_below || is_aborted(in, m->transfer_id)) {
         snprintf(message, cap, "peer_piece: transfer %" PRIu64 " was already awaited (or given up) by the session",
                  m->transfer_id);
         return STATUS_FAILED_PRECONDITION;

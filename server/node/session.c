@@ -78,6 +78,7 @@ typedef struct session {
      * failed await the client has not yet acknowledged (0: none). */
     peer_inbox *inbox;
     uint64_t failure, last_failure;
+    uint64_t failure_transfer; /* the transfer whose await started it */
     cv_result failure_result;
     char failure_message[768];
 
@@ -732,8 +733,9 @@ static cv_result do_push(session *s, const Corvid__PushTransfer *m) {
 }
 
 /* Starts a failure the client must acknowledge: later submissions are skipped, reads refused. */
-static uint64_t fail_transfers(session *s, cv_result r, const char *why) {
+static uint64_t fail_transfers(session *s, uint64_t transfer_id, cv_result r, const char *why) {
     s->failure = ++s->last_failure;
+    s->failure_transfer = transfer_id;
     s->failure_result = r;
     snprintf(s->failure_message, sizeof(s->failure_message), "%s", why);
     atomic_fetch_add(&s->node->transfer_failures, 1);
@@ -774,6 +776,11 @@ static cv_result do_await(session *s, const Corvid__AwaitTransfer *m) {
 }
 
 static cv_result do_resume(session *s, const Corvid__ResumeAfterFailure *m) {
+    if (m->failure == 0 && m->transfer_id) { /* given up by the client, which reported that frame */
+        if (s->failure && s->failure_transfer <= m->transfer_id)
+            s->failure = 0;
+        return CV_OK;
+    }
     if (m->failure == 0 || m->failure > s->last_failure)
         return cv_error(CV_ERROR_MALFORMED, "resume: failure %" PRIu64 " never happened here (the last was %" PRIu64 ")",
                         m->failure, s->last_failure);
@@ -894,7 +901,7 @@ static bool handle(session *s, const Corvid__ClientMessage *m, int *status) {
         if (r != CV_OK) {
             char why[768];
             snprintf(why, sizeof(why), "%s", cv_last_error());
-            uint64_t failure = s->failure ? s->failure : fail_transfers(s, r, why);
+            uint64_t failure = s->failure ? s->failure : fail_transfers(s, m->await_transfer->transfer_id, r, why);
             send_reply_failure(s, seq, r, why, failure);
         }
         return true;

@@ -69,6 +69,7 @@ static cv_result resolve_device(const char *endpoint, const char *text, uint32_t
 }
 
 static void free_device(proxy_device *p) {
+    proxy_peer_unregister(p);
     free(p->known);
     free(p->lists);
     pthread_cond_destroy(&p->cond);
@@ -95,9 +96,9 @@ static cv_result proxy_device_create(const cv_device_desc *desc, cv_device_info 
     p->timeout_ms = timeout && atoi(timeout) > 0 ? (uint32_t)atoi(timeout) : DEFAULT_TIMEOUT_MS;
     const char *deadline = getenv("CORVID_NODE_PEER_DEADLINE_MS");
     p->peer_deadline_ms = deadline && atoi(deadline) > 0 ? (uint32_t)atoi(deadline) : 0;
-    proxy_peer_register();
     pthread_mutex_init(&p->lock, NULL);
     pthread_cond_init(&p->cond, NULL);
+    proxy_peer_register(p);
     r = proxy_session_open(p, info);
     if (r != CV_OK) {
         char why[1024];
@@ -478,9 +479,23 @@ static cv_result proxy_wait(cv_backend_device *p, uint64_t ticket, uint64_t time
     if (p->completed < ticket && p->dead == CV_OK)
         p->stats.blocking_waits++;
     while (p->completed < ticket && p->dead == CV_OK) {
-        if (forever) {
-            pthread_cond_wait(&p->cond, &p->lock);
-        } else if (pthread_cond_timedwait(&p->cond, &p->lock, &deadline) != 0) {
+        /* In slices: an await this ticket may be held by loses its source meanwhile (proxy_peer.c). */
+        pthread_mutex_unlock(&p->lock);
+        proxy_peer_abort_dead(p);
+        pthread_mutex_lock(&p->lock);
+        if (p->completed >= ticket || p->dead != CV_OK)
+            break;
+        struct timespec slice;
+        clock_gettime(CLOCK_REALTIME, &slice);
+        slice.tv_nsec += 100L * 1000 * 1000;
+        if (slice.tv_nsec >= 1000000000L) {
+            slice.tv_sec++;
+            slice.tv_nsec -= 1000000000L;
+        }
+        bool last = !forever && (slice.tv_sec > deadline.tv_sec ||
+                                 (slice.tv_sec == deadline.tv_sec && slice.tv_nsec >= deadline.tv_nsec));
+        if (pthread_cond_timedwait(&p->cond, &p->lock, last ? &deadline : &slice) != 0 && last &&
+            p->completed < ticket && p->dead == CV_OK) {
             r = cv_error(CV_ERROR_TIMEOUT, "node '%s': ticket %" PRIu64 " not finished in time", p->endpoint, ticket);
             break;
         }
@@ -503,6 +518,7 @@ static uint64_t proxy_completed(cv_backend_device *p) {
 static bool proxy_lost(cv_backend_device *p) {
     pthread_mutex_lock(&p->lock);
     bool lost = p->dead != CV_OK;
+    p->loss_reported |= lost; /* the caller learns it now */
     pthread_mutex_unlock(&p->lock);
     return lost;
 }

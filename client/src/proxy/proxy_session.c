@@ -22,15 +22,21 @@ static void set_dead(proxy_device *p, cv_result code, const char *why) {
 cv_result proxy_health(proxy_device *p) {
     pthread_mutex_lock(&p->lock);
     cv_result r = CV_OK;
-    if (p->dead != CV_OK)
+    if (p->dead != CV_OK) {
         r = cv_error(p->dead, "node '%s': %s", p->endpoint, p->dead_message);
-    else if (p->async_error != CV_OK)
+        p->loss_reported = true; /* the caller learns it now */
+    } else if (p->async_error != CV_OK)
         r = cv_error(p->async_error, "node '%s' refused an earlier request: %s", p->endpoint, p->async_message);
     pthread_mutex_unlock(&p->lock);
     return r;
 }
 
 cv_result proxy_send(proxy_device *p, Corvid__ClientMessage *m) {
+    proxy_peer_settle(p);
+    return proxy_send_now(p, m);
+}
+
+cv_result proxy_send_now(proxy_device *p, Corvid__ClientMessage *m) {
     cv_result r = proxy_health(p);
     if (r != CV_OK)
         return r;
@@ -116,10 +122,17 @@ cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending
 
 /* ---- receiving ------------------------------------------------------------- */
 
-void proxy_note_failure(proxy_device *p, uint64_t failure, uint64_t ticket, cv_result result, const char *message) {
+void proxy_note_failure(proxy_device *p, uint64_t failure, uint64_t seq, uint64_t ticket, cv_result result,
+                        const char *message) {
     p->stats.transfer_failures += failure > p->resumed && failure != p->soft_failure;
     if (failure <= p->resumed || p->soft_failure)
         return; /* of a frame already reported, or one is waiting to be */
+    for (uint32_t i = 0; i < PROXY_AWAITS; i++)
+        if (p->awaits[i].source && p->awaits[i].given_up && p->awaits[i].seq == seq) {
+            p->resumed = failure; /* started by an await the client gave up: that frame was reported */
+            return;
+        }
+    p->soft_seq = seq;
     p->soft_failure = failure;
     p->soft_ticket = ticket;
     p->soft_result = result != CV_OK ? result : CV_ERROR_CONNECTION;
@@ -132,7 +145,7 @@ static void send_resume(proxy_device *p, uint64_t failure) {
     Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
     m.msg_case = CORVID__CLIENT_MESSAGE__MSG_RESUME;
     m.resume = &resume;
-    proxy_send(p, &m); /* a dead session fails every later call anyway */
+    proxy_send_now(p, &m); /* a dead session fails every later call anyway */
 }
 
 cv_result proxy_report_failure(proxy_device *p, uint64_t ticket) {
@@ -161,7 +174,7 @@ static void on_reply(proxy_device *p, uint64_t seq, const Corvid__Reply *reply) 
         snprintf(p->pending.message, sizeof(p->pending.message), "%s", reply->message ? reply->message : "");
         p->pending.done = true;
     } else if (reply->transfer_failure) {
-        proxy_note_failure(p, reply->transfer_failure, 0, (cv_result)reply->result, reply->message);
+        proxy_note_failure(p, reply->transfer_failure, seq, 0, (cv_result)reply->result, reply->message);
     } else if (reply->result != CV_OK && p->async_error == CV_OK) {
         p->async_error = (cv_result)reply->result;
         snprintf(p->async_message, sizeof(p->async_message), "request %" PRIu64 ": %s", seq,
@@ -209,7 +222,7 @@ static void on_completed(proxy_device *p, const Corvid__Completed *c) {
     slot->ticket = 0;
     slot->list = NULL;
     if (c->transfer_failure)
-        proxy_note_failure(p, c->transfer_failure, c->ticket, (cv_result)c->result, c->message);
+        proxy_note_failure(p, c->transfer_failure, 0, c->ticket, (cv_result)c->result, c->message);
     else if (c->result != CV_OK && p->async_error == CV_OK) {
         p->async_error = (cv_result)c->result;
         snprintf(p->async_message, sizeof(p->async_message), "submission %" PRIu64 ": %s", c->ticket,

@@ -80,6 +80,13 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
                              const cv_bvh *bvh, cv_renderer **out);
 void cv_renderer_destroy(cv_renderer *r);
 
+/* Adds a device (of the renderer's context) from the next frame on: uploads the
+ * scene to it (the scene and BVH given at creation must still exist) and
+ * rebuilds the frame graph. May be called from the progress callback: a node
+ * that came back, or a new one, then takes columns from the next frame. A
+ * device that cannot take the scene is refused and left as it was. */
+cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev);
+
 /* Renders settings->frames frames and reads the result back. `progress`, if
  * set, is called after every frame. */
 cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings, cv_render_output *out,
