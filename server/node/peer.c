@@ -240,11 +240,12 @@ static int deposit(peer_state *ps, const Corvid__PeerPiece *m, char *message, si
     int e = find_entry(in, m->transfer_id);
     if (m->offset == 0 && e < 0) {
         if (m->compressed_size == 0 || m->raw_size == 0 || m->raw_size > CV_NODE_PEER_MAX_BYTES ||
-            m->compressed_size > ZSTD_compressBound((size_t)m->raw_size)) {
+            m->compressed_size > ZSTD_compressBound((size_t)m->raw_size) || m->data.len > m->compressed_size) {
             snprintf(message, cap,
                      "peer_piece: transfer %" PRIu64 " of %" PRIu64 " bytes compressed to %" PRIu64
-                     " (at most %llu bytes, compressed at most zstd's bound)",
-                     m->transfer_id, m->raw_size, m->compressed_size, (unsigned long long)CV_NODE_PEER_MAX_BYTES);
+                     ", first piece %zu bytes (at most %llu bytes, compressed at most zstd's bound)",
+                     m->transfer_id, m->raw_size, m->compressed_size, m->data.len,
+                     (unsigned long long)CV_NODE_PEER_MAX_BYTES);
             return STATUS_INVALID_ARGUMENT;
         }
         if (in->count == PEER_INBOX_MAX_ENTRIES || m->compressed_size > PEER_INBOX_MAX_BYTES - in->bytes) {
