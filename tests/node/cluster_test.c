@@ -8,7 +8,10 @@
  *    with the local pixels, the frame it failed in retried on the survivors
  *    (the times are printed, not asserted), and the primary's session goes on;
  *  - the node restarted on its port is added back (cv_renderer_add_device)
- *    and takes columns again, pixels unchanged. */
+ *    and takes columns again, pixels unchanged;
+ *  - a node whose network goes silent (a relay that stops forwarding) is
+ *    noticed within the keepalive and peer deadline set for the test, and the
+ *    render completes on the others with the same pixels. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,6 +24,7 @@
 #include "corvid/transfer.h"
 #include "corvid/vulkan.h"
 #include "scratch_node.h"
+#include "tcp_relay.h"
 
 #define W 160
 #define H 90
@@ -222,6 +226,73 @@ static void node_killed(const char *node_binary, const cv_scene *scene, const cv
     cv_render_output_free(&local);
 }
 
+/* ---- a node whose network stops ---------------------------------------------------- */
+
+typedef struct stall_plan {
+    tcp_relay *relay;
+    uint32_t after_frame;
+    double stalled_at, resumed_at;
+} stall_plan;
+
+static void stall_after(uint32_t frame, uint32_t frames, void *user) {
+    (void)frames;
+    stall_plan *plan = user;
+    if (frame == plan->after_frame) {
+        tcp_relay_set_stall(plan->relay, true);
+        plan->stalled_at = now_ms();
+    } else if (frame == plan->after_frame + 1) {
+        plan->resumed_at = now_ms(); /* the frame after the stall completed, on the survivors */
+    }
+}
+
+static void node_stalled(const cv_scene *scene, const cv_bvh *bvh) {
+    const uint32_t frames = 4;
+    cv_render_output local = { 0 };
+    CHECK_OK(render_local(scene, bvh, frames, &local));
+    setenv("CORVID_NODE_KEEPALIVE_MS", "500", 1); /* a silent node is noticed within about 1 s */
+    cv_node_config quick = { .peer_deadline_ms = 1500, .peer_keepalive_ms = 500 };
+    scratch_node nodes[2];
+    CHECK_OK(scratch_node_start_secured(&nodes[0], cv_vulkan_backend(), 1, &quick));
+    CHECK_OK(scratch_node_start_secured(&nodes[1], cv_vulkan_backend(), 1, &quick));
+    tcp_relay *relay = NULL;
+    CHECK_EQ_INT(tcp_relay_start(cv_node_port(nodes[1].node), 0, &relay), 0);
+    char through[64];
+    snprintf(through, sizeof(through), "127.0.0.1:%d", relay ? tcp_relay_port(relay) : 0);
+    cv_context *ctx;
+    cv_device *devices[2] = { 0 };
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = nodes[0].endpoint },
+                              &devices[0]));
+    CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = through }, &devices[1]));
+    if (relay && devices[0] && devices[1]) {
+        cv_renderer *r = NULL;
+        cv_render_output out = { 0 };
+        cv_render_stats stats;
+        cv_render_settings s = settings(frames);
+        CHECK_OK(cv_renderer_create(devices, 2, scene, bvh, &r));
+        stall_plan plan = { .relay = relay, .after_frame = 1 };
+        CHECK_OK(cv_renderer_render(r, &s, &out, &stats, stall_after, &plan));
+        CHECK(same_image(&local, &out));
+        CHECK_EQ_INT(stats.devices_lost, 1);
+        CHECK(cv_device_is_lost(devices[1]) && !cv_device_is_lost(devices[0]));
+        /* Keepalive 0.5 s + 0.5 s: the frame after the stall ends well within the default keepalive
+         * (10 s + 5 s) and request timeout (120 s); a generous bound for a loaded machine. */
+        double took = plan.resumed_at - plan.stalled_at;
+        fprintf(stderr, "stalled node noticed and its frame done again on the survivor in %.0f ms\n", took);
+        CHECK(took > 0 && took < 12000);
+        cv_renderer_destroy(r);
+        cv_render_output_free(&out);
+    }
+    cv_context_destroy(ctx);
+    tcp_relay_stop(relay);
+    unsetenv("CORVID_NODE_KEEPALIVE_MS");
+    for (int i = 0; i < 2; i++) {
+        CHECK_EQ_INT(scratch_node_wait_sessions(&nodes[i], 5000), 0);
+        scratch_node_stop(&nodes[i]);
+    }
+    cv_render_output_free(&local);
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) {
         fprintf(stderr, "usage: node_cluster CORVID_NODE_BINARY\n");
@@ -237,6 +308,7 @@ int main(int argc, char **argv) {
     CHECK_OK(render_local(scene, bvh, 3, &local));
     three_nodes(scene, bvh, &local);
     node_killed(argv[1], scene, bvh);
+    node_stalled(scene, bvh);
     CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);
     CHECK_NOTHING_LIVE();
     cv_render_output_free(&local);
