@@ -298,6 +298,8 @@ int peer_on_piece(cv_node *node, const void *request, size_t size, char *message
     pthread_mutex_lock(&ps->lock);
     int status = deposit(ps, m, message, cap);
     pthread_mutex_unlock(&ps->lock);
+    if (status == STATUS_OK && m->abort) /* a client gave a transfer up: its source node was lost */
+        cv_node_metrics_node_loss(node->metrics);
     if (status == STATUS_OK)
         atomic_fetch_add(&node->peer_bytes_in, m->data.len);
     else {
