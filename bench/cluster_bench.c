@@ -124,9 +124,10 @@ static void node_death(const char *binary, const cv_scene *scene, const cv_bvh *
             if (f != k.after)
                 sorted[n++] = k.ms[f];
         qsort(sorted, n, sizeof(double), cmp_double);
-        printf("node killed after frame %u of %u: that frame %.1f ms, median frame %.1f ms (%.2fx); %u devices "
-               "lost\n",
-               k.after, s.frames, k.ms[k.after], sorted[n / 2], k.ms[k.after] / sorted[n / 2], st.devices_lost);
+        printf(
+            "node killed after frame %u of %u: that frame %.1f ms, median frame %.1f ms (%.2fx); %u devices "
+            "lost\n",
+            k.after, s.frames, k.ms[k.after], sorted[n / 2], k.ms[k.after] / sorted[n / 2], st.devices_lost);
     } else {
         printf("node death: not measured: %s\n", r == CV_OK ? "too few frames" : cv_last_error());
     }
@@ -217,17 +218,20 @@ int main(int argc, char **argv) {
                 continue;
             }
             printf("%u node%s (%s): %.1f ms/frame, %.2fx local\n", n, n > 1 ? "s" : "",
-                   n == 1 ? "no transfers" : staged ? "staged through the client" : "peer, node to node",
+                   n == 1   ? "no transfers"
+                   : staged ? "staged through the client"
+                            : "peer, node to node",
                    res.frame_ms, res.frame_ms / base.frame_ms);
             /* Two renders ran; per frame of both. */
             for (uint32_t i = 1; i < n; i++) {
                 after[i] = cv_node_get_stats(nodes[i].node);
                 uint64_t raw = after[i].peer_raw_out - before[i].peer_raw_out;
                 uint64_t wire = after[i].peer_bytes_out - before[i].peer_bytes_out;
-                printf("   node %u: to peers %.1f kB/frame on the wire for %.1f kB of partitions (%.2fx); "
-                       "the client received %.1f kB/frame from it\n",
-                       i, wire / 2e3 / frames, raw / 2e3 / frames, raw ? (double)wire / (double)raw : 0.0,
-                       res.ps[i].bytes_received / 1e3 / frames);
+                printf(
+                    "   node %u: to peers %.1f kB/frame on the wire for %.1f kB of partitions (%.2fx); "
+                    "the client received %.1f kB/frame from it\n",
+                    i, wire / 2e3 / frames, raw / 2e3 / frames, raw ? (double)wire / (double)raw : 0.0,
+                    res.ps[i].bytes_received / 1e3 / frames);
             }
         }
     }

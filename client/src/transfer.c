@@ -217,8 +217,8 @@ static cv_result run_job(job *j, cv_transfer_stats *stats) {
         return r;
     if (path == CV_TRANSFER_PEER) /* node to node, in stream order: transfer_peer.c */
         return cv_transfer_peer_run(&(cv_transfer_peer_region){ j->src, j->dst, j->src_id, j->dst_id, j->texture,
-                                                                  j->src_rect, j->dst_x, j->dst_y, j->src_offset,
-                                                                  j->dst_offset, j->size },
+                                                                j->src_rect, j->dst_x, j->dst_y, j->src_offset,
+                                                                j->dst_offset, j->size },
                                     stats);
     cv_transfer_stats st = { .bytes = j->size, .path = path };
     if (path == CV_TRANSFER_STAGED) {

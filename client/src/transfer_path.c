@@ -26,7 +26,8 @@ cv_result cv_transfer_path_parse(const char *name, cv_transfer_path *out) {
             *out = (cv_transfer_path)i;
             return CV_OK;
         }
-    return cv_error(CV_ERROR_INVALID_ARGUMENT, "transfer path '%s' is not one of auto, staged, host-import, shared, peer",
+    return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                    "transfer path '%s' is not one of auto, staged, host-import, shared, peer",
                     name ? name : "(null)");
 }
 

@@ -719,8 +719,8 @@ static cv_result join_device(cv_renderer *r, cv_device *dev) {
             res = cv_device_load(dev, cv_any(r->textures[t]));
     cv_rect all = { 0, 0, r->width, r->height };
     if (res == CV_OK && r->width)
-        res = cv_transfer_texture(r->devices[0], r->textures[TEX_POSITION], all, dev, r->textures[TEX_POSITION], 0,
-                                  0, NULL);
+        res = cv_transfer_texture(r->devices[0], r->textures[TEX_POSITION], all, dev, r->textures[TEX_POSITION], 0, 0,
+                                  NULL);
     if (res == CV_OK && r->width)
         res = cv_transfer_texture(r->devices[0], r->textures[TEX_NORMAL], all, dev, r->textures[TEX_NORMAL], 0, 0,
                                   NULL);
@@ -743,8 +743,7 @@ cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev) {
     if (cv_device_is_lost(dev))
         return cv_error(CV_ERROR_DEVICE_LOST, "renderer: device '%s' is lost", cv_device_label(dev));
     uint64_t range = cv_device_get_info(dev)->max_storage_buffer_range;
-    if (r->data.vertex_count * sizeof(render_vertex) > range ||
-        (r->graph && r->graph_rays * CV_RAY_BYTES > range))
+    if (r->data.vertex_count * sizeof(render_vertex) > range || (r->graph && r->graph_rays * CV_RAY_BYTES > range))
         return cv_error(CV_ERROR_LIMIT_EXCEEDED,
                         "renderer: device '%s''s storage buffer range of %llu bytes is too small for this scene "
                         "and image",

@@ -36,7 +36,7 @@ struct peer_inbox {
     pthread_cond_t arrived;
     inbox_entry entries[PEER_INBOX_MAX_ENTRIES];
     uint32_t count;
-    uint64_t bytes;      /* compressed bytes held */
+    uint64_t bytes;        /* compressed bytes held */
     uint64_t refuse_below; /* pieces for smaller ids are refused: they were awaited (or given up) */
     uint64_t aborted[16];  /* ids the client gave up (a ring): their awaits fail at once */
     uint32_t aborted_next;
@@ -153,8 +153,9 @@ cv_result peer_inbox_take(peer_inbox *in, uint64_t transfer_id, uint64_t raw_byt
     pthread_mutex_lock(lock);
     if (transfer_id < in->refuse_below) {
         pthread_mutex_unlock(lock);
-        return cv_error(CV_ERROR_MALFORMED, "await_transfer: transfer %" PRIu64 " after %" PRIu64
-                                            " (a session awaits transfers in increasing order)",
+        return cv_error(CV_ERROR_MALFORMED,
+                        "await_transfer: transfer %" PRIu64 " after %" PRIu64
+                        " (a session awaits transfers in increasing order)",
                         transfer_id, in->refuse_below - 1);
     }
     /* Older transfers were never awaited: nobody will take them. */
@@ -171,8 +172,10 @@ cv_result peer_inbox_take(peer_inbox *in, uint64_t transfer_id, uint64_t raw_byt
         if (e >= 0 && in->entries[e].received == in->entries[e].compressed_size)
             break;
         if (is_aborted(in, transfer_id)) {
-            r = cv_error(CV_ERROR_CONNECTION, "transfer %" PRIu64 " was given up by the client (its source device "
-                                              "was lost)",
+            r = cv_error(CV_ERROR_CONNECTION,
+                         "transfer %" PRIu64
+                         " was given up by the client (its source device "
+                         "was lost)",
                          transfer_id);
             break;
         }
@@ -181,15 +184,15 @@ cv_result peer_inbox_take(peer_inbox *in, uint64_t transfer_id, uint64_t raw_byt
             r = cv_error(CV_ERROR_TIMEOUT,
                          "transfer %" PRIu64 " from a peer node: %" PRIu64 " of %" PRIu64
                          " bytes arrived within %u ms (the source node is gone, stalled or cannot reach this node)",
-                         transfer_id, e >= 0 ? in->entries[e].received : 0, e >= 0 ? in->entries[e].compressed_size : 0,
-                         deadline_ms);
+                         transfer_id, e >= 0 ? in->entries[e].received : 0,
+                         e >= 0 ? in->entries[e].compressed_size : 0, deadline_ms);
             break;
         }
     }
     if (r == CV_OK && in->entries[e].raw_size != raw_bytes)
         r = cv_error(CV_ERROR_MALFORMED,
-                     "transfer %" PRIu64 ": the peer sent %" PRIu64 " bytes, the region holds %" PRIu64,
-                     transfer_id, in->entries[e].raw_size, raw_bytes);
+                     "transfer %" PRIu64 ": the peer sent %" PRIu64 " bytes, the region holds %" PRIu64, transfer_id,
+                     in->entries[e].raw_size, raw_bytes);
     if (r == CV_OK) {
         *data = in->entries[e].data;
         *size = (size_t)in->entries[e].compressed_size;
@@ -390,7 +393,8 @@ static cv_rpc_client *channel_to(peer_state *ps, const char *destination) {
 static void deliver(peer_state *ps, const send_job *job) {
     cv_node *node = ps->node;
     cv_rpc_client *c = channel_to(ps, job->destination);
-    uint32_t timeout = node->config.peer_deadline_ms ? node->config.peer_deadline_ms : CV_NODE_DEFAULT_PEER_DEADLINE_MS;
+    uint32_t timeout = node->config.peer_deadline_ms ? node->config.peer_deadline_ms
+                                                     : CV_NODE_DEFAULT_PEER_DEADLINE_MS;
     cv_result r = c ? CV_OK : CV_ERROR_CONNECTION;
     char why[512] = "";
     if (!c)

@@ -711,8 +711,8 @@ static cv_result transfer_region(session *s, uint64_t client_id, uint32_t x, uin
 static cv_result do_push(session *s, const Corvid__PushTransfer *m) {
     uint64_t id, bytes;
     cv_resource_desc desc;
-    cv_result r = transfer_region(s, m->id, m->x, m->y, m->width, m->height, m->offset, m->size, "push_transfer",
-                                  &id, &desc, &bytes);
+    cv_result r = transfer_region(s, m->id, m->x, m->y, m->width, m->height, m->offset, m->size, "push_transfer", &id,
+                                  &desc, &bytes);
     if (r != CV_OK)
         return r;
     if (m->session_key.len != CV_NODE_SESSION_KEY_BYTES)
@@ -782,8 +782,9 @@ static cv_result do_resume(session *s, const Corvid__ResumeAfterFailure *m) {
         return CV_OK;
     }
     if (m->failure == 0 || m->failure > s->last_failure)
-        return cv_error(CV_ERROR_MALFORMED, "resume: failure %" PRIu64 " never happened here (the last was %" PRIu64 ")",
-                        m->failure, s->last_failure);
+        return cv_error(CV_ERROR_MALFORMED,
+                        "resume: failure %" PRIu64 " never happened here (the last was %" PRIu64 ")", m->failure,
+                        s->last_failure);
     if (m->failure == s->failure)
         s->failure = 0; /* an older one: already resumed */
     return CV_OK;
@@ -893,7 +894,7 @@ static bool handle(session *s, const Corvid__ClientMessage *m, int *status) {
             return true;
         }
         r = m->msg_case == CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER ? do_read_buffer(s, seq, m->read_buffer)
-                                                                  : do_read_texture(s, seq, m->read_texture);
+                                                                   : do_read_texture(s, seq, m->read_texture);
         break;
     case CORVID__CLIENT_MESSAGE__MSG_PUSH_TRANSFER: r = do_push(s, m->push_transfer); break;
     case CORVID__CLIENT_MESSAGE__MSG_AWAIT_TRANSFER:

@@ -30,12 +30,9 @@
 #define H 90
 
 static cv_render_settings settings(uint32_t frames) {
-    return (cv_render_settings){ .width = W,
-                                 .height = H,
-                                 .frames = frames,
-                                 .ao_samples = 2,
-                                 .sun_cone_degrees = 1.0f,
-                                 .filter_iterations = 2 };
+    return (cv_render_settings){
+        .width = W, .height = H, .frames = frames, .ao_samples = 2, .sun_cone_degrees = 1.0f, .filter_iterations = 2
+    };
 }
 
 static const char *test_adapter(void) {
@@ -118,8 +115,8 @@ static void three_nodes(const cv_scene *scene, const cv_bvh *bvh, const cv_rende
             CHECK(ps[d].peer_pushes >= 3);
             partitions += ps[d].peer_push_bytes;
             CHECK(ps[d].bytes_received < 16 * 1024);
-            fprintf(stderr, "secondary %d: pushed %llu partition bytes node to node, the client received %llu\n",
-                    d, (unsigned long long)ps[d].peer_push_bytes, (unsigned long long)ps[d].bytes_received);
+            fprintf(stderr, "secondary %d: pushed %llu partition bytes node to node, the client received %llu\n", d,
+                    (unsigned long long)ps[d].peer_push_bytes, (unsigned long long)ps[d].bytes_received);
         }
         /* What the nodes moved between them: every pushed byte left a secondary's node, compressed. */
         uint64_t raw_out = 0, wire_out = 0, wire_in = 0;
@@ -134,8 +131,8 @@ static void three_nodes(const cv_scene *scene, const cv_bvh *bvh, const cv_rende
         CHECK(raw_out >= partitions);
         CHECK(wire_out > 0 && wire_in > 0);
         CHECK(wire_out < raw_out);
-        fprintf(stderr, "nodes: %llu raw bytes sent to peers as %llu bytes on the wire\n", (unsigned long long)raw_out,
-                (unsigned long long)wire_out);
+        fprintf(stderr, "nodes: %llu raw bytes sent to peers as %llu bytes on the wire\n",
+                (unsigned long long)raw_out, (unsigned long long)wire_out);
     }
     cv_context_destroy(ctx);
     for (int i = 0; i < 3; i++) {
@@ -261,8 +258,8 @@ static void node_stalled(const cv_scene *scene, const cv_bvh *bvh) {
     cv_context *ctx;
     cv_device *devices[2] = { 0 };
     CHECK_OK(cv_context_create(NULL, &ctx));
-    CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = nodes[0].endpoint },
-                              &devices[0]));
+    CHECK_OK(
+        cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = nodes[0].endpoint }, &devices[0]));
     CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = through }, &devices[1]));
     if (relay && devices[0] && devices[1]) {
         cv_renderer *r = NULL;

@@ -124,9 +124,10 @@ cv_result scratch_process_node_start(scratch_process_node *n, const char *binary
     snprintf(count, sizeof(count), "%u", gpus);
     unlink(port_file);
     const char *adapter = getenv("CORVID_TEST_ADAPTER");
-    const char *argv[48] = { binary,     "--listen",  listen,  "--port-file", port_file, "--cache-dir",
-                             cache,      "--adapters", adapter && *adapter ? adapter : "llvmpipe",
-                             "--gpus",   count };
+    const char *argv[48] = { binary,        "--listen",   listen,
+                             "--port-file", port_file,    "--cache-dir",
+                             cache,         "--adapters", adapter && *adapter ? adapter : "llvmpipe",
+                             "--gpus",      count };
     uint32_t argc = 11;
     for (uint32_t i = 0; extra && extra[i] && argc < 46; i++)
         argv[argc++] = extra[i];

@@ -105,8 +105,8 @@ struct cv_backend_device {
     struct cv_backend_device *registry_next;
     struct proxy_await {
         uint64_t transfer_id, seq, source; /* source: its serial; 0 = a free slot */
-        bool aborted;  /* the node was told to fail it at once (its source died) */
-        bool given_up; /* ... and the session resumed after it (the caller knows) */
+        bool aborted;                      /* the node was told to fail it at once (its source died) */
+        bool given_up;                     /* ... and the session resumed after it (the caller knows) */
     } awaits[PROXY_AWAITS];
     uint32_t awaits_next;
 };

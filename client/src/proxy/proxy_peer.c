@@ -168,8 +168,9 @@ static cv_result peer_move(const cv_transfer_peer_region *g, uint64_t transfer_i
     r = proxy_send(dst, &a);
     if (r == CV_OK) {
         pthread_mutex_lock(&dst->lock);
-        dst->awaits[dst->awaits_next++ % PROXY_AWAITS] =
-            (struct proxy_await){ .transfer_id = transfer_id, .seq = a.seq, .source = src->serial };
+        dst->awaits[dst->awaits_next++ % PROXY_AWAITS] = (struct proxy_await){ .transfer_id = transfer_id,
+                                                                               .seq = a.seq,
+                                                                               .source = src->serial };
         pthread_mutex_unlock(&dst->lock);
     }
     pthread_mutex_lock(&src->lock);
@@ -184,4 +185,3 @@ static cv_result peer_move(const cv_transfer_peer_region *g, uint64_t transfer_i
     }
     return r;
 }
-
