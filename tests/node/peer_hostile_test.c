@@ -66,16 +66,34 @@ static int piece(const uint8_t *key, size_t key_len, uint64_t transfer_id, uint6
     return status;
 }
 
-static uint64_t send_await(raw_client *c, uint64_t transfer_id, uint64_t offset, uint64_t size, uint32_t deadline) {
+static uint64_t await_on(raw_client *c, uint64_t id, uint64_t transfer_id, uint64_t offset, uint64_t size,
+                         uint32_t deadline) {
     Corvid__AwaitTransfer a = CORVID__AWAIT_TRANSFER__INIT;
     a.transfer_id = transfer_id;
-    a.id = BUF_ID(1);
+    a.id = id;
     a.offset = offset;
     a.size = size;
     a.deadline_ms = deadline;
     Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
     m.msg_case = CORVID__CLIENT_MESSAGE__MSG_AWAIT_TRANSFER;
     m.await_transfer = &a;
+    return raw_send(c, &m);
+}
+
+static uint64_t send_await(raw_client *c, uint64_t transfer_id, uint64_t offset, uint64_t size, uint32_t deadline) {
+    return await_on(c, BUF_ID(1), transfer_id, offset, size, deadline);
+}
+
+static uint64_t send_push(raw_client *c, uint64_t id, const uint8_t *key, size_t key_len) {
+    Corvid__PushTransfer p = CORVID__PUSH_TRANSFER__INIT;
+    p.transfer_id = 1;
+    p.id = id;
+    p.size = SIZE;
+    p.destination = node.endpoint;
+    p.session_key = (ProtobufCBinaryData){ key_len, (uint8_t *)key };
+    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
+    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_PUSH_TRANSFER;
+    m.push_transfer = &p;
     return raw_send(c, &m);
 }
 
@@ -195,13 +213,19 @@ static void cases(void) {
     CHECK_EQ_INT(piece(key, 16, 6, SIZE, zn, 0, z, zn, false, why, sizeof(why)), CV_RPC_STATUS_FAILED_PRECONDITION);
     send_resume(&a, failure);
     CHECK(buffer_is(&a, before));
+    /* 11: an await of a handle the session does not know; pushes of an unknown handle, with a short key */
+    failure = expect_failed(&a, await_on(&a, BUF_ID(9), 8, 0, SIZE, 0), CV_ERROR_INVALID_HANDLE,
+                            "unknown in this session", __LINE__);
+    send_resume(&a, failure);
+    EXPECT_REPLY(&b, send_push(&b, BUF_ID(9), key, 16), CV_ERROR_INVALID_HANDLE, "unknown in this session");
+    EXPECT_REPLY(&a, send_push(&a, BUF_ID(1), key, 4), CV_ERROR_MALFORMED, "a session key has 16");
     /* 11: an await of an id below the last one */
     failure = expect_failed(&a, send_await(&a, 2, 0, SIZE, 0), CV_ERROR_MALFORMED, "increasing order", __LINE__);
     send_resume(&a, failure);
 
     /* 12: a good transfer lands byte for byte, whether it came before or after its await */
-    CHECK_EQ_INT(piece(key, 16, 7, SIZE, zn, 0, z, zn, false, why, sizeof(why)), CV_RPC_STATUS_OK);
-    send_await(&a, 7, 0, SIZE, 0);
+    CHECK_EQ_INT(piece(key, 16, 9, SIZE, zn, 0, z, zn, false, why, sizeof(why)), CV_RPC_STATUS_OK);
+    send_await(&a, 9, 0, SIZE, 0);
     CHECK(buffer_is(&a, payload));
     cv_node_stats ns = cv_node_get_stats(node.node);
     CHECK(ns.transfer_failures >= 7);
