@@ -198,12 +198,16 @@ static void *watcher_main(void *arg) {
                 snprintf(p.message, sizeof(p.message), "%s", cv_last_error());
             }
         }
+        /* Out of the in-flight count before the client hears of it: a client that keeps within the
+         * quota it was told (HelloReply.quotas) is never refused. */
+        pthread_mutex_lock(&s->lock);
+        if (p.node_ticket)
+            s->inflight--;
+        pthread_mutex_unlock(&s->lock);
         send_completed(s, &p);
         pthread_mutex_lock(&s->lock);
         s->pending_head = (s->pending_head + 1) % MAX_PENDING_SUBMITS;
         s->pending_count--;
-        if (p.node_ticket)
-            s->inflight--;
         pthread_cond_broadcast(&s->cond);
     }
     pthread_mutex_unlock(&s->lock);
@@ -839,6 +843,12 @@ static cv_result do_hello(session *s, uint64_t seq, const Corvid__Hello *m, int 
     reply.session_id = s->id;
     reply.max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES;
     reply.session_key = (ProtobufCBinaryData){ CV_NODE_SESSION_KEY_BYTES, key };
+    Corvid__Quotas quotas = CORVID__QUOTAS__INIT;
+    quotas.memory_bytes = node->quota.memory_bytes;
+    quotas.resources = node->quota.resources;
+    quotas.inflight = node->quota.inflight;
+    quotas.upload_bytes = node->quota.upload_bytes;
+    reply.quotas = &quotas;
     Corvid__NodeMessage out = CORVID__NODE_MESSAGE__INIT;
     out.seq = seq;
     out.msg_case = CORVID__NODE_MESSAGE__MSG_HELLO;

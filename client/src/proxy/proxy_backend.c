@@ -207,6 +207,14 @@ static cv_result ensure_blob(proxy_device *p, const void *data, uint64_t size, u
         remember_blob(p, sha);
         return CV_OK;
     }
+    pthread_mutex_lock(&p->lock);
+    uint64_t sent = p->stats.upload_bytes_sent;
+    pthread_mutex_unlock(&p->lock);
+    if (p->quota_upload && size > p->quota_upload - (sent < p->quota_upload ? sent : p->quota_upload))
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "node '%s': an upload of %" PRIu64 " bytes would pass the session's upload quota (%" PRIu64
+                        " bytes sent of %" PRIu64 ", corvid-node --quota-upload); refused here, the device goes on",
+                        p->endpoint, size, sent, p->quota_upload);
     for (uint64_t off = 0; off < size; off += CV_NODE_CHUNK_BYTES) {
         uint64_t n = size - off < CV_NODE_CHUNK_BYTES ? size - off : CV_NODE_CHUNK_BYTES;
         Corvid__BlobChunk chunk = CORVID__BLOB_CHUNK__INIT;
@@ -432,16 +440,19 @@ static void proxy_list_release(cv_backend_device *p, void *obj) {
 
 static cv_result proxy_submit(cv_backend_device *p, void *obj, uint64_t ticket) {
     proxy_list *compiled = obj;
+    /* At most the ring's size, and the node's in-flight quota, submitted and not completed. */
+    uint64_t most = p->quota_inflight && p->quota_inflight < PROXY_INFLIGHT - 1 ? p->quota_inflight
+                                                                                : PROXY_INFLIGHT - 1;
     pthread_mutex_lock(&p->lock);
-    bool full = ticket - p->completed > PROXY_INFLIGHT - 1;
+    bool full = ticket - p->completed > most;
     pthread_mutex_unlock(&p->lock);
-    while (full) { /* the ring of in-flight tickets is full: let the oldest finish first */
+    while (full) { /* let the oldest finish first */
         cv_result r = proxy_health(p);
         if (r != CV_OK)
             return r;
         pthread_mutex_lock(&p->lock);
         pthread_cond_wait(&p->cond, &p->lock);
-        full = ticket - p->completed > PROXY_INFLIGHT - 1 && p->dead == CV_OK;
+        full = ticket - p->completed > most && p->dead == CV_OK;
         pthread_mutex_unlock(&p->lock);
     }
     Corvid__SubmitList s = CORVID__SUBMIT_LIST__INIT;

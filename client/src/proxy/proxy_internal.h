@@ -46,6 +46,8 @@ typedef struct proxy_pending {
     size_t present_count;
     uint8_t session_key[CV_NODE_SESSION_KEY_BYTES]; /* hello: the session's capability */
     bool has_session_key;
+    uint32_t quota_inflight; /* hello: the node's quotas (0 = not told) */
+    uint64_t quota_upload;
     uint64_t transfer_failure; /* refused because of this transfer failure (the caller learns of it) */
 } proxy_pending;
 
@@ -90,6 +92,10 @@ struct cv_backend_device {
     /* Clusters (proxy_peer.c). The session's capability for node-to-node transfers (HelloReply). */
     uint8_t session_key[CV_NODE_SESSION_KEY_BYTES];
     bool has_session_key;
+    /* The node's quotas for this session (HelloReply.quotas; 0 = not told): submissions past the in-flight
+       quota wait here, uploads past the upload quota are refused here, so neither poisons the device. */
+    uint32_t quota_inflight;
+    uint64_t quota_upload;
     uint32_t peer_deadline_ms; /* asked of the node for each await; 0 = the node's */
     /* A failed await the node reported (Reply or Completed.transfer_failure) and no caller has learned of yet:
        the next wait for a ticket >= soft_ticket returns it, once, and sends ResumeAfterFailure. Failures up to

@@ -237,6 +237,10 @@ static void on_message(proxy_device *p, const Corvid__NodeMessage *m) {
         if (p->pending.seq == m->seq && p->pending.hello_info && m->hello->device) {
             cv_node_info_from_msg(m->hello->device, p->pending.hello_info);
             p->pending.session_id = m->hello->session_id;
+            if (m->hello->quotas) {
+                p->pending.quota_inflight = m->hello->quotas->inflight;
+                p->pending.quota_upload = m->hello->quotas->upload_bytes;
+            }
             if (m->hello->session_key.len == CV_NODE_SESSION_KEY_BYTES) {
                 memcpy(p->pending.session_key, m->hello->session_key.data, CV_NODE_SESSION_KEY_BYTES);
                 p->pending.has_session_key = true;
@@ -368,6 +372,8 @@ cv_result proxy_session_open(proxy_device *p, cv_device_info *info) {
         return r;
     memcpy(p->session_key, pending.session_key, sizeof(p->session_key));
     p->has_session_key = pending.has_session_key;
+    p->quota_inflight = pending.quota_inflight;
+    p->quota_upload = pending.quota_upload;
     snprintf(info->backend, sizeof(info->backend), "proxy");
     info->adapter_index = p->remote_device;
     return CV_OK;
