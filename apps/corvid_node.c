@@ -14,6 +14,7 @@
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
+#include <time.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -396,9 +397,16 @@ int main(int argc, char **argv) {
     fprintf(stderr, "corvid-node: %s: draining (new sessions refused, %u s for running ones)\n",
             sig == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_timeout_s);
     cv_node_drain(node);
+    /* Metrics stay up while the running sessions finish, so a scrape during the drain shows it
+     * (corvid_node_draining 1, the sessions going down); then they go, before the node (they read it). */
+    uint32_t waited_ms = 0;
+    while (waited_ms < o.drain_timeout_s * 1000u && cv_node_get_stats(node).sessions_active) {
+        nanosleep(&(struct timespec){ 0, 50 * 1000 * 1000 }, NULL);
+        waited_ms += 50;
+    }
     cv_node_stats stats = cv_node_get_stats(node);
-    cv_metrics_server_stop(metrics); /* it reads the node: gone before the node is */
-    cv_node_stop(node, o.drain_timeout_s * 1000u);
+    cv_metrics_server_stop(metrics);
+    cv_node_stop(node, o.drain_timeout_s * 1000u - (waited_ms < o.drain_timeout_s * 1000u ? waited_ms : 0));
     fprintf(stderr,
             "corvid-node: stopped after %" PRIu64 " sessions, %" PRIu64 " submissions, %" PRIu64 " bytes in, %" PRIu64
             " bytes out\n",

@@ -11,11 +11,19 @@
  *    and takes columns again, pixels unchanged;
  *  - a node whose network goes silent (a relay that stops forwarding) is
  *    noticed within the keepalive and peer deadline set for the test, and the
- *    render completes on the others with the same pixels. */
+ *    render completes on the others with the same pixels;
+ *  - a corvid-node draining after SIGTERM still serves its metrics while a
+ *    session runs, and exits 0 once it ends. */
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "check.h"
 #include "corvid/proxy.h"
@@ -290,6 +298,74 @@ static void node_stalled(const cv_scene *scene, const cv_bvh *bvh) {
     cv_render_output_free(&local);
 }
 
+/* ---- metrics during a drain ------------------------------------------------------------ */
+
+static int free_port(void) {
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+    socklen_t len = sizeof(a);
+    int port = 0;
+    if (fd >= 0 && bind(fd, (struct sockaddr *)&a, sizeof(a)) == 0 &&
+        getsockname(fd, (struct sockaddr *)&a, &len) == 0)
+        port = ntohs(a.sin_port);
+    if (fd >= 0)
+        close(fd);
+    return port;
+}
+
+/* GET /metrics from 127.0.0.1:port into out (NUL-terminated); false if nothing came. */
+static bool scrape(int port, char *out, size_t cap) {
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a = { .sin_family = AF_INET,
+                             .sin_port = htons((uint16_t)port),
+                             .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+    size_t got = 0;
+    if (fd >= 0 && connect(fd, (struct sockaddr *)&a, sizeof(a)) == 0) {
+        static const char req[] = "GET /metrics HTTP/1.0\r\n\r\n";
+        if (write(fd, req, sizeof(req) - 1) == (ssize_t)(sizeof(req) - 1))
+            for (ssize_t n; got + 1 < cap && (n = read(fd, out + got, cap - 1 - got)) > 0;)
+                got += (size_t)n;
+    }
+    if (fd >= 0)
+        close(fd);
+    out[got] = '\0';
+    return got > 0;
+}
+
+static void drain_metrics(const char *node_binary) {
+    char port[16];
+    snprintf(port, sizeof(port), "%d", free_port());
+    const char *const extra[] = { "--metrics-port", port, "--drain-timeout", "20", "--quiet", NULL };
+    scratch_process_node n = { 0 };
+    CHECK_OK(scratch_process_node_start(&n, node_binary, 1, 0, extra));
+    cv_context *ctx;
+    cv_device *dev = NULL;
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = n.endpoint }, &dev));
+    char *text = malloc(1 << 16);
+    if (dev && n.pid && text) {
+        kill(n.pid, SIGTERM); /* drains: the session goes on, new ones are refused */
+        bool draining = false;
+        for (int i = 0; i < 100 && !draining; i++) {
+            nanosleep(&(struct timespec){ 0, 50 * 1000 * 1000 }, NULL);
+            draining = scrape(atoi(port), text, 1 << 16) && strstr(text, "\ncorvid_node_draining 1");
+        }
+        CHECK(draining);
+        CHECK(strstr(text, "\ncorvid_node_sessions_active 1") != NULL);
+        cv_context_destroy(ctx); /* the session ends: the node stops */
+        ctx = NULL;
+        int status = -1;
+        for (int i = 0; i < 200 && waitpid(n.pid, &status, WNOHANG) == 0; i++)
+            nanosleep(&(struct timespec){ 0, 50 * 1000 * 1000 }, NULL);
+        CHECK(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+        n.pid = 0;
+    }
+    free(text);
+    if (ctx)
+        cv_context_destroy(ctx);
+    scratch_process_node_stop(&n);
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) {
         fprintf(stderr, "usage: node_cluster CORVID_NODE_BINARY\n");
@@ -306,6 +382,7 @@ int main(int argc, char **argv) {
     three_nodes(scene, bvh, &local);
     node_killed(argv[1], scene, bvh);
     node_stalled(scene, bvh);
+    drain_metrics(argv[1]);
     CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);
     CHECK_NOTHING_LIVE();
     cv_render_output_free(&local);
