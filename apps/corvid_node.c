@@ -41,6 +41,7 @@ typedef struct options {
     uint32_t mock_devices;
     uint32_t peer_deadline_ms, peer_keepalive_ms;
     const char *peer_tls_ca;
+    const char *health_listen;
     bool validation;
     bool quiet;
 } options;
@@ -66,6 +67,8 @@ static void usage(FILE *f) {
             "  --peer-keepalive-ms MS clusters: keepalive of the channels to other nodes [10000] (100..600000)\n"
             "  --peer-tls-ca FILE     clusters: reach other nodes over TLS, trusting this CA (they present\n"
             "                         this node's --token-file token, so a cluster shares one token)\n"
+            "  --health-listen HOST:PORT  a plaintext port serving only grpc.health.v1 Health/Check, for\n"
+            "                         probes that speak no TLS (Kubernetes) next to a TLS --listen [off]\n"
             "  --name NAME            the name clients see [the host name]\n"
             "  --port-file FILE       write the bound port to FILE once listening\n"
             "  --metrics-port PORT    serve Prometheus metrics at /metrics on PORT (0 picks a free one) [off]\n"
@@ -187,6 +190,12 @@ static int parse_args(int argc, char **argv, options *o) {
             bad = parse_u32(name, value, 100, 600000, &o->peer_keepalive_ms);
         } else if (!strcmp(name, "--peer-tls-ca")) {
             o->peer_tls_ca = value;
+        } else if (!strcmp(name, "--health-listen")) {
+            if (!strrchr(value, ':')) {
+                fprintf(stderr, "corvid-node: --health-listen: '%s' is not HOST:PORT\n", value);
+                bad = 2;
+            }
+            o->health_listen = value;
         } else if (!strcmp(name, "--max-sessions")) {
             bad = parse_u32(name, value, 1, 65536, &o->max_sessions);
         } else if (!strcmp(name, "--name")) {
@@ -356,6 +365,7 @@ int main(int argc, char **argv) {
         .peer_tls_ca_file = o.peer_tls_ca,
         .peer_deadline_ms = o.peer_deadline_ms,
         .peer_keepalive_ms = o.peer_keepalive_ms,
+        .health_listen = o.health_listen,
     };
     cv_node *node;
     r = cv_node_start(&config, &node);
@@ -390,6 +400,8 @@ int main(int argc, char **argv) {
     if (metrics)
         printf("corvid-node: metrics at http://%s:%d/metrics\n",
                metrics_opts.listen ? metrics_opts.listen : "127.0.0.1", cv_metrics_server_port(metrics));
+    if (o.health_listen)
+        printf("corvid-node: plaintext health (grpc.health.v1 only) on port %d\n", cv_node_health_port(node));
     fflush(stdout);
 
     int sig = 0;

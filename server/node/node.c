@@ -166,6 +166,14 @@ static int answer_health(cv_node *node, const void *request, size_t request_size
     return STATUS_OK;
 }
 
+static const char *const health_methods[] = { CV_HEALTH_METHOD_CHECK, NULL };
+
+static int on_health_unary(const char *method, const void *request, size_t size, void **response,
+                           size_t *response_size, char *message, size_t message_cap, void *user) {
+    (void)method; /* the only method served there */
+    return answer_health(user, request, size, response, response_size, message, message_cap);
+}
+
 static int on_unary(const char *method, const void *request, size_t size, void **response, size_t *response_size,
                     char *message, size_t message_cap, void *user) {
     cv_node *node = user;
@@ -305,11 +313,34 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         free_node(node);
         return r;
     }
+    if (config->health_listen) {
+        cv_rpc_server_config hc = {
+            .listen = config->health_listen,
+            .max_message_bytes = 4096,
+            .max_streams = 1,
+            .on_unary = on_health_unary,
+            .unary_methods = health_methods,
+            .user = node,
+        };
+        r = cv_rpc_server_start(&hc, &node->health_server);
+        if (r != CV_OK) {
+            char why[1024];
+            snprintf(why, sizeof(why), "%s", cv_last_error());
+            cv_rpc_server_destroy(node->server, 0);
+            free_node(node);
+            return cv_error(r, "node: health port '%s': %s", config->health_listen, why);
+        }
+    }
+    node->config.health_listen = NULL;
     *out = node;
     return CV_OK;
 }
 
 int cv_node_port(const cv_node *node) { return cv_rpc_server_port(node->server); }
+
+int cv_node_health_port(const cv_node *node) {
+    return node->health_server ? cv_rpc_server_port(node->health_server) : 0;
+}
 
 void cv_node_drain(cv_node *node) {
     atomic_store(&node->draining, true);
@@ -321,6 +352,7 @@ void cv_node_stop(cv_node *node, uint32_t timeout_ms) {
         return;
     atomic_store(&node->draining, true);
     cv_rpc_server_destroy(node->server, timeout_ms);
+    cv_rpc_server_destroy(node->health_server, 0); /* NOT_SERVING until here */
     free_node(node);
 }
 

@@ -87,6 +87,12 @@ typedef struct cv_node_config {
     const char *peer_tls_ca_file;
     uint32_t peer_deadline_ms;
     uint32_t peer_keepalive_ms;
+
+    /* A second, plaintext port that serves only grpc.health.v1 Health/Check ("host:port", port 0 picks a free
+       one; NULL = none), for probes that cannot speak TLS (Kubernetes' grpc probes) next to a TLS port. It
+       says what the main port's health says (NOT_SERVING while draining); everything else there is
+       UNIMPLEMENTED. */
+    const char *health_listen;
 } cv_node_config;
 
 #define CV_NODE_DEFAULT_PEER_DEADLINE_MS 10000u
@@ -108,6 +114,8 @@ bool cv_node_listen_is_local(const char *listen);
 
 cv_result cv_node_start(const cv_node_config *config, cv_node **out);
 int cv_node_port(const cv_node *node);
+/* The plaintext health port (config.health_listen), 0 if none. */
+int cv_node_health_port(const cv_node *node);
 /* Refuses new sessions (health answers NOT_SERVING); running ones go on. */
 void cv_node_drain(cv_node *node);
 /* Waits up to timeout_ms for sessions to end, cancels what is left, frees everything. */

@@ -18,6 +18,7 @@ struct cv_node {
     cv_device_info *device_info; /* probed at start */
     cv_content_store *store;
     cv_rpc_server *server;
+    cv_rpc_server *health_server; /* plaintext health only (config.health_listen); NULL = none */
     atomic_bool draining;
     atomic_uint_fast64_t next_session_id;
     atomic_uint_fast64_t sessions_started, sessions_active;

@@ -322,6 +322,58 @@ static void listen_rules(void) {
 static char ca_pem[512], server_pem[512], server_key[512], expired_pem[512], expired_key[512];
 static char client_pem[512], client_key[512], other_pem[512], stranger_pem[512], stranger_key[512];
 
+/* Health/Check at `endpoint` in plaintext: the serving status (1 SERVING, 2 NOT_SERVING), or -status. */
+static int plain_health(const char *endpoint, const char *method) {
+    cv_rpc_client *client;
+    int status = -1;
+    void *resp = NULL;
+    size_t resp_size = 0;
+    if (cv_rpc_client_create(endpoint, NULL, &client) != CV_OK)
+        return -100;
+    cv_rpc_client_unary(client, method, "", 0, 5000, &resp, &resp_size, &status);
+    int serving = status == 0 && resp_size == 2 && ((uint8_t *)resp)[0] == 0x08 ? ((uint8_t *)resp)[1] : -status;
+    free(resp);
+    cv_rpc_client_destroy(client);
+    return serving;
+}
+
+/* A TLS node with a plaintext health port (--health-listen): probes that speak no TLS get the node's
+ * health there, and nothing else. */
+static void health_port(void) {
+    scratch_node n;
+    CHECK_OK(scratch_node_start_secured(&n, cv_mock_backend(), 1,
+                                        &(cv_node_config){ .tls_cert_file = server_pem,
+                                                           .tls_key_file = server_key,
+                                                           .token = "health-port-token",
+                                                           .health_listen = "127.0.0.1:0" }));
+    if (!n.node)
+        return;
+    char health[64];
+    snprintf(health, sizeof(health), "127.0.0.1:%d", cv_node_health_port(n.node));
+    CHECK(cv_node_health_port(n.node) > 0 && cv_node_health_port(n.node) != cv_node_port(n.node));
+    CHECK_EQ_INT(plain_health(health, CV_HEALTH_METHOD_CHECK), 1);
+    CHECK_EQ_INT(plain_health(health, CV_NODE_METHOD_INFO), -CV_RPC_STATUS_UNIMPLEMENTED);
+    CHECK_EQ_INT(plain_health(health, CV_NODE_METHOD_PEER_PIECE), -CV_RPC_STATUS_UNIMPLEMENTED);
+    CHECK(plain_health(n.endpoint, CV_HEALTH_METHOD_CHECK) < 0); /* the main port speaks TLS only */
+    cv_node_drain(n.node);
+    CHECK_EQ_INT(plain_health(health, CV_HEALTH_METHOD_CHECK), 2);
+    scratch_node_stop(&n);
+    /* A health port that cannot be bound: the node does not start, and says which. */
+    scratch_node a, b;
+    CHECK_OK(
+        scratch_node_start_secured(&a, cv_mock_backend(), 1, &(cv_node_config){ .health_listen = "127.0.0.1:0" }));
+    if (a.node) {
+        char taken[64];
+        snprintf(taken, sizeof(taken), "127.0.0.1:%d", cv_node_health_port(a.node));
+        CHECK_RESULT(scratch_node_start_secured(&b, cv_mock_backend(), 1,
+                                                &(cv_node_config){ .health_listen = taken }),
+                     CV_ERROR_CONNECTION);
+        CHECK(strstr(cv_last_error(), "health port") != NULL);
+        scratch_node_stop(&a);
+    }
+    CHECK_NOTHING_LIVE();
+}
+
 static void tls(void) {
     scratch_node n;
     CHECK_OK(
@@ -649,8 +701,10 @@ int main(void) {
 
     tokens();
     listen_rules();
-    if (certs)
+    if (certs) {
         tls();
+        health_port();
+    }
     quotas();
     proxy_quotas();
 
