@@ -10,7 +10,7 @@
  *  - the node restarted on its port is added back (cv_renderer_add_device)
  *    and takes columns again, pixels unchanged;
  *  - a node whose network goes silent (a relay that stops forwarding) is
- *    noticed within the keepalive and peer deadline set for the test, and the
+ *    noticed within the keepalive set for the test, and the
  *    render completes on the others with the same pixels;
  *  - a corvid-node draining after SIGTERM still serves its metrics while a
  *    session runs, and exits 0 once it ends. */
@@ -174,9 +174,10 @@ static void node_killed(const char *node_binary, const cv_scene *scene, const cv
     const uint32_t frames = 5;
     cv_render_output local = { 0 };
     CHECK_OK(render_local(scene, bvh, frames, &local));
-    /* A short peer deadline and keepalive, so a lost node costs about a second at worst. */
-    const char *const extra[] = { "--peer-deadline-ms", "1500", "--peer-keepalive-ms", "1000", "--quiet", NULL };
-    setenv("CORVID_NODE_KEEPALIVE_MS", "1000", 1);
+    /* A killed node's connections reset: its loss is seen at once, and the awaits from it are given up
+     * (not left to the peer deadline, which stays long enough for a slow frame on a loaded machine). */
+    const char *const extra[] = { "--peer-deadline-ms", "10000", "--peer-keepalive-ms", "2000", "--quiet", NULL };
+    setenv("CORVID_NODE_KEEPALIVE_MS", "2000", 1);
     scratch_process_node nodes[3] = { 0 };
     for (int i = 0; i < 3; i++)
         CHECK_OK(scratch_process_node_start(&nodes[i], node_binary, 1, 0, extra));
@@ -254,8 +255,8 @@ static void node_stalled(const cv_scene *scene, const cv_bvh *bvh) {
     const uint32_t frames = 4;
     cv_render_output local = { 0 };
     CHECK_OK(render_local(scene, bvh, frames, &local));
-    setenv("CORVID_NODE_KEEPALIVE_MS", "500", 1); /* a silent node is noticed within about 1 s */
-    cv_node_config quick = { .peer_deadline_ms = 1500, .peer_keepalive_ms = 500 };
+    setenv("CORVID_NODE_KEEPALIVE_MS", "1500", 1); /* a silent node is noticed within about 3 s */
+    cv_node_config quick = { .peer_deadline_ms = 10000, .peer_keepalive_ms = 1500 };
     scratch_node nodes[2];
     CHECK_OK(scratch_node_start_secured(&nodes[0], cv_vulkan_backend(), 1, &quick));
     CHECK_OK(scratch_node_start_secured(&nodes[1], cv_vulkan_backend(), 1, &quick));
@@ -280,11 +281,11 @@ static void node_stalled(const cv_scene *scene, const cv_bvh *bvh) {
         CHECK(same_image(&local, &out));
         CHECK_EQ_INT(stats.devices_lost, 1);
         CHECK(cv_device_is_lost(devices[1]) && !cv_device_is_lost(devices[0]));
-        /* Keepalive 0.5 s + 0.5 s: the frame after the stall ends well within the default keepalive
-         * (10 s + 5 s) and request timeout (120 s); a generous bound for a loaded machine. */
+        /* Keepalive 1.5 s + 1.5 s: the frame after the stall ends before the default keepalive (10 s + 5 s)
+         * would even notice, and well before the request timeout (120 s); generous for a loaded machine. */
         double took = plan.resumed_at - plan.stalled_at;
         fprintf(stderr, "stalled node noticed and its frame done again on the survivor in %.0f ms\n", took);
-        CHECK(took > 0 && took < 12000);
+        CHECK(took > 0 && took < 14000);
         cv_renderer_destroy(r);
         cv_render_output_free(&out);
     }
@@ -346,7 +347,7 @@ static void drain_metrics(const char *node_binary) {
     if (dev && n.pid && text) {
         kill(n.pid, SIGTERM); /* drains: the session goes on, new ones are refused */
         bool draining = false;
-        for (int i = 0; i < 100 && !draining; i++) {
+        for (int i = 0; i < 400 && !draining; i++) {
             nanosleep(&(struct timespec){ 0, 50 * 1000 * 1000 }, NULL);
             draining = scrape(atoi(port), text, 1 << 16) && strstr(text, "\ncorvid_node_draining 1");
         }
@@ -355,7 +356,7 @@ static void drain_metrics(const char *node_binary) {
         cv_context_destroy(ctx); /* the session ends: the node stops */
         ctx = NULL;
         int status = -1;
-        for (int i = 0; i < 200 && waitpid(n.pid, &status, WNOHANG) == 0; i++)
+        for (int i = 0; i < 1200 && waitpid(n.pid, &status, WNOHANG) == 0; i++)
             nanosleep(&(struct timespec){ 0, 50 * 1000 * 1000 }, NULL);
         CHECK(WIFEXITED(status) && WEXITSTATUS(status) == 0);
         n.pid = 0;
