@@ -14,6 +14,7 @@
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
+#include <time.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -38,6 +39,9 @@ typedef struct options {
     uint32_t drain_timeout_s;
     uint32_t max_sessions;
     uint32_t mock_devices;
+    uint32_t peer_deadline_ms, peer_keepalive_ms;
+    const char *peer_tls_ca;
+    const char *health_listen;
     bool validation;
     bool quiet;
 } options;
@@ -58,6 +62,13 @@ static void usage(FILE *f) {
             "  --idle-timeout SEC     end sessions silent for this long [300] (1..86400)\n"
             "  --drain-timeout SEC    on SIGTERM, how long running sessions may go on [30] (0..3600)\n"
             "  --max-sessions N       concurrent sessions [256] (1..65536)\n"
+            "  --peer-deadline-ms MS  clusters: how long a session waits for a partition another node sends\n"
+            "                         it, and a send to another node may take [10000] (100..600000)\n"
+            "  --peer-keepalive-ms MS clusters: keepalive of the channels to other nodes [10000] (100..600000)\n"
+            "  --peer-tls-ca FILE     clusters: reach other nodes over TLS, trusting this CA (they present\n"
+            "                         this node's --token-file token, so a cluster shares one token)\n"
+            "  --health-listen HOST:PORT  a plaintext port serving only grpc.health.v1 Health/Check, for\n"
+            "                         probes that speak no TLS (Kubernetes) next to a TLS --listen [off]\n"
             "  --name NAME            the name clients see [the host name]\n"
             "  --port-file FILE       write the bound port to FILE once listening\n"
             "  --metrics-port PORT    serve Prometheus metrics at /metrics on PORT (0 picks a free one) [off]\n"
@@ -173,6 +184,18 @@ static int parse_args(int argc, char **argv, options *o) {
             bad = parse_u32(name, value, 1, 86400, &o->idle_timeout_s);
         } else if (!strcmp(name, "--drain-timeout")) {
             bad = parse_u32(name, value, 0, 3600, &o->drain_timeout_s);
+        } else if (!strcmp(name, "--peer-deadline-ms")) {
+            bad = parse_u32(name, value, 100, 600000, &o->peer_deadline_ms);
+        } else if (!strcmp(name, "--peer-keepalive-ms")) {
+            bad = parse_u32(name, value, 100, 600000, &o->peer_keepalive_ms);
+        } else if (!strcmp(name, "--peer-tls-ca")) {
+            o->peer_tls_ca = value;
+        } else if (!strcmp(name, "--health-listen")) {
+            if (!strrchr(value, ':')) {
+                fprintf(stderr, "corvid-node: --health-listen: '%s' is not HOST:PORT\n", value);
+                bad = 2;
+            }
+            o->health_listen = value;
         } else if (!strcmp(name, "--max-sessions")) {
             bad = parse_u32(name, value, 1, 65536, &o->max_sessions);
         } else if (!strcmp(name, "--name")) {
@@ -338,10 +361,15 @@ int main(int argc, char **argv) {
         .tls_key_file = o.tls_key,
         .tls_client_ca_file = o.tls_client_ca,
         .quota = o.quota,
+        .peer_token = o.token_file ? token : NULL,
+        .peer_tls_ca_file = o.peer_tls_ca,
+        .peer_deadline_ms = o.peer_deadline_ms,
+        .peer_keepalive_ms = o.peer_keepalive_ms,
+        .health_listen = o.health_listen,
     };
     cv_node *node;
     r = cv_node_start(&config, &node);
-    memset(token, 0, sizeof(token)); /* the node keeps only its hash */
+    memset(token, 0, sizeof(token)); /* the node keeps its hash, and a copy to present to peer nodes */
     if (r != CV_OK) {
         fprintf(stderr, "corvid-node: %s\n", cv_last_error());
         return 1;
@@ -372,6 +400,8 @@ int main(int argc, char **argv) {
     if (metrics)
         printf("corvid-node: metrics at http://%s:%d/metrics\n",
                metrics_opts.listen ? metrics_opts.listen : "127.0.0.1", cv_metrics_server_port(metrics));
+    if (o.health_listen)
+        printf("corvid-node: plaintext health (grpc.health.v1 only) on port %d\n", cv_node_health_port(node));
     fflush(stdout);
 
     int sig = 0;
@@ -379,9 +409,16 @@ int main(int argc, char **argv) {
     fprintf(stderr, "corvid-node: %s: draining (new sessions refused, %u s for running ones)\n",
             sig == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_timeout_s);
     cv_node_drain(node);
+    /* Metrics stay up while the running sessions finish, so a scrape during the drain shows it
+     * (corvid_node_draining 1, the sessions going down); then they go, before the node (they read it). */
+    uint32_t waited_ms = 0;
+    while (waited_ms < o.drain_timeout_s * 1000u && cv_node_get_stats(node).sessions_active) {
+        nanosleep(&(struct timespec){ 0, 50 * 1000 * 1000 }, NULL);
+        waited_ms += 50;
+    }
     cv_node_stats stats = cv_node_get_stats(node);
-    cv_metrics_server_stop(metrics); /* it reads the node: gone before the node is */
-    cv_node_stop(node, o.drain_timeout_s * 1000u);
+    cv_metrics_server_stop(metrics);
+    cv_node_stop(node, o.drain_timeout_s * 1000u - (waited_ms < o.drain_timeout_s * 1000u ? waited_ms : 0));
     fprintf(stderr,
             "corvid-node: stopped after %" PRIu64 " sessions, %" PRIu64 " submissions, %" PRIu64 " bytes in, %" PRIu64
             " bytes out\n",

@@ -431,11 +431,70 @@ static cv_result load_scene(const options *o, cv_scene **out) {
     return cv_scene_import(o->scene, out);
 }
 
+/* --nodes: a node device that was lost is tried again between frames (at most REJOIN_TRIES times per device,
+ * one try per REJOIN_EVERY_MS): once its node answers, a new device for it joins the renderer from the next
+ * frame (cv_renderer_add_device), with a log line either way. */
+#define REJOIN_TRIES 5u
+#define REJOIN_EVERY_MS 2000.0
+typedef struct render_progress {
+    bool quiet;
+    cv_renderer *renderer;
+    cv_context *ctx;
+    cv_device **devices; /* a lost one is replaced by its rejoined device */
+    uint32_t count;
+    const char *nodes; /* the --nodes list; devices are labelled node<i>.gpu<j> (create_node_devices) */
+    uint32_t tries[CV_MAX_DEVICES];
+    double last_try[CV_MAX_DEVICES];
+} render_progress;
+
+static double now_ms(void);
+
+static void rejoin_lost(render_progress *rp, uint32_t frame) {
+    for (uint32_t d = 1; rp->renderer && d < rp->count; d++) {
+        cv_device *lost = rp->devices[d];
+        if (!cv_device_is_lost(lost) || rp->tries[d] >= REJOIN_TRIES || now_ms() - rp->last_try[d] < REJOIN_EVERY_MS)
+            continue;
+        rp->tries[d]++;
+        rp->last_try[d] = now_ms();
+        cv_endpoint nodes[CV_MAX_NODES];
+        uint32_t node_count = 0, node = 0, gpu = 0;
+        char adapter[16];
+        if (sscanf(cv_device_label(lost), "node%u.gpu%u", &node, &gpu) != 2 ||
+            cv_endpoints_parse(rp->nodes, "--nodes", nodes, CV_MAX_NODES, &node_count) != CV_OK || node >= node_count)
+            continue;
+        snprintf(adapter, sizeof(adapter), "%u", gpu);
+        cv_device_desc desc = { .endpoint = nodes[node].text, .adapter = adapter };
+        snprintf(desc.label, sizeof(desc.label), "%s", cv_device_label(lost));
+        cv_proxy_node_info *info = malloc(sizeof(*info));
+        cv_device *dev = NULL;
+        cv_result r = info ? cv_proxy_query_node(desc.endpoint, 1000, info)
+                           : cv_error(CV_ERROR_OUT_OF_MEMORY, "node info");
+        free(info);
+        if (r == CV_OK)
+            r = cv_device_create(rp->ctx, cv_proxy_backend(), &desc, &dev);
+        if (r == CV_OK)
+            r = cv_renderer_add_device(rp->renderer, dev);
+        if (r == CV_OK) {
+            rp->devices[d] = dev;
+            fprintf(stderr, "%scorvid-render: %s on node '%s' is back: it renders from frame %u on\n",
+                    rp->quiet ? "" : "\n", desc.label, desc.endpoint, frame + 1);
+        } else {
+            fprintf(stderr, "%scorvid-render: %s on node '%s' lost; try %u of %u to rejoin it: %s\n",
+                    rp->quiet ? "" : "\n", desc.label, desc.endpoint, rp->tries[d], REJOIN_TRIES, cv_last_error());
+            if (dev)
+                cv_device_destroy(dev);
+        }
+    }
+}
+
 static void progress(uint32_t frame, uint32_t frames, void *user) {
-    if (!*(bool *)user)
+    render_progress *rp = user;
+    if (!rp->quiet)
         fprintf(stderr, "\rframe %u/%u", frame, frames);
-    if (!*(bool *)user && frame == frames)
+    if (!rp->quiet && frame == frames)
         fputc('\n', stderr);
+    if (frame < frames)
+        rejoin_lost(rp, frame);
 }
 
 /* Where the frame goes: PREFIX.exr and PREFIX.png, reserved as temporaries
@@ -762,7 +821,13 @@ int main(int argc, char **argv) {
     if (r == CV_OK && !o.reference)
         r = cv_renderer_create(devices, device_count, scene, bvh, &renderer);
     if (r == CV_OK && !o.reference)
-        r = cv_renderer_render(renderer, &o.settings, &image, &stats, progress, &o.quiet);
+        r = cv_renderer_render(renderer, &o.settings, &image, &stats, progress,
+                               &(render_progress){ .quiet = o.quiet,
+                                                   .renderer = o.nodes ? renderer : NULL,
+                                                   .ctx = ctx,
+                                                   .devices = devices,
+                                                   .count = device_count,
+                                                   .nodes = o.nodes });
     if (r == CV_OK && o.dump_graph && !o.reference)
         r = dump_graph(renderer, o.dump_graph);
     cv_render_settings s = { 0 };

@@ -53,6 +53,7 @@ struct tcp_relay {
     int port, target_port;
     _Atomic uint32_t delay_us;
     atomic_bool stop;
+    atomic_bool stalled;
     pthread_t thread;
     pthread_mutex_t lock; /* stats */
     tcp_relay_stats stats;
@@ -202,6 +203,12 @@ static void *relay_main(void *arg) {
     struct pollfd pfd[2 + 2 * TCP_RELAY_MAX_CONNECTIONS];
     int owner[2 + 2 * TCP_RELAY_MAX_CONNECTIONS]; /* conn index * 2 + side, for pfd[2..] */
     while (buf && !atomic_load(&r->stop)) {
+        if (atomic_load(&r->stalled)) { /* a black hole: nothing read, written or accepted */
+            struct pollfd w = { .fd = r->wake[0], .events = POLLIN };
+            if (poll(&w, 1, 20) > 0)
+                break; /* stop */
+            continue;
+        }
         uint64_t now = now_ns();
         uint64_t next_release = UINT64_MAX;
         nfds_t n = 0;
@@ -311,6 +318,8 @@ int tcp_relay_start(int target_port, uint32_t delay_us, tcp_relay **out) {
 int tcp_relay_port(const tcp_relay *r) { return r->port; }
 
 void tcp_relay_set_delay(tcp_relay *r, uint32_t delay_us) { atomic_store(&r->delay_us, delay_us); }
+
+void tcp_relay_set_stall(tcp_relay *r, bool stall) { atomic_store(&r->stalled, stall); }
 
 tcp_relay_stats tcp_relay_get_stats(tcp_relay *r) {
     pthread_mutex_lock(&r->lock);

@@ -2,6 +2,8 @@
  * 127.0.0.1:<free port> and forwards every connection to 127.0.0.1:<target>,
  * holding the bytes of each direction for `delay_us` before passing them on, so
  * a round trip through it takes 2 * delay_us longer. Bandwidth is not limited.
+ * A stall switch (tcp_relay_set_stall) makes it stop forwarding altogether:
+ * tests of a node whose network goes silent.
  *
  *     tcp_relay *relay;
  *     if (tcp_relay_start(node_port, 10000, &relay) == 0) {       // +20 ms round trip
@@ -20,6 +22,7 @@
 #ifndef CORVID_BENCH_TCP_RELAY_H
 #define CORVID_BENCH_TCP_RELAY_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #define TCP_RELAY_MAX_CONNECTIONS 32
@@ -37,6 +40,9 @@ int tcp_relay_start(int target_port, uint32_t delay_us, tcp_relay **out);
 int tcp_relay_port(const tcp_relay *r);
 /* Applies to bytes received from now on. */
 void tcp_relay_set_delay(tcp_relay *r, uint32_t delay_us);
+/* Stalled: the relay forwards nothing, reads nothing and accepts nothing (connections stay open), as a
+ * network that stops delivering does; within about 20 ms of the next byte or of the call. */
+void tcp_relay_set_stall(tcp_relay *r, bool stall);
 tcp_relay_stats tcp_relay_get_stats(tcp_relay *r);
 /* Closes every connection and the listener, joins the thread, frees. NULL is ignored. */
 void tcp_relay_stop(tcp_relay *r);

@@ -184,6 +184,39 @@ cv_result cv_node_check_sha(ProtobufCBinaryData b, const char *field) {
     return CV_OK;
 }
 
+cv_result cv_node_check_region(const cv_resource_desc *desc, uint32_t x, uint32_t y, uint32_t width, uint32_t height,
+                               uint64_t offset, uint64_t size, const char *what, uint64_t *bytes) {
+    *bytes = 0;
+    if (desc->type == CV_HANDLE_TEXTURE) {
+        const cv_texture_desc *d = &desc->texture;
+        if (width == 0 || height == 0 || x > d->width || width > d->width - x || y > d->height ||
+            height > d->height - y)
+            return cv_error(CV_ERROR_OUT_OF_RANGE, "%s: %ux%u at (%u,%u) of texture '%s' (%ux%u)", what, width,
+                            height, x, y, d->label, d->width, d->height);
+        *bytes = (uint64_t)width * height * cv_format_bytes(d->format);
+    } else if (desc->type == CV_HANDLE_BUFFER) {
+        const cv_buffer_desc *d = &desc->buffer;
+        if (width || height)
+            return cv_error(CV_ERROR_MALFORMED, "%s: a texture rect (%ux%u) for buffer '%s'", what, width, height,
+                            d->label);
+        if (size == 0 || offset > d->size || size > d->size - offset)
+            return cv_error(CV_ERROR_OUT_OF_RANGE, "%s: %llu bytes at offset %llu of buffer '%s' (%llu bytes)", what,
+                            (unsigned long long)size, (unsigned long long)offset, d->label,
+                            (unsigned long long)d->size);
+        *bytes = size;
+    } else {
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "%s: needs a texture or a buffer, got a %s", what,
+                        cv_handle_type_name(desc->type));
+    }
+    if (*bytes > CV_NODE_PEER_MAX_BYTES) {
+        uint64_t n = *bytes;
+        *bytes = 0;
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: %llu bytes, node-to-node transfers move at most %llu", what,
+                        (unsigned long long)n, (unsigned long long)CV_NODE_PEER_MAX_BYTES);
+    }
+    return CV_OK;
+}
+
 #define PACK_BODY(fn_size, fn_pack, m) \
     size_t n = fn_size(m); \
     uint8_t *buf = malloc(n ? n : 1); \

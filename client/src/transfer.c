@@ -17,6 +17,7 @@
 #include "device_internal.h"
 #include "transfer_job.h"
 #include "transfer_link.h"
+#include "transfer_peer.h"
 
 #define CHUNK_BYTES (4u << 20) /* bench_transfer measures this size (bench/README.md) */
 _Static_assert((uint64_t)CV_MAX_TEXTURE_DIM * 16 <= CHUNK_BYTES, "a texture row fits one staging slot");
@@ -204,6 +205,11 @@ static cv_result run_job(transfer_job *j, cv_transfer_stats *stats) {
     cv_result r = cv_transfer_choose_path(j->src, j->dst, &path);
     if (r != CV_OK)
         return r;
+    if (path == CV_TRANSFER_PEER) /* node to node, in stream order: transfer_peer.c */
+        return cv_transfer_peer_run(&(cv_transfer_peer_region){ j->src, j->dst, j->src_id, j->dst_id, j->texture,
+                                                                j->src_rect, j->dst_x, j->dst_y, j->src_offset,
+                                                                j->dst_offset, j->size },
+                                    stats);
     cv_transfer_stats st = { .bytes = j->size, .path = path };
     if (path == CV_TRANSFER_STAGED) {
         j->chunk_bytes = CHUNK_BYTES;

@@ -8,8 +8,9 @@
 
 #include "device_internal.h"
 #include "transfer_link.h"
+#include "transfer_peer.h"
 
-static const char *const names[CV_TRANSFER_PATH_COUNT] = { "auto", "staged", "host-import", "shared" };
+static const char *const names[CV_TRANSFER_PATH_COUNT] = { "auto", "staged", "host-import", "shared", "peer" };
 
 static pthread_mutex_t mode_lock = PTHREAD_MUTEX_INITIALIZER;
 static bool mode_set;
@@ -25,7 +26,8 @@ cv_result cv_transfer_path_parse(const char *name, cv_transfer_path *out) {
             *out = (cv_transfer_path)i;
             return CV_OK;
         }
-    return cv_error(CV_ERROR_INVALID_ARGUMENT, "transfer path '%s' is not one of auto, staged, host-import, shared",
+    return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                    "transfer path '%s' is not one of auto, staged, host-import, shared, peer",
                     name ? name : "(null)");
 }
 
@@ -106,6 +108,15 @@ cv_result cv_transfer_choose_path(cv_device *src, cv_device *dst, cv_transfer_pa
     if (r != CV_OK)
         return r;
     char why[256];
+    if (mode == CV_TRANSFER_PEER || (mode == CV_TRANSFER_AUTO && cv_transfer_peer_pair(src, dst))) {
+        *out = CV_TRANSFER_PEER;
+        if (!cv_transfer_peer_pair(src, dst))
+            return cv_error(CV_ERROR_UNSUPPORTED,
+                            "transfer from device '%s' to device '%s': the peer path is forced but they are not "
+                            "two proxy devices on nodes that send to each other",
+                            cv_device_label(src), cv_device_label(dst));
+        return CV_OK;
+    }
     if (mode == CV_TRANSFER_AUTO) {
         *out = pair_can(src, dst, CV_TRANSFER_SHARED, why, sizeof(why))        ? CV_TRANSFER_SHARED
                : pair_can(src, dst, CV_TRANSFER_HOST_IMPORT, why, sizeof(why)) ? CV_TRANSFER_HOST_IMPORT

@@ -10,12 +10,14 @@
 #include "corvid/renderer.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
 #include "camera.h"
 #include "corvid/graph.h"
+#include "corvid/transfer.h"
 #include "frame_observer.h"
 #include "output_derive.h"
 #include "scene_upload.h"
@@ -35,9 +37,9 @@ enum {
     PIPE_COUNT
 };
 static const char *pipeline_names[PIPE_COUNT] = {
-    "render.gbuffer",        "render.raygen",         "render.resolve",       "render.accumulate",
-    "render.filter",         "render.composite",      "render.reproject",     "render.reflect_raygen",
-    "render.reflect_shadow", "render.reflect_shade",  "render.reflect_filter",
+    "render.gbuffer",        "render.raygen",        "render.resolve",        "render.accumulate",
+    "render.filter",         "render.composite",     "render.reproject",      "render.reflect_raygen",
+    "render.reflect_shadow", "render.reflect_shade", "render.reflect_filter",
 };
 
 /* Size-dependent textures; `everywhere` ones are loaded on every device. */
@@ -110,6 +112,7 @@ struct cv_renderer {
     cv_device *devices[CV_MAX_DEVICES];
     uint32_t count;
     const cv_scene *scene;
+    const cv_bvh *bvh; /* for devices added later (cv_renderer_add_device) */
     render_scene_data data;
     cv_buffer vertices, materials, lights, instances;
     cv_accel accel;
@@ -135,6 +138,7 @@ struct cv_renderer {
     uint64_t band_limit; /* most rays per band on every device */
 
     /* Reflections in the graph (built again when these change). */
+    uint32_t graph_generation;   /* counts graphs built: a frame loop sees a device added (or dropped) */
     bool graph_reflect;          /* the graph has passes 'reflect' and 'reflect_filter' */
     uint64_t graph_reflect_rays; /* rays each of the reflect pass's buffers holds */
 };
@@ -182,6 +186,7 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
     r->ctx = cv_device_context(devices[0]);
     r->count = device_count;
     r->scene = scene;
+    r->bvh = bvh;
     memcpy(r->devices, devices, device_count * sizeof(*devices));
     for (uint32_t d = 1; d < device_count; d++)
         if (cv_device_context(devices[d]) != r->ctx) {
@@ -725,16 +730,15 @@ static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_lis
         float sun[4], sun_color[4], sky[4];
         uint32_t width, height, material_count, light_count;
         float camera[4]; /* w: 1 = add the reflection */
-    } push = {
-        { r->sun_direction[0], r->sun_direction[1], r->sun_direction[2], r->data.sun_irradiance },
-        { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
-        { 0.12f, 0.15f, 0.2f, 0.0f },
-        r->width,
-        r->height,
-        r->data.material_count,
-        r->data.light_count,
-        { r->camera.position[0], r->camera.position[1], r->camera.position[2], r->graph_reflect ? 1.0f : 0.0f }
-    };
+    } push = { { r->sun_direction[0], r->sun_direction[1], r->sun_direction[2], r->data.sun_irradiance },
+               { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
+               { 0.12f, 0.15f, 0.2f, 0.0f },
+               r->width,
+               r->height,
+               r->data.material_count,
+               r->data.light_count,
+               { r->camera.position[0], r->camera.position[1], r->camera.position[2],
+                 r->graph_reflect ? 1.0f : 0.0f } };
     cv_binding b[8] = { bind_texture(r->textures[TEX_POSITION]),
                         bind_texture(r->textures[TEX_NORMAL]),
                         bind_texture(r->textures[filtered_texture(iterations)]),
@@ -909,6 +913,7 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     if (res != CV_OK)
         return res;
     r->graph = g;
+    r->graph_generation++;
     r->graph_iterations = iterations;
     r->graph_rays = rays;
     r->graph_moving = moving;
@@ -1164,6 +1169,92 @@ static uint32_t drop_lost_devices(cv_renderer *r) {
     return dropped;
 }
 
+/* What a device added later needs: the scene (buffers, BVH), the pipelines, the
+ * textures every device holds and, once rendered, the G-buffer (the first frame
+ * multicasts it; later frames do not render it again). */
+static cv_result join_device(cv_renderer *r, cv_device *dev) {
+    cv_handle scene[] = { cv_any(r->vertices), cv_any(r->materials), cv_any(r->lights), cv_any(r->accel),
+                          cv_any(r->instances) };
+    cv_result res = CV_OK;
+    for (int i = 0; i < 5 && res == CV_OK; i++)
+        res = cv_device_load(dev, scene[i]);
+    if (res == CV_OK)
+        res = cv_device_write_buffer(dev, r->vertices, 0, r->data.vertex_count * sizeof(render_vertex),
+                                     r->data.vertices);
+    if (res == CV_OK)
+        res = cv_device_write_buffer(dev, r->materials, 0, r->data.material_count * sizeof(render_material),
+                                     r->data.materials);
+    if (res == CV_OK)
+        res = cv_device_write_buffer(dev, r->lights, 0, (r->data.light_count + 1) * sizeof(render_light),
+                                     r->data.lights);
+    if (res == CV_OK)
+        res = cv_device_write_buffer(dev, r->instances, 0, (r->data.instance_count + 1) * sizeof(uint32_t),
+                                     r->data.instance_first);
+    if (res == CV_OK)
+        res = cv_device_write_accel(dev, r->accel, r->bvh->nodes2, r->bvh->tris);
+    for (int p = 0; p < PIPE_COUNT && res == CV_OK; p++)
+        res = cv_device_load(dev, cv_any(r->pipelines[p]));
+    for (int t = 0; t < TEX_COUNT && res == CV_OK && r->width; t++)
+        if (texture_info[t].everywhere)
+            res = cv_device_load(dev, cv_any(r->textures[t]));
+    cv_rect all = { 0, 0, r->width, r->height };
+    if (res == CV_OK && r->width)
+        res = cv_transfer_texture(r->devices[0], r->textures[TEX_POSITION], all, dev, r->textures[TEX_POSITION], 0, 0,
+                                  NULL);
+    if (res == CV_OK && r->width)
+        res = cv_transfer_texture(r->devices[0], r->textures[TEX_NORMAL], all, dev, r->textures[TEX_NORMAL], 0, 0,
+                                  NULL);
+    return res;
+}
+
+cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev) {
+    if (!r || !dev)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_add_device: NULL argument");
+    if (cv_device_context(dev) != r->ctx)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: device '%s' belongs to another context",
+                        cv_device_label(dev));
+    for (uint32_t d = 0; d < r->count; d++)
+        if (r->devices[d] == dev)
+            return cv_error(CV_ERROR_ALREADY_EXISTS, "renderer: device '%s' is already device %u",
+                            cv_device_label(dev), d);
+    if (r->count == CV_MAX_DEVICES)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "renderer: %u devices already (at most %u)", r->count,
+                        CV_MAX_DEVICES);
+    if (cv_device_is_lost(dev))
+        return cv_error(CV_ERROR_DEVICE_LOST, "renderer: device '%s' is lost", cv_device_label(dev));
+    uint64_t range = cv_device_get_info(dev)->max_storage_buffer_range;
+    if (r->data.vertex_count * sizeof(render_vertex) > range || (r->graph && r->graph_rays * CV_RAY_BYTES > range))
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "renderer: device '%s''s storage buffer range of %llu bytes is too small for this scene "
+                        "and image",
+                        cv_device_label(dev), (unsigned long long)range);
+    cv_result res = join_device(r, dev);
+    if (res != CV_OK) { /* nothing stays loaded on it */
+        char why[1024];
+        snprintf(why, sizeof(why), "%s", cv_last_error());
+        cv_handle all[5 + PIPE_COUNT + TEX_COUNT] = { cv_any(r->vertices), cv_any(r->materials), cv_any(r->lights),
+                                                      cv_any(r->accel), cv_any(r->instances) };
+        for (int p = 0; p < PIPE_COUNT; p++)
+            all[5 + p] = cv_any(r->pipelines[p]);
+        for (int t = 0; t < TEX_COUNT; t++)
+            all[5 + PIPE_COUNT + t] = cv_any(r->textures[t]);
+        for (size_t i = 0; i < sizeof(all) / sizeof(all[0]); i++)
+            if (all[i].id && cv_device_has(dev, all[i]))
+                cv_device_unload(dev, all[i]);
+        return cv_error(res, "renderer: adding device '%s': %s", cv_device_label(dev), why);
+    }
+    if (range / CV_RAY_BYTES < r->band_limit)
+        r->band_limit = range / CV_RAY_BYTES;
+    r->devices[r->count++] = dev;
+    if (r->graph) { /* the next frame runs on the new set (a new graph: the balancer starts even) */
+        uint32_t iterations = r->graph_iterations;
+        uint64_t rays = r->graph_rays;
+        destroy_graph(r);
+        res = build_graph(r, iterations, rays);
+    }
+    return res;
+}
+
 cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings, cv_render_output *out,
                              cv_render_stats *stats, void (*progress)(uint32_t, uint32_t, void *), void *user) {
     if (!r || !out)
@@ -1203,9 +1294,15 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
      * collecting it rarely waits), which bounds the frames in flight to
      * CV_GRAPH_FRAMES_KEPT. The last frame collects every frame still pending,
      * then executes. */
+    uint32_t generation = r->graph_generation;
     for (uint32_t f = 0; f < s.frames && res == CV_OK; f++) {
         bool last = f + 1 == s.frames;
         r->frame = f;
+        if (r->graph_generation != generation) { /* cv_renderer_add_device from the progress callback */
+            generation = r->graph_generation;
+            memset(uncollected, 0, sizeof(uncollected)); /* the old graph's frames went with it */
+            st.device_count = r->count;
+        }
         r->camera = cv_render_camera(&s, r->scene, s.first_frame + f);
         r->previous_camera = cv_render_camera(&s, r->scene, s.first_frame + f - (s.first_frame + f > 0));
         res = enable_passes(r, f == 0, last);

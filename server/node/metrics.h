@@ -5,7 +5,8 @@
  * the content store's (hits, misses, bytes) stay where they are; the registry
  * adds what has no other home: live resource bytes per node device, a histogram
  * of GPU pass times by pass label (fed from the timings a session reads for
- * Completed), and node-loss events (fed by the cluster work; 0 until then).
+ * Completed), and node-loss events (transfers into this node's sessions that a client gave up because
+ * their source node was lost: peer.c).
  * cv_node_metrics_text renders all of it; metrics_http.c serves that text at
  * /metrics with libmicrohttpd.
  *

@@ -12,6 +12,7 @@
 
 #include "health.pb-c.h"
 #include "node_internal.h"
+#include "peer.h"
 
 enum {
     STATUS_OK = 0,
@@ -22,7 +23,8 @@ enum {
 };
 
 static const char *const stream_methods[] = { CV_NODE_METHOD_SESSION, NULL };
-static const char *const unary_methods[] = { CV_NODE_METHOD_INFO, CV_HEALTH_METHOD_CHECK, NULL };
+static const char *const unary_methods[] = { CV_NODE_METHOD_INFO, CV_HEALTH_METHOD_CHECK, CV_NODE_METHOD_PEER_PIECE,
+                                             NULL };
 
 static void on_stream(cv_rpc_stream *stream, const char *method, void *user) {
     (void)method; /* the only stream method */
@@ -164,16 +166,31 @@ static int answer_health(cv_node *node, const void *request, size_t request_size
     return STATUS_OK;
 }
 
+static const char *const health_methods[] = { CV_HEALTH_METHOD_CHECK, NULL };
+
+static int on_health_unary(const char *method, const void *request, size_t size, void **response,
+                           size_t *response_size, char *message, size_t message_cap, void *user) {
+    (void)method; /* the only method served there */
+    return answer_health(user, request, size, response, response_size, message, message_cap);
+}
+
 static int on_unary(const char *method, const void *request, size_t size, void **response, size_t *response_size,
                     char *message, size_t message_cap, void *user) {
     cv_node *node = user;
     if (strcmp(method, CV_HEALTH_METHOD_CHECK) == 0)
         return answer_health(node, request, size, response, response_size, message, message_cap);
+    if (strcmp(method, CV_NODE_METHOD_PEER_PIECE) == 0) {
+        *response = NULL;
+        *response_size = 0;
+        return peer_on_piece(node, request, size, message, message_cap);
+    }
     return answer_info(node, response, response_size, message, message_cap);
 }
 
 static void free_node(cv_node *node) {
     OPENSSL_cleanse(node->token_sha, sizeof(node->token_sha));
+    OPENSSL_cleanse(node->peer_token, sizeof(node->peer_token));
+    peer_state_destroy(node->peer);
     if (node->store)
         cv_content_store_close(node->store);
     cv_node_metrics_destroy(node->metrics);
@@ -259,10 +276,17 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     node->config.listen = NULL;
     node->config.cache_dir = NULL; /* used only here, below */
     node->config.token = NULL;     /* only its hash is kept */
+    if (config->peer_token)
+        snprintf(node->peer_token, sizeof(node->peer_token), "%s", config->peer_token);
+    if (config->peer_tls_ca_file)
+        snprintf(node->peer_tls_ca, sizeof(node->peer_tls_ca), "%s", config->peer_tls_ca_file);
+    node->config.peer_token = node->config.peer_tls_ca_file = NULL; /* the copies above */
     node->config.tls_cert_file = node->config.tls_key_file = node->config.tls_client_ca_file = NULL;
     node->config.quota = node->quota;
 
     cv_result r = probe_devices(node);
+    if (r == CV_OK)
+        r = peer_state_create(node, &node->peer);
     if (r == CV_OK)
         r = cv_content_store_open(config->cache_dir, config->cache_bytes ? config->cache_bytes : 4ull << 30,
                                   &node->store);
@@ -289,11 +313,34 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         free_node(node);
         return r;
     }
+    if (config->health_listen) {
+        cv_rpc_server_config hc = {
+            .listen = config->health_listen,
+            .max_message_bytes = 4096,
+            .max_streams = 1,
+            .on_unary = on_health_unary,
+            .unary_methods = health_methods,
+            .user = node,
+        };
+        r = cv_rpc_server_start(&hc, &node->health_server);
+        if (r != CV_OK) {
+            char why[1024];
+            snprintf(why, sizeof(why), "%s", cv_last_error());
+            cv_rpc_server_destroy(node->server, 0);
+            free_node(node);
+            return cv_error(r, "node: health port '%s': %s", config->health_listen, why);
+        }
+    }
+    node->config.health_listen = NULL;
     *out = node;
     return CV_OK;
 }
 
 int cv_node_port(const cv_node *node) { return cv_rpc_server_port(node->server); }
+
+int cv_node_health_port(const cv_node *node) {
+    return node->health_server ? cv_rpc_server_port(node->health_server) : 0;
+}
 
 void cv_node_drain(cv_node *node) {
     atomic_store(&node->draining, true);
@@ -305,6 +352,7 @@ void cv_node_stop(cv_node *node, uint32_t timeout_ms) {
         return;
     atomic_store(&node->draining, true);
     cv_rpc_server_destroy(node->server, timeout_ms);
+    cv_rpc_server_destroy(node->health_server, 0); /* NOT_SERVING until here */
     free_node(node);
 }
 
@@ -323,5 +371,10 @@ cv_node_stats cv_node_get_stats(cv_node *node) {
         .cache_bytes = cs.bytes,
         .unauthenticated = atomic_load(&node->unauthenticated),
         .quota_refusals = atomic_load(&node->quota_refusals),
+        .peer_raw_out = atomic_load(&node->peer_raw_out),
+        .peer_bytes_out = atomic_load(&node->peer_bytes_out),
+        .peer_bytes_in = atomic_load(&node->peer_bytes_in),
+        .peer_failures = atomic_load(&node->peer_failures),
+        .transfer_failures = atomic_load(&node->transfer_failures),
     };
 }

@@ -76,7 +76,26 @@ typedef struct cv_node_config {
     const char *tls_cert_file, *tls_key_file; /* TLS (PEM files): both or neither */
     const char *tls_client_ca_file;           /* mutual TLS: clients need a certificate signed by this CA */
     cv_node_quota quota;
+
+    /* Clusters (docs/node.md, "Clusters"): node-to-node transfers. peer_token: the bearer token this node
+       presents to the nodes it sends partitions to (NULL = none; corvid-node uses its own --token-file, so a
+       cluster shares one token); peer_tls_ca_file: TLS to those nodes, trusting this CA (NULL = plaintext).
+       peer_deadline_ms: how long a session's AwaitTransfer waits for a peer's data, and a piece's send may
+       take [CV_NODE_DEFAULT_PEER_DEADLINE_MS]; peer_keepalive_ms: keepalive ping interval (and timeout) of
+       the channels to peers (0 = the rpc layer's 10 s + 5 s). */
+    const char *peer_token;
+    const char *peer_tls_ca_file;
+    uint32_t peer_deadline_ms;
+    uint32_t peer_keepalive_ms;
+
+    /* A second, plaintext port that serves only grpc.health.v1 Health/Check ("host:port", port 0 picks a free
+       one; NULL = none), for probes that cannot speak TLS (Kubernetes' grpc probes) next to a TLS port. It
+       says what the main port's health says (NOT_SERVING while draining); everything else there is
+       UNIMPLEMENTED. */
+    const char *health_listen;
 } cv_node_config;
+
+#define CV_NODE_DEFAULT_PEER_DEADLINE_MS 10000u
 
 typedef struct cv_node_stats {
     uint64_t sessions_started, sessions_active;
@@ -85,6 +104,9 @@ typedef struct cv_node_stats {
     uint64_t cache_hits, cache_misses, cache_bytes;
     uint64_t unauthenticated; /* calls refused for a missing or wrong token */
     uint64_t quota_refusals;  /* requests refused by a session quota */
+    /* Clusters: partitions this node sent to peers (raw bytes read, compressed bytes on the wire), compressed
+       bytes it received from peers, transfers it could not deliver, and awaits that failed here. */
+    uint64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;
 } cv_node_stats;
 
 /* True if `listen` ("host:port") is reachable from this machine only: 127.0.0.0/8, ::1, localhost, unix:. */
@@ -92,6 +114,8 @@ bool cv_node_listen_is_local(const char *listen);
 
 cv_result cv_node_start(const cv_node_config *config, cv_node **out);
 int cv_node_port(const cv_node *node);
+/* The plaintext health port (config.health_listen), 0 if none. */
+int cv_node_health_port(const cv_node *node);
 /* Refuses new sessions (health answers NOT_SERVING); running ones go on. */
 void cv_node_drain(cv_node *node);
 /* Waits up to timeout_ms for sessions to end, cancels what is left, frees everything. */

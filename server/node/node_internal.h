@@ -18,11 +18,16 @@ struct cv_node {
     cv_device_info *device_info; /* probed at start */
     cv_content_store *store;
     cv_rpc_server *server;
+    cv_rpc_server *health_server; /* plaintext health only (config.health_listen); NULL = none */
     atomic_bool draining;
     atomic_uint_fast64_t next_session_id;
     atomic_uint_fast64_t sessions_started, sessions_active;
     atomic_uint_fast64_t messages_in, bytes_in, bytes_out, submissions, errors;
     atomic_uint_fast64_t unauthenticated, quota_refusals;
+    atomic_uint_fast64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;
+    struct peer_state *peer; /* node-to-node transfers (peer.h) */
+    char peer_token[1040];   /* presented to peers; "" = none */
+    char peer_tls_ca[1024];  /* file name; "" = plaintext to peers */
     bool has_token;
     uint8_t token_sha[32];    /* SHA-256 of the token; the token itself is not kept */
     cv_node_quota quota;      /* defaults filled in */

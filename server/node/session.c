@@ -22,6 +22,7 @@
 #include "corvid/sha256.h"
 #include "handle_map.h"
 #include "node_internal.h"
+#include "peer.h"
 #include "proto_arena.h"
 
 /* grpc status codes used here (grpc/status.h; the session does not include gRPC). */
@@ -44,6 +45,7 @@ typedef struct pending_submit {
     uint64_t node_ticket; /* 0: the submit failed; result/message say why */
     cv_result result;
     char message[256];
+    uint64_t transfer_failure; /* skipped because of this unacknowledged transfer failure */
 } pending_submit;
 
 typedef struct session {
@@ -71,6 +73,14 @@ typedef struct session {
     uint32_t inflight;       /* real submissions not yet reported (under lock) */
 
     uint64_t last_client_ticket;
+
+    /* Node-to-node transfers (peer.h): the inbox peers deliver into, and the
+     * failed await the client has not yet acknowledged (0: none). */
+    peer_inbox *inbox;
+    uint64_t failure, last_failure;
+    uint64_t failure_transfer; /* the transfer whose await started it */
+    cv_result failure_result;
+    char failure_message[768];
 
     /* Submissions handed to the watcher, oldest first (a ring). */
     pthread_mutex_t lock;
@@ -112,8 +122,9 @@ static cv_result send_node_message(session *s, const Corvid__NodeMessage *m) {
     return r;
 }
 
-static void send_reply(session *s, uint64_t seq, cv_result result, const char *message) {
+static void send_reply_failure(session *s, uint64_t seq, cv_result result, const char *message, uint64_t failure) {
     Corvid__Reply reply = CORVID__REPLY__INIT;
+    reply.transfer_failure = failure;
     reply.result = result;
     reply.message = (char *)(message ? message : "");
     Corvid__NodeMessage m = CORVID__NODE_MESSAGE__INIT;
@@ -127,6 +138,10 @@ static void send_reply(session *s, uint64_t seq, cv_result result, const char *m
     send_node_message(s, &m);
 }
 
+static void send_reply(session *s, uint64_t seq, cv_result result, const char *message) {
+    send_reply_failure(s, seq, result, message, 0);
+}
+
 /* Answers a request that failed with the thread's last error. */
 static void reply_error(session *s, uint64_t seq, cv_result r) { send_reply(s, seq, r, cv_last_error()); }
 
@@ -137,6 +152,7 @@ static void send_completed(session *s, const pending_submit *p) {
     done.ticket = p->client_ticket;
     done.result = p->result;
     done.message = (char *)p->message;
+    done.transfer_failure = p->transfer_failure;
     cv_pass_timing timings[32];
     Corvid__PassTiming items[32];
     Corvid__PassTiming *ptrs[32];
@@ -182,12 +198,16 @@ static void *watcher_main(void *arg) {
                 snprintf(p.message, sizeof(p.message), "%s", cv_last_error());
             }
         }
+        /* Out of the in-flight count before the client hears of it: a client that keeps within the
+         * quota it was told (HelloReply.quotas) is never refused. */
+        pthread_mutex_lock(&s->lock);
+        if (p.node_ticket)
+            s->inflight--;
+        pthread_mutex_unlock(&s->lock);
         send_completed(s, &p);
         pthread_mutex_lock(&s->lock);
         s->pending_head = (s->pending_head + 1) % MAX_PENDING_SUBMITS;
         s->pending_count--;
-        if (p.node_ticket)
-            s->inflight--;
         pthread_cond_broadcast(&s->cond);
     }
     pthread_mutex_unlock(&s->lock);
@@ -645,6 +665,12 @@ static cv_result do_submit(session *s, const Corvid__SubmitList *m) {
     pending_submit p = { .client_ticket = m->ticket };
     uint64_t id;
     cv_result r = translate(s, m->id, CV_HANDLE_CMDLIST, "submit", &id);
+    if (r == CV_OK && s->failure) {
+        /* The frame this belongs to lacks a partition: it does not run, and the client
+         * learns why from its Completed (and acknowledges with ResumeAfterFailure). */
+        r = cv_error(s->failure_result, "submission skipped: %s", s->failure_message);
+        p.transfer_failure = s->failure;
+    }
     pthread_mutex_lock(&s->lock);
     uint32_t inflight = s->inflight;
     pthread_mutex_unlock(&s->lock);
@@ -667,6 +693,104 @@ static cv_result do_submit(session *s, const Corvid__SubmitList *m) {
     }
     atomic_fetch_add(&s->node->submissions, 1);
     queue_completion(s, &p);
+    return CV_OK;
+}
+
+/* ---- node-to-node transfers (peer.h) ------------------------------------------------ */
+
+/* The resource and region of a PushTransfer / AwaitTransfer: translated, described and checked. */
+static cv_result transfer_region(session *s, uint64_t client_id, uint32_t x, uint32_t y, uint32_t width,
+                                 uint32_t height, uint64_t offset, uint64_t size, const char *what, uint64_t *id,
+                                 cv_resource_desc *desc, uint64_t *bytes) {
+    *bytes = 0;
+    cv_result r = translate(s, client_id, CV_HANDLE_NONE, what, id);
+    if (r == CV_OK)
+        r = cv_context_describe(s->ctx, (cv_handle){ *id }, desc);
+    if (r == CV_OK)
+        r = cv_node_check_region(desc, x, y, width, height, offset, size, what, bytes);
+    return r;
+}
+
+/* Reads the region once the work before it is done (the device orders it), and queues it for the peer. */
+static cv_result do_push(session *s, const Corvid__PushTransfer *m) {
+    uint64_t id, bytes;
+    cv_resource_desc desc;
+    cv_result r = transfer_region(s, m->id, m->x, m->y, m->width, m->height, m->offset, m->size, "push_transfer", &id,
+                                  &desc, &bytes);
+    if (r != CV_OK)
+        return r;
+    if (m->session_key.len != CV_NODE_SESSION_KEY_BYTES)
+        return cv_error(CV_ERROR_MALFORMED, "push_transfer.session_key: %zu bytes, a session key has %u",
+                        m->session_key.len, CV_NODE_SESSION_KEY_BYTES);
+    if (!m->destination || !m->destination[0] || strlen(m->destination) >= 256)
+        return cv_error(CV_ERROR_MALFORMED, "push_transfer.destination: empty or longer than 255 characters");
+    uint8_t *raw = malloc((size_t)bytes);
+    if (!raw)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "push_transfer: %" PRIu64 " bytes", bytes);
+    r = desc.type == CV_HANDLE_TEXTURE
+            ? cv_device_read_texture(s->dev, (cv_texture){ id }, (cv_rect){ m->x, m->y, m->width, m->height }, raw)
+            : cv_device_read_buffer(s->dev, (cv_buffer){ id }, m->offset, m->size, raw);
+    if (r == CV_OK)
+        r = peer_send(s->node, m->destination, m->session_key.data, m->transfer_id, raw, (size_t)bytes);
+    free(raw);
+    return r;
+}
+
+/* Starts a failure the client must acknowledge: later submissions are skipped, reads refused. */
+static uint64_t fail_transfers(session *s, uint64_t transfer_id, cv_result r, const char *why) {
+    s->failure = ++s->last_failure;
+    s->failure_transfer = transfer_id;
+    s->failure_result = r;
+    snprintf(s->failure_message, sizeof(s->failure_message), "%s", why);
+    atomic_fetch_add(&s->node->transfer_failures, 1);
+    log_line(s, "transfer failure %" PRIu64 ": %s", s->failure, why);
+    return s->failure;
+}
+
+/* Holds the session until the peer's data is here and written (handle() starts a failure if not). */
+static cv_result do_await(session *s, const Corvid__AwaitTransfer *m) {
+    if (s->failure)
+        return cv_error(s->failure_result, "await_transfer %" PRIu64 " skipped: %s", m->transfer_id,
+                        s->failure_message);
+    uint64_t id, bytes;
+    cv_resource_desc desc;
+    cv_result r = transfer_region(s, m->id, m->x, m->y, m->width, m->height, m->offset, m->size, "await_transfer",
+                                  &id, &desc, &bytes);
+    if (r != CV_OK)
+        return r;
+    uint32_t limit = s->node->config.peer_deadline_ms ? s->node->config.peer_deadline_ms
+                                                      : CV_NODE_DEFAULT_PEER_DEADLINE_MS;
+    uint32_t deadline = m->deadline_ms && m->deadline_ms < limit ? m->deadline_ms : limit;
+    uint8_t *data = NULL;
+    size_t size = 0;
+    r = peer_inbox_take(s->inbox, m->transfer_id, bytes, deadline, &data, &size);
+    uint8_t *raw = NULL;
+    if (r == CV_OK && !(raw = malloc((size_t)bytes)))
+        r = cv_error(CV_ERROR_OUT_OF_MEMORY, "await_transfer: %" PRIu64 " bytes", bytes);
+    if (r == CV_OK)
+        r = peer_decompress(data, size, raw, (size_t)bytes);
+    free(data);
+    if (r == CV_OK)
+        r = desc.type == CV_HANDLE_TEXTURE
+                ? cv_device_write_texture(s->dev, (cv_texture){ id }, (cv_rect){ m->x, m->y, m->width, m->height },
+                                          raw)
+                : cv_device_write_buffer(s->dev, (cv_buffer){ id }, m->offset, m->size, raw);
+    free(raw);
+    return r == CV_OK ? r : cv_error(r, "await_transfer %" PRIu64 ": %s", m->transfer_id, cv_last_error());
+}
+
+static cv_result do_resume(session *s, const Corvid__ResumeAfterFailure *m) {
+    if (m->failure == 0 && m->transfer_id) { /* given up by the client, which reported that frame */
+        if (s->failure && s->failure_transfer <= m->transfer_id)
+            s->failure = 0;
+        return CV_OK;
+    }
+    if (m->failure == 0 || m->failure > s->last_failure)
+        return cv_error(CV_ERROR_MALFORMED,
+                        "resume: failure %" PRIu64 " never happened here (the last was %" PRIu64 ")", m->failure,
+                        s->last_failure);
+    if (m->failure == s->failure)
+        s->failure = 0; /* an older one: already resumed */
     return CV_OK;
 }
 
@@ -699,6 +823,12 @@ static cv_result do_hello(session *s, uint64_t seq, const Corvid__Hello *m, int 
     }
     s->watcher_started = true;
     s->device_index = m->device;
+    uint8_t key[CV_NODE_SESSION_KEY_BYTES];
+    r = peer_inbox_open(node, key, &s->inbox);
+    if (r != CV_OK) {
+        *status = STATUS_RESOURCE_EXHAUSTED;
+        return r;
+    }
     char client[64];
     snprintf(client, sizeof(client), "%.60s", m->client_name ? m->client_name : "");
     log_line(s, "client '%s' on device %u (%s)", client, m->device, spec->label);
@@ -712,6 +842,13 @@ static cv_result do_hello(session *s, uint64_t seq, const Corvid__Hello *m, int 
     reply.device = &info;
     reply.session_id = s->id;
     reply.max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES;
+    reply.session_key = (ProtobufCBinaryData){ CV_NODE_SESSION_KEY_BYTES, key };
+    Corvid__Quotas quotas = CORVID__QUOTAS__INIT;
+    quotas.memory_bytes = node->quota.memory_bytes;
+    quotas.resources = node->quota.resources;
+    quotas.inflight = node->quota.inflight;
+    quotas.upload_bytes = node->quota.upload_bytes;
+    reply.quotas = &quotas;
     Corvid__NodeMessage out = CORVID__NODE_MESSAGE__INIT;
     out.seq = seq;
     out.msg_case = CORVID__NODE_MESSAGE__MSG_HELLO;
@@ -758,8 +895,28 @@ static bool handle(session *s, const Corvid__ClientMessage *m, int *status) {
         r = do_write_accel(s, m->write_accel);
         send_reply(s, seq, r, r == CV_OK ? "" : cv_last_error());
         return true;
-    case CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER: r = do_read_buffer(s, seq, m->read_buffer); break;
-    case CORVID__CLIENT_MESSAGE__MSG_READ_TEXTURE: r = do_read_texture(s, seq, m->read_texture); break;
+    case CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER:
+    case CORVID__CLIENT_MESSAGE__MSG_READ_TEXTURE:
+        if (s->failure) { /* what it would read lacks a partition */
+            char why[800];
+            snprintf(why, sizeof(why), "read refused: %s", s->failure_message);
+            send_reply_failure(s, seq, s->failure_result, why, s->failure);
+            return true;
+        }
+        r = m->msg_case == CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER ? do_read_buffer(s, seq, m->read_buffer)
+                                                                   : do_read_texture(s, seq, m->read_texture);
+        break;
+    case CORVID__CLIENT_MESSAGE__MSG_PUSH_TRANSFER: r = do_push(s, m->push_transfer); break;
+    case CORVID__CLIENT_MESSAGE__MSG_AWAIT_TRANSFER:
+        r = do_await(s, m->await_transfer);
+        if (r != CV_OK) {
+            char why[768];
+            snprintf(why, sizeof(why), "%s", cv_last_error());
+            uint64_t failure = s->failure ? s->failure : fail_transfers(s, m->await_transfer->transfer_id, r, why);
+            send_reply_failure(s, seq, r, why, failure);
+        }
+        return true;
+    case CORVID__CLIENT_MESSAGE__MSG_RESUME: r = do_resume(s, m->resume); break;
     case CORVID__CLIENT_MESSAGE__MSG_COMPILE: r = do_compile(s, m->compile); break;
     case CORVID__CLIENT_MESSAGE__MSG_SUBMIT:
         r = do_submit(s, m->submit);
@@ -795,6 +952,7 @@ static void stop_watcher(session *s, bool abandon) {
 static void session_finish(session *s) {
     end_upload(s);
     stop_watcher(s, true);
+    peer_inbox_close(s->node, s->inbox);
     cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -(int64_t)s->memory_bytes);
     if (s->ctx)
         cv_context_destroy(s->ctx); /* waits for the device, frees every resource */

@@ -81,7 +81,9 @@ for name, gpu in (("corvid-node-lavapipe.yaml", False), ("corvid-node-nvidia.yam
     pod = sts["spec"]["template"]
     assert pod["metadata"]["annotations"]["prometheus.io/scrape"] == "true", name
     c = pod["spec"]["containers"][0]
-    assert c["readinessProbe"]["grpc"]["port"] == 7700 and c["livenessProbe"]["grpc"]["port"] == 7700, name
+    # The probes (plaintext) use the plaintext health port next to the TLS port.
+    assert "--health-listen" in c["args"] and "0.0.0.0:7701" in c["args"], name
+    assert c["readinessProbe"]["grpc"]["port"] == 7701 and c["livenessProbe"]["grpc"]["port"] == 7701, name
     assert ("nvidia.com/gpu" in c["resources"]["limits"]) == gpu, name
     secrets = {v["secret"]["secretName"] for v in pod["spec"]["volumes"] if "secret" in v}
     assert secrets == {"corvid-node-token", "corvid-node-tls"}, name

@@ -11,6 +11,7 @@
  * second CA with a client certificate of its own. */
 #include <fcntl.h>
 #include <inttypes.h>
+#include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -321,6 +322,58 @@ static void listen_rules(void) {
 static char ca_pem[512], server_pem[512], server_key[512], expired_pem[512], expired_key[512];
 static char client_pem[512], client_key[512], other_pem[512], stranger_pem[512], stranger_key[512];
 
+/* Health/Check at `endpoint` in plaintext: the serving status (1 SERVING, 2 NOT_SERVING), or -status. */
+static int plain_health(const char *endpoint, const char *method) {
+    cv_rpc_client *client;
+    int status = -1;
+    void *resp = NULL;
+    size_t resp_size = 0;
+    if (cv_rpc_client_create(endpoint, NULL, &client) != CV_OK)
+        return -100;
+    cv_rpc_client_unary(client, method, "", 0, 5000, &resp, &resp_size, &status);
+    int serving = status == 0 && resp_size == 2 && ((uint8_t *)resp)[0] == 0x08 ? ((uint8_t *)resp)[1] : -status;
+    free(resp);
+    cv_rpc_client_destroy(client);
+    return serving;
+}
+
+/* A TLS node with a plaintext health port (--health-listen): probes that speak no TLS get the node's
+ * health there, and nothing else. */
+static void health_port(void) {
+    scratch_node n;
+    CHECK_OK(scratch_node_start_secured(&n, cv_mock_backend(), 1,
+                                        &(cv_node_config){ .tls_cert_file = server_pem,
+                                                           .tls_key_file = server_key,
+                                                           .token = "health-port-token",
+                                                           .health_listen = "127.0.0.1:0" }));
+    if (!n.node)
+        return;
+    char health[64];
+    snprintf(health, sizeof(health), "127.0.0.1:%d", cv_node_health_port(n.node));
+    CHECK(cv_node_health_port(n.node) > 0 && cv_node_health_port(n.node) != cv_node_port(n.node));
+    CHECK_EQ_INT(plain_health(health, CV_HEALTH_METHOD_CHECK), 1);
+    CHECK_EQ_INT(plain_health(health, CV_NODE_METHOD_INFO), -CV_RPC_STATUS_UNIMPLEMENTED);
+    CHECK_EQ_INT(plain_health(health, CV_NODE_METHOD_PEER_PIECE), -CV_RPC_STATUS_UNIMPLEMENTED);
+    CHECK(plain_health(n.endpoint, CV_HEALTH_METHOD_CHECK) < 0); /* the main port speaks TLS only */
+    cv_node_drain(n.node);
+    CHECK_EQ_INT(plain_health(health, CV_HEALTH_METHOD_CHECK), 2);
+    scratch_node_stop(&n);
+    /* A health port that cannot be bound: the node does not start, and says which. */
+    scratch_node a, b;
+    CHECK_OK(
+        scratch_node_start_secured(&a, cv_mock_backend(), 1, &(cv_node_config){ .health_listen = "127.0.0.1:0" }));
+    if (a.node) {
+        char taken[64];
+        snprintf(taken, sizeof(taken), "127.0.0.1:%d", cv_node_health_port(a.node));
+        CHECK_RESULT(scratch_node_start_secured(&b, cv_mock_backend(), 1,
+                                                &(cv_node_config){ .health_listen = taken }),
+                     CV_ERROR_CONNECTION);
+        CHECK(strstr(cv_last_error(), "health port") != NULL);
+        scratch_node_stop(&a);
+    }
+    CHECK_NOTHING_LIVE();
+}
+
 static void tls(void) {
     scratch_node n;
     CHECK_OK(
@@ -551,6 +604,82 @@ static void quotas(void) {
     CHECK_NOTHING_LIVE();
 }
 
+/* The proxy keeps within the quotas the node announced (HelloReply.quotas): submissions past the in-flight
+ * quota wait for earlier ones instead of being refused by the node (which would fail the device's later
+ * calls), and an upload past the upload quota is refused locally, the device going on. */
+typedef struct gate_opener {
+    scratch_node *node;
+    uint64_t submissions_seen; /* by the node while the gate was closed */
+} gate_opener;
+
+static void *open_gate_later(void *arg) {
+    gate_opener *g = arg;
+    usleep(300 * 1000);
+    g->submissions_seen = cv_node_get_stats(g->node->node).submissions;
+    atomic_store(&gate_open, true);
+    return NULL;
+}
+
+static void proxy_quotas(void) {
+    gated = *cv_mock_backend();
+    gated.wait = gated_wait;
+    gated.completed = gated_completed;
+    atomic_store(&gate_open, true);
+    scratch_node n;
+    cv_node_config sec = { .quota = { .inflight = 2, .upload_bytes = 1u << 20 } };
+    CHECK_OK(scratch_node_start_secured(&n, &gated, 1, &sec));
+    cv_context *ctx;
+    cv_device *dev = NULL;
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &(cv_device_desc){ .endpoint = n.endpoint }, &dev));
+    if (dev) {
+        cv_buffer src, dst, big;
+        CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 4096 }, &src));
+        CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 4096 }, &dst));
+        CHECK_OK(cv_buffer_create(ctx, &(cv_buffer_desc){ .size = 2u << 20 }, &big));
+        CHECK_OK(cv_device_load(dev, cv_any(src)));
+        CHECK_OK(cv_device_load(dev, cv_any(dst)));
+        CHECK_OK(cv_device_load(dev, cv_any(big)));
+        uint8_t bytes[4096], back[4096];
+        for (int i = 0; i < 4096; i++)
+            bytes[i] = (uint8_t)(i * 13);
+        CHECK_OK(cv_device_write_buffer(dev, src, 0, sizeof(bytes), bytes));
+        cv_cmdlist list;
+        cv_command_list *l;
+        CHECK_OK(cv_cmdlist_create(ctx, &list));
+        CHECK_OK(cv_cmdlist_begin(ctx, list, &l));
+        cv_cmd_copy_buffer(l, CV_QUEUE_COPY, &(cv_copy_buffer_args){ .src = src, .dst = dst, .size = 4096 });
+        CHECK_OK(cv_command_list_end(l));
+        /* Nothing completes until the gate opens: the node sees 2 submissions, the proxy holds the rest. */
+        atomic_store(&gate_open, false);
+        gate_opener g = { .node = &n };
+        pthread_t opener;
+        CHECK(pthread_create(&opener, NULL, open_gate_later, &g) == 0);
+        uint64_t ticket = 0;
+        for (int i = 0; i < 20; i++) /* no waits */
+            CHECK_OK(cv_device_submit(dev, list, &ticket));
+        pthread_join(opener, NULL);
+        CHECK(g.submissions_seen <= 2);
+        CHECK_OK(cv_device_wait(dev, ticket, 10ull * 1000 * 1000 * 1000));
+        CHECK_OK(cv_device_read_buffer(dev, dst, 0, sizeof(back), back));
+        CHECK(memcmp(back, bytes, sizeof(back)) == 0);
+        CHECK_EQ_INT(cv_node_get_stats(n.node).quota_refusals, 0);
+
+        uint8_t *two = calloc(1, 2u << 20);
+        CHECK_RESULT(cv_device_write_buffer(dev, big, 0, 2u << 20, two), CV_ERROR_LIMIT_EXCEEDED);
+        CHECK(strstr(cv_last_error(), "--quota-upload") && strstr(cv_last_error(), "refused here"));
+        free(two);
+        CHECK_EQ_INT(cv_node_get_stats(n.node).quota_refusals, 0);
+        CHECK_OK(cv_device_write_buffer(dev, dst, 0, 16, bytes + 100)); /* the device goes on */
+        CHECK_OK(cv_device_read_buffer(dev, dst, 0, 16, back));
+        CHECK(memcmp(back, bytes + 100, 16) == 0);
+    }
+    cv_context_destroy(ctx);
+    CHECK_EQ_INT(scratch_node_wait_sessions(&n, 5000), 0);
+    scratch_node_stop(&n);
+    CHECK_NOTHING_LIVE();
+}
+
 int main(void) {
     snprintf(dir, sizeof(dir), "/tmp/corvid-security-test-XXXXXX");
     if (!mkdtemp(dir)) {
@@ -572,9 +701,12 @@ int main(void) {
 
     tokens();
     listen_rules();
-    if (certs)
+    if (certs) {
         tls();
+        health_port();
+    }
     quotas();
+    proxy_quotas();
 
     char cmd[300];
     snprintf(cmd, sizeof(cmd), "rm -rf '%s'", dir);

@@ -1,10 +1,13 @@
 /* In-process corvid-node for tests (scratch_node.h). */
 #include "scratch_node.h"
 
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "corvid/backend.h"
 
@@ -45,6 +48,10 @@ static cv_result start(scratch_node *n, const cv_backend *backend, uint32_t coun
         n->config.tls_client_ca_file = security->tls_client_ca_file;
         n->config.quota = security->quota;
         n->config.log_sessions |= security->log_sessions;
+        n->config.peer_token = security->peer_token;
+        n->config.peer_deadline_ms = security->peer_deadline_ms;
+        n->config.peer_keepalive_ms = security->peer_keepalive_ms;
+        n->config.health_listen = security->health_listen;
     }
     cv_result r = cv_node_start(&n->config, &n->node);
     if (r != CV_OK) {
@@ -99,3 +106,88 @@ void scratch_node_stop_keep(scratch_node *n, bool keep_cache) {
 }
 
 void scratch_node_stop(scratch_node *n) { scratch_node_stop_keep(n, false); }
+
+/* ---- process nodes ---------------------------------------------------------------- */
+
+cv_result scratch_process_node_start(scratch_process_node *n, const char *binary, uint32_t gpus, int port,
+                                     const char *const *extra) {
+    if (!n->dir[0]) {
+        snprintf(n->dir, sizeof(n->dir), "/tmp/corvid-pnode-XXXXXX");
+        if (!mkdtemp(n->dir))
+            return cv_error(CV_ERROR_IO, "scratch process node: cannot make a directory");
+    }
+    n->pid = 0;
+    char listen[64], port_file[300], cache[300], log[300], count[16];
+    snprintf(listen, sizeof(listen), "127.0.0.1:%d", port);
+    snprintf(port_file, sizeof(port_file), "%s/port", n->dir);
+    snprintf(cache, sizeof(cache), "%s/cache", n->dir);
+    snprintf(log, sizeof(log), "%s/log", n->dir);
+    snprintf(count, sizeof(count), "%u", gpus);
+    unlink(port_file);
+    const char *adapter = getenv("CORVID_TEST_ADAPTER");
+    const char *argv[48] = { binary,        "--listen",   listen,
+                             "--port-file", port_file,    "--cache-dir",
+                             cache,         "--adapters", adapter && *adapter ? adapter : "llvmpipe",
+                             "--gpus",      count };
+    uint32_t argc = 11;
+    for (uint32_t i = 0; extra && extra[i] && argc < 46; i++)
+        argv[argc++] = extra[i];
+    argv[argc] = NULL;
+    pid_t pid = fork();
+    if (pid < 0)
+        return cv_error(CV_ERROR_IO, "scratch process node: fork failed");
+    if (pid == 0) {
+        FILE *f = freopen(log, "a", stderr);
+        (void)f;
+        execv(binary, (char *const *)argv);
+        _exit(127);
+    }
+    n->pid = (int)pid;
+    for (int waited = 0; waited < 30000; waited += 20) {
+        FILE *f = fopen(port_file, "r");
+        int p = 0;
+        char line[32] = "";
+        if (f) { /* whole once it ends with a newline */
+            if (fgets(line, sizeof(line), f) && strchr(line, '\n'))
+                p = atoi(line);
+            fclose(f);
+        }
+        if (p > 0) {
+            n->port = p;
+            snprintf(n->endpoint, sizeof(n->endpoint), "127.0.0.1:%d", p);
+            return CV_OK;
+        }
+        int status;
+        if (waitpid(pid, &status, WNOHANG) == pid) {
+            n->pid = 0;
+            return cv_error(CV_ERROR_IO, "scratch process node: %s exited (status %d) before listening; see %s",
+                            binary, status, log);
+        }
+        nanosleep(&(struct timespec){ 0, 20 * 1000 * 1000 }, NULL);
+    }
+    scratch_process_node_kill(n);
+    return cv_error(CV_ERROR_TIMEOUT, "scratch process node: %s did not listen within 30 s; see %s", binary, log);
+}
+
+void scratch_process_node_kill(scratch_process_node *n) {
+    if (n->pid > 0) {
+        kill((pid_t)n->pid, SIGKILL);
+        waitpid((pid_t)n->pid, NULL, 0);
+    }
+    n->pid = 0;
+}
+
+void scratch_process_node_stop(scratch_process_node *n) {
+    if (n->pid > 0) {
+        kill((pid_t)n->pid, SIGTERM);
+        waitpid((pid_t)n->pid, NULL, 0);
+    }
+    n->pid = 0;
+    if (n->dir[0]) {
+        char cmd[300];
+        snprintf(cmd, sizeof(cmd), "rm -rf '%s'", n->dir);
+        if (system(cmd) != 0)
+            fprintf(stderr, "scratch process node: could not remove %s\n", n->dir);
+        n->dir[0] = '\0';
+    }
+}

@@ -28,4 +28,22 @@ uint64_t scratch_node_wait_sessions(scratch_node *n, uint32_t timeout_ms);
 void scratch_node_stop_keep(scratch_node *n, bool keep_cache);
 void scratch_node_stop(scratch_node *n);
 
+/* A corvid-node in its own process (so a test can SIGKILL it), serving `gpus` devices of the test adapter on
+ * 127.0.0.1:`port` (0 picks a free one; give the old port to restart a node where it was), its cache and log
+ * in a fresh temporary directory. extra: more options for corvid-node, NULL-terminated (may be NULL). Waits
+ * until it listens (its --port-file). */
+typedef struct scratch_process_node {
+    int pid; /* 0: not running */
+    int port;
+    char endpoint[64];
+    char dir[256];
+} scratch_process_node;
+
+cv_result scratch_process_node_start(scratch_process_node *n, const char *binary, uint32_t gpus, int port,
+                                     const char *const *extra);
+/* SIGKILL, and reaps it; the directory stays (for a restart). */
+void scratch_process_node_kill(scratch_process_node *n);
+/* SIGTERM (it drains), reaps it, removes the directory. */
+void scratch_process_node_stop(scratch_process_node *n);
+
 #endif

@@ -28,6 +28,7 @@
 
 #define CV_NODE_METHOD_SESSION "/corvid.Node/Session"
 #define CV_NODE_METHOD_INFO "/corvid.Node/Info"
+#define CV_NODE_METHOD_PEER_PIECE "/corvid.Node/PeerPiece"
 #define CV_HEALTH_METHOD_CHECK "/grpc.health.v1.Health/Check"
 #define CV_HEALTH_METHOD_WATCH "/grpc.health.v1.Health/Watch"
 
@@ -40,6 +41,18 @@
  * sent once per node cache); smaller ones travel inline. */
 #define CV_NODE_BLOB_MIN_BYTES (256u << 10)
 #define CV_SHA256_BYTES 32u
+/* A session's capability for node-to-node transfers (HelloReply.session_key). */
+#define CV_NODE_SESSION_KEY_BYTES 16u
+/* The largest node-to-node transfer, before and after compression. */
+#define CV_NODE_PEER_MAX_BYTES (256ull << 20)
+
+/* A PushTransfer / AwaitTransfer region checked against the resource it names
+ * (desc): a texture rect (width, height not 0) or a buffer range (size not 0,
+ * width = height = 0). *bytes gets its size in bytes (0 on failure).
+ * CV_ERROR_OUT_OF_RANGE / CV_ERROR_MALFORMED name `what`, the region and the
+ * resource. */
+cv_result cv_node_check_region(const cv_resource_desc *desc, uint32_t x, uint32_t y, uint32_t width, uint32_t height,
+                               uint64_t offset, uint64_t size, const char *what, uint64_t *bytes);
 
 /* Storage the pointers of a filled Corvid__CreateResource refer to. */
 typedef struct cv_node_desc_storage {

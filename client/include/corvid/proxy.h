@@ -20,7 +20,18 @@
  * desc.adapter is the index of the node's device ("" = 0). A node that cannot
  * be reached, speaks another protocol version, or dies mid-session makes calls
  * fail with CV_ERROR_CONNECTION (within the keepalive time, never a hang);
- * a request the node refuses fails with the node's code and message. */
+ * a request the node refuses fails with the node's code and message.
+ *
+ * Clusters: a transfer between two proxy devices on different sessions takes
+ * the PEER path (transfer.h): the source node sends the bytes to the
+ * destination node, which holds that session's later messages until they are
+ * written. If they never come (the source died or stalled), the node skips the
+ * submissions that needed them and the next cv_device_wait reports it, once;
+ * the device stays usable (docs/node.md, "Clusters").
+ * Environment: CORVID_NODE_TIMEOUT_MS (one answer, default 120 s),
+ * CORVID_NODE_KEEPALIVE_MS (default 10000: a silent node is noticed within about
+ * twice that), CORVID_NODE_PEER_DEADLINE_MS (how long a node waits for a peer's
+ * transfer; default and maximum the node's --peer-deadline-ms). */
 #ifndef CORVID_PROXY_H
 #define CORVID_PROXY_H
 
@@ -36,6 +47,10 @@ typedef struct cv_proxy_stats {
     uint64_t round_trips;          /* requests that waited for an answer */
     uint64_t blocking_waits;       /* waits for a ticket the node had not yet reported finished:
                                         each costs at least the node's latency, like a round trip */
+    /* Clusters: transfers this device's node sent to another node's session (pushes) and received from one
+       (awaits), the bytes those moved node to node (never through this client), and transfer failures the
+       node reported (a frame that lacked a partition; the device goes on). */
+    uint64_t peer_pushes, peer_awaits, peer_push_bytes, peer_await_bytes, transfer_failures;
 } cv_proxy_stats;
 
 /* CV_ERROR_INVALID_ARGUMENT if dev is not a proxy device. */

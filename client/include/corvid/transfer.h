@@ -19,6 +19,11 @@
  *                copies into it, the destination's GPU copies out. No CPU copy.
  *   STAGED       any two devices: read into host memory, write from it,
  *                pipelined in 4 MiB pieces (the only path between backends).
+ *   PEER         two proxy devices on different corvid-node sessions: the
+ *                source node sends the bytes (compressed) to the destination
+ *                node itself, in the sessions' message order; the call returns
+ *                without waiting and the client sees none of the bytes
+ *                (docs/node.md, "Clusters").
  * AUTO (the default) takes the first of these the pair can use. The
  * environment variable CORVID_TRANSFER_PATH=shared|host-import|staged|auto,
  * read at every transfer, or cv_transfer_set_path (which wins over it) forces
@@ -55,6 +60,7 @@ typedef enum cv_transfer_path {
     CV_TRANSFER_STAGED = 1,
     CV_TRANSFER_HOST_IMPORT = 2,
     CV_TRANSFER_SHARED = 3,
+    CV_TRANSFER_PEER = 4,
     CV_TRANSFER_PATH_COUNT
 } cv_transfer_path;
 

@@ -69,6 +69,7 @@ static cv_result resolve_device(const char *endpoint, const char *text, uint32_t
 }
 
 static void free_device(proxy_device *p) {
+    proxy_peer_unregister(p);
     free(p->known);
     free(p->lists);
     pthread_cond_destroy(&p->cond);
@@ -93,8 +94,11 @@ static cv_result proxy_device_create(const cv_device_desc *desc, cv_device_info 
     p->remote_device = remote;
     const char *timeout = getenv("CORVID_NODE_TIMEOUT_MS");
     p->timeout_ms = timeout && atoi(timeout) > 0 ? (uint32_t)atoi(timeout) : DEFAULT_TIMEOUT_MS;
+    const char *deadline = getenv("CORVID_NODE_PEER_DEADLINE_MS");
+    p->peer_deadline_ms = deadline && atoi(deadline) > 0 ? (uint32_t)atoi(deadline) : 0;
     pthread_mutex_init(&p->lock, NULL);
     pthread_cond_init(&p->cond, NULL);
+    proxy_peer_register(p);
     r = proxy_session_open(p, info);
     if (r != CV_OK) {
         char why[1024];
@@ -203,6 +207,14 @@ static cv_result ensure_blob(proxy_device *p, const void *data, uint64_t size, u
         remember_blob(p, sha);
         return CV_OK;
     }
+    pthread_mutex_lock(&p->lock);
+    uint64_t sent = p->stats.upload_bytes_sent;
+    pthread_mutex_unlock(&p->lock);
+    if (p->quota_upload && size > p->quota_upload - (sent < p->quota_upload ? sent : p->quota_upload))
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "node '%s': an upload of %" PRIu64 " bytes would pass the session's upload quota (%" PRIu64
+                        " bytes sent of %" PRIu64 ", corvid-node --quota-upload); refused here, the device goes on",
+                        p->endpoint, size, sent, p->quota_upload);
     for (uint64_t off = 0; off < size; off += CV_NODE_CHUNK_BYTES) {
         uint64_t n = size - off < CV_NODE_CHUNK_BYTES ? size - off : CV_NODE_CHUNK_BYTES;
         Corvid__BlobChunk chunk = CORVID__BLOB_CHUNK__INIT;
@@ -428,16 +440,19 @@ static void proxy_list_release(cv_backend_device *p, void *obj) {
 
 static cv_result proxy_submit(cv_backend_device *p, void *obj, uint64_t ticket) {
     proxy_list *compiled = obj;
+    /* At most the ring's size, and the node's in-flight quota, submitted and not completed. */
+    uint64_t most = p->quota_inflight && p->quota_inflight < PROXY_INFLIGHT - 1 ? p->quota_inflight
+                                                                                : PROXY_INFLIGHT - 1;
     pthread_mutex_lock(&p->lock);
-    bool full = ticket - p->completed > PROXY_INFLIGHT - 1;
+    bool full = ticket - p->completed > most;
     pthread_mutex_unlock(&p->lock);
-    while (full) { /* the ring of in-flight tickets is full: let the oldest finish first */
+    while (full) { /* let the oldest finish first */
         cv_result r = proxy_health(p);
         if (r != CV_OK)
             return r;
         pthread_mutex_lock(&p->lock);
         pthread_cond_wait(&p->cond, &p->lock);
-        full = ticket - p->completed > PROXY_INFLIGHT - 1 && p->dead == CV_OK;
+        full = ticket - p->completed > most && p->dead == CV_OK;
         pthread_mutex_unlock(&p->lock);
     }
     Corvid__SubmitList s = CORVID__SUBMIT_LIST__INIT;
@@ -475,15 +490,31 @@ static cv_result proxy_wait(cv_backend_device *p, uint64_t ticket, uint64_t time
     if (p->completed < ticket && p->dead == CV_OK)
         p->stats.blocking_waits++;
     while (p->completed < ticket && p->dead == CV_OK) {
-        if (forever) {
-            pthread_cond_wait(&p->cond, &p->lock);
-        } else if (pthread_cond_timedwait(&p->cond, &p->lock, &deadline) != 0) {
+        /* In slices: an await this ticket may be held by loses its source meanwhile (proxy_peer.c). */
+        pthread_mutex_unlock(&p->lock);
+        proxy_peer_abort_dead(p);
+        pthread_mutex_lock(&p->lock);
+        if (p->completed >= ticket || p->dead != CV_OK)
+            break;
+        struct timespec slice;
+        clock_gettime(CLOCK_REALTIME, &slice);
+        slice.tv_nsec += 100L * 1000 * 1000;
+        if (slice.tv_nsec >= 1000000000L) {
+            slice.tv_sec++;
+            slice.tv_nsec -= 1000000000L;
+        }
+        bool last = !forever && (slice.tv_sec > deadline.tv_sec ||
+                                 (slice.tv_sec == deadline.tv_sec && slice.tv_nsec >= deadline.tv_nsec));
+        if (pthread_cond_timedwait(&p->cond, &p->lock, last ? &deadline : &slice) != 0 && last &&
+            p->completed < ticket && p->dead == CV_OK) {
             r = cv_error(CV_ERROR_TIMEOUT, "node '%s': ticket %" PRIu64 " not finished in time", p->endpoint, ticket);
             break;
         }
     }
     pthread_mutex_unlock(&p->lock);
-    return r == CV_OK ? proxy_health(p) : r;
+    if (r == CV_OK)
+        r = proxy_health(p);
+    return r == CV_OK ? proxy_report_failure(p, ticket) : r;
 }
 
 static uint64_t proxy_completed(cv_backend_device *p) {
@@ -498,6 +529,7 @@ static uint64_t proxy_completed(cv_backend_device *p) {
 static bool proxy_lost(cv_backend_device *p) {
     pthread_mutex_lock(&p->lock);
     bool lost = p->dead != CV_OK;
+    p->loss_reported |= lost; /* the caller learns it now */
     pthread_mutex_unlock(&p->lock);
     return lost;
 }

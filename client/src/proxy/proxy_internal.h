@@ -22,6 +22,7 @@
 
 #define PROXY_MAX_TIMINGS 32u
 #define PROXY_INFLIGHT 1024u
+#define PROXY_AWAITS 64u
 
 /* A list as compiled for the node: the node holds the list, this is its name. */
 typedef struct proxy_list {
@@ -43,6 +44,11 @@ typedef struct proxy_pending {
     uint64_t read_size, read_received;
     bool *present; /* blob queries: one flag per hash */
     size_t present_count;
+    uint8_t session_key[CV_NODE_SESSION_KEY_BYTES]; /* hello: the session's capability */
+    bool has_session_key;
+    uint32_t quota_inflight; /* hello: the node's quotas (0 = not told) */
+    uint64_t quota_upload;
+    uint64_t transfer_failure; /* refused because of this transfer failure (the caller learns of it) */
 } proxy_pending;
 
 typedef struct proxy_inflight {
@@ -82,6 +88,33 @@ struct cv_backend_device {
     uint32_t list_count, list_capacity;
 
     cv_proxy_stats stats; /* under lock */
+
+    /* Clusters (proxy_peer.c). The session's capability for node-to-node transfers (HelloReply). */
+    uint8_t session_key[CV_NODE_SESSION_KEY_BYTES];
+    bool has_session_key;
+    /* The node's quotas for this session (HelloReply.quotas; 0 = not told): submissions past the in-flight
+       quota wait here, uploads past the upload quota are refused here, so neither poisons the device. */
+    uint32_t quota_inflight;
+    uint64_t quota_upload;
+    uint32_t peer_deadline_ms; /* asked of the node for each await; 0 = the node's */
+    /* A failed await the node reported (Reply or Completed.transfer_failure) and no caller has learned of yet:
+       the next wait for a ticket >= soft_ticket returns it, once, and sends ResumeAfterFailure. Failures up to
+       `resumed` belong to frames already reported and are ignored. Not an async_error: the device goes on. */
+    uint64_t soft_failure, soft_ticket, soft_seq, resumed;
+    cv_result soft_result;
+    char soft_message[512];
+    /* Awaits sent to this session, the last PROXY_AWAITS (a ring): when the caller has been told that an
+       await's source device is lost, the await is given up (proxy_peer_settle) before anything else is sent
+       here. `serial` names a device in the process's registry of proxy devices (proxy_peer.c). */
+    uint64_t serial;
+    bool loss_reported; /* a call returned this session's death to the caller */
+    struct cv_backend_device *registry_next;
+    struct proxy_await {
+        uint64_t transfer_id, seq, source; /* source: its serial; 0 = a free slot */
+        bool aborted;                      /* the node was told to fail it at once (its source died) */
+        bool given_up;                     /* ... and the session resumed after it (the caller knows) */
+    } awaits[PROXY_AWAITS];
+    uint32_t awaits_next;
 };
 
 typedef struct cv_backend_device proxy_device;
@@ -99,9 +132,31 @@ cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending
 /* The error every call returns once the session is unusable, or CV_OK. */
 cv_result proxy_health(proxy_device *p);
 
+/* Records a transfer failure the node reported (lock held): in the Reply to request `seq` (0: in the Completed
+ * of `ticket`); see soft_failure. */
+void proxy_note_failure(proxy_device *p, uint64_t failure, uint64_t seq, uint64_t ticket, cv_result result,
+                        const char *message);
+/* If a transfer failure waits to be reported to a wait for `ticket`: returns its error (naming the node) and
+ * tells the node the client knows (ResumeAfterFailure); else CV_OK. Lock not held. */
+cv_result proxy_report_failure(proxy_device *p, uint64_t ticket);
+/* Registers the proxy's peer transfer path with the core, and the device in the process's registry
+ * (proxy_peer.c); unregister before freeing it. */
+void proxy_peer_register(proxy_device *p);
+void proxy_peer_unregister(proxy_device *p);
+/* Gives up awaits of this session whose source the caller knows is lost: tells the node (so a held await
+ * fails at once) and resumes the session after them, in its stream. Called before every send. */
+void proxy_peer_settle(proxy_device *p);
+/* Tells the node to fail at once the held awaits whose source device died (without resuming: a wait that
+ * then meets the skipped work reports it). Safe at any time. */
+void proxy_peer_abort_dead(proxy_device *p);
+/* proxy_send without proxy_peer_settle. */
+cv_result proxy_send_now(proxy_device *p, Corvid__ClientMessage *m);
+
 /* The rpc client configuration for talking to a node, from the environment: CORVID_NODE_TOKEN_FILE (the bearer
  * token, read from the file into `token`, cap >= 1025), CORVID_NODE_TLS_CA (TLS, trusting that CA), and
- * CORVID_NODE_TLS_CERT / CORVID_NODE_TLS_KEY (a client certificate for mutual TLS). Errors name the variable. */
+ * CORVID_NODE_TLS_CERT / CORVID_NODE_TLS_KEY (a client certificate for mutual TLS), CORVID_NODE_KEEPALIVE_MS (keepalive
+ * ping interval and timeout, so a node that stops answering is noticed within about twice that; default 10 s + 5 s).
+ * Errors name the variable. */
 cv_result proxy_client_config(cv_rpc_client_config *cc, char *token, size_t cap);
 
 #endif

@@ -8,6 +8,8 @@
 
 #include "proxy_internal.h"
 
+static void send_resume(proxy_device *p, uint64_t failure);
+
 /* Marks the session unusable (lock held) and wakes every waiter. */
 static void set_dead(proxy_device *p, cv_result code, const char *why) {
     if (p->dead == CV_OK) {
@@ -20,15 +22,21 @@ static void set_dead(proxy_device *p, cv_result code, const char *why) {
 cv_result proxy_health(proxy_device *p) {
     pthread_mutex_lock(&p->lock);
     cv_result r = CV_OK;
-    if (p->dead != CV_OK)
+    if (p->dead != CV_OK) {
         r = cv_error(p->dead, "node '%s': %s", p->endpoint, p->dead_message);
-    else if (p->async_error != CV_OK)
+        p->loss_reported = true; /* the caller learns it now */
+    } else if (p->async_error != CV_OK)
         r = cv_error(p->async_error, "node '%s' refused an earlier request: %s", p->endpoint, p->async_message);
     pthread_mutex_unlock(&p->lock);
     return r;
 }
 
 cv_result proxy_send(proxy_device *p, Corvid__ClientMessage *m) {
+    proxy_peer_settle(p);
+    return proxy_send_now(p, m);
+}
+
+cv_result proxy_send_now(proxy_device *p, Corvid__ClientMessage *m) {
     cv_result r = proxy_health(p);
     if (r != CV_OK)
         return r;
@@ -94,17 +102,79 @@ cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending
     }
     *pending = p->pending;
     p->pending = (proxy_pending){ 0 };
+    uint64_t failure = r != CV_OK ? pending->transfer_failure : 0;
+    if (failure > p->resumed) {
+        p->resumed = failure; /* the caller learns of it now */
+        if (p->soft_failure == failure)
+            p->soft_failure = 0;
+    } else {
+        failure = 0;
+    }
     pthread_mutex_unlock(&p->lock);
+    if (failure) {
+        char why[CV_ERROR_MESSAGE_MAX];
+        snprintf(why, sizeof(why), "%s", cv_last_error());
+        send_resume(p, failure);
+        r = cv_error(r, "%s", why);
+    }
     return r;
 }
 
 /* ---- receiving ------------------------------------------------------------- */
 
+void proxy_note_failure(proxy_device *p, uint64_t failure, uint64_t seq, uint64_t ticket, cv_result result,
+                        const char *message) {
+    p->stats.transfer_failures += failure > p->resumed && failure != p->soft_failure;
+    if (failure <= p->resumed || p->soft_failure)
+        return; /* of a frame already reported, or one is waiting to be */
+    for (uint32_t i = 0; i < PROXY_AWAITS; i++)
+        if (p->awaits[i].source && p->awaits[i].given_up && p->awaits[i].seq == seq) {
+            p->resumed = failure; /* started by an await the client gave up: that frame was reported */
+            return;
+        }
+    p->soft_seq = seq;
+    p->soft_failure = failure;
+    p->soft_ticket = ticket;
+    p->soft_result = result != CV_OK ? result : CV_ERROR_CONNECTION;
+    snprintf(p->soft_message, sizeof(p->soft_message), "%s", message ? message : "");
+}
+
+static void send_resume(proxy_device *p, uint64_t failure) {
+    Corvid__ResumeAfterFailure resume = CORVID__RESUME_AFTER_FAILURE__INIT;
+    resume.failure = failure;
+    Corvid__ClientMessage m = CORVID__CLIENT_MESSAGE__INIT;
+    m.msg_case = CORVID__CLIENT_MESSAGE__MSG_RESUME;
+    m.resume = &resume;
+    proxy_send_now(p, &m); /* a dead session fails every later call anyway */
+}
+
+cv_result proxy_report_failure(proxy_device *p, uint64_t ticket) {
+    pthread_mutex_lock(&p->lock);
+    uint64_t failure = p->soft_failure;
+    cv_result r = CV_OK;
+    if (failure && p->soft_ticket <= ticket) {
+        r = cv_error(p->soft_result, "node '%s': %s", p->endpoint, p->soft_message);
+        p->resumed = failure;
+        p->soft_failure = 0;
+    }
+    pthread_mutex_unlock(&p->lock);
+    if (r != CV_OK) {
+        char why[CV_ERROR_MESSAGE_MAX];
+        snprintf(why, sizeof(why), "%s", cv_last_error());
+        send_resume(p, failure);
+        r = cv_error(r, "%s", why);
+    }
+    return r;
+}
+
 static void on_reply(proxy_device *p, uint64_t seq, const Corvid__Reply *reply) {
     if (p->pending.seq == seq) {
+        p->pending.transfer_failure = reply->transfer_failure;
         p->pending.result = (cv_result)reply->result;
         snprintf(p->pending.message, sizeof(p->pending.message), "%s", reply->message ? reply->message : "");
         p->pending.done = true;
+    } else if (reply->transfer_failure) {
+        proxy_note_failure(p, reply->transfer_failure, seq, 0, (cv_result)reply->result, reply->message);
     } else if (reply->result != CV_OK && p->async_error == CV_OK) {
         p->async_error = (cv_result)reply->result;
         snprintf(p->async_message, sizeof(p->async_message), "request %" PRIu64 ": %s", seq,
@@ -151,7 +221,9 @@ static void on_completed(proxy_device *p, const Corvid__Completed *c) {
     }
     slot->ticket = 0;
     slot->list = NULL;
-    if (c->result != CV_OK && p->async_error == CV_OK) {
+    if (c->transfer_failure)
+        proxy_note_failure(p, c->transfer_failure, 0, c->ticket, (cv_result)c->result, c->message);
+    else if (c->result != CV_OK && p->async_error == CV_OK) {
         p->async_error = (cv_result)c->result;
         snprintf(p->async_message, sizeof(p->async_message), "submission %" PRIu64 ": %s", c->ticket,
                  c->message ? c->message : "");
@@ -165,6 +237,14 @@ static void on_message(proxy_device *p, const Corvid__NodeMessage *m) {
         if (p->pending.seq == m->seq && p->pending.hello_info && m->hello->device) {
             cv_node_info_from_msg(m->hello->device, p->pending.hello_info);
             p->pending.session_id = m->hello->session_id;
+            if (m->hello->quotas) {
+                p->pending.quota_inflight = m->hello->quotas->inflight;
+                p->pending.quota_upload = m->hello->quotas->upload_bytes;
+            }
+            if (m->hello->session_key.len == CV_NODE_SESSION_KEY_BYTES) {
+                memcpy(p->pending.session_key, m->hello->session_key.data, CV_NODE_SESSION_KEY_BYTES);
+                p->pending.has_session_key = true;
+            }
             p->pending.done = true;
         }
         break;
@@ -237,6 +317,15 @@ cv_result proxy_client_config(cv_rpc_client_config *cc, char *token, size_t cap)
             return cv_error(r, "CORVID_NODE_TOKEN_FILE: %s", cv_last_error());
         cc->bearer_token = token;
     }
+    const char *keepalive = env("CORVID_NODE_KEEPALIVE_MS");
+    if (keepalive) {
+        char *end;
+        unsigned long ms = strtoul(keepalive, &end, 10);
+        if (*end || ms < 100 || ms > 3600000)
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_NODE_KEEPALIVE_MS: '%s' is not 100..3600000 ms",
+                            keepalive);
+        cc->keepalive_ms = cc->keepalive_timeout_ms = (uint32_t)ms;
+    }
     cc->tls_ca_file = env("CORVID_NODE_TLS_CA");
     cc->tls_cert_file = env("CORVID_NODE_TLS_CERT");
     cc->tls_key_file = env("CORVID_NODE_TLS_KEY");
@@ -281,6 +370,10 @@ cv_result proxy_session_open(proxy_device *p, cv_device_info *info) {
     r = proxy_request(p, &m, &pending);
     if (r != CV_OK)
         return r;
+    memcpy(p->session_key, pending.session_key, sizeof(p->session_key));
+    p->has_session_key = pending.has_session_key;
+    p->quota_inflight = pending.quota_inflight;
+    p->quota_upload = pending.quota_upload;
     snprintf(info->backend, sizeof(info->backend), "proxy");
     info->adapter_index = p->remote_device;
     return CV_OK;

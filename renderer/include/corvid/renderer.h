@@ -48,12 +48,12 @@ typedef struct cv_render_settings {
     const cv_render_observer *observer; /* [NULL] called after every frame with its timings
                                          * (corvid/render_observer.h); NULL = none */
     /* View and light controls (corvid-render --camera, --sun, --orbit); zeros keep the scene's. */
-    float camera_eye[3];      /* with camera_fov_degrees > 0, the camera at camera_eye looks at */
-    float camera_target[3];   /* camera_target, up +y (+z when it looks straight up or down) */
-    float camera_fov_degrees; /* [0 = the scene's camera, `camera`] vertical field of view, (0, 180) */
-    float sun_toward[3];      /* [0,0,0 = the scene's sun] direction toward the sun, any length > 0;
+    float camera_eye[3];       /* with camera_fov_degrees > 0, the camera at camera_eye looks at */
+    float camera_target[3];    /* camera_target, up +y (+z when it looks straight up or down) */
+    float camera_fov_degrees;  /* [0 = the scene's camera, `camera`] vertical field of view, (0, 180) */
+    float sun_toward[3];       /* [0,0,0 = the scene's sun] direction toward the sun, any length > 0;
                                * its cone is sun_cone_degrees */
-    float orbit_degrees;      /* [0] the camera turns by this much per frame (sample index) about the
+    float orbit_degrees;       /* [0] the camera turns by this much per frame (sample index) about the
                                * vertical axis (its up) through its target: a moving camera, whose
                                * G-buffer runs every frame and whose history is reprojected */
     int32_t reflections;       /* [1] 1 = GGX reflections (one ray per pixel per frame, shaded with the
@@ -115,6 +115,13 @@ typedef struct cv_renderer cv_renderer;
 cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, const cv_scene *scene,
                              const cv_bvh *bvh, cv_renderer **out);
 void cv_renderer_destroy(cv_renderer *r);
+
+/* Adds a device (of the renderer's context) from the next frame on: uploads the
+ * scene to it (the scene and BVH given at creation must still exist) and
+ * rebuilds the frame graph. May be called from the progress callback: a node
+ * that came back, or a new one, then takes columns from the next frame. A
+ * device that cannot take the scene is refused and left as it was. */
+cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev);
 
 /* Renders settings->frames frames and reads the result back. `progress`, if
  * set, is called after every frame. */
