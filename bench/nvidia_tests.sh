@@ -7,12 +7,13 @@ cd /tmp/corvid/b/bin
   nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
   corvid-render --list-adapters
   pass=0; fail=0
-  for t in vk_* "conformance vulkan" renderer_frames trace_paths node_hostile "conformance proxy-vulkan" \
-           node_remote_render; do
+  for t in vk_* "conformance vulkan" renderer_frames renderer_transfer_paths renderer_temporal renderer_reflect \
+           render_outputs trace_paths node_hostile node_peer_hostile "conformance proxy-vulkan" node_remote_render \
+           "node_cluster /tmp/corvid/b/bin/corvid-node"; do
     echo "== $t"
     unset CORVID_VIRTUAL_GPUS
     [ "$t" = vk_virtual_gpu ] && export CORVID_VIRTUAL_GPUS=3
-    if timeout 120 ./$t; then pass=$((pass+1)); else fail=$((fail+1)); fi
+    if timeout 150 ./$t; then pass=$((pass+1)); else fail=$((fail+1)); fi
   done
   echo "binaries: $pass passed, $fail failed"
 } > "$OUT/tests.log" 2>&1
