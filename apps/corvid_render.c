@@ -629,9 +629,10 @@ int main(int argc, char **argv) {
     if (r == CV_OK && !o.quiet && !o.nodes && !o.reference)
         for (uint32_t d = 0; d < table.count; d++) {
             const cv_device_info *info = cv_device_get_info(devices[d]);
-            fprintf(stderr, "%s: %s (adapter %u, instance %u)%s, trace path %s\n", cv_device_label(devices[d]),
-                    info->name, table.gpus[d].adapter, table.gpus[d].instance, d == 0 ? ", primary" : "",
-                    info->trace_path[0] ? info->trace_path : "compute");
+            fprintf(stderr, "%s: %s (adapter %u, instance %u)%s, trace path %s, cross-device waits: %s\n",
+                    cv_device_label(devices[d]), info->name, table.gpus[d].adapter, table.gpus[d].instance,
+                    d == 0 ? ", primary" : "", info->trace_path[0] ? info->trace_path : "compute",
+                    info->cross_wait[0] ? info->cross_wait : "-");
         }
     if (r == CV_OK && !o.reference)
         r = cv_renderer_create(devices, device_count, scene, bvh, &renderer);
