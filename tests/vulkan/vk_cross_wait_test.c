@@ -120,7 +120,8 @@ static void ping_pong(cv_context *ctx, cv_device *a, cv_device *b, const char *e
     for (uint64_t i = 0; i < d.size; i++)
         init[i] = (uint8_t)(i * 131 + i / 977);
     CHECK_OK(cv_device_write_buffer(a, buf, 0, d.size, init));
-    CHECK_OK(cv_device_write_buffer(b, buf, 0, d.size, init + 1)); /* (different bytes, shifted by one) */
+    memset(back, 0x5a, d.size); /* B starts with other bytes */
+    CHECK_OK(cv_device_write_buffer(b, buf, 0, d.size, back));
     cv_transfer_async t = { 0 };
     for (uint32_t k = 0; k < ROUNDS && ab && ba; k++) {
         CHECK_OK(cv_transfer_buffer_async(ab, buf, (uint64_t)k * SIZE, buf, (uint64_t)k * SIZE, SIZE, &t));
