@@ -658,6 +658,8 @@ int main(int argc, char **argv) {
         printf("bvh build %.1f ms; upload to %u devices %.1f ms; %.1f ms per frame; %.2f Mrays/s overall\n", t_bvh,
                stats.device_count, stats.upload_ms, stats.frame_ms,
                stats.rays_total / (stats.frame_ms * stats.frames) / 1e3);
+        if (stats.setup_ms > 0)
+            printf("graph set-up before the frames (first bake, transfer rings) %.1f ms\n", stats.setup_ms);
         for (uint32_t d = 0; d < stats.device_count; d++) {
             const cv_render_device_stats *ds = &stats.devices[d];
             printf("  %s: columns %u..%u, %llu rays, trace %.1f ms (%.2f Mrays/s)\n", cv_device_label(devices[d]),

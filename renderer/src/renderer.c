@@ -758,7 +758,9 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
      * between (graph.h, cv_graph_stats.rings), and making one costs time in
      * proportion to its memory (host-import pins and imports it: ~85 ms a
      * ring on the H200), so the first frames do not pay for them. */
-    if (res == CV_OK && r->count > 1 && !r->graph_prebaked) {
+    double setup_start = now_ms();
+    bool setup = res == CV_OK && r->count > 1 && !r->graph_prebaked;
+    if (setup) {
         r->frame = 0;
         res = enable_passes(r, true, s.frames == 1);
         if (res == CV_OK)
@@ -767,7 +769,10 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     }
     if (res != CV_OK)
         return res;
-    cv_render_stats st = { .device_count = r->count, .frames = s.frames, .upload_ms = r->upload_ms };
+    cv_render_stats st = { .device_count = r->count,
+                           .frames = s.frames,
+                           .upload_ms = r->upload_ms,
+                           .setup_ms = setup ? now_ms() - setup_start : 0.0 };
     cv_graph_timing timings[64];
     double frames_start = now_ms();
     uint64_t accumulated[IN_FLIGHT_FRAMES] = { 0 }; /* the primary's last ticket of recent frames */
