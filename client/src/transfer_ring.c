@@ -86,7 +86,8 @@ static cv_result ring_wait_check(cv_device *src, cv_device *dst) {
     const char *why = !a.wait_import ? a.wait_missing : !b.wait_import ? b.wait_missing : NULL;
     cv_device *lacking = !a.wait_import ? src : dst;
     if (why)
-        return cv_error(CV_ERROR_UNSUPPORTED, "transfer ring '%s' -> '%s': CORVID_CROSS_WAIT=import, but '%s' lacks %s",
+        return cv_error(CV_ERROR_UNSUPPORTED,
+                        "transfer ring '%s' -> '%s': CORVID_CROSS_WAIT=import, but '%s' lacks %s",
                         cv_device_label(src), cv_device_label(dst), cv_device_label(lacking), why);
     if (memcmp(a.driver_uuid, b.driver_uuid, 16) || memcmp(a.device_uuid, b.device_uuid, 16))
         return cv_error(CV_ERROR_UNSUPPORTED,

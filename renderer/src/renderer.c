@@ -73,7 +73,7 @@ struct cv_renderer {
      * iterations or the ray buffers' size change). */
     cv_graph *graph;
     uint32_t graph_iterations;
-    bool graph_prebaked; /* the graph was baked once before a render's clock (its transfer rings exist) */
+    bool graph_prebaked;   /* the graph was baked once before a render's clock (its transfer rings exist) */
     uint32_t graph_frames; /* frames of this render call: the filter's history length */
     uint64_t graph_rays;   /* rays the ray and hit buffers hold */
     cv_graph_resource tex[TEX_COUNT], buf[BUF_COUNT];

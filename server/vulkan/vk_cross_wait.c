@@ -84,10 +84,11 @@ cv_result vk_cross_wait_setup(cv_backend_device *bd) {
     if (extension) {
         VkSemaphoreTypeCreateInfo type = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_TYPE_CREATE_INFO,
                                            .semaphoreType = VK_SEMAPHORE_TYPE_TIMELINE };
-        VkPhysicalDeviceExternalSemaphoreInfo info = { .sType =
-                                                           VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_SEMAPHORE_INFO,
-                                                       .pNext = &type,
-                                                       .handleType = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT };
+        VkPhysicalDeviceExternalSemaphoreInfo info = {
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_SEMAPHORE_INFO,
+            .pNext = &type,
+            .handleType = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT
+        };
         vkGetPhysicalDeviceExternalSemaphoreProperties(bd->adapter.physical, &info, &props);
     }
     bool capable = vk_cross_wait_capable(extension, &props, bd->cross_missing, sizeof(bd->cross_missing));

@@ -160,7 +160,7 @@ static cv_result create_vk_device(cv_backend_device *bd) {
     if (bd->cross_import) {
         bd->get_semaphore_fd = (PFN_vkGetSemaphoreFdKHR)vkGetDeviceProcAddr(bd->device, "vkGetSemaphoreFdKHR");
         bd->import_semaphore_fd = (PFN_vkImportSemaphoreFdKHR)vkGetDeviceProcAddr(bd->device,
-                                                                                 "vkImportSemaphoreFdKHR");
+                                                                                  "vkImportSemaphoreFdKHR");
         if (!bd->get_semaphore_fd || !bd->import_semaphore_fd) {
             bd->cross_import = false;
             snprintf(bd->cross_missing, sizeof(bd->cross_missing), "vkGetSemaphoreFdKHR/vkImportSemaphoreFdKHR");

@@ -102,8 +102,8 @@ struct cv_backend_device {
     uint32_t async_count;
     vk_bridge bridge; /* GPU waits on other devices' tickets (vk_bridge.h) */
     /* ... or through imported ticket semaphores (vk_cross_wait.h). */
-    bool cross_import;   /* the ticket semaphore is exportable; waits import the other's where the pair allows */
-    bool cross_required; /* CORVID_CROSS_WAIT=import: pairs that cannot import are refused */
+    bool cross_import;      /* the ticket semaphore is exportable; waits import the other's where the pair allows */
+    bool cross_required;    /* CORVID_CROSS_WAIT=import: pairs that cannot import are refused */
     char cross_missing[96]; /* !capable: what the device lacks */
     PFN_vkGetSemaphoreFdKHR get_semaphore_fd;
     PFN_vkImportSemaphoreFdKHR import_semaphore_fd;

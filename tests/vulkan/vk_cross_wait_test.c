@@ -96,8 +96,9 @@ static void pure_decisions(void) {
 /* Two virtual GPUs of the adapter under the mode in force (NULL: refused, as checked by the caller). */
 static cv_result two_gpus(cv_context *ctx, cv_device *gpu[2]) {
     cv_vulkan_gpu_table table;
-    cv_result r = cv_vulkan_gpu_table_build(
-        &(cv_vulkan_gpu_config){ .virtual_per_adapter = 2, .adapters = vkt_adapter() }, &table);
+    cv_result r = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 2,
+                                                                     .adapters = vkt_adapter() },
+                                            &table);
     return r == CV_OK ? cv_vulkan_create_devices(ctx, &table, true, gpu) : r;
 }
 
