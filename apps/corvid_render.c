@@ -814,9 +814,10 @@ int main(int argc, char **argv) {
     if (r == CV_OK && !o.quiet && !o.nodes && !o.reference)
         for (uint32_t d = 0; d < table.count; d++) {
             const cv_device_info *info = cv_device_get_info(devices[d]);
-            fprintf(stderr, "%s: %s (adapter %u, instance %u)%s, trace path %s\n", cv_device_label(devices[d]),
-                    info->name, table.gpus[d].adapter, table.gpus[d].instance, d == 0 ? ", primary" : "",
-                    info->trace_path[0] ? info->trace_path : "compute");
+            fprintf(stderr, "%s: %s (adapter %u, instance %u)%s, trace path %s, cross-device waits: %s\n",
+                    cv_device_label(devices[d]), info->name, table.gpus[d].adapter, table.gpus[d].instance,
+                    d == 0 ? ", primary" : "", info->trace_path[0] ? info->trace_path : "compute",
+                    info->cross_wait[0] ? info->cross_wait : "-");
         }
     if (r == CV_OK && !o.reference)
         r = cv_renderer_create(devices, device_count, scene, bvh, &renderer);
@@ -848,6 +849,8 @@ int main(int argc, char **argv) {
         printf("bvh build %.1f ms; upload to %u devices %.1f ms; %.1f ms per frame; %.2f Mrays/s overall\n", t_bvh,
                stats.device_count, stats.upload_ms, stats.frame_ms,
                stats.rays_total / (stats.frame_ms * stats.frames) / 1e3);
+        if (stats.setup_ms > 0)
+            printf("graph set-up before the frames (first bake, transfer rings) %.1f ms\n", stats.setup_ms);
         for (uint32_t d = 0; d < stats.device_count; d++) {
             const cv_render_device_stats *ds = &stats.devices[d];
             printf("  %s: columns %u..%u, %llu rays, trace %.1f ms (%.2f Mrays/s)\n", cv_device_label(devices[d]),

@@ -6,16 +6,22 @@
 # the GPUs through rings where the path allows: "async") and with
 # CORVID_TRANSFER_ASYNC=0 (every transfer synchronous on the host: "sync", the
 # peer). Then the transfer bandwidth of each path (bench_transfer) and ring
-# transfers against synchronous ones (bench_transfer_async). Prints tables.
+# transfers against synchronous ones (bench_transfer_async). Then the
+# cross-device wait of the rings compared: the shared path on 2 and 4 virtual
+# GPUs with CORVID_CROSS_WAIT=bridge (a host thread per device) and =import
+# (the other device's semaphore imported; refused where the devices lack
+# VK_KHR_external_semaphore_fd, e.g. lavapipe: shown as "-"). Prints tables.
 #   bench/mgpu_frames.sh BIN_DIR ADAPTER [WxH] [FRAMES]   (BENCH_BIN=dir of the benches if elsewhere)
+#   MGPU_MODE=cross-wait bench/mgpu_frames.sh ...   only the one-device run and the cross-wait table
 set -u
 bin=$1 adapter=$2 size=${3:-1920x1080} frames=${4:-16}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-# run PATH GPUS ASYNC -> "ms moved_MB transfer_ms" or nothing on failure
+mode=${MGPU_MODE:-all}
+# run PATH GPUS ASYNC [CROSS_WAIT] -> "ms moved_MB transfer_ms" or nothing on failure
 run() {
-  local log=$out/$1-$2-$3.txt
-  CORVID_TRANSFER_PATH=$1 CORVID_TRANSFER_ASYNC=$3 "$bin/corvid-render" --adapters "$adapter" --gpus "$2" \
+  local log=$out/$1-$2-$3-${4:-auto}.txt
+  CORVID_CROSS_WAIT=${4:-auto} CORVID_TRANSFER_PATH=$1 CORVID_TRANSFER_ASYNC=$3 "$bin/corvid-render" --adapters "$adapter" --gpus "$2" \
     --size "$size" --frames "$frames" --out "$out/frame" > "$log" 2>&1 || { echo "$1 x$2 failed: $(tail -1 "$log")" >&2; return; }
   local ms moved
   ms=$(sed -n 's/.*; \([0-9.]*\) ms per frame;.*/\1/p' "$log")
@@ -27,6 +33,26 @@ echo "corvid-render $size, $frames frames, adapter $adapter"
 printf '%-12s %5s %12s %9s %12s %9s %10s\n' path gpus "async ms/f" vs-1-gpu "sync ms/f" vs-1-gpu "moved MB"
 read -r one _ _ <<< "$(run shared 1 1)"
 printf '%-12s %5s %12s %9s %12s %9s %10s\n' "-" 1 "${one:--}" 1.00x "-" "-" 0
+cross_wait_table() {
+  echo
+  echo "== cross-device waits of the rings: shared path, CORVID_CROSS_WAIT=bridge vs import (same run)"
+  printf '%-12s %5s %12s %9s %12s %9s %9s  %s\n' path gpus "bridge ms/f" vs-1-gpu "import ms/f" vs-1-gpu imp/brg \
+    "in use (gpu1, bridge / import run)"
+  for gpus in 2 4; do
+    read -r b_ms _ _ <<< "$(run shared "$gpus" 1 bridge)"
+    read -r i_ms _ _ <<< "$(run shared "$gpus" 1 import)"
+    # What corvid-render's device lines say each run used.
+    local b_use i_use
+    b_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-bridge.txt" | head -1)
+    i_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-import.txt" | head -1)
+    printf '%-12s %5s %12s %9s %12s %9s %9s  %s\n' shared "$gpus" "${b_ms:--}" "$(ratio "${b_ms:-0}" "${one:-0}")" \
+      "${i_ms:--}" "$(ratio "${i_ms:-0}" "${one:-0}")" "$(ratio "${i_ms:-0}" "${b_ms:-0}")" "${b_use:--} / ${i_use:--}"
+  done
+}
+if [ "$mode" = cross-wait ]; then
+  cross_wait_table
+  exit 0
+fi
 for path in staged host-import shared; do
   for gpus in 2 4; do
     read -r a_ms a_mb _ <<< "$(run "$path" "$gpus" 1)"
@@ -35,9 +61,13 @@ for path in staged host-import shared; do
       "${s_ms:--}" "$(ratio "${s_ms:-0}" "${one:-0}")" "${a_mb:--}"
   done
 done
+cross_wait_table
 echo
 echo "== bench_transfer_async (ring transfers vs synchronous ones, same bytes, same run)"
-"${BENCH_BIN:-$bin}/bench_transfer_async" --adapters "$adapter" --sizes 1M,8M,64M 2>&1 | tail -8
+for cw in bridge import; do
+  echo "-- CORVID_CROSS_WAIT=$cw"
+  CORVID_CROSS_WAIT=$cw "${BENCH_BIN:-$bin}/bench_transfer_async" --adapters "$adapter" --sizes 1M,8M,64M 2>&1 | tail -8
+done
 echo
 echo "== bench_transfer (every path side by side, memcpy as the peer)"
 "${BENCH_BIN:-$bin}/bench_transfer" --adapters "$adapter" --sizes 1M,16M,256M --only vulkan 2>&1 | tail -14

@@ -75,6 +75,28 @@ static void ring_free(cv_transfer_ring *g) {
     free(g);
 }
 
+/* With imported-semaphore waits forced on either device (CORVID_CROSS_WAIT=import),
+ * the pair must be able to wait on each other that way (backend.h, cv_link_caps). */
+static cv_result ring_wait_check(cv_device *src, cv_device *dst) {
+    cv_link_caps a, b;
+    cv_device_link_caps(src, &a);
+    cv_device_link_caps(dst, &b);
+    if (!a.wait_import_required && !b.wait_import_required)
+        return CV_OK;
+    const char *why = !a.wait_import ? a.wait_missing : !b.wait_import ? b.wait_missing : NULL;
+    cv_device *lacking = !a.wait_import ? src : dst;
+    if (why)
+        return cv_error(CV_ERROR_UNSUPPORTED,
+                        "transfer ring '%s' -> '%s': CORVID_CROSS_WAIT=import, but '%s' lacks %s",
+                        cv_device_label(src), cv_device_label(dst), cv_device_label(lacking), why);
+    if (memcmp(a.driver_uuid, b.driver_uuid, 16) || memcmp(a.device_uuid, b.device_uuid, 16))
+        return cv_error(CV_ERROR_UNSUPPORTED,
+                        "transfer ring '%s' -> '%s': CORVID_CROSS_WAIT=import, but the devices are on different "
+                        "adapters or drivers (semaphores are imported within one physical device only)",
+                        cv_device_label(src), cv_device_label(dst));
+    return CV_OK;
+}
+
 cv_result cv_transfer_ring_create(cv_device *src, cv_device *dst, uint64_t slot_bytes, uint32_t slots,
                                   cv_transfer_ring **out) {
     if (!src || !dst || !out)
@@ -99,6 +121,9 @@ cv_result cv_transfer_ring_create(cv_device *src, cv_device *dst, uint64_t slot_
         return cv_error(CV_ERROR_UNSUPPORTED, "transfer ring '%s' -> '%s': %s", cv_device_label(src),
                         cv_device_label(dst),
                         without ? "a device has no asynchronous link copies" : "the pair's path is staged");
+    r = ring_wait_check(src, dst);
+    if (r != CV_OK)
+        return r;
     cv_transfer_ring *g = calloc(1, sizeof(*g));
     if (!g)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "transfer ring");

@@ -55,12 +55,21 @@ struct vk_watch {
     VkSemaphore semaphore;
 };
 
-static void watch_unref(vk_watch *w) {
+void vk_watch_ref(vk_watch *w) { atomic_fetch_add(&w->refs, 1); }
+
+void vk_watch_unref(vk_watch *w) {
     if (atomic_fetch_sub(&w->refs, 1) != 1)
         return;
     pthread_cond_destroy(&w->idle);
     pthread_mutex_destroy(&w->lock);
     free(w);
+}
+
+bool vk_watch_closing(vk_watch *w) {
+    pthread_mutex_lock(&w->lock);
+    bool closing = w->closing;
+    pthread_mutex_unlock(&w->lock);
+    return closing;
 }
 
 /* Waits until the watched device reached `ticket` (or is closing). */
@@ -111,7 +120,7 @@ static void *bridge_thread(void *arg) {
         pthread_mutex_unlock(&b->lock);
         if (!stopping)
             watch_wait(it.watch, it.ticket, &b->stop, &b->lock);
-        watch_unref(it.watch);
+        vk_watch_unref(it.watch);
         VkSemaphoreSignalInfo signal = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SIGNAL_INFO,
                                          .semaphore = b->semaphore,
                                          .value = it.value };
@@ -160,7 +169,7 @@ void vk_bridge_finish(cv_backend_device *bd) {
     while (b->watch->users)
         pthread_cond_wait(&b->watch->idle, &b->watch->lock);
     pthread_mutex_unlock(&b->watch->lock);
-    watch_unref(b->watch);
+    vk_watch_unref(b->watch);
     b->watch = NULL;
     pthread_mutex_lock(&b->lock);
     b->stop = true;
@@ -203,7 +212,7 @@ cv_result vk_bridge_request(cv_backend_device *bd, cv_backend_device *other, uin
     }
     if (r == CV_OK) {
         vk_watch *w = other->bridge.watch;
-        atomic_fetch_add(&w->refs, 1);
+        vk_watch_ref(w);
         *value = ++b->value;
         b->queue[(b->head + b->count) % b->capacity] = (vk_bridge_request_item){ w, ticket, *value };
         b->count++;

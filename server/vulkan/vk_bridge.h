@@ -44,6 +44,12 @@ void vk_bridge_finish(cv_backend_device *bd);
  * `other` reached `ticket`. Runs on bd's calling thread while both devices are alive. */
 cv_result vk_bridge_request(cv_backend_device *bd, cv_backend_device *other, uint64_t ticket, uint64_t *value);
 
+/* A device's watch (bd->bridge.watch), as other devices hold it: references,
+ * and whether the device began destroying itself (its tickets are all done). */
+void vk_watch_ref(vk_watch *w);
+void vk_watch_unref(vk_watch *w);
+bool vk_watch_closing(vk_watch *w);
+
 /* vkWaitSemaphores / vkGetSemaphoreCounterValue on bd's semaphores, and
  * vkSignalSemaphore of them, as the paragraph above says. */
 VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, uint64_t timeout_ns);

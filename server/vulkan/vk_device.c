@@ -7,6 +7,7 @@
 
 #include "vk_device.h"
 #include "vk_bridge.h"
+#include "vk_cross_wait.h"
 #include "vk_immediate.h"
 #include "vk_link.h"
 #include "vk_trace.h"
@@ -96,7 +97,7 @@ static cv_result create_vk_device(cv_backend_device *bd) {
             .fragmentStoresAndAtomics = have.features.fragmentStoresAndAtomics,
         },
     };
-    const char *extensions[3 + VK_RT_EXTENSION_COUNT] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
+    const char *extensions[4 + VK_RT_EXTENSION_COUNT] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
     uint32_t extension_count = 1;
     for (uint32_t i = 0; bd->ray_tracing && i < VK_RT_EXTENSION_COUNT; i++)
         extensions[extension_count++] = vk_rt_extensions[i];
@@ -107,6 +108,9 @@ static cv_result create_vk_device(cv_backend_device *bd) {
         extensions[extension_count++] = VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME;
     if (bd->external_host)
         extensions[extension_count++] = VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME;
+    /* Cross-device waits through imported semaphores, where chosen (vk_cross_wait.h). */
+    if (bd->cross_import)
+        extensions[extension_count++] = VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME;
     VkDeviceCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
         .pNext = &features,
@@ -153,6 +157,19 @@ static cv_result create_vk_device(cv_backend_device *bd) {
             vkGetDeviceProcAddr(bd->device, "vkGetMemoryHostPointerPropertiesEXT");
     bd->external_fd = bd->external_fd && bd->get_memory_fd;
     bd->external_host = bd->external_host && bd->get_host_pointer_properties;
+    if (bd->cross_import) {
+        bd->get_semaphore_fd = (PFN_vkGetSemaphoreFdKHR)vkGetDeviceProcAddr(bd->device, "vkGetSemaphoreFdKHR");
+        bd->import_semaphore_fd = (PFN_vkImportSemaphoreFdKHR)vkGetDeviceProcAddr(bd->device,
+                                                                                  "vkImportSemaphoreFdKHR");
+        if (!bd->get_semaphore_fd || !bd->import_semaphore_fd) {
+            bd->cross_import = false;
+            snprintf(bd->cross_missing, sizeof(bd->cross_missing), "vkGetSemaphoreFdKHR/vkImportSemaphoreFdKHR");
+            if (bd->cross_required)
+                return cv_error(CV_ERROR_UNSUPPORTED,
+                                "device '%s': CORVID_CROSS_WAIT=import needs %s, which it lacks (use bridge or auto)",
+                                bd->label, bd->cross_missing);
+        }
+    }
 
     bd->cmd_push_descriptor_set = (PFN_vkCmdPushDescriptorSetKHR)vkGetDeviceProcAddr(bd->device,
                                                                                      "vkCmdPushDescriptorSetKHR");
@@ -161,12 +178,23 @@ static cv_result create_vk_device(cv_backend_device *bd) {
     return CV_OK;
 }
 
-cv_result vk_device_create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what) {
+/* A timeline semaphore; `exportable`: as an opaque fd (VkExportSemaphoreCreateInfo). */
+static cv_result create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what, bool exportable) {
+    VkExportSemaphoreCreateInfo export = { .sType = VK_STRUCTURE_TYPE_EXPORT_SEMAPHORE_CREATE_INFO,
+                                           .handleTypes = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT };
     VkSemaphoreTypeCreateInfo type = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_TYPE_CREATE_INFO,
+                                       .pNext = exportable ? &export : NULL,
                                        .semaphoreType = VK_SEMAPHORE_TYPE_TIMELINE };
     VkSemaphoreCreateInfo info = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO, .pNext = &type };
+    *out = VK_NULL_HANDLE;
     VkResult vr = vkCreateSemaphore(bd->device, &info, NULL, out);
-    return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkCreateSemaphore (%s timeline)", what);
+    return vr == VK_SUCCESS ? CV_OK
+                            : vk_fail(vr, "vkCreateSemaphore (%s timeline%s, device '%s')", what,
+                                      exportable ? ", exportable" : "", bd->label);
+}
+
+cv_result vk_device_create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what) {
+    return create_timeline(bd, out, what, false);
 }
 
 static void fill_info(const cv_backend_device *bd, cv_device_info *info) {
@@ -182,6 +210,7 @@ static void fill_info(const cv_backend_device *bd, cv_device_info *info) {
     info->separate_copy_queue = bd->queues[VK_SLOT_COPY].present;
     info->ray_tracing_pipeline = bd->ray_tracing;
     snprintf(info->trace_path, sizeof(info->trace_path), "%s", cv_vulkan_trace_path_name(vk_trace_path_now(bd)));
+    snprintf(info->cross_wait, sizeof(info->cross_wait), "%s", bd->cross_import ? "import" : "bridge");
     info->gpu_timestamps = bd->queues[VK_SLOT_GRAPHICS].timestamp_mask != 0 && bd->timestamp_period_ns > 0;
     info->max_storage_buffer_range = bd->limits.maxStorageBufferRange;
     for (int i = 0; i < 3; i++)
@@ -219,12 +248,15 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         bd->host_import_alignment = host.minImportedHostPointerAlignment;
         if (!bd->label[0])
             snprintf(bd->label, sizeof(bd->label), "vulkan:%u", bd->adapter.info.index);
+        r = vk_cross_wait_setup(bd);
+    }
+    if (r == CV_OK) {
         r = create_vk_device(bd);
     }
     if (r == CV_OK) {
         vk_memory_init(&bd->memory, bd->device, bd->adapter.physical);
         bd->memory.device_address = true;
-        r = vk_device_create_timeline(bd, &bd->ticket, "ticket");
+        r = create_timeline(bd, &bd->ticket, "ticket", bd->cross_import);
     }
     if (r == CV_OK)
         r = vk_device_create_timeline(bd, &bd->chain, "segment chain");
@@ -249,6 +281,7 @@ void vk_device_destroy(cv_backend_device *bd) {
         vkDeviceWaitIdle(bd->device);
         vk_trace_finish(bd);
         vk_link_async_finish(bd);
+        vk_cross_wait_finish(bd); /* after the idle wait: no submission waits on an import */
         vk_link_finish(bd);
         vk_immediate_finish(bd);
         if (bd->memory.device)

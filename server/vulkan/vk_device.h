@@ -101,6 +101,14 @@ struct cv_backend_device {
     struct vk_async_cmd *async_cmds;
     uint32_t async_count;
     vk_bridge bridge; /* GPU waits on other devices' tickets (vk_bridge.h) */
+    /* ... or through imported ticket semaphores (vk_cross_wait.h). */
+    bool cross_import;      /* the ticket semaphore is exportable; waits import the other's where the pair allows */
+    bool cross_required;    /* CORVID_CROSS_WAIT=import: pairs that cannot import are refused */
+    char cross_missing[96]; /* !capable: what the device lacks */
+    PFN_vkGetSemaphoreFdKHR get_semaphore_fd;
+    PFN_vkImportSemaphoreFdKHR import_semaphore_fd;
+    struct vk_import *imports; /* per source device, on this (the waiting) device */
+    uint32_t import_count;
 
     atomic_uint buffers, images, samplers, pipelines; /* live objects, for stats */
 };

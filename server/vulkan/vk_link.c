@@ -37,6 +37,11 @@ void vk_link_caps(cv_backend_device *bd, cv_link_caps *out) {
         snprintf(out->shared_missing, sizeof(out->shared_missing), "%s", VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
     if (!bd->external_host)
         snprintf(out->host_missing, sizeof(out->host_missing), "%s", VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME);
+    out->wait_import = bd->cross_import;
+    out->wait_import_required = bd->cross_required;
+    if (!bd->cross_import)
+        snprintf(out->wait_missing, sizeof(out->wait_missing), "%s",
+                 bd->cross_missing[0] ? bd->cross_missing : "CORVID_CROSS_WAIT=bridge");
 }
 
 static void staging_free(cv_backend_device *bd, vk_staging *s) {

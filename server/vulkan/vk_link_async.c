@@ -2,6 +2,7 @@
 #include <stdlib.h>
 
 #include "vk_bridge.h"
+#include "vk_cross_wait.h"
 #include "vk_immediate.h"
 #include "vk_link.h"
 
@@ -104,10 +105,16 @@ cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t stag
         uint64_t reached = vk_host_counter(wait->device, wait->device->ticket);
         uint64_t value = 0;
         if (reached < wait->ticket) {
-            r = vk_bridge_request(bd, wait->device, wait->ticket, &value);
+            /* Directly on the other device's (imported) semaphore where the pair allows, else the bridge. */
+            VkSemaphore imported = VK_NULL_HANDLE;
+            if (vk_cross_wait_direct(bd, wait->device))
+                r = vk_cross_wait_semaphore(bd, wait->device, ticket, &imported);
+            if (r == CV_OK && !imported)
+                r = vk_bridge_request(bd, wait->device, wait->ticket, &value);
             if (r != CV_OK)
                 return r;
-            waits[wait_count++] = semaphore_info(bd->bridge.semaphore, value);
+            waits[wait_count++] = imported ? semaphore_info(imported, wait->ticket)
+                                           : semaphore_info(bd->bridge.semaphore, value);
         }
     }
     VkSemaphoreSubmitInfo signal = semaphore_info(bd->ticket, ticket);

@@ -40,6 +40,7 @@ int main(void) {
     cv_render_stats stats;
     unsetenv("CORVID_TRANSFER_PATH");
     CHECK_OK(render_on(1, scene, bvh, &one, &stats));
+    CHECK(stats.setup_ms == 0); /* one device: no rings, no set-up bake */
     const char *paths[] = { "staged", "host-import", "shared" };
     for (int p = 0; p < 3; p++) {
         setenv("CORVID_TRANSFER_PATH", paths[p], 1);
@@ -49,6 +50,7 @@ int main(void) {
             CHECK_EQ_INT(stats.device_count, gpus);
             CHECK(stats.transfer_bytes > 0);
             CHECK_EQ_INT(stats.frames, FRAMES);
+            CHECK(stats.setup_ms > 0); /* a new multi-device graph: baked once before the frames (its rings) */
             /* Every frame's visibility columns of the secondaries reached the primary (collected frames too). */
             CHECK(stats.transfer_bytes >= (uint64_t)FRAMES * 8 * H * 8);
             bool same = one.radiance && many.radiance && memcmp(one.radiance, many.radiance, bytes) == 0 &&

@@ -74,6 +74,11 @@ static void run(cv_transfer_path path) {
     for (uint32_t k = 0; k < FRAMES; k++) {
         f.value = 0x01010101u * (k + 1); /* recorded into this frame's lists */
         CHECK_OK(cv_graph_bake(g, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
+        if (k == 0) { /* the rings exist before the first frame: spread out and gather back */
+            cv_graph_stats st;
+            CHECK_OK(cv_graph_get_stats(g, &st));
+            CHECK(st.rings >= 2 && st.rings <= DEVICES * (DEVICES - 1));
+        }
         uint64_t tickets[CV_MAX_DEVICES];
         CHECK_OK(cv_graph_submit(g, tickets));
         ids[k] = cv_graph_frame_id(g);

@@ -58,6 +58,10 @@ typedef struct cv_link_caps {
     uint64_t host_alignment;                  /* host_import: required alignment of pointer and size */
     char shared_missing[64];                  /* !shared_memory: what the device lacks (an extension name) */
     char host_missing[64];                    /* !host_import: likewise */
+    /* GPU waits on the other device of a pair (link_copy_async's wait): */
+    bool wait_import;          /* directly on its imported semaphore, when both have this and equal UUIDs */
+    bool wait_import_required; /* forced (CORVID_CROSS_WAIT=import): a ring of a pair without it is refused */
+    char wait_missing[96];     /* !wait_import: why (an extension or feature) */
 } cv_link_caps;
 
 typedef enum cv_staging_kind {

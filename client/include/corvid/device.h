@@ -39,6 +39,8 @@ typedef struct cv_device_info {
     bool separate_copy_queue;    /* a transfer-only queue family is used */
     bool ray_tracing_pipeline;   /* VK_KHR_ray_tracing_pipeline available */
     char trace_path[16];         /* path trace_rays uses: "compute", "pipeline", "none" */
+    char cross_wait[16];         /* vulkan: how GPU waits on another device's work run: "import" (its
+                                    semaphore imported, where the pair allows) or "bridge" (a host thread) */
     bool gpu_timestamps;         /* pass timings come from the GPU */
     uint64_t max_storage_buffer_range;
     uint32_t max_dispatch[3]; /* workgroup count limits */

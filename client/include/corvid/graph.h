@@ -195,6 +195,8 @@ typedef struct cv_graph_stats {
     uint32_t passes, culled, steps, transfers, copies; /* copies: device-to-device copies of all transfers */
     uint32_t barriers;
     uint32_t transients, physical; /* transient resources, and the resources holding them */
+    uint32_t rings;                /* asynchronous transfer rings the graph holds: made by the bake for each device
+                       pair it copies between (where the pair allows rings), not during a frame */
 } cv_graph_stats;
 cv_result cv_graph_get_stats(const cv_graph *g, cv_graph_stats *out);
 /* The partition of the last bake. */

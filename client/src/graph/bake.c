@@ -723,6 +723,8 @@ cv_result cv_graph_bake(cv_graph *g, const cv_graph_bake_desc *desc) {
     graph_baked_free(&g->baked);
     b.valid = true;
     g->baked = b;
+    /* 11. Rings for the pairs it copies between, outside the frames (best effort). */
+    graph_make_rings(g);
     return CV_OK;
 }
 
@@ -730,6 +732,10 @@ cv_result cv_graph_get_stats(const cv_graph *g, cv_graph_stats *out) {
     if (!g || !out || !g->baked.valid)
         return cv_error(CV_ERROR_BAD_STATE, "cv_graph_get_stats: the graph is not baked");
     *out = g->baked.stats;
+    out->rings = 0;
+    for (uint32_t s = 0; s < g->device_count; s++)
+        for (uint32_t d = 0; d < g->device_count; d++)
+            out->rings += g->rings[s][d] != NULL;
     return CV_OK;
 }
 

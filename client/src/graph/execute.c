@@ -101,7 +101,7 @@ static cv_result record_all(cv_graph *g) {
  * force (NULL: move synchronously). A ring made for another path is
  * replaced. Slots are sized from the first copy (a quarter more, for the
  * balancer's shifts; GRAPH_RING_SLOT_MIN..MAX); a larger copy takes several. */
-static cv_transfer_ring *pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t bytes) {
+cv_transfer_ring *graph_pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t bytes) {
     cv_device *src = g->devices[s], *dst = g->devices[d];
     const char *async = getenv("CORVID_TRANSFER_ASYNC"); /* "0": synchronous transfers, for comparison */
     if ((async && strcmp(async, "0") == 0) || !cv_device_link_async(src) || !cv_device_link_async(dst))
@@ -123,6 +123,31 @@ static cv_transfer_ring *pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t
     return ring;
 }
 
+uint64_t graph_copy_bytes(const cv_graph *g, const graph_step *st, const cv_mgpu_copy *cp) {
+    const graph_resource *r = &g->resources[st->resource];
+    return r->type == CV_HANDLE_TEXTURE
+               ? (uint64_t)cp->columns.width * r->texture.height * cv_format_bytes(r->texture.format)
+               : r->buffer.size;
+}
+
+void graph_make_rings(cv_graph *g) {
+    const graph_baked *b = &g->baked;
+    uint64_t most[CV_MAX_DEVICES][CV_MAX_DEVICES] = { { 0 } };
+    for (uint32_t i = 0; i < b->step_count; i++) {
+        const graph_step *st = &b->steps[i];
+        for (uint32_t c = 0; st->transfer && c < st->plan.count; c++) {
+            const cv_mgpu_copy *cp = &st->plan.copies[c];
+            uint64_t n = graph_copy_bytes(g, st, cp);
+            if (n > most[cp->src_device][cp->dst_device])
+                most[cp->src_device][cp->dst_device] = n;
+        }
+    }
+    for (uint32_t s = 0; s < g->device_count; s++)
+        for (uint32_t d = 0; d < g->device_count; d++)
+            if (most[s][d] && !g->rings[s][d])
+                (void)graph_pair_ring(g, s, d, most[s][d]); /* NULL: made (or refused) at the first transfer */
+}
+
 /* Moves a transfer step's copies; last[d] rises to the tickets of asynchronous copies. */
 static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uint64_t *bytes, uint64_t *last) {
     const graph_resource *r = &g->resources[st->resource];
@@ -133,10 +158,7 @@ static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uin
     for (uint32_t c = 0; c < st->plan.count && res == CV_OK; c++) {
         const cv_mgpu_copy *cp = &st->plan.copies[c];
         cv_device *src = g->devices[cp->src_device], *dst = g->devices[cp->dst_device];
-        uint64_t copy_bytes = r->type == CV_HANDLE_TEXTURE ? (uint64_t)cp->columns.width * r->texture.height *
-                                                                 cv_format_bytes(r->texture.format)
-                                                           : r->buffer.size;
-        cv_transfer_ring *ring = pair_ring(g, cp->src_device, cp->dst_device, copy_bytes);
+        cv_transfer_ring *ring = graph_pair_ring(g, cp->src_device, cp->dst_device, graph_copy_bytes(g, st, cp));
         cv_transfer_stats ts = { 0 };
         cv_transfer_async ta = { 0 };
         if (r->type == CV_HANDLE_TEXTURE) {

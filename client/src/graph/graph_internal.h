@@ -134,8 +134,10 @@ struct cv_graph {
     cv_cmdlist *list_sets[CV_GRAPH_FRAMES_KEPT];
     uint32_t list_count; /* lists in each set */
     graph_frame frames[CV_GRAPH_FRAMES_KEPT];
-    /* Asynchronous transfer rings per (source, destination) device pair, made
-     * on first use where the pair allows them (transfer.h). */
+    /* Asynchronous transfer rings per (source, destination) device pair, where
+     * the pair allows them (transfer.h): made when a bake first plans copies
+     * between the pair (graph_make_rings), so the first frames do not pay for
+     * them (host-import: ~85 ms a ring on the H200), else at the first copy. */
     cv_transfer_ring *rings[CV_MAX_DEVICES][CV_MAX_DEVICES];
     cv_balancer balancer;
     uint64_t frame;         /* executes so far: picks the history frames */
@@ -158,5 +160,12 @@ bool graph_access_writes(cv_graph_access a);
 void graph_baked_free(graph_baked *b);
 /* The built-in copy pass's record callback. */
 void graph_record_copy(const cv_graph_pass_context *pc, cv_command_list *list, void *user);
+
+/* execute.c: the bytes of one planned copy; the pair's ring (made or replaced
+ * for the path in force, sized from `bytes`; NULL: copy synchronously); the
+ * rings of every pair the baked steps copy between, made now (bake). */
+uint64_t graph_copy_bytes(const cv_graph *g, const graph_step *st, const cv_mgpu_copy *cp);
+cv_transfer_ring *graph_pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t bytes);
+void graph_make_rings(cv_graph *g);
 
 #endif

@@ -83,6 +83,7 @@ typedef struct cv_render_stats {
     double transfer_ms;
     double upload_ms; /* scene upload to all devices */
     double frame_ms;  /* wall time per frame, mean */
+    double setup_ms;  /* several devices, a new graph: its first bake before the frames (transfer rings) */
 } cv_render_stats;
 
 /* The frame as planes of RGBA floats (width * height * 4 each; depth: 1 per pixel). */
