@@ -92,6 +92,17 @@ cv_result vk_cross_wait_setup(cv_backend_device *bd) {
         vkGetPhysicalDeviceExternalSemaphoreProperties(bd->adapter.physical, &info, &props);
     }
     bool capable = vk_cross_wait_capable(extension, &props, bd->cross_missing, sizeof(bd->cross_missing));
+    /* Under the validation layer, auto takes the bridge: the layer (1.3.239,
+     * measured on the H200) never sees the other VkDevice signal an imported
+     * semaphore, so it believes every submission that waited on one is still
+     * pending and reports each reuse of its command buffer and resources as
+     * "in use" (thousands of false reports in a render; the pixels are exact).
+     * CORVID_CROSS_WAIT=import still forces it there. */
+    if (mode == VK_CROSS_AUTO && capable && bd->instance->validation) {
+        capable = false;
+        snprintf(bd->cross_missing, sizeof(bd->cross_missing),
+                 "a device without the validation layer (it cannot follow imported semaphores)");
+    }
     r = vk_cross_wait_decide(mode, capable, bd->cross_missing, bd->label, &bd->cross_import);
     bd->cross_required = mode == VK_CROSS_IMPORT;
     return r;

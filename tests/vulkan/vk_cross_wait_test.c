@@ -94,13 +94,20 @@ static void pure_decisions(void) {
 }
 
 /* Two virtual GPUs of the adapter under the mode in force (NULL: refused, as checked by the caller). */
-static cv_result two_gpus(cv_context *ctx, cv_device *gpu[2]) {
+/* Two virtual GPUs of the test adapter; `validation` as the tests use it (on),
+ * except for the forced import path: the validation layer (1.3.239) never sees
+ * another VkDevice signal an imported semaphore and reports the submissions
+ * that waited on one as pending forever (vk_cross_wait.c), so the import
+ * ping-pong runs without it and proves itself by its bytes. */
+static cv_result two_gpus_validated(cv_context *ctx, cv_device *gpu[2], bool validation) {
     cv_vulkan_gpu_table table;
     cv_result r = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 2,
                                                                      .adapters = vkt_adapter() },
                                             &table);
-    return r == CV_OK ? cv_vulkan_create_devices(ctx, &table, true, gpu) : r;
+    return r == CV_OK ? cv_vulkan_create_devices(ctx, &table, validation, gpu) : r;
 }
+
+static cv_result two_gpus(cv_context *ctx, cv_device *gpu[2]) { return two_gpus_validated(ctx, gpu, true); }
 
 enum { SIZE = 40000, ROUNDS = 12 };
 
@@ -156,7 +163,7 @@ int main(void) {
 
     /* import: either every device can (a GPU with the extension), or creation fails cleanly. */
     setenv("CORVID_CROSS_WAIT", "import", 1);
-    cv_result r = two_gpus(ctx, gpu);
+    cv_result r = two_gpus_validated(ctx, gpu, vkt_is_lavapipe());
     if (vkt_is_lavapipe()) {
         CHECK_EQ_INT(r, CV_ERROR_UNSUPPORTED);
         CHECK(strstr(cv_last_error(), "CORVID_CROSS_WAIT=import") != NULL);
@@ -181,7 +188,8 @@ int main(void) {
         setenv("CORVID_CROSS_WAIT", modes[m], 1);
         CHECK_OK(two_gpus(ctx, gpu));
         if (gpu[0] && gpu[1]) {
-            const char *expect = m == 0 || vkt_is_lavapipe() ? "bridge" : cv_device_get_info(gpu[0])->cross_wait;
+            /* (auto under the validation layer is the bridge everywhere: vk_cross_wait.c) */
+            const char *expect = "bridge";
             ping_pong(ctx, gpu[0], gpu[1], expect);
         }
         cv_device_destroy(gpu[0]);
