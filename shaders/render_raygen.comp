@@ -4,10 +4,11 @@
 // jittered inside the sun's cone (soft shadows), then cosine-distributed AO rays
 // of length ao_radius. Sample points are a Halton (2, 3) sequence indexed by
 // frame, Cranley-Patterson rotated per pixel (seed 000, "Hybrid Rendering for
-// Real-Time Ray Tracing"). Pixels without geometry get empty rays (tmax = 0);
-// a shadow ray whose direction is below the surface (the pixel faces away from
-// that point of the sun) gets tmin 0 > tmax -1: no ray, and render.resolve
-// reads it as shadowed, not as a miss.
+// Real-Time Ray Tracing"): white noise for the shadow, a spatially
+// decorrelated rotation for AO (sample2). Pixels without geometry get empty
+// rays (tmax = 0); a shadow ray whose direction is below the surface (the
+// pixel faces away from that point of the sun) gets tmin 0 > tmax -1: no ray,
+// and render.resolve reads it as shadowed, not as a miss.
 // Rays leave from the geometric surface (issue 11, defect 4): the origin is
 // offset along the triangle's geometric normal (packed in the G-buffer
 // position's w), the shadow ray counts as below the surface when its
@@ -63,10 +64,30 @@ uint hash(uint x) {
     return x;
 }
 
-// Point k of the pixel's rotated Halton sequence.
+// Point k of the pixel's rotated Halton sequence (k = 0: the shadow ray, 1..:
+// the AO rays). The shadow's rotation is white noise (a hash of the pixel);
+// the AO's is spatially decorrelated, so that neighbouring pixels' AO samples
+// cover the hemisphere unlike each other and the filter averages their errors
+// out: the first coordinate (the cosine of the elevation) is Roberts' R2
+// dither (plastic constant), the second (the azimuth) interleaved gradient
+// noise (Jimenez). Over the frames each pixel still gets a Halton sequence
+// under a fixed rotation, so its mean is unbiased; the points are a function
+// of (pixel, frame) only.
 vec2 sample2(uvec2 pixel, uint k) {
-    uint h = hash(pixel.x * 73856093u ^ pixel.y * 19349663u);
-    vec2 rotation = vec2(float(h & 0xFFFFu), float(h >> 16)) / 65536.0;
+    vec2 rotation;
+    if (k == 0u) {
+        uint h = hash(pixel.x * 73856093u ^ pixel.y * 19349663u);
+        rotation = vec2(float(h & 0xFFFFu), float(h >> 16)) / 65536.0;
+    } else {
+        // In 0.32 fixed point, so that every device computes the same bits:
+        // R2 = fract(0.5 + 0.7548776662 x + 0.5698402910 y),
+        // IGN = fract(52.9829189 fract(0.06711056 x + 0.00583715 y)).
+        uint r2 = 0x80000000u + pixel.x * 3242174889u + pixel.y * 2447445414u;
+        uint g = pixel.x * 288237660u + pixel.y * 25070368u, hi, lo;
+        umulExtended(g, 4221604530u, hi, lo);
+        uint ign = g * 52u + hi;
+        rotation = vec2(float(r2 >> 8), float(ign >> 8)) / 16777216.0;
+    }
     uint index = pc.frame * (pc.ao_samples + 1u) + k + 1u;
     return fract(vec2(halton(index, 2u), halton(index, 3u)) + rotation);
 }

@@ -533,14 +533,17 @@ static void check_filter_converged(const cv_scene *scene, const cv_bvh *bvh) {
  * 0.0207, SSIM 0.9929; AO RMSE 0.0461, SSIM 0.9299 (against 1024 samples
  * 0.0204 / 0.9930 and 0.0458 / 0.9308; before the penumbra-aware shadow
  * kernel and sigma_l 8 in the first frames, against 1024: 0.0245 / 0.9922 and
- * 0.0467 / 0.9292). Goals RMSE 0.02, SSIM 0.97:
+ * 0.0467 / 0.9292). With the AO samples' spatially decorrelated rotation
+ * (R2 dither / interleaved gradient noise instead of a per-pixel hash,
+ * render_raygen.comp): AO RMSE 0.0434, SSIM 0.9379 (shadow unchanged).
+ * Goals RMSE 0.02, SSIM 0.97:
  * shadow meets SSIM and comes within 0.0005 of the RMSE; AO meets neither.
  * The tolerances are a little looser than measured, so a regression fails. */
 #define ROOM_REFERENCE_SAMPLES 256
 #define ROOM_SHADOW_RMSE 0.022
 #define ROOM_SHADOW_SSIM 0.990
-#define ROOM_AO_RMSE 0.048
-#define ROOM_AO_SSIM 0.925
+#define ROOM_AO_RMSE 0.045
+#define ROOM_AO_SSIM 0.935
 static void check_room_one_frame(const cv_scene *scene, const cv_bvh *bvh) {
     enum { RW = 160, RH = 90 };
     cv_render_settings s = { .width = RW, .height = RH, .frames = 1 };
