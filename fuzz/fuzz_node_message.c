@@ -19,6 +19,7 @@
 
 #include "fuzz_input.h"
 #include "node_internal.h"
+#include "peer.h"
 
 /* ---- the stream: the fuzz input instead of gRPC ----------------------------- */
 
@@ -65,6 +66,28 @@ const char *cv_rpc_stream_peer(cv_rpc_stream *s) {
     return "fuzz";
 }
 
+/* ---- node-to-node pushes: no network ------------------------------------------- */
+/* peer.c (compiled in) sends a PushTransfer's region to the destination node
+ * named by the client; here no node is reachable, as if the destination were
+ * down: the sender thread's connection fails and the push is counted as failed,
+ * the node's path for an unreachable peer. */
+cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *config, cv_rpc_client **out) {
+    (void)config;
+    *out = NULL;
+    return cv_error(CV_ERROR_CONNECTION, "fuzz: node '%.64s' is not reachable (no network in the fuzzer)", target);
+}
+
+void cv_rpc_client_destroy(cv_rpc_client *c) { (void)c; }
+
+cv_result cv_rpc_client_unary(cv_rpc_client *c, const char *method, const void *request, size_t size,
+                              uint32_t timeout_ms, void **response, size_t *response_size, int *status) {
+    (void)c, (void)request, (void)size, (void)timeout_ms;
+    *response = NULL;
+    *response_size = 0;
+    *status = 14; /* UNAVAILABLE */
+    return cv_error(CV_ERROR_CONNECTION, "fuzz: %s: no network in the fuzzer", method);
+}
+
 /* metrics.c renders the node's stats through this (node.c is not linked); the
  * fuzzer never renders them. */
 cv_node_stats cv_node_get_stats(cv_node *node) {
@@ -99,13 +122,15 @@ int LLVMFuzzerInitialize(int *argc, char ***argv) {
     node.config.devices = &device;
     node.config.device_count = 1;
     node.config.idle_timeout_ms = 1000;
+    node.config.peer_deadline_ms = 50; /* an AwaitTransfer no peer will answer gives up soon */
     node.config.log_sessions = getenv("CORVID_FUZZ_LOG") != NULL; /* the session's own log lines */
     node.config.name = node.name;
     snprintf(node.name, sizeof(node.name), "fuzz");
     node.device_info = calloc(1, sizeof(*node.device_info));
     node.metrics = cv_node_metrics_create(1);
     if (!mkdtemp(cache_dir) || !node.device_info || !node.metrics ||
-        cv_content_store_open(cache_dir, 64ull << 20, &node.store) != CV_OK) {
+        cv_content_store_open(cache_dir, 64ull << 20, &node.store) != CV_OK ||
+        peer_state_create(&node, &node.peer) != CV_OK) {
         fprintf(stderr, "fuzz: cannot set up the node: %s\n", cv_last_error());
         abort();
     }

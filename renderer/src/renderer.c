@@ -307,6 +307,20 @@ static cv_binding bind_texture(cv_texture t) { return (cv_binding){ .resource = 
 static cv_binding bind_buffer(cv_buffer b) { return (cv_binding){ .resource = cv_any(b) }; }
 static uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
 
+/* One 8x8-group dispatch over the whole image: the primary's per-pixel passes. */
+static void dispatch_image(const cv_renderer *r, cv_command_list *l, cv_queue_type queue, int pipeline,
+                           const cv_binding *b, uint32_t count, const void *push, uint32_t push_size) {
+    cv_cmd_dispatch(l, queue,
+                    &(cv_dispatch_args){ .pipeline = r->pipelines[pipeline],
+                                         .bindings = b,
+                                         .bindings_count = count,
+                                         .push = push,
+                                         .push_size = push_size,
+                                         .groups_x = groups(r->width, 8),
+                                         .groups_y = groups(r->height, 8),
+                                         .groups_z = 1 });
+}
+
 /* The view-projection of `camera` for the G-buffer (and the reprojection). */
 static void view_proj(const cv_renderer *r, const cv_camera *camera, float out[16], float *far_plane) {
     float near_plane = r->data.diagonal * 1e-4f;
@@ -460,15 +474,7 @@ static void record_reproject(const cv_graph_pass_context *pc, cv_command_list *l
     cv_binding b[7];
     for (int i = 0; i < 7; i++)
         b[i] = bind_texture(cv_graph_texture(pc, r->tex[tex[i]]));
-    cv_cmd_dispatch(l, pc->queue,
-                    &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REPROJECT],
-                                         .bindings = b,
-                                         .bindings_count = 7,
-                                         .push = &push,
-                                         .push_size = sizeof(push),
-                                         .groups_x = groups(r->width, 8),
-                                         .groups_y = groups(r->height, 8),
-                                         .groups_z = 1 });
+    dispatch_image(r, l, pc->queue, PIPE_REPROJECT, b, 7, &push, sizeof(push));
 }
 
 /* Pass 'accumulate' (primary): this frame's visibility into the running mean;
@@ -486,15 +492,7 @@ static void record_accumulate(const cv_graph_pass_context *pc, cv_command_list *
     cv_binding b[8];
     for (int i = 0; i < 8; i++)
         b[i] = bind_texture(cv_graph_texture(pc, r->tex[moving || i < 2 ? tex[i] : TEX_HISTORY]));
-    cv_cmd_dispatch(l, pc->queue,
-                    &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_ACCUMULATE],
-                                         .bindings = b,
-                                         .bindings_count = 8,
-                                         .push = &push,
-                                         .push_size = sizeof(push),
-                                         .groups_x = groups(r->width, 8),
-                                         .groups_y = groups(r->height, 8),
-                                         .groups_z = 1 });
+    dispatch_image(r, l, pc->queue, PIPE_ACCUMULATE, b, 8, &push, sizeof(push));
 }
 
 /* Reflections (seed 000: reflections from the G-buffer, ray-traced shadows at
@@ -648,15 +646,7 @@ static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_li
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_HISTORY])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_OWN])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_OUT])) };
-    cv_cmd_dispatch(l, pc->queue,
-                    &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_FILTER],
-                                         .bindings = b,
-                                         .bindings_count = 7,
-                                         .push = &push,
-                                         .push_size = sizeof(push),
-                                         .groups_x = groups(r->width, 8),
-                                         .groups_y = groups(r->height, 8),
-                                         .groups_z = 1 });
+    dispatch_image(r, l, pc->queue, PIPE_REFLECT_FILTER, b, 7, &push, sizeof(push));
 }
 
 /* The texture holding the final visibility after `iterations` filter steps. */
@@ -714,15 +704,7 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
                             bind_texture(r->textures[TEX_HISTORY]),
                             bind_texture(r->textures[r->graph_moving ? TEX_MOTION : TEX_HISTORY]),
                             bind_texture(r->textures[TEX_VISIBILITY]) };
-        cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
-                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_FILTER],
-                                             .bindings = b,
-                                             .bindings_count = 7,
-                                             .push = &push,
-                                             .push_size = sizeof(push),
-                                             .groups_x = groups(r->width, 8),
-                                             .groups_y = groups(r->height, 8),
-                                             .groups_z = 1 });
+        dispatch_image(r, l, CV_QUEUE_COMPUTE, PIPE_FILTER, b, 7, &push, sizeof(push));
     }
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }
@@ -750,15 +732,7 @@ static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_lis
                         bind_buffer(r->lights),
                         bind_texture(r->textures[TEX_REFLECT_OUT]) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "composite" });
-    cv_cmd_dispatch(l, CV_QUEUE_COMPUTE,
-                    &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_COMPOSITE],
-                                         .bindings = b,
-                                         .bindings_count = 8,
-                                         .push = &push,
-                                         .push_size = sizeof(push),
-                                         .groups_x = groups(r->width, 8),
-                                         .groups_y = groups(r->height, 8),
-                                         .groups_z = 1 });
+    dispatch_image(r, l, CV_QUEUE_COMPUTE, PIPE_COMPOSITE, b, 8, &push, sizeof(push));
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }
 

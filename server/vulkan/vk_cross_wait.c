@@ -62,24 +62,12 @@ bool vk_cross_wait_same_device(const uint8_t driver_a[VK_UUID_SIZE], const uint8
     return memcmp(driver_a, driver_b, VK_UUID_SIZE) == 0 && memcmp(device_a, device_b, VK_UUID_SIZE) == 0;
 }
 
-static bool offers(VkPhysicalDevice physical, const char *name) {
-    uint32_t count = 0;
-    vkEnumerateDeviceExtensionProperties(physical, NULL, &count, NULL);
-    VkExtensionProperties *exts = calloc(count ? count : 1, sizeof(*exts));
-    bool found = false;
-    if (exts && vkEnumerateDeviceExtensionProperties(physical, NULL, &count, exts) >= 0)
-        for (uint32_t i = 0; i < count && !found; i++)
-            found = strcmp(exts[i].extensionName, name) == 0;
-    free(exts);
-    return found;
-}
-
 cv_result vk_cross_wait_setup(cv_backend_device *bd) {
     vk_cross_mode mode;
     cv_result r = vk_cross_wait_parse(getenv("CORVID_CROSS_WAIT"), &mode);
     if (r != CV_OK)
         return cv_error(r, "device '%s': %s", bd->label, cv_last_error());
-    bool extension = offers(bd->adapter.physical, VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME);
+    bool extension = vk_device_offers(bd->adapter.physical, VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME);
     VkExternalSemaphoreProperties props = { .sType = VK_STRUCTURE_TYPE_EXTERNAL_SEMAPHORE_PROPERTIES };
     if (extension) {
         VkSemaphoreTypeCreateInfo type = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_TYPE_CREATE_INFO,

@@ -27,7 +27,7 @@ static cv_result pick_adapter(vk_instance *inst, const char *spec, vk_adapter *o
     return r;
 }
 
-static bool offers(VkPhysicalDevice physical, const char *name) {
+bool vk_device_offers(VkPhysicalDevice physical, const char *name) {
     uint32_t count = 0;
     vkEnumerateDeviceExtensionProperties(physical, NULL, &count, NULL);
     VkExtensionProperties *exts = calloc(count ? count : 1, sizeof(*exts));
@@ -102,8 +102,8 @@ static cv_result create_vk_device(cv_backend_device *bd) {
     for (uint32_t i = 0; bd->ray_tracing && i < VK_RT_EXTENSION_COUNT; i++)
         extensions[extension_count++] = vk_rt_extensions[i];
     /* Cross-device links, where offered (vk_link.h). */
-    bd->external_fd = offers(a->physical, VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
-    bd->external_host = offers(a->physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME);
+    bd->external_fd = vk_device_offers(a->physical, VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
+    bd->external_host = vk_device_offers(a->physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME);
     if (bd->external_fd)
         extensions[extension_count++] = VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME;
     if (bd->external_host)
@@ -235,7 +235,7 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         };
         VkPhysicalDeviceIDProperties ids = {
             .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES,
-            .pNext = offers(bd->adapter.physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME) ? &host : NULL
+            .pNext = vk_device_offers(bd->adapter.physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME) ? &host : NULL
         };
         VkPhysicalDeviceProperties2 props2 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2,
                                                .pNext = &ids };

@@ -114,6 +114,8 @@ struct cv_backend_device {
 };
 
 cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out);
+/* Whether the physical device offers the device extension `name`. */
+bool vk_device_offers(VkPhysicalDevice physical, const char *name);
 void vk_device_destroy(cv_backend_device *bd);
 
 cv_result vk_device_create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what);
