@@ -14,11 +14,13 @@
 // is below half a step of h, and partly occluded pixels drifted dark as frames
 // grew (issue 11, defect 1); float32 rounding stays below 1e-5 at 4096 frames.
 // Push: { uint width; uint height; uint frame; uint flags; }.
-// i0: this frame's visibility (RGBA16F), i1: history (RGBA32F, read and written),
+// i0: this frame's visibility (R32_UINT, render_visibility.glsl), i1: history (RGBA32F, read and written),
 // i2: motion (RGBA32F, z = history length), i3: reprojected history (RGBA32F),
 // i4: G-buffer positions, i5: G-buffer normals, i6: history positions out,
 // i7: history normals out (all RGBA32F; i2..i7 are used only with bit 0).
 #version 460
+#extension GL_GOOGLE_include_directive : require
+#include "render_visibility.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 layout(push_constant, std430) uniform Push {
@@ -28,7 +30,7 @@ layout(push_constant, std430) uniform Push {
     uint flags;
 } pc;
 
-layout(set = 0, binding = 0, rgba16f) uniform readonly image2D current;
+layout(set = 0, binding = 0, r32ui) uniform readonly uimage2D current;
 layout(set = 0, binding = 1, rgba32f) uniform image2D history;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D motion;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D reprojected;
@@ -43,7 +45,7 @@ void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (p.x >= int(pc.width) || p.y >= int(pc.height))
         return;
-    vec2 c = imageLoad(current, p).rg;
+    vec2 c = visibility_decode(imageLoad(current, p).r).rg;
     vec4 m = vec4(c, c * c);
     if ((pc.flags & MOVING) == 0u) {
         vec4 h = pc.frame == 0u ? m : imageLoad(history, p);

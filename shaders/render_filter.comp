@@ -47,8 +47,10 @@
 // b, a = their variances of the mean, or in the first iteration the history's
 // mean squares), i3: output (RGBA32F, as i2), i4: the history (RGBA32F, read only),
 // i5: motion (RGBA32F, z = history length; read only with bit 2),
-// i6: the last frame's visibility (RGBA16F, render.resolve's: b = blocker distance, a = blocked).
+// i6: the last frame's visibility (R32_UINT, render.resolve's: render_visibility.glsl; b = blocker distance, a = blocked).
 #version 460
+#extension GL_GOOGLE_include_directive : require
+#include "render_visibility.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 layout(push_constant, std430) uniform Push {
@@ -72,7 +74,7 @@ layout(set = 0, binding = 2, rgba32f) uniform readonly image2D source;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D target;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D history;
 layout(set = 0, binding = 5, rgba32f) uniform readonly image2D motion;
-layout(set = 0, binding = 6, rgba16f) uniform readonly image2D frame_visibility;
+layout(set = 0, binding = 6, r32ui) uniform readonly uimage2D frame_visibility;
 
 const uint FIRST = 1u, LAST = 2u, PER_PIXEL_LENGTH = 4u;
 
@@ -110,7 +112,7 @@ float shadow_sigma(ivec2 p, vec3 cp, vec3 cn) {
             ivec2 q = p + ivec2(dx, dy);
             if (!inside(q))
                 continue;
-            vec2 b = imageLoad(frame_visibility, q).ba;
+            vec2 b = visibility_decode(imageLoad(frame_visibility, q).r).ba;
             float w = b.y * geometry_weight(cp, cn, q);
             sum += b.x * w;
             count += w;

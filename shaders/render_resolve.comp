@@ -1,16 +1,19 @@
 // render.resolve: turns any-hit results of render.raygen's rays into visibility
-// for one band of the partition's pixels: r = sun visibility (0 or 1), g =
-// unoccluded fraction of the AO rays, b = the distance to the shadow ray's
+// for one band of the partition's pixels: sun visibility (0 or 1), the
+// unoccluded fraction of the AO rays, the distance to the shadow ray's
 // blocker (the any-hit t, at most 65000 to stay finite in half float; 0 when
-// nothing was hit), a = 1 when the shadow ray hit a blocker, else 0 (the
-// penumbra-aware filter averages b over a's). Written at the pixel's
+// nothing was hit), and 1 when the shadow ray hit a blocker, else 0 (the
+// penumbra-aware filter averages the distance over those), packed into one
+// R32_UINT texel (render_visibility.glsl). Written at the pixel's
 // full-image position.
 // A shadow ray with tmax < 0 is render.raygen's mark for a surface facing away
 // from the sun: in shadow (0), though tracing it is a miss.
 // Push: { uint x0; uint width; uint height; uint ao_samples; uint y0; uint pad[3]; }.
 // b0: cv_hit[] (20 bytes: t, u, v, triangle, instance), b1: the cv_ray[] they
-// answer (32 bytes: origin, tmin, dir, tmax), i2: visibility (RGBA16F).
+// answer (32 bytes: origin, tmin, dir, tmax), i2: visibility (R32_UINT, render_visibility.glsl).
 #version 460
+#extension GL_GOOGLE_include_directive : require
+#include "render_visibility.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 struct Hit {
@@ -41,7 +44,7 @@ struct Ray {
 
 layout(set = 0, binding = 0, std430) readonly buffer Hits { Hit hits[]; };
 layout(set = 0, binding = 1, std430) readonly buffer Rays { Ray rays[]; };
-layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D visibility;
+layout(set = 0, binding = 2, r32ui) uniform writeonly uimage2D visibility;
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
@@ -56,5 +59,5 @@ void main() {
         open += hits[first + 1u + k].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
     float ao = pc.ao_samples > 0u ? open / float(pc.ao_samples) : 1.0;
     vec2 blocker = blocked ? vec2(min(hits[first].t, 65000.0), 1.0) : vec2(0.0);
-    imageStore(visibility, ivec2(local.x + pc.x0, local.y + pc.y0), vec4(sun, ao, blocker));
+    imageStore(visibility, ivec2(local.x + pc.x0, local.y + pc.y0), uvec4(visibility_encode(sun, ao, blocker.x, blocker.y)));
 }

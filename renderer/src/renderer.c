@@ -73,7 +73,7 @@ static const struct {
                        "gbuffer position" },
     [TEX_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, true,
                      "gbuffer normal" },
-    [TEX_VISIBILITY] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, true, "visibility" },
+    [TEX_VISIBILITY] = { CV_FORMAT_R32_UINT, CV_TEXTURE_USAGE_STORAGE, true, "visibility" },
     [TEX_DEPTH] = { CV_FORMAT_D32F, CV_TEXTURE_USAGE_DEPTH_TARGET, false, "depth" },
     [TEX_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "visibility history" },
     [TEX_PING] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "filter ping" },

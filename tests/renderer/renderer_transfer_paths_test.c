@@ -5,7 +5,14 @@
  * FRAMES frames, more than CV_GRAPH_FRAMES_KEPT: on host-import and shared
  * the frames are pipelined with asynchronous transfers (every list set and
  * ring slot reused several times, the balancer fed from lagged frames, the
- * last frame collecting the pending ones). */
+ * last frame collecting the pending ones).
+ * Bytes moved, exactly, per frame (OBSERVED_FRAMES frames with an observer,
+ * which reports every transfer step of every frame; also bit-identical to one
+ * device): the visibility copy-back moves the secondaries' columns only, 4
+ * bytes a pixel (render_visibility.glsl's R32_UINT texel); the reflection
+ * samples' copy-back their columns, 16 bytes a pixel (RGBA32F); the G-buffer
+ * multicast of frame 0 whole images (later frames trace it in windows that
+ * move), position and normal, 16 bytes a pixel each, to every secondary. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -19,12 +26,57 @@
 #define W 160
 #define H 90
 #define FRAMES 12
+#define OBSERVED_FRAMES 3
+
+/* What the observer saw of one render's transfers. */
+typedef struct transfer_check {
+    uint32_t gpus;
+    uint32_t frames;
+    uint32_t visibility, reflection, gbuffer; /* transfer steps seen */
+    uint32_t wrong;                           /* steps whose bytes were not the expected ones */
+} transfer_check;
+
+static void check_bytes(transfer_check *c, const cv_graph_timing *t, uint64_t want) {
+    if (t->bytes == want)
+        return;
+    c->wrong++;
+    fprintf(stderr, "%u devices: %s moved %llu bytes, not %llu\n", c->gpus, t->name, (unsigned long long)t->bytes,
+            (unsigned long long)want);
+}
+
+static void observe_frame(const cv_render_frame_info *f, void *user) {
+    transfer_check *c = user;
+    c->frames++;
+    uint64_t secondary_columns = W - f->columns[0].width; /* the primary's window is never copied */
+    for (uint32_t i = 0; i < f->timing_count; i++) {
+        const cv_graph_timing *t = &f->timings[i];
+        if (strcmp(t->name, "transfer 'visibility'") == 0) {
+            c->visibility++;
+            check_bytes(c, t, secondary_columns * H * 4);
+        } else if (strcmp(t->name, "transfer 'reflection samples'") == 0) {
+            c->reflection++;
+            check_bytes(c, t, secondary_columns * H * 16);
+        } else if (strcmp(t->name, "transfer 'gbuffer position'") == 0 ||
+                   strcmp(t->name, "transfer 'gbuffer normal'") == 0) {
+            c->gbuffer++;
+            check_bytes(c, t, (uint64_t)(c->gpus - 1) * W * H * 16);
+        } else if (strncmp(t->name, "transfer", 8) == 0) {
+            c->wrong++;
+            fprintf(stderr, "%u devices: unexpected %s (%llu bytes)\n", c->gpus, t->name,
+                    (unsigned long long)t->bytes);
+        }
+    }
+}
 
 static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out,
-                           cv_render_stats *stats) {
-    cv_render_settings s = {
-        .width = W, .height = H, .frames = FRAMES, .ao_samples = 2, .sun_cone_degrees = -1, .filter_iterations = -1
-    };
+                           cv_render_stats *stats, const cv_render_observer *observer) {
+    cv_render_settings s = { .width = W,
+                             .height = H,
+                             .frames = observer ? OBSERVED_FRAMES : FRAMES,
+                             .ao_samples = 2,
+                             .sun_cone_degrees = -1,
+                             .filter_iterations = -1,
+                             .observer = observer };
     return cv_test_render(gpus, scene, bvh, &s, out, stats);
 }
 
@@ -36,17 +88,22 @@ int main(void) {
     if (!scene || !bvh)
         return check_report("renderer_transfer_paths");
     size_t bytes = (size_t)W * H * 4 * sizeof(float);
-    cv_render_output one = { 0 };
+    cv_render_output one = { 0 }, one_observed = { 0 };
     cv_render_stats stats;
     unsetenv("CORVID_TRANSFER_PATH");
-    CHECK_OK(render_on(1, scene, bvh, &one, &stats));
+    CHECK_OK(render_on(1, scene, bvh, &one, &stats, NULL));
+    transfer_check alone = { .gpus = 1 };
+    CHECK_OK(render_on(1, scene, bvh, &one_observed, &stats,
+                       &(cv_render_observer){ .frame = observe_frame, .user = &alone }));
+    CHECK_EQ_INT(alone.frames, OBSERVED_FRAMES);
+    CHECK_EQ_INT(alone.visibility + alone.reflection + alone.gbuffer + alone.wrong, 0); /* nothing moves */
     CHECK(stats.setup_ms == 0); /* one device: no rings, no set-up bake */
     const char *paths[] = { "staged", "host-import", "shared" };
     for (int p = 0; p < 3; p++) {
         setenv("CORVID_TRANSFER_PATH", paths[p], 1);
         for (uint32_t gpus = 2; gpus <= 4; gpus++) {
             cv_render_output many = { 0 };
-            CHECK_OK(render_on(gpus, scene, bvh, &many, &stats));
+            CHECK_OK(render_on(gpus, scene, bvh, &many, &stats, NULL));
             CHECK_EQ_INT(stats.device_count, gpus);
             CHECK(stats.transfer_bytes > 0);
             CHECK_EQ_INT(stats.frames, FRAMES);
@@ -59,10 +116,25 @@ int main(void) {
             fprintf(stderr, "%s, %u devices: %s, %.1f MB moved in %.1f ms\n", paths[p], gpus,
                     same ? "bit-identical" : "DIFFERENT", stats.transfer_bytes / 1e6, stats.transfer_ms);
             cv_render_output_free(&many);
+            /* Exact bytes of every transfer step of every frame. */
+            transfer_check c = { .gpus = gpus };
+            cv_render_output observed = { 0 };
+            CHECK_OK(render_on(gpus, scene, bvh, &observed, &stats,
+                               &(cv_render_observer){ .frame = observe_frame, .user = &c }));
+            CHECK_EQ_INT(c.frames, OBSERVED_FRAMES);
+            CHECK_EQ_INT(c.visibility, OBSERVED_FRAMES);
+            CHECK_EQ_INT(c.reflection, OBSERVED_FRAMES);
+            CHECK_EQ_INT(c.gbuffer, 2); /* frame 0: position and normal */
+            CHECK_EQ_INT(c.wrong, 0);
+            CHECK(one_observed.radiance && observed.radiance &&
+                  memcmp(one_observed.radiance, observed.radiance, bytes) == 0 &&
+                  memcmp(one_observed.visibility, observed.visibility, bytes) == 0);
+            cv_render_output_free(&observed);
         }
     }
     unsetenv("CORVID_TRANSFER_PATH");
     cv_render_output_free(&one);
+    cv_render_output_free(&one_observed);
     cv_bvh_destroy(bvh);
     cv_scene_destroy(scene);
     CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);
