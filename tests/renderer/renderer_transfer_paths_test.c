@@ -92,12 +92,12 @@ int main(void) {
     cv_render_stats stats;
     unsetenv("CORVID_TRANSFER_PATH");
     CHECK_OK(render_on(1, scene, bvh, &one, &stats, NULL));
+    CHECK(stats.setup_ms == 0); /* one device: no rings, no set-up bake */
     transfer_check alone = { .gpus = 1 };
     CHECK_OK(render_on(1, scene, bvh, &one_observed, &stats,
                        &(cv_render_observer){ .frame = observe_frame, .user = &alone }));
     CHECK_EQ_INT(alone.frames, OBSERVED_FRAMES);
     CHECK_EQ_INT(alone.visibility + alone.reflection + alone.gbuffer + alone.wrong, 0); /* nothing moves */
-    CHECK(stats.setup_ms == 0); /* one device: no rings, no set-up bake */
     const char *paths[] = { "staged", "host-import", "shared" };
     for (int p = 0; p < 3; p++) {
         setenv("CORVID_TRANSFER_PATH", paths[p], 1);
