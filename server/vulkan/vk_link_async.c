@@ -5,6 +5,7 @@
 #include "vk_cross_wait.h"
 #include "vk_immediate.h"
 #include "vk_link.h"
+#include "vk_shared.h"
 
 /* A command buffer of the async pool and the ticket of its latest use. */
 typedef struct vk_async_cmd {
@@ -105,9 +106,12 @@ cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t stag
         uint64_t reached = vk_host_counter(wait->device, wait->device->ticket);
         uint64_t value = 0;
         if (reached < wait->ticket) {
-            /* Directly on the other device's (imported) semaphore where the pair allows, else the bridge. */
+            /* Directly on the other device's semaphore where both share one VkDevice (vk_shared.h),
+             * on its imported semaphore where the pair allows, else through the bridge. */
             VkSemaphore imported = VK_NULL_HANDLE;
-            if (vk_cross_wait_direct(bd, wait->device))
+            if (vk_device_same(bd, wait->device))
+                imported = wait->device->ticket;
+            else if (vk_cross_wait_direct(bd, wait->device))
                 r = vk_cross_wait_semaphore(bd, wait->device, ticket, &imported);
             if (r == CV_OK && !imported)
                 r = vk_bridge_request(bd, wait->device, wait->ticket, &value);
@@ -127,10 +131,12 @@ cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t stag
                              .pCommandBufferInfos = &cmd_info,
                              .signalSemaphoreInfoCount = 1,
                              .pSignalSemaphoreInfos = &signal };
-    vr = vkQueueSubmit2(bd->queues[VK_SLOT_GRAPHICS].queue, 1, &submit, VK_NULL_HANDLE);
+    vr = vk_queue_submit(bd, VK_SLOT_GRAPHICS, &submit);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkQueueSubmit2 (asynchronous transfer, ticket %llu, device '%s')",
                        (unsigned long long)ticket, bd->label);
     c->ticket = ticket;
+    if (ticket > bd->last_ticket)
+        bd->last_ticket = ticket;
     return CV_OK;
 }
