@@ -8,8 +8,11 @@
  *   - compute work on each (its own values) is exact;
  *   - buffers and textures written on one instance and transferred to another
  *     are byte-exact through every path the pair takes (staged, host-import,
- *     shared, and auto), and through a ring (rings wait on the other
- *     instance's ticket semaphore directly);
+ *     shared, device, and auto, which must pick device), and through rings on
+ *     the device path (one direct copy per transfer) and the shared path (its
+ *     slots, waiting on the other instance's ticket semaphore directly),
+ *     queued back and forth without a host wait; between separate VkDevices
+ *     the device path is refused naming the devices and the variable;
  *   - destroying the middle instance, then the first, leaves the rest working
  *     (compute and transfers); a new instance takes the freed slot; the last
  *     one destroys the VkDevice (the registry is empty: a new device gets a
@@ -112,7 +115,8 @@ static void transfer_exact(cv_context *ctx, cv_device *a, cv_device *b, cv_trans
 
 /* Every path the pair can take, each forced, then auto (which must pick `best`). */
 static void every_path(cv_context *ctx, cv_device *a, cv_device *b, cv_transfer_path best, uint32_t seed) {
-    static const cv_transfer_path forced[] = { CV_TRANSFER_STAGED, CV_TRANSFER_HOST_IMPORT, CV_TRANSFER_SHARED };
+    static const cv_transfer_path forced[] = { CV_TRANSFER_STAGED, CV_TRANSFER_HOST_IMPORT, CV_TRANSFER_SHARED,
+                                               CV_TRANSFER_DEVICE };
     for (size_t i = 0; i < sizeof(forced) / sizeof(forced[0]); i++) {
         cv_transfer_path p;
         CHECK_OK(cv_transfer_set_path(forced[i]));
@@ -128,12 +132,15 @@ static void every_path(cv_context *ctx, cv_device *a, cv_device *b, cv_transfer_
     cv_transfer_clear_path();
 }
 
-/* 10 round trips a -> b -> a through two rings with no host wait in between. */
-static void ring_round_trips(cv_context *ctx, cv_device *a, cv_device *b) {
+/* 10 round trips a -> b -> a through two rings with no host wait in between, on `path`. */
+static void ring_round_trips_on(cv_context *ctx, cv_device *a, cv_device *b, cv_transfer_path path) {
     enum { N = 20000, ROUNDS = 10 };
     cv_transfer_ring *ab = NULL, *ba = NULL;
+    CHECK_OK(cv_transfer_set_path(path));
     CHECK_OK(cv_transfer_ring_create(a, b, 4096, 2, &ab));
     CHECK_OK(cv_transfer_ring_create(b, a, 4096, 2, &ba));
+    cv_transfer_clear_path();
+    CHECK(!ab || cv_transfer_ring_path(ab) == path);
     if (!ab || !ba) {
         cv_transfer_ring_destroy(ab);
         cv_transfer_ring_destroy(ba);
@@ -148,9 +155,13 @@ static void ring_round_trips(cv_context *ctx, cv_device *a, cv_device *b) {
     memset(src + N, 0, N);
     CHECK_OK(cv_device_write_buffer(a, buf, 0, 2 * N, src));
     CHECK_OK(cv_device_write_buffer(b, buf, 0, 2 * N, zero));
-    /* Round k: a's [0,N) -> b's [N,2N) -> a's [0,N) shifted by nothing: the bytes must survive every hop. */
+    /* Round k: a's [0,N) -> b's [N,2N) -> a's [0,N): the bytes must survive every hop; each
+     * round a adds nothing but a's own write of [N,2N) must not leak into what b sends back. */
     for (int k = 0; k < ROUNDS; k++) {
-        CHECK_OK(cv_transfer_buffer_async(ab, buf, 0, buf, N, N, NULL));
+        cv_transfer_async t = { 0 };
+        CHECK_OK(cv_transfer_buffer_async(ab, buf, 0, buf, N, N, &t));
+        CHECK_EQ_INT(t.path, path);
+        CHECK(t.src_ticket > 0 && t.dst_ticket > 0);
         CHECK_OK(cv_transfer_buffer_async(ba, buf, N, buf, 0, N, NULL));
     }
     CHECK_OK(cv_device_read_buffer(a, buf, 0, 2 * N, back));
@@ -163,6 +174,53 @@ static void ring_round_trips(cv_context *ctx, cv_device *a, cv_device *b) {
     free(src);
     free(back);
     free(zero);
+}
+
+/* Through the device path (no slots) and the shared path (slots; waits on the other's ticket directly). */
+static void ring_round_trips(cv_context *ctx, cv_device *a, cv_device *b) {
+    ring_round_trips_on(ctx, a, b, CV_TRANSFER_DEVICE);
+    ring_round_trips_on(ctx, a, b, CV_TRANSFER_SHARED);
+}
+
+/* Texture rectangles through a device-path ring, 8 hops back and forth, queued without a host wait. */
+static void ring_textures(cv_context *ctx, cv_device *a, cv_device *b) {
+    enum { W = 45, H = 31 };
+    cv_transfer_ring *ab = NULL, *ba = NULL;
+    CHECK_OK(cv_transfer_ring_create(a, b, 4096, 2, &ab));
+    CHECK_OK(cv_transfer_ring_create(b, a, 4096, 2, &ba));
+    cv_texture tex;
+    CHECK_OK(cv_texture_create(
+        ctx, &(cv_texture_desc){ .width = W, .height = H, .format = CV_FORMAT_RGBA32F, .label = "hop" }, &tex));
+    CHECK_OK(cv_device_load(a, cv_any(tex)));
+    CHECK_OK(cv_device_load(b, cv_any(tex)));
+    size_t size = (size_t)W * H * 16;
+    uint8_t *src = malloc(size), *other = malloc(size), *back = malloc(size);
+    fill(src, size, 9);
+    fill(other, size, 10);
+    for (size_t i = 3; i < size; i += 4) /* finite floats */
+        src[i] &= 0x3f, other[i] &= 0x3f;
+    CHECK_OK(cv_device_write_texture(a, tex, (cv_rect){ 0, 0, W, H }, src));
+    CHECK_OK(cv_device_write_texture(b, tex, (cv_rect){ 0, 0, W, H }, other));
+    for (int k = 0; ab && ba && k < 4; k++) {
+        CHECK_OK(cv_transfer_texture_async(ab, tex, (cv_rect){ 0, 0, W, H }, tex, 0, 0, NULL));
+        CHECK_OK(cv_transfer_texture_async(ba, tex, (cv_rect){ 0, 0, W, H }, tex, 0, 0, NULL));
+    }
+    /* Then the left half of a to the right part of b, one rectangle. */
+    CHECK_OK(cv_transfer_texture_async(ab, tex, (cv_rect){ 0, 0, 20, H }, tex, 25, 0, NULL));
+    size_t row = (size_t)W * 16;
+    memcpy(other, src, size);
+    for (uint32_t y = 0; y < H; y++)
+        memmove(other + y * row + 25 * 16, src + y * row, 20 * 16);
+    CHECK_OK(cv_device_read_texture(a, tex, (cv_rect){ 0, 0, W, H }, back));
+    CHECK(memcmp(back, src, size) == 0);
+    CHECK_OK(cv_device_read_texture(b, tex, (cv_rect){ 0, 0, W, H }, back));
+    CHECK(memcmp(back, other, size) == 0);
+    cv_transfer_ring_destroy(ab);
+    cv_transfer_ring_destroy(ba);
+    CHECK_OK(cv_texture_destroy(ctx, tex));
+    free(src);
+    free(other);
+    free(back);
 }
 
 int main(void) {
@@ -183,6 +241,18 @@ int main(void) {
     if (d[0] && d[1]) {
         CHECK(bd_of(d[0])->shared == NULL && bd_of(d[1])->shared == NULL);
         CHECK(bd_of(d[0])->device != bd_of(d[1])->device);
+    }
+    if (d[0] && d[1]) { /* separate VkDevices: no device path, auto takes another */
+        cv_transfer_path p = CV_TRANSFER_DEVICE;
+        CHECK_OK(cv_transfer_choose_path(d[0], d[1], &p));
+        CHECK(p != CV_TRANSFER_DEVICE);
+        CHECK_OK(cv_transfer_set_path(CV_TRANSFER_DEVICE));
+        CHECK_RESULT(cv_transfer_choose_path(d[0], d[1], &p), CV_ERROR_UNSUPPORTED);
+        CHECK(strstr(cv_last_error(), "'own0'") && strstr(cv_last_error(), "CORVID_VGPU_DEVICE=shared"));
+        cv_transfer_ring *ring = (cv_transfer_ring *)1;
+        CHECK_RESULT(cv_transfer_ring_create(d[0], d[1], 4096, 2, &ring), CV_ERROR_UNSUPPORTED);
+        CHECK(ring == NULL);
+        cv_transfer_clear_path();
     }
     cv_device_destroy(d[0]);
     cv_device_destroy(d[1]);
@@ -230,11 +300,13 @@ int main(void) {
     cv_transfer_path best;
     CHECK_OK(cv_transfer_choose_path(d[0], d[1], &best));
     fprintf(stderr, "auto between instances: %s\n", cv_transfer_path_name(best));
+    CHECK_EQ_INT(best, CV_TRANSFER_DEVICE);
     fprintf(stderr, "gpu0 -> gpu1\n");
     every_path(ctx, d[0], d[1], best, 1);
     fprintf(stderr, "gpu2 -> gpu0\n");
     every_path(ctx, d[2], d[0], best, 2);
     ring_round_trips(ctx, d[1], d[2]);
+    ring_textures(ctx, d[0], d[2]);
 
     /* The middle one goes first: the others keep working; a new one takes its slot. */
     cv_device_destroy(d[1]);
