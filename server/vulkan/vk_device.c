@@ -234,7 +234,11 @@ static void fill_info(const cv_backend_device *bd, cv_device_info *info) {
     info->separate_copy_queue = bd->queues[VK_SLOT_COPY].present;
     info->ray_tracing_pipeline = bd->ray_tracing;
     snprintf(info->trace_path, sizeof(info->trace_path), "%s", cv_vulkan_trace_path_name(vk_trace_path_now(bd)));
-    snprintf(info->cross_wait, sizeof(info->cross_wait), "%s", bd->cross_import ? "import" : "bridge");
+    /* Shared VkDevice: waits on the other instances' semaphores directly (others: import or bridge). */
+    snprintf(info->cross_wait, sizeof(info->cross_wait), "%s",
+             bd->shared         ? "device"
+             : bd->cross_import ? "import"
+                                : "bridge");
     info->gpu_timestamps = bd->queues[VK_SLOT_GRAPHICS].timestamp_mask != 0 && bd->timestamp_period_ns > 0;
     info->max_storage_buffer_range = bd->limits.maxStorageBufferRange;
     for (int i = 0; i < 3; i++)

@@ -285,6 +285,7 @@ int main(void) {
         CHECK_EQ_INT(bd->queues[VK_SLOT_GRAPHICS].index, (uint32_t)i % queues);
         CHECK(bd->queues[VK_SLOT_GRAPHICS].lock == &s->queue_locks[VK_SLOT_GRAPHICS][i % queues]);
         CHECK(bd->bridge.host == &s->host_lock);
+        CHECK(strcmp(cv_device_get_info(d[i])->cross_wait, "device") == 0);
         for (int j = 0; j < i; j++) {
             cv_backend_device *o = bd_of(d[j]);
             CHECK(bd->ticket != o->ticket && bd->chain != o->chain && bd->immediate != o->immediate);
