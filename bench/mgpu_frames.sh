@@ -10,18 +10,24 @@
 # cross-device wait of the rings compared: the shared path on 2 and 4 virtual
 # GPUs with CORVID_CROSS_WAIT=bridge (a host thread per device) and =import
 # (the other device's semaphore imported; refused where the devices lack
-# VK_KHR_external_semaphore_fd, e.g. lavapipe: shown as "-"). Prints tables.
+# VK_KHR_external_semaphore_fd, e.g. lavapipe: shown as "-"). Then the
+# virtual GPUs on one VkDevice (CORVID_VGPU_DEVICE=shared: their queues may run
+# concurrently, separate VkDevices are time-sliced) on 2 and 4 virtual GPUs,
+# path auto (which takes the direct "device" path there), async and sync,
+# against the same with separate VkDevices. Prints tables.
 #   bench/mgpu_frames.sh BIN_DIR ADAPTER [WxH] [FRAMES]   (BENCH_BIN=dir of the benches if elsewhere)
 #   MGPU_MODE=cross-wait bench/mgpu_frames.sh ...   only the one-device run and the cross-wait table
+#   MGPU_MODE=vgpu bench/mgpu_frames.sh ...         only the one-device run and the shared-VkDevice table
 set -u
 bin=$1 adapter=$2 size=${3:-1920x1080} frames=${4:-16}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 mode=${MGPU_MODE:-all}
-# run PATH GPUS ASYNC [CROSS_WAIT] -> "ms moved_MB transfer_ms" or nothing on failure
+# run PATH GPUS ASYNC [CROSS_WAIT] [VGPU_DEVICE] -> "ms moved_MB transfer_ms" or nothing on failure
 run() {
-  local log=$out/$1-$2-$3-${4:-auto}.txt
-  CORVID_CROSS_WAIT=${4:-auto} CORVID_TRANSFER_PATH=$1 CORVID_TRANSFER_ASYNC=$3 "$bin/corvid-render" --adapters "$adapter" --gpus "$2" \
+  local log=$out/$1-$2-$3-${4:-auto}-${5:-separate}.txt
+  CORVID_VGPU_DEVICE=${5:-separate} CORVID_CROSS_WAIT=${4:-auto} CORVID_TRANSFER_PATH=$1 CORVID_TRANSFER_ASYNC=$3 \
+    "$bin/corvid-render" --adapters "$adapter" --gpus "$2" \
     --size "$size" --frames "$frames" --out "$out/frame" > "$log" 2>&1 || { echo "$1 x$2 failed: $(tail -1 "$log")" >&2; return; }
   local ms moved
   ms=$(sed -n 's/.*; \([0-9.]*\) ms per frame;.*/\1/p' "$log")
@@ -43,14 +49,34 @@ cross_wait_table() {
     read -r i_ms _ _ <<< "$(run shared "$gpus" 1 import)"
     # What corvid-render's device lines say each run used.
     local b_use i_use
-    b_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-bridge.txt" | head -1)
-    i_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-import.txt" | head -1)
+    b_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-bridge-separate.txt" | head -1)
+    i_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-import-separate.txt" | head -1)
     printf '%-12s %5s %12s %9s %12s %9s %9s  %s\n' shared "$gpus" "${b_ms:--}" "$(ratio "${b_ms:-0}" "${one:-0}")" \
       "${i_ms:--}" "$(ratio "${i_ms:-0}" "${one:-0}")" "$(ratio "${i_ms:-0}" "${b_ms:-0}")" "${b_use:--} / ${i_use:--}"
   done
 }
+vgpu_table() {
+  echo
+  echo "== virtual GPUs on one VkDevice (CORVID_VGPU_DEVICE=shared) vs one VkDevice each (separate), path auto (same run)"
+  printf '%-12s %5s %12s %9s %12s %9s %12s %9s %10s\n' mode gpus "async ms/f" vs-1-gpu "sync ms/f" vs-1-gpu \
+    "separate" vs-1-gpu "moved MB"
+  read -r one_shared _ _ <<< "$(run auto 1 1 auto shared)"
+  printf '%-12s %5s %12s %9s %12s %9s %12s %9s %10s\n' shared 1 "${one_shared:--}" \
+    "$(ratio "${one_shared:-0}" "${one:-0}")" "-" "-" "${one:--}" 1.00x 0
+  for gpus in 2 4; do
+    read -r a_ms a_mb _ <<< "$(run auto "$gpus" 1 auto shared)"
+    read -r s_ms _ _ <<< "$(run auto "$gpus" 0 auto shared)"
+    read -r p_ms _ _ <<< "$(run auto "$gpus" 1 auto separate)"
+    printf '%-12s %5s %12s %9s %12s %9s %12s %9s %10s\n' shared "$gpus" "${a_ms:--}" "$(ratio "${a_ms:-0}" "${one:-0}")" \
+      "${s_ms:--}" "$(ratio "${s_ms:-0}" "${one:-0}")" "${p_ms:--}" "$(ratio "${p_ms:-0}" "${one:-0}")" "${a_mb:--}"
+  done
+}
 if [ "$mode" = cross-wait ]; then
   cross_wait_table
+  exit 0
+fi
+if [ "$mode" = vgpu ]; then
+  vgpu_table
   exit 0
 fi
 for path in staged host-import shared; do
@@ -62,6 +88,7 @@ for path in staged host-import shared; do
   done
 done
 cross_wait_table
+vgpu_table
 echo
 echo "== bench_transfer_async (ring transfers vs synchronous ones, same bytes, same run)"
 for cw in bridge import; do

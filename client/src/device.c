@@ -446,6 +446,50 @@ cv_result cv_device_link_copy_async(cv_device *dev, void *staging, uint64_t stag
     return r;
 }
 
+bool cv_device_link_same_group(cv_device *src, cv_device *dst) {
+    cv_link_caps a, b;
+    return src != dst && src->backend == dst->backend && src->backend->link_copy_device &&
+           cv_device_link_caps(src, &a) && cv_device_link_caps(dst, &b) && a.device_group &&
+           a.device_group == b.device_group;
+}
+
+cv_result cv_device_link_copy_device(cv_device *src, uint64_t src_id, cv_device *dst, uint64_t dst_id,
+                                     const cv_link_region *region, uint64_t *src_ticket, uint64_t *dst_ticket) {
+    cv_handle_type type = cv_handle_type_of(src_id);
+    *src_ticket = *dst_ticket = 0;
+    if (!cv_device_link_same_group(src, dst))
+        return cv_error(CV_ERROR_UNSUPPORTED, "transfer from device '%s' to device '%s': they share no device",
+                        src->label, dst->label);
+    if ((type != CV_HANDLE_BUFFER && type != CV_HANDLE_TEXTURE) || cv_handle_type_of(dst_id) != type)
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "transfer from device '%s' to device '%s': a %s and a %s handle",
+                        src->label, dst->label, cv_handle_type_name(type),
+                        cv_handle_type_name(cv_handle_type_of(dst_id)));
+    /* Both locks, in address order (nothing else holds two device locks). */
+    cv_device *first = src < dst ? src : dst, *second = src < dst ? dst : src;
+    pthread_mutex_lock(&first->lock);
+    pthread_mutex_lock(&second->lock);
+    collect_finished(src);
+    collect_finished(dst);
+    cv_device_resource *s, *d;
+    cv_result r = cv_device_require(src, src_id, type, "transfer (source)", &s);
+    if (r == CV_OK)
+        r = cv_device_require(dst, dst_id, type, "transfer (destination)", &d);
+    uint64_t ts = src->last_ticket + 1, td = dst->last_ticket + 1;
+    if (r == CV_OK)
+        r = src->backend->link_copy_device(src->bd, dst->bd, type, s->obj, d->obj, region, d->last_use, ts, td);
+    if (r == CV_OK) {
+        src->last_ticket = ts;
+        dst->last_ticket = td;
+        s->last_use = ts; /* kept alive (deferred release) until the copy finished */
+        d->last_use = td;
+        *src_ticket = ts;
+        *dst_ticket = td;
+    }
+    pthread_mutex_unlock(&second->lock);
+    pthread_mutex_unlock(&first->lock);
+    return r;
+}
+
 void cv_device_link_release(cv_device *dev, void *staging) {
     pthread_mutex_lock(&dev->lock);
     dev->backend->link_release(dev->bd, staging);

@@ -72,5 +72,12 @@ cv_result cv_device_link_copy_async(cv_device *dev, void *staging, uint64_t stag
                                     uint64_t offset, uint64_t size, cv_rect rect, bool to_staging, cv_device *after,
                                     uint64_t after_ticket, uint64_t *ticket);
 void cv_device_link_release(cv_device *dev, void *staging);
+/* Direct copies within one device group (backend.h: link_copy_device): whether
+ * the pair can, and one copy of `region` from src's resource src_id to dst's
+ * dst_id (both devices' locks taken, in address order), returning its tickets
+ * on both devices at once. */
+bool cv_device_link_same_group(cv_device *src, cv_device *dst);
+cv_result cv_device_link_copy_device(cv_device *src, uint64_t src_id, cv_device *dst, uint64_t dst_id,
+                                     const cv_link_region *region, uint64_t *src_ticket, uint64_t *dst_ticket);
 
 #endif

@@ -211,6 +211,17 @@ static cv_result run_job(transfer_job *j, cv_transfer_stats *stats) {
                                                                 j->dst_offset, j->size },
                                     stats);
     cv_transfer_stats st = { .bytes = j->size, .path = path };
+    if (path == CV_TRANSFER_DEVICE) { /* one GPU copy between instances of one device, then a host wait */
+        double start = now_ms();
+        uint64_t ts, td;
+        r = transfer_job_device(j, &ts, &td);
+        if (r == CV_OK)
+            r = cv_device_wait(j->dst, td, UINT64_MAX);
+        st.total_ms = st.write_ms = now_ms() - start;
+        if (r == CV_OK && stats)
+            *stats = st;
+        return r;
+    }
     if (path == CV_TRANSFER_STAGED) {
         j->chunk_bytes = CHUNK_BYTES;
     } else {
@@ -246,6 +257,16 @@ static cv_result run_job(transfer_job *j, cv_transfer_stats *stats) {
     if (r == CV_OK && stats)
         *stats = st;
     return r;
+}
+
+cv_result transfer_job_device(const transfer_job *j, uint64_t *src_ticket, uint64_t *dst_ticket) {
+    cv_link_region region = { .src_offset = j->src_offset,
+                              .dst_offset = j->dst_offset,
+                              .size = j->size,
+                              .src_rect = j->src_rect,
+                              .dst_x = j->dst_x,
+                              .dst_y = j->dst_y };
+    return cv_device_link_copy_device(j->src, j->src_id, j->dst, j->dst_id, &region, src_ticket, dst_ticket);
 }
 
 cv_result transfer_buffer_job(cv_device *src, cv_buffer src_buffer, uint64_t src_offset, cv_device *dst,

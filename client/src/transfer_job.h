@@ -24,5 +24,8 @@ cv_result transfer_buffer_job(cv_device *src, cv_buffer src_buffer, uint64_t src
                               cv_buffer dst_buffer, uint64_t dst_offset, uint64_t size, transfer_job *out);
 cv_result transfer_texture_job(cv_device *src, cv_texture src_texture, cv_rect src_rect, cv_device *dst,
                                cv_texture dst_texture, uint32_t dst_x, uint32_t dst_y, transfer_job *out);
+/* The DEVICE path: the whole job as one direct copy (device_internal.h,
+ * cv_device_link_copy_device); its tickets on both devices, no host wait. */
+cv_result transfer_job_device(const transfer_job *j, uint64_t *src_ticket, uint64_t *dst_ticket);
 
 #endif

@@ -10,7 +10,9 @@
 #include "transfer_link.h"
 #include "transfer_peer.h"
 
-static const char *const names[CV_TRANSFER_PATH_COUNT] = { "auto", "staged", "host-import", "shared", "peer" };
+static const char *const names[CV_TRANSFER_PATH_COUNT] = {
+    "auto", "staged", "host-import", "shared", "peer", "device"
+};
 
 static pthread_mutex_t mode_lock = PTHREAD_MUTEX_INITIALIZER;
 static bool mode_set;
@@ -27,7 +29,7 @@ cv_result cv_transfer_path_parse(const char *name, cv_transfer_path *out) {
             return CV_OK;
         }
     return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                    "transfer path '%s' is not one of auto, staged, host-import, shared, peer",
+                    "transfer path '%s' is not one of auto, staged, host-import, shared, peer, device",
                     name ? name : "(null)");
 }
 
@@ -63,8 +65,16 @@ static cv_result current_mode(cv_transfer_path *out) {
     return r == CV_OK ? r : cv_error(r, "CORVID_TRANSFER_PATH: %s", cv_last_error());
 }
 
-/* Whether the pair can take `path` (SHARED or HOST_IMPORT); if not, why, in `why`. */
+/* Whether the pair can take `path` (DEVICE, SHARED or HOST_IMPORT); if not, why, in `why`. */
 static bool pair_can(cv_device *src, cv_device *dst, cv_transfer_path path, char *why, size_t cap) {
+    if (path == CV_TRANSFER_DEVICE) {
+        bool ok = cv_device_link_same_group(src, dst);
+        if (!ok)
+            snprintf(why, cap,
+                     "they are not two instances of one shared device (Vulkan: virtual GPUs of one adapter with "
+                     "CORVID_VGPU_DEVICE=shared)");
+        return ok;
+    }
     cv_link_caps a, b;
     bool la = cv_device_link_caps(src, &a), lb = cv_device_link_caps(dst, &b);
     cv_device *who = !la ? src : dst;
@@ -118,7 +128,8 @@ cv_result cv_transfer_choose_path(cv_device *src, cv_device *dst, cv_transfer_pa
         return CV_OK;
     }
     if (mode == CV_TRANSFER_AUTO) {
-        *out = pair_can(src, dst, CV_TRANSFER_SHARED, why, sizeof(why))        ? CV_TRANSFER_SHARED
+        *out = pair_can(src, dst, CV_TRANSFER_DEVICE, why, sizeof(why))        ? CV_TRANSFER_DEVICE
+               : pair_can(src, dst, CV_TRANSFER_SHARED, why, sizeof(why))      ? CV_TRANSFER_SHARED
                : pair_can(src, dst, CV_TRANSFER_HOST_IMPORT, why, sizeof(why)) ? CV_TRANSFER_HOST_IMPORT
                                                                                : CV_TRANSFER_STAGED;
         return CV_OK;

@@ -1,4 +1,5 @@
-/* Asynchronous transfers through a ring of staging slots (transfer.h). The
+/* Asynchronous transfers through a ring of staging slots (transfer.h); on the
+ * DEVICE path a ring has no slots and each transfer is one direct copy. The
  * slots are one staging per device over the same memory (SHARED: the
  * source's exported device memory, imported by the destination; HOST_IMPORT:
  * a host allocation of the ring's own, imported by both), made `owned` so the
@@ -117,18 +118,20 @@ cv_result cv_transfer_ring_create(cv_device *src, cv_device *dst, uint64_t slot_
     if (r != CV_OK)
         return r;
     cv_device *without = !cv_device_link_async(src) ? src : !cv_device_link_async(dst) ? dst : NULL;
+    if (path == CV_TRANSFER_DEVICE) /* one direct copy per transfer: no slots, no cross-device import */
+        without = NULL;
     if (path == CV_TRANSFER_STAGED || without)
         return cv_error(CV_ERROR_UNSUPPORTED, "transfer ring '%s' -> '%s': %s", cv_device_label(src),
                         cv_device_label(dst),
                         without ? "a device has no asynchronous link copies" : "the pair's path is staged");
-    r = ring_wait_check(src, dst);
+    r = path == CV_TRANSFER_DEVICE ? CV_OK : ring_wait_check(src, dst);
     if (r != CV_OK)
         return r;
     cv_transfer_ring *g = calloc(1, sizeof(*g));
     if (!g)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "transfer ring");
     *g = (cv_transfer_ring){ .src = src, .dst = dst, .path = path, .slot_bytes = slot_bytes, .slots = slots };
-    r = ring_stagings(g);
+    r = path == CV_TRANSFER_DEVICE ? CV_OK : ring_stagings(g);
     if (r != CV_OK) {
         ring_free(g);
         return r;
@@ -181,7 +184,12 @@ static cv_result ring_run(cv_transfer_ring *g, const transfer_job *j, cv_transfe
     if (j->src != g->src || j->dst != g->dst) /* (the job was made from the ring's devices) */
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "transfer ring: wrong devices");
     cv_result r = CV_OK;
-    if (j->texture) {
+    if (g->path == CV_TRANSFER_DEVICE) {
+        uint64_t ts, td;
+        r = transfer_job_device(j, &ts, &td);
+        if (r == CV_OK)
+            g->src_last = ts, g->dst_last = td;
+    } else if (j->texture) {
         uint32_t per = (uint32_t)(g->slot_bytes / j->row_bytes);
         if (per == 0)
             return cv_error(CV_ERROR_OUT_OF_RANGE,

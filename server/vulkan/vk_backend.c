@@ -98,6 +98,7 @@ static const cv_backend vulkan_backend = {
     .link_copy = vk_link_copy,
     .link_copy_async = vk_link_copy_async,
     .link_release = vk_link_release,
+    .link_copy_device = vk_link_copy_device,
 };
 
 const cv_backend *cv_vulkan_backend(void) { return &vulkan_backend; }

@@ -5,6 +5,7 @@
 #include <time.h>
 
 #include "vk_instance.h"
+#include "vk_shared.h"
 
 #include "vk_bridge.h"
 
@@ -26,9 +27,9 @@ VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, ui
     for (;;) {
         uint64_t spent = now_ns() - start;
         uint64_t left = spent >= timeout_ns ? 0 : timeout_ns - spent;
-        pthread_mutex_lock(&bd->bridge.host_lock);
+        pthread_mutex_lock(bd->bridge.host);
         VkResult vr = vkWaitSemaphores(bd->device, info, left < HOST_SLICE_NS ? left : HOST_SLICE_NS);
-        pthread_mutex_unlock(&bd->bridge.host_lock);
+        pthread_mutex_unlock(bd->bridge.host);
         if (vr != VK_TIMEOUT || left <= HOST_SLICE_NS)
             return vr;
         sched_yield(); /* let a bridge thread take the lock */
@@ -38,10 +39,10 @@ VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, ui
 uint64_t vk_host_counter(cv_backend_device *bd, VkSemaphore semaphore) {
     uint64_t value = 0;
     if (bd->bridge.serialize)
-        pthread_mutex_lock(&bd->bridge.host_lock);
+        pthread_mutex_lock(bd->bridge.host);
     vkGetSemaphoreCounterValue(bd->device, semaphore, &value);
     if (bd->bridge.serialize)
-        pthread_mutex_unlock(&bd->bridge.host_lock);
+        pthread_mutex_unlock(bd->bridge.host);
     return value;
 }
 
@@ -125,10 +126,10 @@ static void *bridge_thread(void *arg) {
                                          .semaphore = b->semaphore,
                                          .value = it.value };
         if (b->serialize)
-            pthread_mutex_lock(&b->host_lock);
+            pthread_mutex_lock(b->host);
         vkSignalSemaphore(bd->device, &signal); /* fails only with a lost device: nothing waits then */
         if (b->serialize)
-            pthread_mutex_unlock(&b->host_lock);
+            pthread_mutex_unlock(b->host);
         pthread_mutex_lock(&b->lock);
         b->head = (b->head + 1) % b->capacity;
         b->count--;
@@ -155,6 +156,7 @@ cv_result vk_bridge_init(cv_backend_device *bd) {
     pthread_mutex_init(&b->lock, NULL);
     pthread_cond_init(&b->changed, NULL);
     pthread_mutex_init(&b->host_lock, NULL);
+    b->host = bd->shared ? &bd->shared->host_lock : &b->host_lock;
     b->serialize = bd->instance->validation;
     return CV_OK;
 }

@@ -10,6 +10,7 @@
 #include "vk_cross_wait.h"
 #include "vk_immediate.h"
 #include "vk_link.h"
+#include "vk_shared.h"
 #include "vk_trace.h"
 #include "vk_trace_rt.h"
 
@@ -42,17 +43,31 @@ bool vk_device_offers(VkPhysicalDevice physical, const char *name) {
 static cv_result create_vk_device(cv_backend_device *bd) {
     const vk_adapter *a = &bd->adapter;
     uint32_t families[VK_SLOT_COUNT] = { a->graphics_family, a->compute_family, a->copy_family };
-    float priority = 1.0f;
+    uint32_t family_count = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &family_count, NULL);
+    VkQueueFamilyProperties props[32];
+    if (family_count > 32)
+        family_count = 32;
+    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &family_count, props);
+    /* A shared VkDevice has every queue of each family it uses (up to
+     * VK_SHARED_MAX_QUEUES), so its instances can spread over them. */
+    float priorities[VK_SHARED_MAX_QUEUES];
+    for (uint32_t i = 0; i < VK_SHARED_MAX_QUEUES; i++)
+        priorities[i] = 1.0f;
     VkDeviceQueueCreateInfo queue_infos[VK_SLOT_COUNT];
-    uint32_t queue_count = 0;
-    for (int s = 0; s < VK_SLOT_COUNT; s++)
-        if (families[s] != VK_NO_FAMILY)
-            queue_infos[queue_count++] = (VkDeviceQueueCreateInfo){
-                .sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO,
-                .queueFamilyIndex = families[s],
-                .queueCount = 1,
-                .pQueuePriorities = &priority,
-            };
+    uint32_t queue_count = 0, family_queues[VK_SLOT_COUNT] = { 0 };
+    for (int s = 0; s < VK_SLOT_COUNT; s++) {
+        if (families[s] == VK_NO_FAMILY)
+            continue;
+        uint32_t n = families[s] < family_count ? props[families[s]].queueCount : 1;
+        family_queues[s] = !bd->vgpu_shared || n < 1 ? 1 : n > VK_SHARED_MAX_QUEUES ? VK_SHARED_MAX_QUEUES : n;
+        queue_infos[queue_count++] = (VkDeviceQueueCreateInfo){
+            .sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO,
+            .queueFamilyIndex = families[s],
+            .queueCount = family_queues[s],
+            .pQueuePriorities = priorities,
+        };
+    }
 
     /* Enable what the adapter has of what kernels may use; require only what we checked. */
     VkPhysicalDeviceVulkan13Features have13 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES };
@@ -119,16 +134,22 @@ static cv_result create_vk_device(cv_backend_device *bd) {
         .enabledExtensionCount = extension_count,
         .ppEnabledExtensionNames = extensions,
     };
-    VkResult vr = vkCreateDevice(a->physical, &info, NULL, &bd->device);
-    if (vr != VK_SUCCESS)
-        return vk_fail(vr, "vkCreateDevice on adapter %u '%s'", a->info.index, a->info.name);
+    VkResult vr = VK_SUCCESS;
+    if (bd->vgpu_shared) {
+        vk_shared_device *shared;
+        uint32_t slot;
+        cv_result r = vk_shared_acquire(bd, &info, &shared, &slot);
+        if (r != CV_OK)
+            return r;
+        bd->shared = shared;
+        bd->shared_slot = slot;
+        bd->device = shared->device;
+    } else {
+        vr = vkCreateDevice(a->physical, &info, NULL, &bd->device);
+        if (vr != VK_SUCCESS)
+            return vk_fail(vr, "vkCreateDevice on adapter %u '%s'", a->info.index, a->info.name);
+    }
 
-    uint32_t family_count = 0;
-    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &family_count, NULL);
-    VkQueueFamilyProperties props[32];
-    if (family_count > 32)
-        family_count = 32;
-    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &family_count, props);
     for (int s = 0; s < VK_SLOT_COUNT; s++) {
         if (families[s] == VK_NO_FAMILY)
             continue;
@@ -138,7 +159,10 @@ static cv_result create_vk_device(cv_backend_device *bd) {
         q->flags = props[families[s]].queueFlags;
         uint32_t bits = props[families[s]].timestampValidBits;
         q->timestamp_mask = bits >= 64 ? UINT64_MAX : bits ? (1ull << bits) - 1 : 0;
-        vkGetDeviceQueue(bd->device, families[s], 0, &q->queue);
+        /* vk_shared.h's queue rule: slot k takes queue k % queueCount; every submit takes its mutex. */
+        q->index = bd->shared ? bd->shared_slot % family_queues[s] : 0;
+        q->lock = bd->shared ? &bd->shared->queue_locks[s][q->index] : NULL;
+        vkGetDeviceQueue(bd->device, families[s], q->index, &q->queue);
         bd->families[bd->family_count++] = families[s];
         VkCommandPoolCreateInfo pool_info = { .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
                                               .queueFamilyIndex = families[s] };
@@ -210,7 +234,11 @@ static void fill_info(const cv_backend_device *bd, cv_device_info *info) {
     info->separate_copy_queue = bd->queues[VK_SLOT_COPY].present;
     info->ray_tracing_pipeline = bd->ray_tracing;
     snprintf(info->trace_path, sizeof(info->trace_path), "%s", cv_vulkan_trace_path_name(vk_trace_path_now(bd)));
-    snprintf(info->cross_wait, sizeof(info->cross_wait), "%s", bd->cross_import ? "import" : "bridge");
+    /* Shared VkDevice: waits on the other instances' semaphores directly (others: import or bridge). */
+    snprintf(info->cross_wait, sizeof(info->cross_wait), "%s",
+             bd->shared         ? "device"
+             : bd->cross_import ? "import"
+                                : "bridge");
     info->gpu_timestamps = bd->queues[VK_SLOT_GRAPHICS].timestamp_mask != 0 && bd->timestamp_period_ns > 0;
     info->max_storage_buffer_range = bd->limits.maxStorageBufferRange;
     for (int i = 0; i < 3; i++)
@@ -223,7 +251,12 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: device");
     if (memchr(desc->label, '\0', CV_LABEL_MAX))
         snprintf(bd->label, sizeof(bd->label), "%s", desc->label);
-    cv_result r = vk_instance_acquire(desc->validation, &bd->instance);
+    cv_result r = vk_shared_parse(getenv("CORVID_VGPU_DEVICE"), &bd->vgpu_shared);
+    if (r != CV_OK) {
+        free(bd);
+        return cv_error(r, "device '%s': %s", desc->label, cv_last_error());
+    }
+    r = vk_instance_acquire(desc->validation, &bd->instance);
     if (r != CV_OK) {
         free(bd);
         return r;
@@ -275,10 +308,45 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     return CV_OK;
 }
 
+/* A shared VkDevice's instance cannot wait for the device to idle (that
+ * waits for the other instances' work, and vkDeviceWaitIdle needs every queue
+ * externally synchronised): it waits for its own last ticket and immediate
+ * submission instead, which follow everything it submitted. */
+static void wait_own_work(cv_backend_device *bd) {
+    VkSemaphore semaphores[3];
+    uint64_t values[3];
+    uint32_t n = 0;
+    if (bd->ticket)
+        semaphores[n] = bd->ticket, values[n++] = bd->last_ticket;
+    if (bd->chain) /* segments of a submission that failed part-way */
+        semaphores[n] = bd->chain, values[n++] = bd->chain_value;
+    if (bd->immediate)
+        semaphores[n] = bd->immediate, values[n++] = bd->immediate_value;
+    VkSemaphoreWaitInfo info = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_WAIT_INFO,
+                                 .semaphoreCount = n,
+                                 .pSemaphores = semaphores,
+                                 .pValues = values };
+    if (!n)
+        return;
+    bool serialize = bd->instance->validation;
+    if (serialize)
+        pthread_mutex_lock(&bd->shared->host_lock);
+    vkWaitSemaphores(bd->device, &info, UINT64_MAX); /* fails only with a lost device */
+    if (serialize)
+        pthread_mutex_unlock(&bd->shared->host_lock);
+}
+
+bool vk_device_same(const cv_backend_device *a, const cv_backend_device *b) {
+    return a->shared && a->shared == b->shared;
+}
+
 void vk_device_destroy(cv_backend_device *bd) {
     if (bd->device) {
         vk_bridge_finish(bd); /* before the idle wait: it signals what is still queued */
-        vkDeviceWaitIdle(bd->device);
+        if (bd->shared)
+            wait_own_work(bd);
+        else
+            vkDeviceWaitIdle(bd->device);
         vk_trace_finish(bd);
         vk_link_async_finish(bd);
         vk_cross_wait_finish(bd); /* after the idle wait: no submission waits on an import */
@@ -287,11 +355,16 @@ void vk_device_destroy(cv_backend_device *bd) {
         if (bd->memory.device)
             vk_memory_finish(&bd->memory);
         vkDestroySemaphore(bd->device, bd->chain, NULL);
-        vkDestroySemaphore(bd->device, bd->ticket, NULL);
         for (int s = 0; s < VK_SLOT_COUNT; s++)
             if (bd->queues[s].pool)
                 vkDestroyCommandPool(bd->device, bd->queues[s].pool, NULL);
-        vkDestroyDevice(bd->device, NULL);
+        if (bd->shared) {
+            vk_shared_retire(bd->shared, bd->ticket); /* other instances may still wait on it */
+            vk_shared_release(bd->shared, bd->shared_slot);
+        } else {
+            vkDestroySemaphore(bd->device, bd->ticket, NULL);
+            vkDestroyDevice(bd->device, NULL);
+        }
     }
     vk_instance_release(bd->instance);
     free(bd);

@@ -36,12 +36,15 @@ typedef struct vk_bridge {
     vk_bridge_request_item *queue;
     uint32_t head, count, capacity; /* a ring */
     /* With the validation layer: held around every host wait, query and
-     * signal of this device's semaphores (vk_bridge.h, vk_host_wait). */
+     * signal of this device's semaphores (vk_bridge.h, vk_host_wait). `host`
+     * is &host_lock, or the shared VkDevice's lock (vk_shared.h). */
     pthread_mutex_t host_lock;
+    pthread_mutex_t *host;
     bool serialize;
 } vk_bridge;
 typedef struct vk_pipeline vk_pipeline;
 typedef struct vk_tracer vk_tracer;
+typedef struct vk_shared_device vk_shared_device;
 
 /* Hardware queues a device may use; command queue types map onto these. */
 typedef enum vk_queue_slot {
@@ -58,6 +61,8 @@ typedef struct vk_queue {
     VkQueueFlags flags;
     uint64_t timestamp_mask; /* valid bits of timestamps; 0 = no timestamps */
     VkCommandPool pool;      /* command buffers of compiled lists */
+    uint32_t index;          /* within the family (vk_shared.h's queue rule; 0 when not shared) */
+    pthread_mutex_t *lock;   /* around submits where the VkDevice is shared (vk_shared.h), else NULL */
 } vk_queue;
 
 struct cv_backend_device {
@@ -65,6 +70,11 @@ struct cv_backend_device {
     vk_adapter adapter;
     VkPhysicalDeviceLimits limits;
     VkDevice device;
+    /* CORVID_VGPU_DEVICE=shared: `device` belongs to the registry (vk_shared.h). */
+    bool vgpu_shared;
+    vk_shared_device *shared;
+    uint32_t shared_slot;
+    uint64_t last_ticket; /* the highest ticket submitted (a shared device's destroy waits for it) */
     vk_queue queues[VK_SLOT_COUNT];
     vk_queue_slot slot_of_type[CV_QUEUE_TYPE_COUNT];
     uint32_t families[VK_SLOT_COUNT]; /* distinct families in use, for shared resources */
@@ -114,6 +124,8 @@ struct cv_backend_device {
 };
 
 cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out);
+/* Whether a and b are instances of one shared VkDevice (they may wait on each other's semaphores). */
+bool vk_device_same(const cv_backend_device *a, const cv_backend_device *b);
 /* Whether the physical device offers the device extension `name`. */
 bool vk_device_offers(VkPhysicalDevice physical, const char *name);
 void vk_device_destroy(cv_backend_device *bd);

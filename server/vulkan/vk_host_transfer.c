@@ -108,9 +108,9 @@ cv_result vk_host_buffer_read(cv_backend_device *bd, vk_buffer *b, uint64_t offs
 
 /* ---- textures ------------------------------------------------------------------ */
 
-static void transition(VkCommandBuffer cmd, const vk_texture *t, VkImageLayout from, VkImageLayout to,
-                       VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access, VkPipelineStageFlags2 dst_stage,
-                       VkAccessFlags2 dst_access) {
+void vk_image_transition(VkCommandBuffer cmd, const vk_texture *t, VkImageLayout from, VkImageLayout to,
+                         VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access, VkPipelineStageFlags2 dst_stage,
+                         VkAccessFlags2 dst_access) {
     VkImageMemoryBarrier2 barrier = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2,
         .srcStageMask = src_stage,
@@ -140,15 +140,15 @@ void vk_record_texture_rows(VkCommandBuffer cmd, const vk_texture *t, VkBuffer b
     };
     VkImageLayout layout = to_image ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     VkAccessFlags2 access = to_image ? VK_ACCESS_2_TRANSFER_WRITE_BIT : VK_ACCESS_2_TRANSFER_READ_BIT;
-    transition(cmd, t, VK_IMAGE_LAYOUT_GENERAL, layout, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, 0,
-               VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, access);
+    vk_image_transition(cmd, t, VK_IMAGE_LAYOUT_GENERAL, layout, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, 0,
+                        VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, access);
     if (to_image)
         vkCmdCopyBufferToImage(cmd, buffer, t->image, layout, 1, &region);
     else
         vkCmdCopyImageToBuffer(cmd, t->image, layout, buffer, 1, &region);
-    transition(cmd, t, layout, VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
-               to_image ? VK_ACCESS_2_TRANSFER_WRITE_BIT : 0, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
-               VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+    vk_image_transition(cmd, t, layout, VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                        to_image ? VK_ACCESS_2_TRANSFER_WRITE_BIT : 0, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                        VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
 }
 
 /* Copies rows [y, y+rows) of rect between the staging buffer and the image.

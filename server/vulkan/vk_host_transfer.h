@@ -18,4 +18,9 @@ cv_result vk_host_texture_read(cv_backend_device *bd, vk_texture *t, cv_rect rec
 void vk_record_texture_rows(VkCommandBuffer cmd, const vk_texture *t, VkBuffer buffer, VkDeviceSize buffer_offset,
                             cv_rect rect, bool to_image);
 
+/* One image layout transition barrier over the whole of t. */
+void vk_image_transition(VkCommandBuffer cmd, const vk_texture *t, VkImageLayout from, VkImageLayout to,
+                         VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access, VkPipelineStageFlags2 dst_stage,
+                         VkAccessFlags2 dst_access);
+
 #endif

@@ -6,6 +6,7 @@
 #include "vk_bridge.h"
 #include "vk_immediate.h"
 #include "vk_resources.h"
+#include "vk_shared.h"
 
 cv_result vk_immediate_init(cv_backend_device *bd) {
     VkCommandPoolCreateInfo pool_info = {
@@ -115,7 +116,7 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
                              .pCommandBufferInfos = &cmd_info,
                              .signalSemaphoreInfoCount = 1,
                              .pSignalSemaphoreInfos = &signal };
-    vr = vkQueueSubmit2(bd->queues[VK_SLOT_GRAPHICS].queue, 1, &submit, VK_NULL_HANDLE);
+    vr = vk_queue_submit(bd, VK_SLOT_GRAPHICS, &submit);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkQueueSubmit2 (immediate, device '%s')", bd->label);
     bd->immediate_value++;

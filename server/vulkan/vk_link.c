@@ -37,6 +37,7 @@ void vk_link_caps(cv_backend_device *bd, cv_link_caps *out) {
         snprintf(out->shared_missing, sizeof(out->shared_missing), "%s", VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
     if (!bd->external_host)
         snprintf(out->host_missing, sizeof(out->host_missing), "%s", VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME);
+    out->device_group = (uint64_t)(uintptr_t)bd->shared; /* instances of one shared VkDevice (vk_shared.h) */
     out->wait_import = bd->cross_import;
     out->wait_import_required = bd->cross_required;
     if (!bd->cross_import)

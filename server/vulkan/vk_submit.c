@@ -1,6 +1,7 @@
 /* Queue submission with timeline semaphores (see vk_submit.h). */
 #include "vk_bridge.h"
 #include "vk_immediate.h"
+#include "vk_shared.h"
 #include "vk_submit.h"
 
 static VkSemaphoreSubmitInfo semaphore_info(VkSemaphore s, uint64_t value) {
@@ -47,13 +48,15 @@ cv_result vk_submit(cv_backend_device *bd, vk_compiled *c, uint64_t ticket) {
             .signalSemaphoreInfoCount = 1,
             .pSignalSemaphoreInfos = &signal,
         };
-        VkResult vr = vkQueueSubmit2(bd->queues[seg->slot].queue, 1, &submit, VK_NULL_HANDLE);
+        VkResult vr = vk_queue_submit(bd, seg->slot, &submit);
         if (vr != VK_SUCCESS)
             return vk_fail(vr, "vkQueueSubmit2 of ticket %llu, segment %u of %u, device '%s'",
                            (unsigned long long)ticket, i + 1, c->segment_count, bd->label);
         if (!last)
             bd->chain_value++;
     }
+    if (ticket > bd->last_ticket)
+        bd->last_ticket = ticket;
     return CV_OK;
 }
 

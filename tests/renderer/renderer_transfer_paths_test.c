@@ -1,6 +1,7 @@
 /* The hybrid renderer on 1, 2, 3 and 4 virtual GPUs (lavapipe, validation on)
  * with every cross-device transfer forced onto each path in turn through
- * CORVID_TRANSFER_PATH (staged, host-import, shared): radiance and visibility
+ * CORVID_TRANSFER_PATH (staged, host-import, shared; with
+ * CORVID_VGPU_DEVICE=shared also device and auto): radiance and visibility
  * must be bit-identical to the one-device frame, and validation silent.
  * FRAMES frames, more than CV_GRAPH_FRAMES_KEPT: on host-import and shared
  * the frames are pipelined with asynchronous transfers (every list set and
@@ -98,8 +99,12 @@ int main(void) {
                        &(cv_render_observer){ .frame = observe_frame, .user = &alone }));
     CHECK_EQ_INT(alone.frames, OBSERVED_FRAMES);
     CHECK_EQ_INT(alone.visibility + alone.reflection + alone.gbuffer + alone.wrong, 0); /* nothing moves */
-    const char *paths[] = { "staged", "host-import", "shared" };
-    for (int p = 0; p < 3; p++) {
+    /* With the virtual GPUs on one VkDevice (CORVID_VGPU_DEVICE=shared, ctest's
+     * renderer_transfer_paths_shared) the direct path too, and auto (which takes it). */
+    const char *vgpu = getenv("CORVID_VGPU_DEVICE");
+    bool shared = vgpu && strcmp(vgpu, "shared") == 0;
+    const char *paths[] = { "staged", "host-import", "shared", "device", "auto" };
+    for (int p = 0; p < (shared ? 5 : 3); p++) {
         setenv("CORVID_TRANSFER_PATH", paths[p], 1);
         for (uint32_t gpus = 2; gpus <= 4; gpus++) {
             cv_render_output many = { 0 };

@@ -14,7 +14,15 @@
 #include "corvid/transfer.h"
 #include "vk_test.h"
 
-static const cv_transfer_path paths[] = { CV_TRANSFER_STAGED, CV_TRANSFER_HOST_IMPORT, CV_TRANSFER_SHARED };
+static const cv_transfer_path paths[] = { CV_TRANSFER_STAGED, CV_TRANSFER_HOST_IMPORT, CV_TRANSFER_SHARED,
+                                          CV_TRANSFER_DEVICE };
+
+/* CORVID_VGPU_DEVICE=shared (ctest's vk_transfer_paths_shared): the two virtual GPUs share one
+ * VkDevice, and the device path is theirs too; otherwise it is refused (below). */
+static bool vgpu_shared(void) {
+    const char *v = getenv("CORVID_VGPU_DEVICE");
+    return v && strcmp(v, "shared") == 0;
+}
 
 static void fill(uint8_t *p, size_t n, uint32_t seed) {
     uint32_t x = seed * 2654435761u + 1;
@@ -139,6 +147,11 @@ static void each_path(cv_context *ctx, cv_device *a, cv_device *b) {
         fprintf(stderr, "path %s\n", cv_transfer_path_name(path));
         CHECK_OK(cv_transfer_set_path(path));
         cv_transfer_path chosen = CV_TRANSFER_AUTO;
+        if (path == CV_TRANSFER_DEVICE && !vgpu_shared()) { /* separate VkDevices: refused, naming both */
+            CHECK_RESULT(cv_transfer_choose_path(a, b, &chosen), CV_ERROR_UNSUPPORTED);
+            CHECK(strstr(cv_last_error(), "'gpu0'") && strstr(cv_last_error(), "'gpu1'"));
+            continue;
+        }
         CHECK_OK(cv_transfer_choose_path(a, b, &chosen));
         CHECK_EQ_INT(chosen, path);
         buffer_case(ctx, a, b, path, 64, 0, 0, 1);
@@ -204,7 +217,9 @@ static void environment(cv_context *ctx, cv_device *a, cv_device *b) {
     cv_transfer_stats st = { 0 };
     cv_transfer_path chosen;
     CHECK_OK(cv_transfer_choose_path(a, b, &chosen));
-    if (vkt_is_lavapipe()) /* lavapipe offers VK_KHR_external_memory_fd: auto shares */
+    if (vgpu_shared()) /* one VkDevice (ctest's vk_transfer_paths_shared): auto copies directly */
+        CHECK_EQ_INT(chosen, CV_TRANSFER_DEVICE);
+    else if (vkt_is_lavapipe()) /* lavapipe offers VK_KHR_external_memory_fd: auto shares */
         CHECK_EQ_INT(chosen, CV_TRANSFER_SHARED);
     setenv("CORVID_TRANSFER_PATH", "host-import", 1);
     CHECK_OK(cv_transfer_buffer(a, buf, 0, b, buf, 0, 256, &st));
@@ -225,6 +240,9 @@ static void environment(cv_context *ctx, cv_device *a, cv_device *b) {
     CHECK_OK(cv_transfer_path_parse("host-import", &parsed));
     CHECK_EQ_INT(parsed, CV_TRANSFER_HOST_IMPORT);
     CHECK(strcmp(cv_transfer_path_name(CV_TRANSFER_SHARED), "shared") == 0);
+    CHECK_OK(cv_transfer_path_parse("device", &parsed));
+    CHECK_EQ_INT(parsed, CV_TRANSFER_DEVICE);
+    CHECK(strcmp(cv_transfer_path_name(CV_TRANSFER_DEVICE), "device") == 0);
     CHECK_OK(cv_buffer_destroy(ctx, buf));
 }
 

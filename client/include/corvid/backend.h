@@ -42,7 +42,17 @@
  *   began destroying itself. The core calls it at once (no host wait) and
  *   keeps the resource alive until the ticket. Stagings made with
  *   desc->owned are the caller's: never cached nor shared, freed by
- *   link_release once no submitted copy uses them (or at device_destroy). */
+ *   link_release once no submitted copy uses them (or at device_destroy).
+ * - link_copy_device (optional; needs link_caps) copies straight from a
+ *   resource of one device to a resource of another when both report the same
+ *   nonzero cv_link_caps.device_group (instances sharing one device, e.g. one
+ *   VkDevice: transfer.h's DEVICE path). It records the copy on bd's (the
+ *   source's) queue, submitted with `ticket` after ticket-1 and after dst_bd
+ *   reached `dst_wait` (the destination resource's last use there; 0: none),
+ *   then submits on dst_bd, with `dst_ticket` after dst_ticket-1, a wait for
+ *   the copy, so dst_bd's later work follows it. The core holds both devices'
+ *   locks and marks the source resource used by `ticket`, the destination
+ *   resource by `dst_ticket`. */
 #ifndef CORVID_BACKEND_H
 #define CORVID_BACKEND_H
 
@@ -62,7 +72,17 @@ typedef struct cv_link_caps {
     bool wait_import;          /* directly on its imported semaphore, when both have this and equal UUIDs */
     bool wait_import_required; /* forced (CORVID_CROSS_WAIT=import): a ring of a pair without it is refused */
     char wait_missing[96];     /* !wait_import: why (an extension or feature) */
+    /* Nonzero: the device shares one device with every device of equal value in
+     * the process (link_copy_device copies between their resources). */
+    uint64_t device_group;
 } cv_link_caps;
+
+/* What link_copy_device moves: a buffer range, or a texture rectangle. */
+typedef struct cv_link_region {
+    uint64_t src_offset, dst_offset, size; /* buffers */
+    cv_rect src_rect;                      /* textures */
+    uint32_t dst_x, dst_y;
+} cv_link_region;
 
 typedef enum cv_staging_kind {
     CV_STAGING_EXPORT = 1, /* device memory of this device, exported: fd gets a new descriptor */
@@ -133,6 +153,10 @@ struct cv_backend {
                                  void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging,
                                  const cv_link_wait *wait, uint64_t ticket);
     void (*link_release)(cv_backend_device *bd, void *staging);
+    /* Direct copies within one device group (optional, see the contract above). */
+    cv_result (*link_copy_device)(cv_backend_device *bd, cv_backend_device *dst_bd, cv_handle_type type,
+                                  void *src_obj, void *dst_obj, const cv_link_region *region, uint64_t dst_wait,
+                                  uint64_t ticket, uint64_t dst_ticket);
 };
 
 /* A device's representation of one handle. */

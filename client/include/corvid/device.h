@@ -40,7 +40,9 @@ typedef struct cv_device_info {
     bool ray_tracing_pipeline;   /* VK_KHR_ray_tracing_pipeline available */
     char trace_path[16];         /* path trace_rays uses: "compute", "pipeline", "none" */
     char cross_wait[16];         /* vulkan: how GPU waits on another device's work run: "import" (its
-                                    semaphore imported, where the pair allows) or "bridge" (a host thread) */
+                                    semaphore imported, where the pair allows), "bridge" (a host thread),
+                                    or "device" (CORVID_VGPU_DEVICE=shared: on the semaphore itself between
+                                    instances of one VkDevice; import or bridge to others) */
     bool gpu_timestamps;         /* pass timings come from the GPU */
     uint64_t max_storage_buffer_range;
     uint32_t max_dispatch[3]; /* workgroup count limits */

@@ -7,6 +7,11 @@
  * refused transfer changes nothing.
  *
  * Paths (client/src/transfer.c chooses; docs/transfers.md has the details):
+ *   DEVICE       two instances of one shared device (Vulkan: virtual GPUs of
+ *                one adapter on one VkDevice, CORVID_VGPU_DEVICE=shared): one
+ *                GPU copy from the source resource to the destination
+ *                resource on the source's queue, ordered by the two devices'
+ *                tickets on the GPU. No staging, no host copy.
  *   SHARED       two devices of one adapter (same backend, equal driver and
  *                device UUIDs, both able to export and import memory as file
  *                descriptors: Vulkan's VK_KHR_external_memory_fd): the source
@@ -25,13 +30,14 @@
  *                without waiting and the client sees none of the bytes
  *                (docs/node.md, "Clusters").
  * AUTO (the default) takes the first of these the pair can use. The
- * environment variable CORVID_TRANSFER_PATH=shared|host-import|staged|auto,
+ * environment variable CORVID_TRANSFER_PATH=device|shared|host-import|staged|auto,
  * read at every transfer, or cv_transfer_set_path (which wins over it) forces
  * one: a forced path that a pair cannot use fails with CV_ERROR_UNSUPPORTED
  * naming both devices and what is missing.
  *
- * Asynchronous transfers (SHARED and HOST_IMPORT pairs whose backends have
- * asynchronous link copies, Vulkan's): a ring of staging slots owned by one
+ * Asynchronous transfers (DEVICE, SHARED and HOST_IMPORT pairs whose backends
+ * have asynchronous link copies, Vulkan's): on DEVICE a ring has no slots and
+ * each transfer is one copy as above; otherwise a ring of staging slots owned by one
  * (source, destination) pair. A transfer through it returns at once: the
  * source copies into the next slot on its queue, after everything already
  * submitted there (so it sees the work before it, no host wait), and the
@@ -61,6 +67,7 @@ typedef enum cv_transfer_path {
     CV_TRANSFER_HOST_IMPORT = 2,
     CV_TRANSFER_SHARED = 3,
     CV_TRANSFER_PEER = 4,
+    CV_TRANSFER_DEVICE = 5, /* one GPU copy between two instances of one shared device (CORVID_VGPU_DEVICE=shared) */
     CV_TRANSFER_PATH_COUNT
 } cv_transfer_path;
 
@@ -69,7 +76,7 @@ typedef struct cv_transfer_stats {
     double read_ms;  /* source device -> staging (host memory, or shared memory) */
     double write_ms; /* staging -> destination device */
     double total_ms;
-    cv_transfer_path path; /* the path the bytes took: STAGED, HOST_IMPORT or SHARED */
+    cv_transfer_path path; /* the path the bytes took: STAGED, HOST_IMPORT, SHARED, PEER or DEVICE */
 } cv_transfer_stats;
 
 cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_offset, cv_device *dst,
@@ -77,7 +84,7 @@ cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_
 cv_result cv_transfer_texture(cv_device *src, cv_texture src_texture, cv_rect src_rect, cv_device *dst,
                               cv_texture dst_texture, uint32_t dst_x, uint32_t dst_y, cv_transfer_stats *stats);
 
-/* "auto", "staged", "host-import", "shared" ("unknown" out of range). */
+/* "auto", "staged", "host-import", "shared", "peer", "device" ("unknown" out of range). */
 const char *cv_transfer_path_name(cv_transfer_path path);
 /* Parses a name above; CV_ERROR_INVALID_ARGUMENT (listing the names) otherwise. */
 cv_result cv_transfer_path_parse(const char *name, cv_transfer_path *out);
@@ -96,7 +103,7 @@ typedef struct cv_transfer_ring cv_transfer_ring;
 typedef struct cv_transfer_async {
     uint64_t bytes;
     uint64_t src_ticket, dst_ticket; /* the last copy's tickets on each device */
-    cv_transfer_path path;           /* SHARED or HOST_IMPORT */
+    cv_transfer_path path;           /* DEVICE, SHARED or HOST_IMPORT */
 } cv_transfer_async;
 
 /* A ring of `slots` (2..64) slots of slot_bytes (a multiple of 256, at least

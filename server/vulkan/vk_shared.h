@@ -1,0 +1,72 @@
+/* Virtual GPUs that share one VkDevice (CORVID_VGPU_DEVICE=shared).
+ *
+ * By default every cv_device is its own VkDevice, so the virtual GPUs of one
+ * adapter are separate contexts, which a GPU like the H200 time-slices (they
+ * never run concurrently). In shared mode the instances of one adapter in one
+ * process share one VkDevice, found or created here in a small refcounted
+ * registry keyed by (vk_instance, physical device, enabled extension set);
+ * the validation setting is the vk_instance's. Queues of one VkDevice do run
+ * concurrently.
+ *
+ *     cv_backend_device *bd = ...;  // adapter chosen, bd->vgpu_shared set
+ *     VkDeviceCreateInfo info = ...;  // every queue of each family used (<= VK_SHARED_MAX_QUEUES)
+ *     vk_shared_acquire(bd, &info, &bd->shared, &bd->shared_slot);  // bd->device = shared->device
+ *     ...
+ *     vk_shared_release(bd->shared, bd->shared_slot);  // the last one destroys the VkDevice
+ *
+ * What is shared: the VkDevice and its queues, one mutex per queue (Vulkan
+ * requires external synchronisation of vkQueueSubmit; held around every submit
+ * of every instance of the shared device), and the host lock that serialises
+ * semaphore host waits under the validation layer (vk_bridge.h: the layer's
+ * lock is per VkDevice). Everything else stays per instance (command pools,
+ * semaphores, memory allocator, immediate command buffer, tracer, pipelines,
+ * resources).
+ *
+ * Queue rule: an instance takes the lowest free slot k of its shared device
+ * and uses queue index k % queueCount in every family it uses (lavapipe: every
+ * instance shares its one queue).
+ *
+ * Ticket semaphores of a shared device's instances are waited on directly by
+ * the other instances (no import, no bridge), so a destroyed instance's ticket
+ * semaphore may still be referenced by another instance's pending submission:
+ * vk_shared_retire keeps it until the VkDevice goes. */
+#ifndef CORVID_VK_SHARED_H
+#define CORVID_VK_SHARED_H
+
+#include <pthread.h>
+
+#include "vk_device.h"
+
+#define VK_SHARED_MAX_QUEUES 16u
+
+struct vk_shared_device {
+    struct vk_shared_device *next; /* in the registry */
+    vk_instance *instance;
+    VkPhysicalDevice physical;
+    uint32_t extensions; /* key: a hash of the enabled extension names */
+    VkDevice device;
+    uint32_t refs;
+    uint64_t slots; /* bit k: slot k taken */
+    pthread_mutex_t queue_locks[VK_SLOT_COUNT][VK_SHARED_MAX_QUEUES];
+    pthread_mutex_t host_lock; /* vk_bridge.h's host lock, for every instance */
+    VkSemaphore *retired;      /* ticket semaphores of destroyed instances */
+    uint32_t retired_count;
+};
+
+/* CORVID_VGPU_DEVICE: *shared for "shared", false for unset, "" or "separate";
+ * CV_ERROR_INVALID_ARGUMENT for anything else. */
+cv_result vk_shared_parse(const char *value, bool *shared);
+
+/* Finds the shared VkDevice for bd's instance, adapter and info's extensions,
+ * or creates it from info; takes a slot. On failure nothing is held. */
+cv_result vk_shared_acquire(cv_backend_device *bd, const VkDeviceCreateInfo *info, vk_shared_device **out,
+                            uint32_t *slot);
+/* Gives the slot back; the last reference destroys the retired semaphores and the VkDevice. */
+void vk_shared_release(vk_shared_device *s, uint32_t slot);
+/* Keeps a destroyed instance's ticket semaphore until the VkDevice goes (see above). */
+void vk_shared_retire(vk_shared_device *s, VkSemaphore semaphore);
+
+/* vkQueueSubmit2 on bd's queue of `slot`, under the queue's mutex where the VkDevice is shared. */
+VkResult vk_queue_submit(cv_backend_device *bd, vk_queue_slot slot, const VkSubmitInfo2 *submit);
+
+#endif
