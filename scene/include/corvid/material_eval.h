@@ -11,11 +11,11 @@
  *     shade(e.base_color, e.roughness, e.metalness, e.emission, tangent_frame * e.normal);
  *
  * Sampling an image (cv_image_sample), the rules both sides follow:
- *   - wrap: repeat in u and v (u - floor(u));
+ *   - wrap: repeat in u and v (u - floor(u)); a non-finite u or v is 0;
  *   - level of detail: Vulkan's isotropic rule, lod = log2(rho) with
  *     rho = max(|(du_dx * w, dv_dx * h)|, |(du_dy * w, dv_dy * h)|) for the
  *     image's level-0 size w x h, clamped to [0, levels - 1]; no footprint
- *     (NULL) is level 0;
+ *     (NULL), or a rho of 0 or NaN, is level 0 (an infinite rho the last);
  *   - between the two levels floor(lod) and floor(lod) + 1: linear in the
  *     fraction (trilinear); within a level: bilinear between the four
  *     texels around (u * side - 0.5, v * side - 0.5), wrapped;
@@ -28,7 +28,8 @@
  *   emission   = factor x image rgb
  *   normal     = normalize(x * s, y * s, z) with (x, y, z) = 2 x image rgb - 1
  *                and s = normal_scale; (0, 0, 1) without a normal image;
- *                a normal whose z <= 0 or whose length is 0 becomes (0, 0, 1)
+ *                a normal whose z <= 0 or whose squared length is 0 or not
+ *                finite becomes (0, 0, 1)
  *   present    = alpha_mode != CV_ALPHA_MASK || alpha >= alpha_cutoff
  * Without an image a factor stands alone (as if the texel were 1).
  *

@@ -62,7 +62,11 @@ typedef struct cv_mesh {
  * mip chain: level 0 is the image, level k + 1 the 2x2 box filter of level k
  * (an odd side's last row/column folded into the one before), down to 1x1;
  * the filter averages the stored bytes (rounding to nearest), whatever the
- * data means, so the CPU and the GPU sample the same texels. */
+ * data means, so the CPU and the GPU sample the same texels. Precisely: the
+ * level k + 1 texel (x, y) takes source columns {2x, 2x + 1} ({0} when the
+ * source side is 1, {2x, 2x + 1, 2x + 2} for the last x when it is odd), rows
+ * alike, and each channel is (sum + n / 2) / n in integers over those n
+ * (1, 2, 3, 4, 6 or 9) texels, all weighted equally. */
 #define CV_IMAGE_MAX_SIDE 16384u
 #define CV_IMAGE_MAX_LEVELS 15u /* log2(CV_IMAGE_MAX_SIDE) + 1 */
 /* All images of a scene together, all levels: at most this many bytes. */
@@ -75,9 +79,9 @@ typedef struct cv_image_desc {
 } cv_image_desc;
 
 typedef struct cv_image {
-    uint32_t width, height; /* of level 0 */
-    uint32_t levels;        /* 1 + floor(log2(max(width, height))) */
-    uint8_t *texels;        /* every level, level 0 first, RGBA8 rows top to bottom */
+    uint32_t width, height;                     /* of level 0 */
+    uint32_t levels;                            /* 1 + floor(log2(max(width, height))) */
+    uint8_t *texels;                            /* every level, level 0 first, RGBA8 rows top to bottom */
     uint64_t level_offset[CV_IMAGE_MAX_LEVELS]; /* in texels (4 bytes each) from texels[0] */
     uint64_t texel_count;                       /* all levels */
     char name[CV_SCENE_NAME_MAX];
