@@ -1,5 +1,6 @@
-/* The scene model: growable arrays of meshes, materials, instances, cameras
- * and lights, with validation on the way in. */
+/* The scene model: growable arrays of meshes, materials, images, instances,
+ * cameras and lights, with validation on the way in. Images get their mip
+ * chain here (build_mips). */
 #include "corvid/scene.h"
 
 #include <assert.h>
@@ -15,6 +16,9 @@ struct cv_scene {
     uint32_t mesh_count, mesh_cap;
     cv_material *materials;
     uint32_t material_count, material_cap;
+    cv_image *images;
+    uint32_t image_count, image_cap;
+    uint64_t image_bytes; /* all images, all levels */
     cv_instance *instances;
     uint32_t instance_count, instance_cap;
     cv_camera *cameras;
@@ -53,6 +57,14 @@ cv_material cv_material_default(void) {
         .emission = { 0.0f, 0.0f, 0.0f },
         .transmission = 0.0f,
         .ior = 1.5f,
+        .alpha = 1.0f,
+        .alpha_mode = CV_ALPHA_OPAQUE,
+        .alpha_cutoff = 0.5f,
+        .base_color_image = CV_NO_IMAGE,
+        .metal_rough_image = CV_NO_IMAGE,
+        .normal_image = CV_NO_IMAGE,
+        .normal_scale = 1.0f,
+        .emissive_image = CV_NO_IMAGE,
     };
 }
 
@@ -77,6 +89,9 @@ void cv_scene_destroy(cv_scene *scene) {
     }
     free(scene->meshes);
     free(scene->materials);
+    for (uint32_t i = 0; i < scene->image_count; i++)
+        free(scene->images[i].texels);
+    free(scene->images);
     free(scene->instances);
     free(scene->cameras);
     free(scene->lights);
@@ -161,21 +176,137 @@ cv_result cv_scene_add_mesh(cv_scene *scene, const cv_mesh_desc *d, uint32_t *ou
     return CV_OK;
 }
 
+static cv_result check_image_ref(const cv_scene *scene, uint32_t ref, const char *field) {
+    if (ref > scene->image_count)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "material %u: %s %u names image %u, the scene has %u images",
+                        scene->material_count, field, ref, ref - 1, scene->image_count);
+    return CV_OK;
+}
+
+static bool in_unit_interval(float x) { return x >= 0.0f && x <= 1.0f; } /* false for NaN */
+
 cv_result cv_scene_add_material(cv_scene *scene, const cv_material *mat, uint32_t *out_index) {
     if (!scene || !mat)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_add_material: scene or material is NULL");
+    uint32_t i = scene->material_count;
     if (!all_finite(mat->base_color, 3) || !all_finite(mat->emission, 3) || !isfinite(mat->roughness) ||
         !isfinite(mat->metalness) || !isfinite(mat->transmission) || !isfinite(mat->ior))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "material %u: a parameter is not finite", scene->material_count);
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "material %u: a parameter is not finite", i);
     if (mat->ior < 1.0f)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "material %u: ior %g is below 1", scene->material_count,
-                        (double)mat->ior);
-    if (!grow((void **)&scene->materials, &scene->material_cap, scene->material_count, sizeof(cv_material)))
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "no memory for material %u", scene->material_count);
-    scene->materials[scene->material_count] = *mat;
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "material %u: ior %g is below 1", i, (double)mat->ior);
+    if (!in_unit_interval(mat->alpha))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "material %u: alpha %g is not in [0, 1]", i, (double)mat->alpha);
+    if (!in_unit_interval(mat->alpha_cutoff))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "material %u: alpha_cutoff %g is not in [0, 1]", i,
+                        (double)mat->alpha_cutoff);
+    if (mat->alpha_mode != CV_ALPHA_OPAQUE && mat->alpha_mode != CV_ALPHA_MASK)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "material %u: alpha_mode %d is not CV_ALPHA_OPAQUE or CV_ALPHA_MASK", i,
+                        (int)mat->alpha_mode);
+    if (!isfinite(mat->normal_scale))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "material %u: normal_scale is not finite", i);
+    cv_result r;
+    if ((r = check_image_ref(scene, mat->base_color_image, "base_color_image")) != CV_OK ||
+        (r = check_image_ref(scene, mat->metal_rough_image, "metal_rough_image")) != CV_OK ||
+        (r = check_image_ref(scene, mat->normal_image, "normal_image")) != CV_OK ||
+        (r = check_image_ref(scene, mat->emissive_image, "emissive_image")) != CV_OK)
+        return r;
+    if (!grow((void **)&scene->materials, &scene->material_cap, i, sizeof(cv_material)))
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "no memory for material %u", i);
+    scene->materials[i] = *mat;
     if (out_index)
-        *out_index = scene->material_count;
+        *out_index = i;
     scene->material_count++;
+    return CV_OK;
+}
+
+/* The mip chain's filter (scene.h): level k + 1 texel (x, y) is the average
+ * of the level k texels in columns {2x, 2x + 1} and rows {2y, 2y + 1}, where
+ * a side of 1 contributes its single column (row) {0}, and an odd side's last
+ * destination column (row) also takes the source's last one, 2x + 2: three
+ * columns (rows) then fold into that texel, each with weight 1/3. So a
+ * destination texel averages 1, 2, 3, 4, 6 or 9 source texels, with equal
+ * weights, per channel: (sum + count / 2) / count in integers (round to
+ * nearest, halves up). Every source texel lands in exactly one destination
+ * texel. */
+static void mip_span(uint32_t src_side, uint32_t dst_side, uint32_t d, uint32_t *first, uint32_t *count) {
+    if (src_side == 1) {
+        *first = 0;
+        *count = 1;
+        return;
+    }
+    *first = 2 * d;
+    *count = (d == dst_side - 1 && (src_side & 1)) ? 3 : 2;
+}
+
+static void build_mips(cv_image *im) {
+    for (uint32_t k = 0; k + 1 < im->levels; k++) {
+        uint32_t sw = cv_image_level_side(im->width, k), sh = cv_image_level_side(im->height, k);
+        uint32_t dw = cv_image_level_side(im->width, k + 1), dh = cv_image_level_side(im->height, k + 1);
+        const uint8_t *src = im->texels + 4 * im->level_offset[k];
+        uint8_t *dst = im->texels + 4 * im->level_offset[k + 1];
+        for (uint32_t y = 0; y < dh; y++) {
+            uint32_t y0, ny;
+            mip_span(sh, dh, y, &y0, &ny);
+            for (uint32_t x = 0; x < dw; x++) {
+                uint32_t x0, nx;
+                mip_span(sw, dw, x, &x0, &nx);
+                uint32_t sum[4] = { 0, 0, 0, 0 };
+                for (uint32_t j = 0; j < ny; j++)
+                    for (uint32_t i = 0; i < nx; i++) {
+                        const uint8_t *t = src + 4 * ((size_t)(y0 + j) * sw + x0 + i);
+                        for (int c = 0; c < 4; c++)
+                            sum[c] += t[c];
+                    }
+                uint32_t n = nx * ny;
+                for (int c = 0; c < 4; c++)
+                    dst[4 * ((size_t)y * dw + x) + c] = (uint8_t)((sum[c] + n / 2) / n);
+            }
+        }
+    }
+}
+
+cv_result cv_scene_add_image(cv_scene *scene, const cv_image_desc *d, uint32_t *out_index) {
+    if (!scene || !d)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_add_image: scene or desc is NULL");
+    uint32_t index = scene->image_count;
+    const char *name = d->name ? d->name : "";
+    if (!d->rgba8)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "image %u ('%s'): rgba8 is NULL", index, name);
+    if (d->width == 0 || d->height == 0 || d->width > CV_IMAGE_MAX_SIDE || d->height > CV_IMAGE_MAX_SIDE)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "image %u ('%s'): %ux%u texels (each side must be 1..%u)", index,
+                        name, d->width, d->height, CV_IMAGE_MAX_SIDE);
+    cv_image im = { .width = d->width, .height = d->height };
+    uint32_t side = d->width > d->height ? d->width : d->height;
+    im.levels = 1;
+    while ((side >> im.levels) != 0)
+        im.levels++;
+    /* Sides <= 2^14: every count below fits easily in 64 bits. */
+    for (uint32_t k = 0; k < im.levels; k++) {
+        im.level_offset[k] = im.texel_count;
+        im.texel_count += (uint64_t)cv_image_level_side(d->width, k) * cv_image_level_side(d->height, k);
+    }
+    uint64_t bytes = im.texel_count * 4;
+    if (bytes > CV_SCENE_MAX_IMAGE_BYTES - scene->image_bytes)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "image %u ('%s'): %ux%u with its mip chain is %llu bytes; the scene's images would pass "
+                        "%llu bytes (%llu already)",
+                        index, name, d->width, d->height, (unsigned long long)bytes,
+                        (unsigned long long)CV_SCENE_MAX_IMAGE_BYTES, (unsigned long long)scene->image_bytes);
+    if (!grow((void **)&scene->images, &scene->image_cap, index, sizeof(cv_image)))
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "image %u ('%s'): no memory for the image table", index, name);
+    im.texels = malloc((size_t)bytes);
+    if (!im.texels)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "image %u ('%s'): no memory for %llu bytes of texels", index, name,
+                        (unsigned long long)bytes);
+    memcpy(im.texels, d->rgba8, (size_t)d->width * d->height * 4);
+    build_mips(&im);
+    snprintf(im.name, sizeof im.name, "%s", name);
+    scene->images[index] = im;
+    scene->image_bytes += bytes;
+    if (out_index)
+        *out_index = index;
+    scene->image_count++;
     return CV_OK;
 }
 
@@ -287,6 +418,7 @@ cv_result cv_scene_set_mesh_positions(cv_scene *scene, uint32_t mesh, const floa
 
 uint32_t cv_scene_mesh_count(const cv_scene *s) { return s->mesh_count; }
 uint32_t cv_scene_material_count(const cv_scene *s) { return s->material_count; }
+uint32_t cv_scene_image_count(const cv_scene *s) { return s->image_count; }
 uint32_t cv_scene_instance_count(const cv_scene *s) { return s->instance_count; }
 uint32_t cv_scene_camera_count(const cv_scene *s) { return s->camera_count; }
 uint32_t cv_scene_light_count(const cv_scene *s) { return s->light_count; }
@@ -309,6 +441,7 @@ const cv_mesh *cv_scene_mesh(const cv_scene *s, uint32_t i) { return i < s->mesh
 const cv_material *cv_scene_material(const cv_scene *s, uint32_t i) {
     return i < s->material_count ? &s->materials[i] : NULL;
 }
+const cv_image *cv_scene_image(const cv_scene *s, uint32_t i) { return i < s->image_count ? &s->images[i] : NULL; }
 const cv_instance *cv_scene_instance(const cv_scene *s, uint32_t i) {
     return i < s->instance_count ? &s->instances[i] : NULL;
 }

@@ -18,6 +18,26 @@ uint64_t fnv1a(uint64_t h, const void *data, size_t size) {
     return h;
 }
 
+/* Field by field, so padding (none today) could never matter. */
+static uint64_t hash_material(uint64_t h, const cv_material *m) {
+    uint32_t mode = (uint32_t)m->alpha_mode;
+    h = fnv1a(h, m->base_color, sizeof m->base_color);
+    h = fnv1a(h, &m->roughness, sizeof m->roughness);
+    h = fnv1a(h, &m->metalness, sizeof m->metalness);
+    h = fnv1a(h, m->emission, sizeof m->emission);
+    h = fnv1a(h, &m->transmission, sizeof m->transmission);
+    h = fnv1a(h, &m->ior, sizeof m->ior);
+    h = fnv1a(h, &m->alpha, sizeof m->alpha);
+    h = fnv1a(h, &mode, sizeof mode);
+    h = fnv1a(h, &m->alpha_cutoff, sizeof m->alpha_cutoff);
+    h = fnv1a(h, &m->base_color_image, sizeof m->base_color_image);
+    h = fnv1a(h, &m->metal_rough_image, sizeof m->metal_rough_image);
+    h = fnv1a(h, &m->normal_image, sizeof m->normal_image);
+    h = fnv1a(h, &m->normal_scale, sizeof m->normal_scale);
+    h = fnv1a(h, &m->emissive_image, sizeof m->emissive_image);
+    return h;
+}
+
 uint64_t scene_hash(const cv_scene *s) {
     uint64_t h = 0xCBF29CE484222325ull;
     for (uint32_t i = 0; i < cv_scene_mesh_count(s); i++) {
@@ -30,7 +50,14 @@ uint64_t scene_hash(const cv_scene *s) {
         h = fnv1a(h, m->name, sizeof m->name);
     }
     for (uint32_t i = 0; i < cv_scene_material_count(s); i++)
-        h = fnv1a(h, cv_scene_material(s, i), sizeof(cv_material));
+        h = hash_material(h, cv_scene_material(s, i));
+    for (uint32_t i = 0; i < cv_scene_image_count(s); i++) {
+        const cv_image *im = cv_scene_image(s, i);
+        h = fnv1a(h, &im->width, sizeof im->width);
+        h = fnv1a(h, &im->height, sizeof im->height);
+        h = fnv1a(h, im->texels, (size_t)im->texel_count * 4);
+        h = fnv1a(h, im->name, sizeof im->name);
+    }
     for (uint32_t i = 0; i < cv_scene_instance_count(s); i++)
         h = fnv1a(h, cv_scene_instance(s, i), sizeof(cv_instance));
     for (uint32_t i = 0; i < cv_scene_camera_count(s); i++)

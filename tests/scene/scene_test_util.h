@@ -8,8 +8,9 @@
 #include "corvid/bvh.h"
 #include "corvid/scene.h"
 
-/* FNV-1a over every byte of the scene's meshes, materials, instances,
- * cameras and lights, in index order. */
+/* FNV-1a over every byte of the scene's meshes, materials (field by field),
+ * images (sizes, every level's texels, name), instances, cameras and lights,
+ * in index order. */
 uint64_t scene_hash(const cv_scene *scene);
 uint64_t fnv1a(uint64_t h, const void *data, size_t size);
 
