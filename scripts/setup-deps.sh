@@ -10,7 +10,7 @@ packages=(
   build-essential cmake ninja-build pkg-config clang clang-format
   libvulkan-dev vulkan-validationlayers glslang-tools spirv-tools vulkan-tools
   libgrpc-dev libprotobuf-c-dev protobuf-c-compiler libmicrohttpd-dev
-  libopenexr-dev libpng-dev libzstd-dev libssl-dev openssl
+  libopenexr-dev libpng-dev libjpeg-dev libzstd-dev libssl-dev openssl
   libassimp-dev assimp-testmodels libembree-dev libcjson-dev
   python3-yaml   # tests/apps/deploy_test.sh parses deploy/*.yaml
 )

@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 
 #include "gltf_check.h"
+#include "import_textures.h"
 #include "vec3.h"
 
 #define MAX_NODE_DEPTH IMPORT_MAX_NODE_DEPTH
@@ -39,6 +40,15 @@ static cv_result wrap_error(cv_result code, const char *path, const char *node) 
     return cv_error(code, "%s: %s%s%s", path, node, *node ? ": " : "", msg);
 }
 
+/* A glTF material with alphaMode BLEND: its base color alpha factor stands
+ * in for transmission (as OBJ's d does); OPAQUE ignores it and MASK cuts by
+ * it (import_textures.c). */
+static bool gltf_blends(const struct aiMaterial *m) {
+    struct aiString mode;
+    return aiGetMaterialString(m, "$mat.gltf.alphaMode", 0, 0, &mode) == AI_SUCCESS &&
+           strcmp(mode.data, "BLEND") == 0;
+}
+
 static float clamp01(float x) { return x < 0.0f ? 0.0f : x > 1.0f ? 1.0f : x; }
 
 static bool get_float(const struct aiMaterial *m, const char *key, unsigned type, unsigned index, float *out) {
@@ -59,7 +69,10 @@ static bool get_color(const struct aiMaterial *m, const char *key, unsigned type
     return true;
 }
 
-static cv_material convert_material(const struct aiMaterial *m) {
+/* glTF files (.gltf, .glb) by name, as assimp picks its importer. */
+static bool is_gltf(const char *path);
+
+static cv_material convert_material(const struct aiMaterial *m, bool gltf) {
     cv_material out = cv_material_default();
     float f;
     if (!get_color(m, AI_MATKEY_BASE_COLOR, out.base_color))
@@ -74,8 +87,8 @@ static cv_material convert_material(const struct aiMaterial *m) {
         v3_scale(out.emission, out.emission, f);
     if (get_float(m, AI_MATKEY_TRANSMISSION_FACTOR, &f))
         out.transmission = f;
-    else if (get_float(m, AI_MATKEY_OPACITY, &f))
-        out.transmission = 1.0f - f;
+    else if (get_float(m, AI_MATKEY_OPACITY, &f) && (!gltf || gltf_blends(m)))
+        out.transmission = 1.0f - f; /* glTF: the base color alpha, see import_textures.h */
     if (get_float(m, AI_MATKEY_REFRACTI, &f) && f >= 1.0f)
         out.ior = f;
     for (int k = 0; k < 3; k++) {
@@ -283,14 +296,29 @@ static void convert_cameras_and_lights(importer *im) {
     }
 }
 
+static cv_result convert_materials(importer *im) {
+    const struct aiScene *ai = im->ai;
+    const bool gltf = is_gltf(im->path);
+    texture_importer textures = { .path = im->path, .ai = ai, .scene = im->scene };
+    cv_result r = CV_OK;
+    for (unsigned i = 0; i < ai->mNumMaterials && r == CV_OK; i++) {
+        cv_material m = convert_material(ai->mMaterials[i], gltf);
+        /* Textures of glTF files only: other formats' texture references
+         * (OBJ's map_Kd and the like) are ignored, as before. */
+        if (gltf)
+            r = import_material_textures(&textures, i, ai->mMaterials[i], &m);
+        if (r == CV_OK)
+            r = cv_scene_add_material(im->scene, &m, NULL);
+    }
+    texture_importer_free(&textures);
+    return r;
+}
+
 static cv_result convert(importer *im) {
     const struct aiScene *ai = im->ai;
-    for (unsigned i = 0; i < ai->mNumMaterials; i++) {
-        cv_material m = convert_material(ai->mMaterials[i]);
-        cv_result r = cv_scene_add_material(im->scene, &m, NULL);
-        if (r != CV_OK)
-            return r;
-    }
+    cv_result r0 = convert_materials(im);
+    if (r0 != CV_OK)
+        return r0;
     for (unsigned i = 0; i < ai->mNumMeshes; i++) {
         if (ai->mMeshes[i]->mMaterialIndex >= ai->mNumMaterials)
             return cv_error(CV_ERROR_MALFORMED, "%s: mesh %u uses material %u of %u", im->path, i,
@@ -350,8 +378,11 @@ cv_result cv_scene_import(const char *path, cv_scene **out) {
         r = gltf_check(path);
     if (r != CV_OK)
         return r;
+    /* FlipUVs: assimp stores v upward (OpenGL's convention; its glTF importer
+     * flips glTF's v); the scene's uvs follow glTF, (0, 0) at the image's
+     * top-left corner with v downward (scene.h), so v is flipped back. */
     const struct aiScene *ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                                                      aiProcess_ValidateDataStructure);
+                                                      aiProcess_ValidateDataStructure | aiProcess_FlipUVs);
     if (!ai)
         return cv_error(CV_ERROR_MALFORMED, "%s: assimp cannot import it: %s", path, aiGetErrorString());
     if (ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE) {

@@ -8,11 +8,16 @@
  *              metal/rough, normal and emissive images; alpha mask);
  *   images     RGBA8 texture images with a mip chain, referenced by materials
  *              (sampled by cv_material_evaluate, corvid/material_eval.h);
+ *              imported from glTF files (corvid/scene_import.h) or added
+ *              directly (cv_scene_add_image);
  *   instances  a mesh placed in the world: mesh index, 3x4 row-major
  *              object-to-world transform, material index;
  *   cameras    pinhole cameras (position, target, up, vertical field of view);
  *   lights     directional and point lights.
  * Indices are dense and stable: the n-th mesh added has index n.
+ *
+ * Mesh uvs follow glTF: (0, 0) is an image's top-left corner, v grows
+ * downward (the importer converts other conventions).
  *
  * Geometry is validated when added (finite positions, indices in range, an
  * invertible transform), so everything downstream (BVH build, traversal) may
@@ -157,7 +162,8 @@ void cv_scene_destroy(cv_scene *scene); /* NULL is allowed */
  * (may be NULL). Fails with CV_ERROR_INVALID_ARGUMENT naming the bad field. */
 cv_result cv_scene_add_mesh(cv_scene *scene, const cv_mesh_desc *desc, uint32_t *out_index);
 /* Images first: a material's image references must name images already added
- * (and alpha, alpha_cutoff in [0, 1], alpha_mode one of the enum). */
+ * (and alpha, alpha_cutoff in [0, 1], alpha_mode one of the enum,
+ * normal_scale finite); the error names the material and the field. */
 cv_result cv_scene_add_material(cv_scene *scene, const cv_material *material, uint32_t *out_index);
 /* Copies the image and builds its mip chain. Refused (naming the image): no
  * pixels, a side of 0 or over CV_IMAGE_MAX_SIDE, the scene's images over

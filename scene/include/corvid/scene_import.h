@@ -12,6 +12,16 @@
  * a file leaves out. Cameras and lights (directional; point and spot as point)
  * are placed by their nodes (orthographic cameras are skipped).
  *
+ * glTF files also bring their textures (the materials' image references,
+ * cv_scene_image): base color, metallic-roughness, normal (with its scale)
+ * and emissive images, PNG or JPEG, embedded (GLB buffer views, data: URIs)
+ * or files relative to the model's directory, each decoded once to RGBA8;
+ * alphaMode MASK with alphaCutoff becomes CV_ALPHA_MASK, the base color
+ * alpha factor the material's alpha (and, with alphaMode BLEND only,
+ * transmission = 1 - alpha; OPAQUE ignores it). Other formats' texture
+ * references are ignored. Mesh uvs follow glTF's convention ((0, 0) the
+ * image's top-left corner, v downward) whatever the format.
+ *
  * Failures name the file and the problem:
  *   CV_ERROR_NOT_FOUND  the file does not exist;
  *   CV_ERROR_IO         it cannot be opened or read (a directory, a FIFO or
@@ -25,7 +35,18 @@
  *   CV_ERROR_LIMIT_EXCEEDED  the node graph expands to more than 1,000,000 node
  *                       instances (a node shared by several parents counts once
  *                       per path) or deeper than 1024 levels, or the instances
- *                       hold more than 2^31 triangles. */
+ *                       hold more than 2^31 triangles; an image side over
+ *                       CV_IMAGE_MAX_SIDE, the images over
+ *                       CV_SCENE_MAX_IMAGE_BYTES, a texture file over 512 MiB.
+ * Texture refusals name the file, the material and the texture
+ * ("x.gltf: material 0 ('floor'): normal texture '../n.png': the path has a
+ * '..' component ..."): CV_ERROR_NOT_FOUND for a missing texture file,
+ * CV_ERROR_IO for one that is not a regular file, CV_ERROR_MALFORMED for an
+ * absolute path, a '..' component, a URI scheme, an embedded index out of
+ * range, corrupt or truncated PNG/JPEG data (or neither), a CMYK JPEG, a
+ * texture on TEXCOORD_1 or another uv channel than 0 (only TEXCOORD_0 is
+ * imported), a texture with KHR_texture_transform (refused rather than
+ * rendered wrong), an alphaCutoff outside [0, 1]. */
 #ifndef CORVID_SCENE_IMPORT_H
 #define CORVID_SCENE_IMPORT_H
 
