@@ -13,7 +13,9 @@
  *  - the normal image changes the normal layer at the wall's pixels and
  *    nowhere else (bytes), and the mapped normal matches the reference's;
  *  - the emissive image shows in the radiance, as in the reference;
- *  - 1 and 2 virtual GPUs give the same bytes.
+ *  - 1 and 2 virtual GPUs give the same bytes;
+ *  - assimp's BoxTextured (imported by scene/, if installed): the albedo
+ *    layer matches the reference's.
  * (A scene without images renders byte for byte as before textures: checked
  * by comparing corvid-render's PNG of the default room, docs/renderer-quality.md.) */
 #include <math.h>
@@ -23,6 +25,7 @@
 #include "check.h"
 #include "test_adapter.h"
 #include "corvid/renderer.h"
+#include "corvid/scene_import.h"
 #include "corvid/vulkan.h"
 
 enum { W = 96, H = 54, SAMPLES = 16 };
@@ -252,6 +255,51 @@ static bool interior(const cv_render_output *a, const cv_render_output *b, uint3
     return true;
 }
 
+/* assimp's BoxTextured (a base color image imported by scene/), if installed:
+ * the albedo layer against the reference's over interior pixels. */
+static void check_box_textured(void) {
+    cv_scene *scene = NULL;
+    cv_bvh *bvh = NULL;
+    FILE *f = fopen(BOX_TEXTURED, "rb");
+    if (!f) {
+        printf("BoxTextured: %s not installed, not compared\n", BOX_TEXTURED);
+        return;
+    }
+    fclose(f);
+    CHECK_OK(cv_scene_import(BOX_TEXTURED, &scene));
+    if (scene)
+        CHECK_OK(cv_bvh_build_flat(scene, NULL, &bvh));
+    cv_render_output gpu = { 0 }, ref = { 0 };
+    if (bvh) {
+        CHECK_OK(render_on(1, scene, bvh, &settings, &gpu));
+        CHECK_OK(cv_render_reference(scene, bvh, &settings, 4, 2, &ref));
+    }
+    if (gpu.albedo && ref.albedo) {
+        uint32_t n = 0;
+        double worst = 0.0, textured = 0.0;
+        for (uint32_t y = 0; y < H; y++)
+            for (uint32_t x = 0; x < W; x++) {
+                if (!interior(&ref, &gpu, x, y))
+                    continue;
+                size_t i = ((size_t)y * W + x) * 4;
+                for (int k = 0; k < 3; k++) {
+                    worst = fmax(worst, fabs((double)gpu.albedo[i + k] - ref.albedo[i + k]));
+                    textured = fmax(textured, fabs((double)ref.albedo[i + k] - ref.albedo[i + 4 + k]));
+                }
+                n++;
+            }
+        printf("BoxTextured: %u interior pixels, albedo max |gpu - ref| %.2e (neighbours differ by up to %.3f)\n", n,
+               worst, textured);
+        CHECK(n >= 500);
+        CHECK(textured > 0.1); /* the image shows */
+        CHECK(worst < 1e-3);
+    }
+    cv_render_output_free(&gpu);
+    cv_render_output_free(&ref);
+    cv_bvh_destroy(bvh);
+    cv_scene_destroy(scene);
+}
+
 int main(void) {
     cv_scene *scene = NULL, *flat = NULL, *opaque = NULL;
     cv_bvh *bvh = NULL, *flat_bvh = NULL, *opaque_bvh = NULL;
@@ -397,6 +445,7 @@ int main(void) {
     cv_scene_destroy(scene);
     cv_scene_destroy(flat);
     cv_scene_destroy(opaque);
+    check_box_textured();
     CHECK_NOTHING_LIVE();
     return check_report("renderer_texture");
 }
