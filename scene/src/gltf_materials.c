@@ -33,6 +33,31 @@ static cv_result check_factor(const char *path, int index, const char *name, con
     return CV_OK;
 }
 
+/* KHR_texture_transform on a texture the importer reads: refused (it would
+ * render wrong). Checked here as well as on assimp's side
+ * (import_textures.c): assimp 5.2 ignores the extension, silently, when the
+ * file leaves it out of extensionsUsed. */
+static cv_result check_texture_transforms(const char *path, int index, const char *name, const cJSON *m,
+                                          const cJSON *pbr) {
+    const struct {
+        const cJSON *parent;
+        const char *key;
+    } slots[] = { { pbr, "baseColorTexture" },
+                  { pbr, "metallicRoughnessTexture" },
+                  { m, "normalTexture" },
+                  { m, "emissiveTexture" } };
+    for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
+        const cJSON *info = slots[i].parent ? cJSON_GetObjectItemCaseSensitive(slots[i].parent, slots[i].key) : NULL;
+        const cJSON *ext = cJSON_GetObjectItemCaseSensitive(info, "extensions");
+        if (cJSON_GetObjectItemCaseSensitive(ext, "KHR_texture_transform"))
+            return cv_error(CV_ERROR_MALFORMED,
+                            "%s: material %d ('%s'): %s has KHR_texture_transform, which is not "
+                            "supported",
+                            path, index, name, slots[i].key);
+    }
+    return CV_OK;
+}
+
 cv_result gltf_check_materials(const char *path, const cJSON *root) {
     const cJSON *materials = cJSON_GetObjectItemCaseSensitive(root, "materials");
     if (!materials)
@@ -67,6 +92,8 @@ cv_result gltf_check_materials(const char *path, const cJSON *root) {
             cJSON_GetObjectItemCaseSensitive(ext, "KHR_materials_emissive_strength"), "emissiveStrength");
         if (r == CV_OK)
             r = check_factor(path, index, name, strength, "emissiveStrength", 1, 0.0, INFINITY);
+        if (r == CV_OK)
+            r = check_texture_transforms(path, index, name, m, pbr);
     }
     return r;
 }

@@ -6,6 +6,8 @@
  * KHR_materials_emissive_strength's emissiveStrength >= 0; every one finite.
  * A file with a bad factor is refused (not clamped): it is not valid glTF,
  * and clamping would render something its author did not make.
+ * A texture (base color, metallic-roughness, normal, emissive) with
+ * KHR_texture_transform is refused too: the renderer does not apply it.
  *
  *     cv_result r = gltf_check_materials("scene.gltf", root);   // root: the parsed JSON
  *     // CV_ERROR_MALFORMED: "scene.gltf: material 1 ('floor'): roughnessFactor inf is not a number in [0, 1]"

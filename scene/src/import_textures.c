@@ -3,6 +3,7 @@
 
 #include <assimp/GltfMaterial.h>
 #include <assimp/material.h>
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -100,13 +101,39 @@ static cv_result add_source(texture_importer *t, const char *key, uint32_t image
     return CV_OK;
 }
 
+/* glTF URIs are percent-encoded ("my%20tex.png"); assimp 5.2 passes them on
+ * as they are. False for a bad escape or an encoded NUL. */
+static bool percent_decode(const char *in, char *out, size_t size) {
+    size_t n = 0;
+    for (const char *c = in; *c; c++) {
+        char ch = *c;
+        if (ch == '%') {
+            if (!isxdigit((unsigned char)c[1]) || !isxdigit((unsigned char)c[2]))
+                return false;
+            char hex[3] = { c[1], c[2], '\0' };
+            ch = (char)strtol(hex, NULL, 16);
+            if (ch == '\0')
+                return false;
+            c += 2;
+        }
+        if (n + 1 >= size)
+            return false;
+        out[n++] = ch;
+    }
+    out[n] = '\0';
+    return true;
+}
+
 /* Decodes (or finds) the image `source` names; *image gets its scene index. */
 static cv_result load_image(texture_importer *t, const char *source, const char *what, uint32_t *image) {
-    char key[4096];
+    char key[4096], decoded[2048];
     bool embedded = source[0] == '*';
     if (embedded) {
         snprintf(key, sizeof key, "%s", source);
     } else {
+        if (!percent_decode(source, decoded, sizeof decoded))
+            return cv_error(CV_ERROR_MALFORMED, "%s: the path has a bad %%-escape or is too long", what);
+        source = decoded;
         const char *reason = unsafe_reason(source);
         if (reason)
             return cv_error(CV_ERROR_MALFORMED, "%s: the path %s", what, reason);

@@ -9,16 +9,19 @@
  *                base color factor's alpha (assimp's opacity).
  * Image sources: "*N", assimp's embedded texture N (PNG/JPEG bytes, or
  * uncompressed aiTexels; glTF data: URIs and GLB buffer views arrive this
- * way), or a file relative to the model file's directory. An image used by
+ * way), or a file relative to the model file's directory (the uri
+ * percent-decoded: "my%20tex.png" is "my tex.png"). An image used by
  * several materials (or slots) is decoded and stored once.
  *
  * Refused, naming the model file, the material and the texture: a texture
- * path that is absolute, has a ".." component or a URI scheme ("file://"),
+ * path that is absolute, has a ".." component (after decoding: "%2e%2e" too)
+ * or a URI scheme ("file://"), a bad %-escape,
  * a file that is missing or not a regular file, an embedded index out of
  * range, data image_decode refuses (corrupt, truncated, not PNG/JPEG, a side
  * over CV_IMAGE_MAX_SIDE), a texture on a uv channel other than 0 (only
  * TEXCOORD_0 is imported), a texture with KHR_texture_transform (it would
- * render wrong), an alphaCutoff outside [0, 1].
+ * render wrong; gltf_materials.c also finds it in the JSON, as assimp drops
+ * it silently when extensionsUsed does not list it), an alphaCutoff outside [0, 1].
  *
  *     texture_importer t = { .path = "scene.gltf", .ai = ai, .scene = scene };
  *     cv_material m = ...;                          // factors already converted

@@ -337,6 +337,22 @@ static void test_texture_set(void) {
     cv_scene_destroy(s);
 }
 
+/* A percent-encoded uri ("my%20tex.png") names the file "my tex.png". */
+static void test_percent_encoded(void) {
+    const uint8_t px[4] = { 1, 2, 3, 4 };
+    write_png("my tex.png", 1, 1, 8, PNG_COLOR_TYPE_RGBA, px, NULL, 0, NULL, 0);
+    const char *path = write_gltf("encoded.gltf", "[{\"uri\":\"my%20tex.png\"}]", "[{\"source\":0}]",
+                                  "[{\"name\":\"m\",\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}]",
+                                  1, "");
+    cv_scene *s = NULL;
+    CHECK_OK(cv_scene_import(path, &s));
+    if (!s)
+        return;
+    const cv_image *im = cv_scene_image(s, 0);
+    CHECK(im && im->width == 1 && memcmp(im->texels, px, 4) == 0 && strcmp(im->name, "my tex.png") == 0);
+    cv_scene_destroy(s);
+}
+
 static uint32_t crc32_of(const uint8_t *p, size_t n) {
     uint32_t c = 0xffffffffu;
     for (size_t i = 0; i < n; i++) {
@@ -415,9 +431,16 @@ static void test_hostile(void) {
     write_file("text.png", "not an image at all", 19);
     expect_refused("text.gltf", "text.png", "", "", CV_ERROR_MALFORMED, "neither PNG nor JPEG");
 
+    expect_refused("encoded_dotdot.gltf", "%2e%2e/x.png", "", "", CV_ERROR_MALFORMED, "'..'");
+    expect_refused("bad_escape.gltf", "a%zz.png", "", "", CV_ERROR_MALFORMED, "%-escape");
+    expect_refused("nul_escape.gltf", "a%00.png", "", "", CV_ERROR_MALFORMED, "%-escape");
     expect_refused("texcoord1.gltf", "base.png", ",\"texCoord\":1", "", CV_ERROR_MALFORMED, "TEXCOORD_1");
     expect_refused("transform.gltf", "base.png", ",\"extensions\":{\"KHR_texture_transform\":{\"scale\":[2,2]}}",
                    ",\"extensionsUsed\":[\"KHR_texture_transform\"]", CV_ERROR_MALFORMED, "KHR_texture_transform");
+    /* Without extensionsUsed assimp ignores the extension: the JSON check catches it. */
+    expect_refused("transform_unlisted.gltf", "base.png",
+                   ",\"extensions\":{\"KHR_texture_transform\":{\"scale\":[2,2]}}", "", CV_ERROR_MALFORMED,
+                   "KHR_texture_transform");
 }
 
 int main(void) {
@@ -434,6 +457,7 @@ int main(void) {
     CHECK(mkdir(sub, 0700) == 0);
     test_box_textured();
     test_texture_set();
+    test_percent_encoded();
     test_hostile();
     char cmd[700];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);

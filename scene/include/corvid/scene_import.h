@@ -15,7 +15,8 @@
  * glTF files also bring their textures (the materials' image references,
  * cv_scene_image): base color, metallic-roughness, normal (with its scale)
  * and emissive images, PNG or JPEG, embedded (GLB buffer views, data: URIs)
- * or files relative to the model's directory, each decoded once to RGBA8;
+ * or files relative to the model's directory (uris percent-decoded), each
+ * decoded once to RGBA8;
  * alphaMode MASK with alphaCutoff becomes CV_ALPHA_MASK, the base color
  * alpha factor the material's alpha (and, with alphaMode BLEND only,
  * transmission = 1 - alpha; OPAQUE ignores it). Other formats' texture
@@ -42,7 +43,7 @@
  * ("x.gltf: material 0 ('floor'): normal texture '../n.png': the path has a
  * '..' component ..."): CV_ERROR_NOT_FOUND for a missing texture file,
  * CV_ERROR_IO for one that is not a regular file, CV_ERROR_MALFORMED for an
- * absolute path, a '..' component, a URI scheme, an embedded index out of
+ * absolute path, a '..' component, a URI scheme, a bad %-escape, an embedded index out of
  * range, corrupt or truncated PNG/JPEG data (or neither), a CMYK JPEG, a
  * texture on TEXCOORD_1 or another uv channel than 0 (only TEXCOORD_0 is
  * imported), a texture with KHR_texture_transform (refused rather than
