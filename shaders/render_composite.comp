@@ -10,18 +10,17 @@
 // Push: { vec4 sun (xyz = unit direction the light travels, w = irradiance);
 //         vec4 sun_color; vec4 sky (rgb radiance); uint width; uint height; uint material_count;
 //         uint light_count; vec4 camera (xyz = eye, w = 1 with reflections, 0 without); }.
+// The material at each pixel comes from the G-buffer (render_gbuffer.frag
+// evaluated it there, textures included): i3 (base color rgb, roughness) and
+// i8 (emission rgb, metalness).
 // i0: positions, i1: normals (w = material), i2: visibility (RGBA32F: r = sun, g = AO),
-// b3: Material { vec4 base_color_roughness; vec4 emission_metalness; }[],
+// i3: G-buffer material (RGBA32F: base color rgb, roughness),
 // i4: radiance out (RGBA32F), i5: albedo out (RGBA32F),
 // b6: PointLight { vec3 position; float intensity; vec3 color; float pad; }[light_count],
-// i7: reflection (RGBA32F, rgb; read only when camera.w is 1).
+// i7: reflection (RGBA32F, rgb; read only when camera.w is 1),
+// i8: G-buffer emission (RGBA32F: emission rgb, metalness).
 #version 460
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-
-struct Material {
-    vec4 base_color_roughness;
-    vec4 emission_metalness;
-};
 
 layout(push_constant, std430) uniform Push {
     vec4 sun;
@@ -37,7 +36,7 @@ layout(push_constant, std430) uniform Push {
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D visibility;
-layout(set = 0, binding = 3, std430) readonly buffer Materials { Material materials[]; };
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D gbuffer_material;
 layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D radiance;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D albedo_out;
 
@@ -49,6 +48,7 @@ struct PointLight {
 };
 layout(set = 0, binding = 6, std430) readonly buffer Lights { PointLight lights[]; };
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D reflection;
+layout(set = 0, binding = 8, rgba32f) uniform readonly image2D gbuffer_emission;
 
 const float PI = 3.14159265358979;
 
@@ -63,10 +63,9 @@ void main() {
         return;
     }
     vec4 nm = imageLoad(gbuffer_normal, p);
-    uint id = min(uint(nm.w), pc.material_count - 1u);
-    Material m = materials[id];
-    vec3 base = m.base_color_roughness.rgb;
-    float metallic = m.emission_metalness.w;
+    vec4 material = imageLoad(gbuffer_material, p), emission = imageLoad(gbuffer_emission, p);
+    vec3 base = material.rgb;
+    float metallic = emission.w;
     vec3 albedo = base * (1.0 - metallic);
     vec2 vis = imageLoad(visibility, p).rg;
     float n_dot_l = max(dot(nm.xyz, -pc.sun.xyz), 0.0);
@@ -79,7 +78,7 @@ void main() {
         float n_dot = max(dot(nm.xyz, to_light * inversesqrt(d2)), 0.0);
         local += lights[i].color * lights[i].intensity * n_dot / (d2 * PI);
     }
-    vec3 color = albedo * (direct + ambient + local * vis.y) + m.emission_metalness.rgb;
+    vec3 color = albedo * (direct + ambient + local * vis.y) + emission.rgb;
     if (pc.camera.w != 0.0) {
         float n_dot_v = clamp(dot(nm.xyz, normalize(pc.camera.xyz - pos.xyz)), 0.0, 1.0);
         vec3 f0 = mix(vec3(0.04), base, metallic);

@@ -33,7 +33,8 @@
 //         render.reflect_raygen's); uint accumulated (frames before this one
 //         in the running mean); vec4 camera (xyz = eye, w = plane_sigma);
 //         int radius; uint material_count; uint quarter; uint pad; }.
-// i0: G-buffer positions, i1: G-buffer normals (w = material), b2: Material[],
+// i0: G-buffer positions, i1: G-buffer normals (w = material), i2: G-buffer
+// material (RGBA32F, w = roughness, textures included: render_gbuffer.frag),
 // i3: this frame's samples (RGBA32F), i4: reconstruction history, i5: own
 // history (RGBA32F: rgb = mean, a = mean squared luminance; read and
 // written), i6: output (RGBA32F: rgb = reflected radiance, a = 1 on
@@ -42,11 +43,6 @@
 #extension GL_GOOGLE_include_directive : require
 #include "render_reflect_common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-
-struct Material {
-    vec4 base_color_roughness;
-    vec4 emission_metalness;
-};
 
 layout(push_constant, std430) uniform Push {
     uint width;
@@ -62,7 +58,7 @@ layout(push_constant, std430) uniform Push {
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
-layout(set = 0, binding = 2, std430) readonly buffer Materials { Material materials[]; };
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D gbuffer_material;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D samples;
 layout(set = 0, binding = 4, rgba32f) uniform image2D history;
 layout(set = 0, binding = 5, rgba32f) uniform image2D own_history;
@@ -73,7 +69,7 @@ const float NOT_TRACED = -2.0;
 
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 
-float roughness_of(float w) { return materials[min(uint(w), pc.material_count - 1u)].base_color_roughness.w; }
+float roughness_of(ivec2 pixel) { return imageLoad(gbuffer_material, pixel).w; }
 
 // Frames f in [0, n) in which a pixel of quad slot q is traced.
 uint traced_before(uint n, uint q) { return pc.quarter != 0u ? (n + 3u - q) / 4u : n; }
@@ -102,7 +98,7 @@ void main() {
     }
     vec4 nm = imageLoad(gbuffer_normal, p);
     vec3 ng = unpack_normal(pos.w), v = normalize(pc.camera.xyz - pos.xyz);
-    float roughness = roughness_of(nm.w), alpha = roughness * roughness;
+    float roughness = roughness_of(p), alpha = roughness * roughness;
 
     // The pixel's own sample, if it was traced this frame.
     vec4 own_sample = imageLoad(samples, p);
@@ -139,7 +135,7 @@ void main() {
             if (qpos.w == 0.0)
                 continue;
             vec4 qnm = imageLoad(gbuffer_normal, q);
-            float qrough = roughness_of(qnm.w), qalpha = qrough * qrough;
+            float qrough = roughness_of(q), qalpha = qrough * qrough;
             if (dot(nm.xyz, qnm.xyz) < 0.9 || abs(dot(nm.xyz, qpos.xyz - pos.xyz)) > pc.camera.w ||
                 abs(qrough - roughness) > 0.1 || (qalpha < ALPHA_MIRROR) != mirror)
                 continue;

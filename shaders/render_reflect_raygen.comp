@@ -10,7 +10,8 @@
 // geometric normal (the G-buffer position's w), as render.raygen's rays.
 // Push: { uint x0; uint width; uint height; uint y0; vec4 camera (xyz = eye,
 //         w = origin offset); uint frame; uint material_count; uint quarter; uint pad; }.
-// i0: G-buffer positions, i1: G-buffer normals (w = material), b2: Material[],
+// i0: G-buffer positions, i1: G-buffer normals (w = material), i2: G-buffer
+// material (RGBA32F, w = roughness, textures included: render_gbuffer.frag),
 // b3: cv_ray[] (written).
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -22,10 +23,6 @@ struct Ray {
     float tmin;
     vec3 dir;
     float tmax;
-};
-struct Material {
-    vec4 base_color_roughness;
-    vec4 emission_metalness;
 };
 
 layout(push_constant, std430) uniform Push {
@@ -42,7 +39,7 @@ layout(push_constant, std430) uniform Push {
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
-layout(set = 0, binding = 2, std430) readonly buffer Materials { Material materials[]; };
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D gbuffer_material;
 layout(set = 0, binding = 3, std430) writeonly buffer Rays { Ray rays[]; };
 
 void main() {
@@ -62,7 +59,7 @@ void main() {
     }
     vec4 nm = imageLoad(gbuffer_normal, ivec2(pixel));
     vec3 ng = unpack_normal(p.w);
-    float roughness = materials[min(uint(nm.w), pc.material_count - 1u)].base_color_roughness.w;
+    float roughness = imageLoad(gbuffer_material, ivec2(pixel)).w;
     vec3 v = normalize(pc.camera.xyz - p.xyz), l;
     float weight;
     bool ok = reflect_sample(v, nm.xyz, ng, roughness, reflect_sample_point(pixel, pc.frame, pc.quarter != 0u), l, weight);

@@ -1,7 +1,11 @@
 // render.reflect_shade: the radiance each reflection ray of a band brings
 // back, written at its pixel's full-image position: the sky on a miss; on a
 // hit, base color * sun (Lambertian, the shadow ray's visibility) + emission
-// (no AO, point lights or further bounces at the hit). Stored as
+// (no AO, point lights or further bounces at the hit). The hit's material is
+// evaluated (render_material.glsl) at the uv interpolated from the hit's
+// barycentrics, at level 0 (no footprint: a ray cone's level of detail is
+// future work); the alpha mask does not apply to it (reflection rays see
+// masked geometry as opaque, renderer.h). Stored as
 // (rgb = radiance L, a = hit distance; 1e30 for the sky, -1 where there is
 // no sample: no geometry, or the sample was lost; -2 where the pixel was not
 // traced this frame (quarter rate); rgb 0 then).
@@ -11,16 +15,16 @@
 //         vec4 sky (rgb radiance); uint material_count; uint pad[3]; }.
 // i0: G-buffer positions, b1: reflection cv_ray[], b2: their cv_hit[],
 // b3: shadow cv_ray[] (render.reflect_shadow), b4: their cv_hit[], b5: Vertex[],
-// b6: uint instance_first[], b7: Material[], i8: reflection sample (RGBA32F, written).
+// b6: uint instance_first[], b7: Material[], i8: reflection sample (RGBA32F, written),
+// b9: vec2 uvs[] (per vertex, as b5), b10: the image table, b11: the image pool.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_reflect_hit.glsl"
+#define MATERIAL_BINDING 7
+#define IMAGE_TABLE_BINDING 10
+#define IMAGE_POOL_BINDING 11
+#include "render_material.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-
-struct Material {
-    vec4 base_color_roughness;
-    vec4 emission_metalness;
-};
 
 layout(push_constant, std430) uniform Push {
     uint x0;
@@ -43,8 +47,8 @@ layout(set = 0, binding = 3, std430) readonly buffer ShadowRays { Ray shadow_ray
 layout(set = 0, binding = 4, std430) readonly buffer ShadowHits { Hit shadow_hits[]; };
 layout(set = 0, binding = 5, std430) readonly buffer Vertices { Vertex vertices[]; };
 layout(set = 0, binding = 6, std430) readonly buffer InstanceFirst { uint instance_first[]; };
-layout(set = 0, binding = 7, std430) readonly buffer Materials { Material materials[]; };
 layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D sample_out;
+layout(set = 0, binding = 9, std430) readonly buffer Uvs { vec2 uvs[]; };
 
 const float PI = 3.14159265358979;
 
@@ -67,11 +71,13 @@ void main() {
             Vertex a = vertices[first], b = vertices[first + 1u], c = vertices[first + 2u];
             vec3 ng, n;
             hit_frame(a, b, c, h, r.dir, ng, n);
-            Material m = materials[min(a.material, pc.material_count - 1u)];
+            float w = 1.0 - h.u - h.v;
+            vec2 uv = uvs[first] * w + uvs[first + 1u] * h.u + uvs[first + 2u] * h.v;
+            MaterialEval m = material_evaluate(materials[min(a.material, pc.material_count - 1u)], uv, vec4(0.0));
             float visible = shadow_rays[i].tmax > 0.0 && shadow_hits[i].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
             float n_dot_l = max(dot(n, -pc.sun.xyz), 0.0);
             vec3 direct = pc.sun_color.rgb * pc.sun.w * n_dot_l * visible / PI;
-            result = vec4(m.base_color_roughness.rgb * direct + m.emission_metalness.rgb, h.t);
+            result = vec4(m.base_color * direct + m.emission, h.t);
         }
     }
     imageStore(sample_out, pixel, result);

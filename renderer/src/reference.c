@@ -1,7 +1,16 @@
 /* The reference renderer (see renderer.h, cv_render_reference): the hybrid
  * renderer's image model evaluated on the CPU with scene/'s closest-hit and
  * any-hit traversal (cv_trace_ray), independent random samples and float32
- * accumulation. Rows are split over pthreads; every pixel's samples come from
+ * accumulation. Materials are evaluated with cv_material_evaluate
+ * (corvid/material_eval.h, the rules render_material.glsl follows): at a
+ * camera hit with the pixel's uv footprint from ray differentials (the rays
+ * through the centres of the pixel's pairs in its 2x2 quad meet the hit
+ * triangle's plane; the differences of their uvs: what the G-buffer's
+ * dFdxFine/dFdyFine measure),
+ * the alpha mask cutting points away (the camera ray goes on to the next
+ * hit), the normal image mapping the shading normal; at a reflection hit at
+ * level 0, as render.reflect_shade. Shadow, AO and reflection rays see
+ * alpha-masked geometry as opaque, as the GPU's trace does (renderer.h). Rows are split over pthreads; every pixel's samples come from
  * its own random stream, so the result does not depend on the thread count. */
 #include "corvid/renderer.h"
 
@@ -10,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "corvid/material_eval.h"
 #include "corvid/trace_cpu.h"
 #include "output_derive.h"
 #include "camera.h"
@@ -25,6 +35,7 @@ typedef struct reference_job {
     const uint64_t *first_vertex; /* per instance: its first vertex in data->vertices */
     cv_render_settings s;
     cv_camera camera;
+    cv_material default_material; /* for a scene without materials */
     uint32_t samples;
     cv_render_output *out;
     uint32_t next_row; /* guarded by lock */
@@ -67,6 +78,55 @@ static bool occluded(const reference_job *j, const float o[3], const float d[3],
     return cv_trace_ray(&j->target, &ray, CV_TRACE_ANY_HIT, &hit);
 }
 
+/* Material m of the scene (a scene without materials: the default, as scene_upload.c). */
+static const cv_material *material_of(const reference_job *j, uint32_t m) {
+    return cv_scene_material_count(j->scene) ? cv_scene_material(j->scene, m) : &j->default_material;
+}
+
+/* The camera ray through pixel (x, y)'s centre, unit (render_camera_view_proj's frame). */
+static void camera_ray(const reference_job *j, float x, float y, float d[3]) {
+    const cv_camera *cam = &j->camera;
+    float f[3] = { cam->target[0] - cam->position[0], cam->target[1] - cam->position[1],
+                   cam->target[2] - cam->position[2] },
+          r[3], u[3];
+    normalize3(f);
+    cross3(f, cam->up, r);
+    normalize3(r);
+    cross3(r, f, u);
+    float th = tanf(cam->vertical_fov * 0.5f), aspect = (float)j->s.width / (float)j->s.height;
+    float sx = ((x + 0.5f) / j->s.width * 2.0f - 1.0f) * th * aspect,
+          sy = (1.0f - (y + 0.5f) / j->s.height * 2.0f) * th;
+    for (int k = 0; k < 3; k++)
+        d[k] = f[k] + r[k] * sx + u[k] * sy;
+    normalize3(d);
+}
+
+/* The uv where the ray (o, d) meets the plane of triangle v (uvs uv), by the
+ * barycentrics of that point; false when the ray runs along the plane. */
+static bool plane_uv(const render_vertex *v, const float *uv, const float o[3], const float d[3], float out[2]) {
+    float e1[3], e2[3], ng[3], q[3];
+    for (int k = 0; k < 3; k++) {
+        e1[k] = v[1].position[k] - v[0].position[k];
+        e2[k] = v[2].position[k] - v[0].position[k];
+        q[k] = v[0].position[k] - o[k];
+    }
+    cross3(e1, e2, ng);
+    float dn = dot3(d, ng);
+    if (dn == 0.0f)
+        return false;
+    float t = dot3(q, ng) / dn;
+    for (int k = 0; k < 3; k++)
+        q[k] = o[k] + d[k] * t - v[0].position[k];
+    float d00 = dot3(e1, e1), d01 = dot3(e1, e2), d11 = dot3(e2, e2), d20 = dot3(q, e1), d21 = dot3(q, e2);
+    float den = d00 * d11 - d01 * d01;
+    if (den == 0.0f)
+        return false;
+    float b1 = (d11 * d20 - d01 * d21) / den, b2 = (d00 * d21 - d01 * d20) / den;
+    out[0] = uv[0] + (uv[2] - uv[0]) * b1 + (uv[4] - uv[0]) * b2;
+    out[1] = uv[1] + (uv[3] - uv[1]) * b1 + (uv[5] - uv[1]) * b2;
+    return isfinite(out[0]) && isfinite(out[1]);
+}
+
 /* The radiance a reflection ray brings back, as render.reflect_shadow and
  * render.reflect_shade: the sky on a miss; on a hit, base color * sun
  * (Lambertian, a shadow ray toward the sun's centre from the hit, offset
@@ -106,12 +166,16 @@ static void reflected_radiance(const reference_job *j, const float o[3], const f
         origin[k] = x[k] + ng[k] * bias;
     bool visible = dot3(to_sun, ng) > 0.0f && dot3(to_sun, n) > 0.0f && !occluded(j, origin, to_sun, 1e30f);
     uint32_t m = v[0].material < data->material_count ? v[0].material : data->material_count - 1;
-    const render_material *mat = &data->materials[m];
+    /* The material at the hit's uv, level 0 (no footprint), whatever its alpha. */
+    const float *uv = &data->uvs[2 * (j->first_vertex[hit.instance] + 3ull * hit.triangle)];
+    cv_material_eval e;
+    cv_material_evaluate(j->scene, material_of(j, m), uv[0] * w + uv[2] * hit.u + uv[4] * hit.v,
+                         uv[1] * w + uv[3] * hit.u + uv[5] * hit.v, NULL, &e);
     float ndl = fmaxf(dot3(n, to_sun), 0.0f);
     for (int k = 0; k < 3; k++)
-        out[k] = mat->base_color_roughness[k] * data->sun_color[k] * data->sun_irradiance * ndl *
-                     (visible ? 1.0f : 0.0f) / REF_PI +
-                 mat->emission_metalness[k];
+        out[k] = e.base_color[k] * data->sun_color[k] * data->sun_irradiance * ndl * (visible ? 1.0f : 0.0f) /
+                     REF_PI +
+                 e.emission[k];
 }
 
 static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
@@ -119,28 +183,59 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
     const cv_camera *cam = &j->camera;
     size_t i = ((size_t)y * j->s.width + x) * 4;
     cv_render_output *out = j->out;
-    /* The camera ray through the pixel centre (render_camera_view_proj's frame). */
-    float f[3] = { cam->target[0] - cam->position[0], cam->target[1] - cam->position[1],
-                   cam->target[2] - cam->position[2] },
-          r[3], u[3];
-    normalize3(f);
-    cross3(f, cam->up, r);
-    normalize3(r);
-    cross3(r, f, u);
-    float th = tanf(cam->vertical_fov * 0.5f), aspect = (float)j->s.width / (float)j->s.height;
-    float sx = ((x + 0.5f) / j->s.width * 2.0f - 1.0f) * th * aspect,
-          sy = (1.0f - (y + 0.5f) / j->s.height * 2.0f) * th;
-    float d[3] = { f[0] + r[0] * sx + u[0] * sy, f[1] + r[1] * sx + u[1] * sy, f[2] + r[2] * sx + u[2] * sy };
-    normalize3(d);
+    /* The footprint as render.gbuffer's dFdxFine/dFdyFine measure it: within
+     * the pixel's 2x2 quad, across its pair (the next pixel for an even
+     * coordinate, the one before for an odd one). */
+    float d[3], dx[3], dy[3], dx0[3], dy0[3];
+    camera_ray(j, (float)x, (float)y, d);
+    camera_ray(j, (float)(x | 1u), (float)y, dx);
+    camera_ray(j, (float)(x & ~1u), (float)y, dx0);
+    camera_ray(j, (float)x, (float)(y | 1u), dy);
+    camera_ray(j, (float)x, (float)(y & ~1u), dy0);
     cv_ray ray = { { cam->position[0], cam->position[1], cam->position[2] }, 0.0f, { d[0], d[1], d[2] }, INFINITY };
     cv_hit hit;
-    if (!cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, &hit)) {
+    const render_vertex *v = NULL;
+    const float *tri_uv = NULL;
+    cv_material_eval me;
+    uint32_t m = 0;
+    /* The closest hit the G-buffer keeps: a point the alpha mask cuts away,
+     * or a back face of a closed mesh (render.gbuffer discards both), lets
+     * the ray go on. */
+    for (uint32_t pass = 0; pass < 256; pass++) {
+        if (!cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, &hit)) {
+            v = NULL;
+            break;
+        }
+        v = &data->vertices[j->first_vertex[hit.instance] + 3ull * hit.triangle];
+        tri_uv = &data->uvs[2 * (j->first_vertex[hit.instance] + 3ull * hit.triangle)];
+        float e1[3], e2[3], ng[3], nsum[3];
+        for (int k = 0; k < 3; k++) {
+            e1[k] = v[1].position[k] - v[0].position[k];
+            e2[k] = v[2].position[k] - v[0].position[k];
+            nsum[k] = v[0].normal[k] + v[1].normal[k] + v[2].normal[k];
+        }
+        cross3(e1, e2, ng);
+        bool back = (dot3(ng, nsum) < 0.0f) != (dot3(ng, d) > 0.0f);
+        m = v[0].material < data->material_count ? v[0].material : data->material_count - 1;
+        float w = 1.0f - hit.u - hit.v, uv[2] = { tri_uv[0] * w + tri_uv[2] * hit.u + tri_uv[4] * hit.v,
+                                                  tri_uv[1] * w + tri_uv[3] * hit.u + tri_uv[5] * hit.v };
+        float ux0[2], ux[2], uy0[2], uy[2], duv[4];
+        bool footprint = plane_uv(v, tri_uv, cam->position, dx0, ux0) && plane_uv(v, tri_uv, cam->position, dx, ux) &&
+                         plane_uv(v, tri_uv, cam->position, dy0, uy0) && plane_uv(v, tri_uv, cam->position, dy, uy);
+        if (footprint) {
+            duv[0] = ux[0] - ux0[0], duv[1] = ux[1] - ux0[1], duv[2] = uy[0] - uy0[0], duv[3] = uy[1] - uy0[1];
+        }
+        cv_material_evaluate(j->scene, material_of(j, m), uv[0], uv[1], footprint ? duv : NULL, &me);
+        if (me.present && !(back && v[0].closed != 0.0f))
+            break;
+        ray.tmin = nextafterf(hit.t, INFINITY);
+    }
+    if (!v) {
         float sky[4] = { 0.12f, 0.15f, 0.2f, 0.0f };
         memcpy(&out->radiance[i], sky, sizeof(sky));
         out->visibility[i] = 1.0f, out->visibility[i + 1] = 1.0f;
         return;
     }
-    const render_vertex *v = &data->vertices[j->first_vertex[hit.instance] + 3ull * hit.triangle];
     float p[3], n[3], ng[3], e1[3], e2[3], w = 1.0f - hit.u - hit.v;
     for (int k = 0; k < 3; k++) {
         p[k] = cam->position[k] + d[k] * hit.t;
@@ -160,6 +255,21 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
     if (dot3(ng, d) > 0.0f) /* the camera's side, as render.gbuffer */
         for (int k = 0; k < 3; k++)
             ng[k] = -ng[k], n[k] = -n[k];
+    const cv_material *material = material_of(j, m);
+    if (material->normal_image != CV_NO_IMAGE) { /* the normal image, in the triangle's tangent frame */
+        float tp[3][3], tuv[3][2], t[3], b[3];
+        for (int c = 0; c < 3; c++) {
+            memcpy(tp[c], v[c].position, sizeof(tp[c]));
+            memcpy(tuv[c], &tri_uv[2 * c], sizeof(tuv[c]));
+        }
+        if (cv_triangle_tangent_frame(tp, tuv, n, t, b)) {
+            float mapped[3];
+            for (int k = 0; k < 3; k++)
+                mapped[k] = t[k] * me.normal[0] + b[k] * me.normal[1] + n[k] * me.normal[2];
+            normalize3(mapped);
+            memcpy(n, mapped, sizeof(n));
+        }
+    }
     float bias = data->diagonal * 2e-5f, origin[3];
     for (int k = 0; k < 3; k++)
         origin[k] = p[k] + ng[k] * bias;
@@ -196,8 +306,7 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
     }
     sun /= (float)j->samples;
     ao /= (float)j->samples * (float)j->s.ao_samples;
-    uint32_t m = v[0].material < data->material_count ? v[0].material : data->material_count - 1;
-    const render_material *mat = &data->materials[m];
+    float base_roughness[4] = { me.base_color[0], me.base_color[1], me.base_color[2], me.roughness };
     /* Reflections: `samples` GGX samples (reflect_model.h) from their own
      * stream, so the shadow and AO samples are those of a render without. */
     float reflection[3] = { 0.0f, 0.0f, 0.0f }, view[3] = { -d[0], -d[1], -d[2] };
@@ -205,7 +314,7 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
         uint64_t rng2 = ((uint64_t)(y * j->s.width + x) << 20) ^ 0x0EF1EC7ull;
         for (uint32_t sample = 0; sample < j->samples; sample++) {
             float uv[2] = { next_float(&rng2), next_float(&rng2) }, l[3], weight, radiance[3];
-            if (!reflect_sample(view, n, ng, mat->base_color_roughness[3], uv, l, &weight))
+            if (!reflect_sample(view, n, ng, base_roughness[3], uv, l, &weight))
                 continue;
             reflected_radiance(j, origin, l, radiance);
             for (int k = 0; k < 3; k++)
@@ -217,11 +326,11 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
         out->reflection[i + 3] = 1.0f;
     }
     float fresnel[3];
-    reflect_fresnel(mat->base_color_roughness, mat->emission_metalness[3], dot3(n, view), fresnel);
+    reflect_fresnel(base_roughness, me.metalness, dot3(n, view), fresnel);
     /* render_composite.comp's model. */
     float albedo[3], color[3], ndl = fmaxf(dot3(n, to_sun), 0.0f), sky[3] = { 0.12f, 0.15f, 0.2f };
     for (int k = 0; k < 3; k++) {
-        albedo[k] = mat->base_color_roughness[k] * (1.0f - mat->emission_metalness[3]);
+        albedo[k] = me.base_color[k] * (1.0f - me.metalness);
         float local = 0.0f;
         for (uint32_t l = 0; l < data->light_count; l++) {
             const render_light *li = &data->lights[l];
@@ -230,8 +339,7 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
             local += li->color[k] * li->intensity * nd / (d2 * REF_PI);
         }
         float direct = data->sun_color[k] * data->sun_irradiance * ndl * sun / REF_PI;
-        color[k] = albedo[k] * (direct + sky[k] * ao + local * ao) + mat->emission_metalness[k] +
-                   fresnel[k] * reflection[k];
+        color[k] = albedo[k] * (direct + sky[k] * ao + local * ao) + me.emission[k] + fresnel[k] * reflection[k];
     }
     memcpy(&out->radiance[i], color, sizeof(color));
     out->radiance[i + 3] = 1.0f;
@@ -266,6 +374,7 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
     reference_job j = { .scene = scene,
                         .target = { .flat = bvh, .layout = CV_BVH_LAYOUT_NODE2 },
                         .s = cv_render_settings_resolve(settings, scene),
+                        .default_material = cv_material_default(),
                         .samples = samples,
                         .out = out };
     if (j.s.width > CV_MAX_TEXTURE_DIM || j.s.height > CV_MAX_TEXTURE_DIM || j.s.ao_samples > 32 ||

@@ -61,6 +61,8 @@ enum {
     TEX_REFLECT_HISTORY,
     TEX_REFLECT_OWN,
     TEX_REFLECT_OUT,
+    TEX_MATERIAL, /* G-buffer: the material at the pixel (textures evaluated): base color rgb, roughness */
+    TEX_EMISSION, /* G-buffer: emission rgb, metalness */
     TEX_COUNT
 };
 static const struct {
@@ -88,6 +90,13 @@ static const struct {
     [TEX_REFLECT_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection history" },
     [TEX_REFLECT_OWN] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection own history" },
     [TEX_REFLECT_OUT] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection" },
+    /* RGBA32F, not 16F: an untextured material's factors reach the composite
+     * unrounded, so its image is the one the material table gave before
+     * (16F would round 0.8 to 0.7998). */
+    [TEX_MATERIAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, true,
+                       "gbuffer material" },
+    [TEX_EMISSION] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, false,
+                       "gbuffer emission" },
 };
 
 /* Resources the frame graph names: the textures above (imported: the
@@ -104,6 +113,9 @@ enum {
     BUF_REFLECT_HITS, /* their closest hits, */
     BUF_SHADOW_RAYS,  /* shadow rays from those hits */
     BUF_SHADOW_HITS,  /* and their any hits */
+    BUF_UVS,          /* per flat vertex uv */
+    BUF_IMAGE_TABLE,  /* texture images: where each lies in the pool (scene_upload.h) */
+    BUF_IMAGE_POOL,   /* and their texels */
     BUF_COUNT
 };
 
@@ -115,6 +127,7 @@ struct cv_renderer {
     const cv_bvh *bvh; /* for devices added later (cv_renderer_add_device) */
     render_scene_data data;
     cv_buffer vertices, materials, lights, instances;
+    cv_buffer uvs, image_table, image_pool; /* textured materials (scene_upload.h) */
     cv_accel accel;
     cv_pipeline pipelines[PIPE_COUNT];
     uint32_t width, height; /* of the textures below; 0 = none yet */
@@ -212,6 +225,20 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
     if (res == CV_OK)
         res = upload_buffer(r, r->data.lights, (r->data.light_count + 1) * sizeof(render_light), "point lights",
                             &r->lights);
+    uint64_t pool_bytes = r->data.image_texels * sizeof(uint32_t);
+    for (uint32_t d = 0; d < device_count && res == CV_OK; d++)
+        if (pool_bytes > cv_device_get_info(devices[d])->max_storage_buffer_range)
+            res = cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                           "renderer: %llu bytes of texture images exceed device '%s''s storage buffer range of "
+                           "%llu bytes",
+                           (unsigned long long)pool_bytes, cv_device_label(devices[d]),
+                           (unsigned long long)cv_device_get_info(devices[d])->max_storage_buffer_range);
+    if (res == CV_OK)
+        res = upload_buffer(r, r->data.uvs, r->data.vertex_count * 2 * sizeof(float), "scene uvs", &r->uvs);
+    if (res == CV_OK)
+        res = upload_buffer(r, r->data.image_table, r->data.image_table_bytes, "image table", &r->image_table);
+    if (res == CV_OK)
+        res = upload_buffer(r, r->data.image_pool, pool_bytes, "image pool", &r->image_pool);
     if (res == CV_OK)
         res = upload_buffer(r, r->data.instance_first, (r->data.instance_count + 1) * sizeof(uint32_t),
                             "instance first triangles", &r->instances);
@@ -274,6 +301,9 @@ void cv_renderer_destroy(cv_renderer *r) {
     destroy_handle(r, r->materials.id);
     destroy_handle(r, r->lights.id);
     destroy_handle(r, r->instances.id);
+    destroy_handle(r, r->uvs.id);
+    destroy_handle(r, r->image_table.id);
+    destroy_handle(r, r->image_pool.id);
     destroy_handle(r, r->accel.id);
     for (int p = 0; p < PIPE_COUNT; p++)
         destroy_handle(r, r->pipelines[p].id);
@@ -329,34 +359,49 @@ static void view_proj(const cv_renderer *r, const cv_camera *camera, float out[1
 }
 
 /* Pass 'gbuffer' (primary; the first frame, every frame for a moving camera):
- * position and normal by rasterization. */
+ * position and normal by rasterization, then the material at each pixel
+ * (base color, roughness, emission, metalness, textures evaluated) by a
+ * second draw of the same geometry into the material and emission targets:
+ * the registry's render passes have two color targets. Both draws compute
+ * the same depth and discard the same fragments (render_gbuffer.frag), so
+ * each pixel's material is that of the surface in the position target. */
 static void record_gbuffer(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
     cv_renderer *r = user;
     const cv_camera *camera = &r->camera;
     struct {
         float view_proj[16];
         float camera[4];
-    } push;
+        uint32_t mode[4];
+    } push = { .mode = { 0 } };
     float far_plane;
     view_proj(r, camera, push.view_proj, &far_plane);
     memcpy(push.camera, camera->position, sizeof(camera->position));
     push.camera[3] = 1.0f / far_plane; /* render.gbuffer writes depth = view depth / far */
-    cv_binding b = bind_buffer(cv_graph_buffer(pc, r->buf[BUF_VERTICES]));
-    cv_cmd_begin_render_pass(l, pc->queue,
-                             &(cv_begin_render_pass_args){ .color0 = cv_graph_texture(pc, r->tex[TEX_POSITION]),
-                                                           .color1 = cv_graph_texture(pc, r->tex[TEX_NORMAL]),
-                                                           .depth = cv_graph_texture(pc, r->tex[TEX_DEPTH]),
-                                                           .clear = 1,
-                                                           .clear_depth = 1.0f });
-    cv_cmd_draw(l, pc->queue,
-                &(cv_draw_args){ .pipeline = r->pipelines[PIPE_GBUFFER],
-                                 .bindings = &b,
-                                 .bindings_count = 1,
-                                 .push = &push,
-                                 .push_size = sizeof(push),
-                                 .vertex_count = (uint32_t)r->data.vertex_count,
-                                 .instance_count = 1 });
-    cv_cmd_end_render_pass(l, pc->queue, &(cv_end_render_pass_args){ 0 });
+    cv_binding b[5] = { bind_buffer(cv_graph_buffer(pc, r->buf[BUF_VERTICES])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_UVS])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_MATERIALS])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_IMAGE_TABLE])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_IMAGE_POOL])) };
+    const int targets[2][2] = { { TEX_POSITION, TEX_NORMAL }, { TEX_MATERIAL, TEX_EMISSION } };
+    for (uint32_t mode = 0; mode < 2; mode++) {
+        push.mode[0] = mode;
+        cv_cmd_begin_render_pass(l, pc->queue,
+                                 &(cv_begin_render_pass_args){
+                                     .color0 = cv_graph_texture(pc, r->tex[targets[mode][0]]),
+                                     .color1 = cv_graph_texture(pc, r->tex[targets[mode][1]]),
+                                     .depth = cv_graph_texture(pc, r->tex[TEX_DEPTH]),
+                                     .clear = 1,
+                                     .clear_depth = 1.0f });
+        cv_cmd_draw(l, pc->queue,
+                    &(cv_draw_args){ .pipeline = r->pipelines[PIPE_GBUFFER],
+                                     .bindings = b,
+                                     .bindings_count = 5,
+                                     .push = &push,
+                                     .push_size = sizeof(push),
+                                     .vertex_count = (uint32_t)r->data.vertex_count,
+                                     .instance_count = 1 });
+        cv_cmd_end_render_pass(l, pc->queue, &(cv_end_render_pass_args){ 0 });
+    }
 }
 
 /* Rays traced per band: the ray and hit buffers hold one band, so a window of
@@ -568,18 +613,22 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
                     { 0.12f, 0.15f, 0.2f, 0.0f },
                     r->data.material_count,
                     { 0, 0, 0 } };
-        cv_binding gen_b[4] = { positions, normals, materials, bind_buffer(rays) };
+        cv_binding gen_b[4] = { positions, normals, bind_texture(cv_graph_texture(pc, r->tex[TEX_MATERIAL])),
+                                bind_buffer(rays) };
         cv_binding shadow_b[5] = { bind_buffer(rays), bind_buffer(hits), vertices, instances,
                                    bind_buffer(shadow_rays) };
-        cv_binding shade_b[9] = { positions,
-                                  bind_buffer(rays),
-                                  bind_buffer(hits),
-                                  bind_buffer(shadow_rays),
-                                  bind_buffer(shadow_hits),
-                                  vertices,
-                                  instances,
-                                  materials,
-                                  bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT])) };
+        cv_binding shade_b[12] = { positions,
+                                   bind_buffer(rays),
+                                   bind_buffer(hits),
+                                   bind_buffer(shadow_rays),
+                                   bind_buffer(shadow_hits),
+                                   vertices,
+                                   instances,
+                                   materials,
+                                   bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT])),
+                                   bind_buffer(cv_graph_buffer(pc, r->buf[BUF_UVS])),
+                                   bind_buffer(cv_graph_buffer(pc, r->buf[BUF_IMAGE_TABLE])),
+                                   bind_buffer(cv_graph_buffer(pc, r->buf[BUF_IMAGE_POOL])) };
         cv_cmd_dispatch(l, pc->queue,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_RAYGEN],
                                              .bindings = gen_b,
@@ -609,7 +658,7 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
         cv_cmd_dispatch(l, pc->queue,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADE],
                                              .bindings = shade_b,
-                                             .bindings_count = 9,
+                                             .bindings_count = 12,
                                              .push = &shade,
                                              .push_size = sizeof(shade),
                                              .groups_x = groups(cols.width, 8),
@@ -641,7 +690,7 @@ static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_li
                0 };
     cv_binding b[7] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])),
-                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_MATERIALS])),
+                        bind_texture(cv_graph_texture(pc, r->tex[TEX_MATERIAL])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_HISTORY])),
                         bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_OWN])),
@@ -723,16 +772,17 @@ static void record_composite(cv_renderer *r, uint32_t iterations, cv_command_lis
                r->data.light_count,
                { r->camera.position[0], r->camera.position[1], r->camera.position[2],
                  r->graph_reflect ? 1.0f : 0.0f } };
-    cv_binding b[8] = { bind_texture(r->textures[TEX_POSITION]),
+    cv_binding b[9] = { bind_texture(r->textures[TEX_POSITION]),
                         bind_texture(r->textures[TEX_NORMAL]),
                         bind_texture(r->textures[filtered_texture(iterations)]),
-                        bind_buffer(r->materials),
+                        bind_texture(r->textures[TEX_MATERIAL]),
                         bind_texture(r->textures[TEX_RADIANCE]),
                         bind_texture(r->textures[TEX_ALBEDO]),
                         bind_buffer(r->lights),
-                        bind_texture(r->textures[TEX_REFLECT_OUT]) };
+                        bind_texture(r->textures[TEX_REFLECT_OUT]),
+                        bind_texture(r->textures[TEX_EMISSION]) };
     cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "composite" });
-    dispatch_image(r, l, CV_QUEUE_COMPUTE, PIPE_COMPOSITE, b, 8, &push, sizeof(push));
+    dispatch_image(r, l, CV_QUEUE_COMPUTE, PIPE_COMPOSITE, b, 9, &push, sizeof(push));
     cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
 }
 
@@ -904,6 +954,12 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     if (res == CV_OK)
         res = cv_graph_import_buffer(g, r->lights, 0, &r->buf[BUF_LIGHTS]);
     if (res == CV_OK)
+        res = cv_graph_import_buffer(g, r->uvs, 0, &r->buf[BUF_UVS]);
+    if (res == CV_OK)
+        res = cv_graph_import_buffer(g, r->image_table, 0, &r->buf[BUF_IMAGE_TABLE]);
+    if (res == CV_OK)
+        res = cv_graph_import_buffer(g, r->image_pool, 0, &r->buf[BUF_IMAGE_POOL]);
+    if (res == CV_OK)
         res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_RAY_BYTES, .label = "rays" }, 0,
                                      &r->buf[BUF_RAYS]);
     if (res == CV_OK)
@@ -933,8 +989,14 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
      * multicast. */
     PASS("gbuffer", CV_QUEUE_GRAPHICS, CV_MGPU_PRIMARY_ONLY, record_gbuffer);
     READ(r->buf[BUF_VERTICES], CV_GRAPH_STORAGE_READ);
+    READ(r->buf[BUF_UVS], CV_GRAPH_STORAGE_READ);
+    READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
+    READ(r->buf[BUF_IMAGE_TABLE], CV_GRAPH_STORAGE_READ);
+    READ(r->buf[BUF_IMAGE_POOL], CV_GRAPH_STORAGE_READ);
     WRITE(r->tex[TEX_POSITION], CV_GRAPH_COLOR_TARGET);
     WRITE(r->tex[TEX_NORMAL], CV_GRAPH_COLOR_TARGET);
+    WRITE(r->tex[TEX_MATERIAL], CV_GRAPH_COLOR_TARGET);
+    WRITE(r->tex[TEX_EMISSION], CV_GRAPH_COLOR_TARGET);
     WRITE(r->tex[TEX_DEPTH], CV_GRAPH_DEPTH_TARGET);
     r->gbuffer_pass = p;
     /* Every device traces its window; the primary's accumulate reads the
@@ -966,16 +1028,20 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         PASS("reflect", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES, record_reflect);
         READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_MATERIAL], CV_GRAPH_STORAGE_READ);
         READ(r->buf[BUF_VERTICES], CV_GRAPH_STORAGE_READ);
         READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
         READ(r->buf[BUF_INSTANCES], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_UVS], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_IMAGE_TABLE], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_IMAGE_POOL], CV_GRAPH_STORAGE_READ);
         for (int k = BUF_REFLECT_RAYS; k <= BUF_SHADOW_HITS; k++)
             WRITE(r->buf[k], CV_GRAPH_STORAGE_WRITE);
         WRITE(r->tex[TEX_REFLECT], CV_GRAPH_STORAGE_WRITE);
         PASS("reflect_filter", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_reflect_filter);
         READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
-        READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
+        READ(r->tex[TEX_MATERIAL], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_REFLECT], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_REFLECT_HISTORY], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_REFLECT_OWN], CV_GRAPH_STORAGE_READ);
@@ -1014,7 +1080,8 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
     READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
     READ(r->tex[filtered_texture(iterations)], CV_GRAPH_STORAGE_READ);
-    READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
+    READ(r->tex[TEX_MATERIAL], CV_GRAPH_STORAGE_READ);
+    READ(r->tex[TEX_EMISSION], CV_GRAPH_STORAGE_READ);
     READ(r->buf[BUF_LIGHTS], CV_GRAPH_STORAGE_READ);
     if (reflect)
         READ(r->tex[TEX_REFLECT_OUT], CV_GRAPH_STORAGE_READ);
@@ -1149,10 +1216,10 @@ static uint32_t drop_lost_devices(cv_renderer *r) {
  * textures every device holds and, once rendered, the G-buffer (the first frame
  * multicasts it; later frames do not render it again). */
 static cv_result join_device(cv_renderer *r, cv_device *dev) {
-    cv_handle scene[] = { cv_any(r->vertices), cv_any(r->materials), cv_any(r->lights), cv_any(r->accel),
-                          cv_any(r->instances) };
+    cv_handle scene[] = { cv_any(r->vertices),  cv_any(r->materials), cv_any(r->lights),      cv_any(r->accel),
+                          cv_any(r->instances), cv_any(r->uvs),       cv_any(r->image_table), cv_any(r->image_pool) };
     cv_result res = CV_OK;
-    for (int i = 0; i < 5 && res == CV_OK; i++)
+    for (int i = 0; i < 8 && res == CV_OK; i++)
         res = cv_device_load(dev, scene[i]);
     if (res == CV_OK)
         res = cv_device_write_buffer(dev, r->vertices, 0, r->data.vertex_count * sizeof(render_vertex),
@@ -1167,6 +1234,13 @@ static cv_result join_device(cv_renderer *r, cv_device *dev) {
         res = cv_device_write_buffer(dev, r->instances, 0, (r->data.instance_count + 1) * sizeof(uint32_t),
                                      r->data.instance_first);
     if (res == CV_OK)
+        res = cv_device_write_buffer(dev, r->uvs, 0, r->data.vertex_count * 2 * sizeof(float), r->data.uvs);
+    if (res == CV_OK)
+        res = cv_device_write_buffer(dev, r->image_table, 0, r->data.image_table_bytes, r->data.image_table);
+    if (res == CV_OK)
+        res = cv_device_write_buffer(dev, r->image_pool, 0, r->data.image_texels * sizeof(uint32_t),
+                                     r->data.image_pool);
+    if (res == CV_OK)
         res = cv_device_write_accel(dev, r->accel, r->bvh->nodes2, r->bvh->tris);
     for (int p = 0; p < PIPE_COUNT && res == CV_OK; p++)
         res = cv_device_load(dev, cv_any(r->pipelines[p]));
@@ -1179,6 +1253,9 @@ static cv_result join_device(cv_renderer *r, cv_device *dev) {
                                   NULL);
     if (res == CV_OK && r->width)
         res = cv_transfer_texture(r->devices[0], r->textures[TEX_NORMAL], all, dev, r->textures[TEX_NORMAL], 0, 0,
+                                  NULL);
+    if (res == CV_OK && r->width)
+        res = cv_transfer_texture(r->devices[0], r->textures[TEX_MATERIAL], all, dev, r->textures[TEX_MATERIAL], 0, 0,
                                   NULL);
     return res;
 }
@@ -1199,7 +1276,8 @@ cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev) {
     if (cv_device_is_lost(dev))
         return cv_error(CV_ERROR_DEVICE_LOST, "renderer: device '%s' is lost", cv_device_label(dev));
     uint64_t range = cv_device_get_info(dev)->max_storage_buffer_range;
-    if (r->data.vertex_count * sizeof(render_vertex) > range || (r->graph && r->graph_rays * CV_RAY_BYTES > range))
+    if (r->data.vertex_count * sizeof(render_vertex) > range || r->data.image_texels * sizeof(uint32_t) > range ||
+        (r->graph && r->graph_rays * CV_RAY_BYTES > range))
         return cv_error(CV_ERROR_LIMIT_EXCEEDED,
                         "renderer: device '%s''s storage buffer range of %llu bytes is too small for this scene "
                         "and image",
@@ -1208,12 +1286,13 @@ cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev) {
     if (res != CV_OK) { /* nothing stays loaded on it */
         char why[1024];
         snprintf(why, sizeof(why), "%s", cv_last_error());
-        cv_handle all[5 + PIPE_COUNT + TEX_COUNT] = { cv_any(r->vertices), cv_any(r->materials), cv_any(r->lights),
-                                                      cv_any(r->accel), cv_any(r->instances) };
+        cv_handle all[8 + PIPE_COUNT + TEX_COUNT] = { cv_any(r->vertices),    cv_any(r->materials), cv_any(r->lights),
+                                                      cv_any(r->accel),       cv_any(r->instances), cv_any(r->uvs),
+                                                      cv_any(r->image_table), cv_any(r->image_pool) };
         for (int p = 0; p < PIPE_COUNT; p++)
-            all[5 + p] = cv_any(r->pipelines[p]);
+            all[8 + p] = cv_any(r->pipelines[p]);
         for (int t = 0; t < TEX_COUNT; t++)
-            all[5 + PIPE_COUNT + t] = cv_any(r->textures[t]);
+            all[8 + PIPE_COUNT + t] = cv_any(r->textures[t]);
         for (size_t i = 0; i < sizeof(all) / sizeof(all[0]); i++)
             if (all[i].id && cv_device_has(dev, all[i]))
                 cv_device_unload(dev, all[i]);

@@ -1,5 +1,7 @@
-/* Builds the renderer's vertex list and material table from a scene. */
+/* Builds the renderer's vertex list, uvs, material table and image pool from a scene. */
 #include "scene_upload.h"
+
+#include "corvid/material_eval.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -101,6 +103,46 @@ static bool mesh_closed(const cv_mesh *mesh, bool *ok) {
     return closed;
 }
 
+/* The image table and pool: every level of every image, one uint a texel
+ * (the RGBA8 bytes as they lie: r in the low byte). */
+static cv_result build_images(const cv_scene *scene, render_scene_data *out) {
+    uint32_t images = cv_scene_image_count(scene);
+    uint64_t texels = 0;
+    for (uint32_t i = 0; i < images; i++) {
+        const cv_image *im = cv_scene_image(scene, i);
+        for (uint32_t l = 0; l < im->levels; l++)
+            texels += (uint64_t)cv_image_level_side(im->width, l) * cv_image_level_side(im->height, l);
+    }
+    if (texels > UINT32_MAX)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "renderer: %llu texels of images (at most 2^32 - 1)",
+                        (unsigned long long)texels);
+    out->image_count = images;
+    out->image_texels = texels ? texels : 1;
+    out->image_table_bytes = RENDER_IMAGE_TABLE_HEADER * 4 + (images ? images : 1) * sizeof(render_image);
+    out->image_pool = calloc(out->image_texels, sizeof(uint32_t));
+    out->image_table = calloc(out->image_table_bytes, 1);
+    if (!out->image_pool || !out->image_table)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: %llu texels of images", (unsigned long long)texels);
+    float *lut = (float *)out->image_table;
+    for (uint32_t b = 0; b < 256; b++) {
+        lut[b] = cv_srgb_to_linear((uint8_t)b);
+        lut[256 + b] = (float)b / 255.0f;
+    }
+    render_image *table = (render_image *)(out->image_table + RENDER_IMAGE_TABLE_HEADER);
+    uint64_t at = 0;
+    for (uint32_t i = 0; i < images; i++) {
+        const cv_image *im = cv_scene_image(scene, i);
+        table[i] = (render_image){ (uint32_t)at, im->width, im->height, im->levels };
+        for (uint32_t l = 0; l < im->levels;
+             l++) { /* levels packed one after the other, whatever the scene's spacing */
+            uint64_t n = (uint64_t)cv_image_level_side(im->width, l) * cv_image_level_side(im->height, l);
+            memcpy(&out->image_pool[at], im->texels + im->level_offset[l] * 4, n * 4);
+            at += n;
+        }
+    }
+    return CV_OK;
+}
+
 cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out) {
     memset(out, 0, sizeof(*out));
     uint64_t triangles = cv_scene_world_triangle_count(scene);
@@ -108,11 +150,12 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: the scene has no triangles");
     out->vertex_count = triangles * 3;
     out->vertices = malloc(out->vertex_count * sizeof(render_vertex));
+    out->uvs = calloc(out->vertex_count * 2, sizeof(float));
     out->material_count = cv_scene_material_count(scene) ? cv_scene_material_count(scene) : 1;
     out->materials = calloc(out->material_count, sizeof(render_material));
     out->instance_count = cv_scene_instance_count(scene);
     out->instance_first = calloc(out->instance_count + 1, sizeof(uint32_t));
-    if (!out->vertices || !out->materials || !out->instance_first) {
+    if (!out->vertices || !out->uvs || !out->materials || !out->instance_first) {
         render_scene_data_free(out);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: %llu vertices", (unsigned long long)out->vertex_count);
     }
@@ -139,6 +182,8 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
                 rv->material = material;
                 transform_normal(nm, &mesh->normals[3 * mesh->indices[3 * t + k]], rv->normal);
                 rv->closed = closed;
+                if (mesh->uvs)
+                    memcpy(&out->uvs[2 * v], &mesh->uvs[2 * mesh->indices[3 * t + k]], 2 * sizeof(float));
             }
         }
     }
@@ -149,6 +194,19 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
         rm->base_color_roughness[3] = mat.roughness;
         memcpy(rm->emission_metalness, mat.emission, sizeof(mat.emission));
         rm->emission_metalness[3] = mat.metalness;
+        rm->base_color_image = mat.base_color_image;
+        rm->metal_rough_image = mat.metal_rough_image;
+        rm->normal_image = mat.normal_image;
+        rm->emissive_image = mat.emissive_image;
+        rm->alpha = mat.alpha;
+        rm->alpha_mode = (uint32_t)mat.alpha_mode;
+        rm->alpha_cutoff = mat.alpha_cutoff;
+        rm->normal_scale = mat.normal_scale;
+    }
+    cv_result res = build_images(scene, out);
+    if (res != CV_OK) {
+        render_scene_data_free(out);
+        return res;
     }
     /* The sun: the scene's first directional light, else a default one. */
     float dir[3] = { -0.3f, -1.0f, -0.2f }, color[3] = { 1.0f, 0.95f, 0.85f }, irradiance = 3.0f;
@@ -189,7 +247,10 @@ cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out)
 
 void render_scene_data_free(render_scene_data *d) {
     free(d->vertices);
+    free(d->uvs);
     free(d->materials);
+    free(d->image_table);
+    free(d->image_pool);
     free(d->instance_first);
     free(d->lights);
     memset(d, 0, sizeof(*d));

@@ -1,6 +1,8 @@
 /* The hybrid renderer: one frame of seed 000's pipeline across N devices.
  *
- *   primary:      G-buffer raster (world position, normal, material)
+ *   primary:      G-buffer raster (world position, normal, material index;
+ *                 the material at each pixel: base color, roughness,
+ *                 emission, metalness, textures evaluated)
  *   primary ->    each device gets the G-buffer columns of its partition
  *   all devices:  ray generation for their columns (sun shadow rays in a cone,
  *                 cosine AO rays), trace_rays (any hit), resolve to visibility;
@@ -16,7 +18,19 @@
  * Columns are split with partition/ (tile-snapped, rebalanced every frame from
  * each device's measured trace time). Devices are any cv_device: virtual GPUs on
  * lavapipe, real GPUs, or a mix. The scene is uploaded once per device (vertex
- * list, materials, BVH as an acceleration structure). */
+ * list and uvs, materials, texture images, BVH as an acceleration structure).
+ *
+ * Textured materials (glTF metal/roughness, corvid/material_eval.h): the
+ * G-buffer evaluates each pixel's material with the footprint of the uv's
+ * screen derivatives (trilinear over the mip chain), maps the shading normal
+ * by the normal image in the triangle's tangent frame, and discards points
+ * the alpha mask cuts away, so the surface behind shows. Reflection hits
+ * evaluate the hit's material at its uv at level 0 (no ray-cone level of
+ * detail) without the normal image. The alpha-mask rule for secondary rays:
+ * shadow, AO and reflection rays are traced by the generic trace, which knows
+ * nothing of materials, so they see alpha-masked geometry as opaque (a cut-out
+ * leaf casts the shadow of its whole quad). cv_render_reference follows the
+ * same rules (camera rays go past cut points; its other rays do not). */
 #ifndef CORVID_RENDERER_H
 #define CORVID_RENDERER_H
 
