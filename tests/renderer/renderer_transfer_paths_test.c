@@ -58,7 +58,8 @@ static void observe_frame(const cv_render_frame_info *f, void *user) {
             c->reflection++;
             check_bytes(c, t, secondary_columns * H * 16);
         } else if (strcmp(t->name, "transfer 'gbuffer position'") == 0 ||
-                   strcmp(t->name, "transfer 'gbuffer normal'") == 0) {
+                   strcmp(t->name, "transfer 'gbuffer normal'") == 0 ||
+                   strcmp(t->name, "transfer 'gbuffer material'") == 0) {
             c->gbuffer++;
             check_bytes(c, t, (uint64_t)(c->gpus - 1) * W * H * 16);
         } else if (strncmp(t->name, "transfer", 8) == 0) {
@@ -129,7 +130,7 @@ int main(void) {
             CHECK_EQ_INT(c.frames, OBSERVED_FRAMES);
             CHECK_EQ_INT(c.visibility, OBSERVED_FRAMES);
             CHECK_EQ_INT(c.reflection, OBSERVED_FRAMES);
-            CHECK_EQ_INT(c.gbuffer, 2); /* frame 0: position and normal */
+            CHECK_EQ_INT(c.gbuffer, 3); /* frame 0: position, normal and material (the reflect pass reads them) */
             CHECK_EQ_INT(c.wrong, 0);
             CHECK(one_observed.radiance && observed.radiance &&
                   memcmp(one_observed.radiance, observed.radiance, bytes) == 0 &&
