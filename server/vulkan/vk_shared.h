@@ -26,6 +26,11 @@
  * and uses queue index k % queueCount in every family it uses (lavapipe: every
  * instance shares its one queue).
  *
+ * Instances of one shared VkDevice copy between each other's resources
+ * directly (vk_link.h's vk_link_copy_device: transfer.h's DEVICE path;
+ * cv_link_caps.device_group is the registry entry's address), and
+ * cv_device_info.cross_wait says "device".
+ *
  * Ticket semaphores of a shared device's instances are waited on directly by
  * the other instances (no import, no bridge), so a destroyed instance's ticket
  * semaphore may still be referenced by another instance's pending submission:
