@@ -9,7 +9,9 @@
  *   -> primary:   each device's visibility and reflection columns are copied back
  *   primary:      temporal accumulation (reprojected with motion vectors when
  *                 the camera orbits), edge-avoiding a-trous filter,
- *                 reflection reconstruction (spatial reuse) and accumulation,
+ *                 reflection reconstruction (spatial reuse) and accumulation
+ *                 (reprojected by the reflected point's and the surface's
+ *                 motion when the camera orbits),
  *                 composite (sun + sky light, emission, Fresnel times the
  *                 reflection; metal/roughness materials) to linear HDR
  *
