@@ -2,11 +2,12 @@
  * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame; every frame
  * for a moving camera), 'trace' (every device, over its column window), with
  * reflections 'reflect' (every device, its window), 'reflect_reproject'
- * (primary, moving camera only) and 'reflect_filter' (primary), 'reproject' (primary, moving camera only), 'accumulate'
- * (primary), 'filter' and 'composite' (primary, last frame). The graph
- * multicasts the G-buffer, copies the secondaries' visibility and reflection
- * windows back, places barriers and balances the columns from the trace
- * times; no pass sees the device count. */
+ * (primary, moving camera only) and 'reflect_filter' (primary), 'reproject'
+ * (primary, moving camera only), 'accumulate' (primary), 'filter' and
+ * 'composite' (primary, last frame). The graph multicasts the G-buffer,
+ * copies the secondaries' visibility and reflection windows back, places
+ * barriers and balances the columns from the trace times; no pass sees the
+ * device count. */
 #include "corvid/renderer.h"
 
 #include <math.h>
