@@ -857,6 +857,9 @@ int main(int argc, char **argv) {
                    ds->columns.x, ds->columns.x + ds->columns.width, (unsigned long long)ds->rays, ds->trace_ms,
                    ds->trace_ms > 0 ? ds->rays / ds->trace_ms / 1e3 : 0.0);
         }
+        if (stats.reflection_rays)
+            printf("  reflections: %llu rays with their shadow rays (not in the rays and Mrays/s above)\n",
+                   (unsigned long long)stats.reflection_rays);
         printf("transfers between devices: %.1f MB in %.1f ms; total %.1f s\n", stats.transfer_bytes / 1e6,
                stats.transfer_ms, (now_ms() - t0) / 1e3);
         if (o.stats || o.trace)

@@ -1,7 +1,8 @@
 // render.reflect_filter: reconstruction of the frame's reflection samples
 // (render.reflect_shade) and their running mean over frames (seed 000,
 // reflections: spatial reuse of the neighbours' rays, then temporal
-// accumulation; the camera is still, so no reprojection).
+// accumulation; a moving camera's history is reprojected by
+// render.reflect_reproject).
 // Two running means are kept: of the reconstructed estimate (low variance,
 // a little bias from reuse) and of the pixel's own samples (unbiased, the
 // CPU reference's estimator); the output blends them per pixel by their
@@ -29,16 +30,28 @@
 // it was traced in; the reconstruction uses the traced neighbours (a frame
 // where none qualifies repeats the current mean); a mirror pixel not yet
 // traced shows the mean of its traced same-surface neighbours.
+// Moving camera (moving_cap != 0; render.reflect_reproject brought the
+// history to this frame's pixels, i7..i9): the same estimates, but the running
+// means count each pixel's own history length (reset where the history was
+// not kept), capped at moving_cap frames (the history follows the newest
+// frames: its reprojection error does not pile up), and the output is the
+// reconstruction's mean (reuse) or the own mean (no reuse, mirrors) without
+// the error blend (it starts at 16 frames, beyond the cap). The state (i10)
+// keeps the length, the own-sample count, the mean 1/hit distance (the sky
+// 0; -1 unknown) for the next frame's virtual point, and the roughness for its
+// disocclusion test. A still camera (moving_cap 0) reads none of i7..i10.
 // Push: { uint width; uint height; uint frame (sample index, as
 //         render.reflect_raygen's); uint accumulated (frames before this one
 //         in the running mean); vec4 camera (xyz = eye, w = plane_sigma);
-//         int radius; uint material_count; uint quarter; uint pad; }.
+//         int radius; uint material_count; uint quarter; uint moving_cap; }.
 // i0: G-buffer positions, i1: G-buffer normals (w = material), i2: G-buffer
 // material (RGBA32F, w = roughness, textures included: render_gbuffer.frag),
 // i3: this frame's samples (RGBA32F), i4: reconstruction history, i5: own
 // history (RGBA32F: rgb = mean, a = mean squared luminance; read and
 // written), i6: output (RGBA32F: rgb = reflected radiance, a = 1 on
-// geometry, 0 elsewhere).
+// geometry, 0 elsewhere), i7: reprojected reconstruction history, i8:
+// reprojected own history, i9: reprojected state (render.reflect_reproject),
+// i10: state (RGBA32F, written).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_reflect_common.glsl"
@@ -53,7 +66,7 @@ layout(push_constant, std430) uniform Push {
     int radius;
     uint material_count;
     uint quarter;
-    uint pad;
+    uint moving_cap;
 } pc;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
@@ -63,6 +76,10 @@ layout(set = 0, binding = 3, rgba32f) uniform readonly image2D samples;
 layout(set = 0, binding = 4, rgba32f) uniform image2D history;
 layout(set = 0, binding = 5, rgba32f) uniform image2D own_history;
 layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D result;
+layout(set = 0, binding = 7, rgba32f) uniform readonly image2D reprojected_history;
+layout(set = 0, binding = 8, rgba32f) uniform readonly image2D reprojected_own;
+layout(set = 0, binding = 9, rgba32f) uniform readonly image2D reprojected_state;
+layout(set = 0, binding = 10, rgba32f) uniform writeonly image2D state_out;
 
 const uint BLEND_FRAMES = 16u;
 const float NOT_TRACED = -2.0;
@@ -94,6 +111,8 @@ void main() {
         imageStore(history, p, vec4(0.0));
         imageStore(own_history, p, vec4(0.0));
         imageStore(result, p, vec4(0.0));
+        if (pc.moving_cap != 0u)
+            imageStore(state_out, p, vec4(0.0, 0.0, -1.0, 0.0));
         return;
     }
     vec4 nm = imageLoad(gbuffer_normal, p);
@@ -167,6 +186,40 @@ void main() {
                 total += w;
             }
         }
+
+    if (pc.moving_cap != 0u) {
+        vec4 st = imageLoad(reprojected_state, p);
+        bool kept = st.w > 0.0;
+        uint n = kept ? min(uint(st.x + 0.5) + 1u, pc.moving_cap) : 1u;
+        uint own_n = kept ? uint(st.y + 0.5) : 0u;
+        float v;
+        vec4 ho = imageLoad(reprojected_own, p);
+        if (traced) {
+            own_n = min(own_n + 1u, pc.moving_cap);
+            ho = accumulate(ho, own, own_n, v);
+        } else if (own_n == 0u) {
+            ho = vec4(0.0);
+        }
+        imageStore(own_history, p, ho);
+        vec3 color = ho.rgb;
+        if (mirror && own_n == 0u)
+            color = filled > 0.0 ? fill / filled : vec3(0.0);
+        vec4 hr = imageLoad(reprojected_history, p);
+        if (reuse) {
+            vec3 estimate = total > 0.0 ? sum * (albedo / total) : (traced || n == 1u ? vec3(0.0) : hr.rgb);
+            hr = accumulate(hr, estimate, n, v);
+            color = hr.rgb;
+        }
+        imageStore(history, p, hr);
+        float inv_t = kept ? st.z : -1.0;
+        if (own_sample.a >= 0.0) {
+            float x = own_sample.a >= 1e29 ? 0.0 : 1.0 / max(own_sample.a, 1e-6);
+            inv_t = inv_t < 0.0 ? x : inv_t + (x - inv_t) / float(n);
+        }
+        imageStore(state_out, p, vec4(float(n), float(own_n), inv_t, roughness));
+        imageStore(result, p, vec4(color, 1.0));
+        return;
+    }
 
     // The own mean counts the frames the pixel was traced in.
     uint slot = uint(p.x & 1) + 2u * uint(p.y & 1), first = pc.frame - pc.accumulated;

@@ -1,12 +1,13 @@
 /* One hybrid frame across N devices (see renderer.h), declared as a render
  * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame; every frame
  * for a moving camera), 'trace' (every device, over its column window), with
- * reflections 'reflect' (every device, its window) and 'reflect_filter'
- * (primary), 'reproject' (primary, moving camera only), 'accumulate'
- * (primary), 'filter' and 'composite' (primary, last frame). The graph
- * multicasts the G-buffer, copies the secondaries' visibility and reflection
- * windows back, places barriers and balances the columns from the trace
- * times; no pass sees the device count. */
+ * reflections 'reflect' (every device, its window), 'reflect_reproject'
+ * (primary, moving camera only) and 'reflect_filter' (primary), 'reproject'
+ * (primary, moving camera only), 'accumulate' (primary), 'filter' and
+ * 'composite' (primary, last frame). The graph multicasts the G-buffer,
+ * copies the secondaries' visibility and reflection windows back, places
+ * barriers and balances the columns from the trace times; no pass sees the
+ * device count. */
 #include "corvid/renderer.h"
 
 #include <math.h>
@@ -34,12 +35,13 @@ enum {
     PIPE_REFLECT_SHADOW,
     PIPE_REFLECT_SHADE,
     PIPE_REFLECT_FILTER,
+    PIPE_REFLECT_REPROJECT,
     PIPE_COUNT
 };
 static const char *pipeline_names[PIPE_COUNT] = {
     "render.gbuffer",        "render.raygen",        "render.resolve",        "render.accumulate",
     "render.filter",         "render.composite",     "render.reproject",      "render.reflect_raygen",
-    "render.reflect_shadow", "render.reflect_shade", "render.reflect_filter",
+    "render.reflect_shadow", "render.reflect_shade", "render.reflect_filter", "render.reflect_reproject",
 };
 
 /* Size-dependent textures; `everywhere` ones are loaded on every device. */
@@ -63,6 +65,10 @@ enum {
     TEX_REFLECT_OUT,
     TEX_MATERIAL, /* G-buffer: the material at the pixel (textures evaluated): base color rgb, roughness */
     TEX_EMISSION, /* G-buffer: emission rgb, metalness */
+    TEX_REFLECT_STATE,           /* moving camera: render.reflect_filter's per-pixel history state */
+    TEX_REFLECT_REPROJECTED,     /* moving camera: the reflection histories and state brought to */
+    TEX_REFLECT_OWN_REPROJECTED, /* this frame's pixels (render.reflect_reproject) */
+    TEX_REFLECT_STATE_REPROJECTED,
     TEX_COUNT
 };
 static const struct {
@@ -97,6 +103,12 @@ static const struct {
                        "gbuffer material" },
     [TEX_EMISSION] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, false,
                        "gbuffer emission" },
+    [TEX_REFLECT_STATE] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection state" },
+    [TEX_REFLECT_REPROJECTED] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection reprojected" },
+    [TEX_REFLECT_OWN_REPROJECTED] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false,
+                                      "reflection own reprojected" },
+    [TEX_REFLECT_STATE_REPROJECTED] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false,
+                                        "reflection state reprojected" },
 };
 
 /* Resources the frame graph names: the textures above (imported: the
@@ -553,6 +565,16 @@ static uint64_t reflect_capacity(const cv_renderer *r, const cv_render_settings 
     return band < image ? band : image;
 }
 
+/* Pixels whose reflection ray sample index `frame` traces: all, or at half
+ * resolution those of the frame's slot of each 2x2 quad (render.reflect_raygen:
+ * slot (x & 1) + 2 (y & 1) == frame % 4). */
+static uint64_t reflect_traced_pixels(const cv_renderer *r, const cv_render_settings *s, uint32_t frame) {
+    if (s->reflection_scale >= 1.0f)
+        return (uint64_t)r->width * r->height;
+    uint32_t x0 = frame % 4 & 1, y0 = frame % 4 >> 1;
+    return (uint64_t)((r->width - x0 + 1) / 2) * ((r->height - y0 + 1) / 2);
+}
+
 /* Pass 'reflect' (every device, its window): for each band of rows, one GGX
  * reflection ray per pixel (render.reflect_raygen), closest hit, a shadow ray
  * from each hit toward the sun (render.reflect_shadow), any hit, and the
@@ -667,35 +689,96 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
     }
 }
 
+/* Moving camera: the longest reflection history kept (frames). As for the
+ * shadows (REPROJECT_MAX_HISTORY), a reprojected history's error grows with
+ * its length even for slow motion; room 96x54, 16 frames, reflection plane
+ * against 1024 samples at the last frame (docs/renderer-quality.md,
+ * Reflections, "Moving camera"), RMSE with at most 3 / 4 / 8 / 16 frames:
+ * 0.0554 / 0.0496 / 0.0462 / 0.0503 at 0.05 degrees a frame, 0.0629 / 0.0612 /
+ * 0.0604 / 0.0634 at 0.3, 0.0762 / 0.0792 / 0.0861 / 0.0900 at 1 (one frame
+ * alone about 0.10), so 4: within 0.004 of the best at each speed. And the
+ * roughness from which a reflection's history follows the surface alone
+ * (below it the virtual point's weight is 1 - smoothstep(0, limit,
+ * roughness); 0.2 and 1.0 changed the 1-degree figure by under 0.0003). */
+#define REFLECT_MAX_HISTORY 4u
+#define REFLECT_ROUGH_LIMIT 0.5f
+
+/* Pass 'reflect_reproject' (primary, moving camera): the reflection history
+ * brought to this frame's pixels by the virtual point's and the surface's
+ * motion (render_reflect_reproject.comp). */
+static void record_reflect_reproject(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
+    cv_renderer *r = user;
+    struct {
+        float prev_view_proj[16];
+        float eye[4];
+        uint32_t width, height, has_history, material_count;
+        float params[4];
+    } push = { .eye = { r->camera.position[0], r->camera.position[1], r->camera.position[2],
+                        REPROJECT_PLANE_TOLERANCE },
+               .width = r->width,
+               .height = r->height,
+               .has_history = r->frame > 0,
+               .material_count = r->data.material_count,
+               .params = { REFLECT_ROUGH_LIMIT, 0.0f, 0.0f, 0.0f } };
+    float far_plane;
+    view_proj(r, &r->previous_camera, push.prev_view_proj, &far_plane);
+    int tex[13] = { TEX_POSITION,
+                    TEX_NORMAL,
+                    TEX_MATERIAL,
+                    TEX_MOTION,
+                    TEX_HISTORY_POSITION,
+                    TEX_HISTORY_NORMAL,
+                    TEX_REFLECT,
+                    TEX_REFLECT_HISTORY,
+                    TEX_REFLECT_OWN,
+                    TEX_REFLECT_STATE,
+                    TEX_REFLECT_REPROJECTED,
+                    TEX_REFLECT_OWN_REPROJECTED,
+                    TEX_REFLECT_STATE_REPROJECTED };
+    cv_binding b[13];
+    for (int i = 0; i < 13; i++)
+        b[i] = bind_texture(cv_graph_texture(pc, r->tex[tex[i]]));
+    dispatch_image(r, l, pc->queue, PIPE_REFLECT_REPROJECT, b, 13, &push, sizeof(push));
+}
+
 /* Pass 'reflect_filter' (primary, every frame): spatial reuse of this frame's
- * reflection samples, into the running mean (render_reflect_filter.comp). */
+ * reflection samples, into the running mean (render_reflect_filter.comp); a
+ * moving camera's into the reprojected history. A still camera's pass binds
+ * the history again in the slots it does not use. */
 static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
     cv_renderer *r = user;
     const cv_render_settings *s = &r->settings;
+    bool moving = r->graph_moving;
     struct {
         uint32_t width, height, frame, accumulated;
         float camera[4];
         int32_t radius;
-        uint32_t material_count, quarter, pad;
+        uint32_t material_count, quarter, moving_cap;
     } push = { r->width,
                r->height,
                s->first_frame + r->frame,
-               /* A moving camera: no reflection history (hit points are not
-                * reprojected), every frame's reflection stands alone. */
-               r->graph_moving ? 0u : r->frame,
+               /* A moving camera: per-pixel history lengths (the reprojected state). */
+               moving ? 0u : r->frame,
                { r->camera.position[0], r->camera.position[1], r->camera.position[2], r->data.diagonal * 0.01f },
                s->reflection_scale < 1.0f ? s->reflection_radius + 1 : s->reflection_radius,
                r->data.material_count,
                s->reflection_scale < 1.0f ? 1u : 0u,
-               0 };
-    cv_binding b[7] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
-                        bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])),
-                        bind_texture(cv_graph_texture(pc, r->tex[TEX_MATERIAL])),
-                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT])),
-                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_HISTORY])),
-                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_OWN])),
-                        bind_texture(cv_graph_texture(pc, r->tex[TEX_REFLECT_OUT])) };
-    dispatch_image(r, l, pc->queue, PIPE_REFLECT_FILTER, b, 7, &push, sizeof(push));
+               moving ? REFLECT_MAX_HISTORY : 0u };
+    int tex[11] = { TEX_POSITION,
+                    TEX_NORMAL,
+                    TEX_MATERIAL,
+                    TEX_REFLECT,
+                    TEX_REFLECT_HISTORY,
+                    TEX_REFLECT_OWN,
+                    TEX_REFLECT_OUT,
+                    moving ? TEX_REFLECT_REPROJECTED : TEX_REFLECT_HISTORY,
+                    moving ? TEX_REFLECT_OWN_REPROJECTED : TEX_REFLECT_OWN,
+                    moving ? TEX_REFLECT_STATE_REPROJECTED : TEX_REFLECT_HISTORY,
+                    moving ? TEX_REFLECT_STATE : TEX_REFLECT_OWN };
+    cv_binding b[11];
+    for (int i = 0; i < 11; i++)
+        b[i] = bind_texture(cv_graph_texture(pc, r->tex[tex[i]]));
+    dispatch_image(r, l, pc->queue, PIPE_REFLECT_FILTER, b, 11, &push, sizeof(push));
 }
 
 /* The texture holding the final visibility after `iterations` filter steps. */
@@ -1038,6 +1121,22 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         for (int k = BUF_REFLECT_RAYS; k <= BUF_SHADOW_HITS; k++)
             WRITE(r->buf[k], CV_GRAPH_STORAGE_WRITE);
         WRITE(r->tex[TEX_REFLECT], CV_GRAPH_STORAGE_WRITE);
+        if (moving) { /* the history follows the reflections (virtual point) and the surfaces */
+            PASS("reflect_reproject", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_reflect_reproject);
+            READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_MATERIAL], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_MOTION], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_HISTORY_POSITION], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_HISTORY_NORMAL], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_REFLECT], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_REFLECT_HISTORY], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_REFLECT_OWN], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_REFLECT_STATE], CV_GRAPH_STORAGE_READ);
+            WRITE(r->tex[TEX_REFLECT_REPROJECTED], CV_GRAPH_STORAGE_WRITE);
+            WRITE(r->tex[TEX_REFLECT_OWN_REPROJECTED], CV_GRAPH_STORAGE_WRITE);
+            WRITE(r->tex[TEX_REFLECT_STATE_REPROJECTED], CV_GRAPH_STORAGE_WRITE);
+        }
         PASS("reflect_filter", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_reflect_filter);
         READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
@@ -1048,6 +1147,12 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         WRITE(r->tex[TEX_REFLECT_HISTORY], CV_GRAPH_STORAGE_WRITE);
         WRITE(r->tex[TEX_REFLECT_OWN], CV_GRAPH_STORAGE_WRITE);
         WRITE(r->tex[TEX_REFLECT_OUT], CV_GRAPH_STORAGE_WRITE);
+        if (moving) {
+            READ(r->tex[TEX_REFLECT_REPROJECTED], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_REFLECT_OWN_REPROJECTED], CV_GRAPH_STORAGE_READ);
+            READ(r->tex[TEX_REFLECT_STATE_REPROJECTED], CV_GRAPH_STORAGE_READ);
+            WRITE(r->tex[TEX_REFLECT_STATE], CV_GRAPH_STORAGE_WRITE);
+        }
     }
     PASS("accumulate", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_accumulate);
     READ(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_READ);
@@ -1107,6 +1212,8 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         res = cv_graph_output(g, r->tex[TEX_REFLECT_OWN]);
     if (res == CV_OK && reflect)
         res = cv_graph_output(g, r->tex[TEX_REFLECT_OUT]);
+    if (res == CV_OK && reflect && moving)
+        res = cv_graph_output(g, r->tex[TEX_REFLECT_STATE]);
     if (res == CV_OK)
         res = cv_graph_output(g, r->tex[TEX_RADIANCE]);
     if (res == CV_OK)
@@ -1424,6 +1531,8 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                                                          frame_wall, timings, n, 64 });
         for (uint32_t d = 0; d < r->count && res == CV_OK; d++)
             st.rays_total += (uint64_t)part.ranges[d].width * r->height * (1 + s.ao_samples);
+        if (res == CV_OK && r->graph_reflect)
+            st.reflection_rays += 2 * reflect_traced_pixels(r, &s, s.first_frame + f);
         if (res == CV_OK && progress)
             progress(f + 1, s.frames, user);
     }

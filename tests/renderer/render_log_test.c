@@ -15,6 +15,7 @@
 
 #include "check.h"
 #include "corvid/render_log.h"
+#include "test_json.h"
 
 static cv_graph_timing timing(const char *name, uint32_t device, double ms, uint64_t bytes) {
     cv_graph_timing t = { .device = device, .ms = ms, .bytes = bytes };
@@ -22,29 +23,13 @@ static cv_graph_timing timing(const char *name, uint32_t device, double ms, uint
     return t;
 }
 
-static cJSON *parse_file(const char *path) {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    static char text[1 << 16];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = 0;
-    return cJSON_Parse(text);
-}
-
-static double number(const cJSON *o, const char *key) {
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
-    return cJSON_IsNumber(v) ? v->valuedouble : NAN;
-}
-
 /* The complete event named `name` of `frame` on process `pid` (NULL if none). */
 static const cJSON *event(const cJSON *events, const char *name, int frame, int pid) {
     const cJSON *e;
     cJSON_ArrayForEach(e, events) {
         const cJSON *n = cJSON_GetObjectItem(e, "name");
-        if (cJSON_IsString(n) && !strcmp(n->valuestring, name) && number(e, "pid") == pid &&
-            number(cJSON_GetObjectItem(e, "args"), "frame") == frame)
+        if (cJSON_IsString(n) && !strcmp(n->valuestring, name) && cv_test_json_number(e, "pid") == pid &&
+            cv_test_json_number(cJSON_GetObjectItem(e, "args"), "frame") == frame)
             return e;
     }
     return NULL;
@@ -57,11 +42,11 @@ static void check_span(const cJSON *events, const char *name, int frame, int pid
     if (!e)
         return;
     CHECK(!strcmp(cJSON_GetObjectItem(e, "ph")->valuestring, "X"));
-    CHECK_EQ_INT(number(e, "tid"), tid);
-    if (fabs(number(e, "ts") - ts) > 1e-3 || fabs(number(e, "dur") - dur) > 1e-3) {
+    CHECK_EQ_INT(cv_test_json_number(e, "tid"), tid);
+    if (fabs(cv_test_json_number(e, "ts") - ts) > 1e-3 || fabs(cv_test_json_number(e, "dur") - dur) > 1e-3) {
         check_failures++;
         fprintf(stderr, "%s frame %d pid %d: ts %.3f dur %.3f, expected %.3f %.3f\n", name, frame, pid,
-                number(e, "ts"), number(e, "dur"), ts, dur);
+                cv_test_json_number(e, "ts"), cv_test_json_number(e, "dur"), ts, dur);
     }
 }
 
@@ -127,7 +112,7 @@ int main(void) {
     CHECK_EQ_INT(cv_render_log_frame_count(log), 3);
 
     CHECK_OK(cv_render_log_write_trace(log, trace));
-    cJSON *root = parse_file(trace);
+    cJSON *root = cv_test_json_parse_file(trace);
     CHECK(root != NULL);
     const cJSON *events = cJSON_GetObjectItem(root, "traceEvents");
     /* pid 1 = "a", 2 = "b\"q\\", 3 = host; times from frame 0's submission. */
@@ -151,14 +136,15 @@ int main(void) {
             frame0 = e;
         if (!strcmp(name, "process_name")) {
             const char *label = cJSON_GetObjectItem(cJSON_GetObjectItem(e, "args"), "name")->valuestring;
-            int pid = (int)number(e, "pid");
+            int pid = (int)cv_test_json_number(e, "pid");
             names += (pid == 1 && !strcmp(label, "a")) + (pid == 2 && !strcmp(label, "b\"q\\")) +
                      (pid == 3 && !strcmp(label, "host"));
         }
     }
     CHECK_EQ_INT(names, 3);
-    CHECK(frame0 && number(frame0, "pid") == 3 && number(frame0, "ts") == 0.0 && number(frame0, "dur") == 12000.0);
-    CHECK(frame0 && number(cJSON_GetObjectItem(frame0, "args"), "sample") == 7);
+    CHECK(frame0 && cv_test_json_number(frame0, "pid") == 3 && cv_test_json_number(frame0, "ts") == 0.0 &&
+          cv_test_json_number(frame0, "dur") == 12000.0);
+    CHECK(frame0 && cv_test_json_number(cJSON_GetObjectItem(frame0, "args"), "sample") == 7);
     cJSON_Delete(root);
 
     cv_render_stats st = {
@@ -166,36 +152,38 @@ int main(void) {
         .frames = 2,
         .devices = { { .columns = { 0, 96 }, .rays = 2880, .trace_ms = 1.0, .ms_per_column = 1.0 / 96 } },
         .rays_total = 2880 * 2,
+        .reflection_rays = 1234,
         .devices_lost = 1,
         .transfer_bytes = 140,
         .transfer_ms = 9.0,
         .frame_ms = 8.25
     };
     CHECK_OK(cv_render_log_write_stats(log, &st, stats));
-    root = parse_file(stats);
+    root = cv_test_json_parse_file(stats);
     CHECK(root != NULL);
     const cJSON *frames = cJSON_GetObjectItem(root, "frames"), *summary = cJSON_GetObjectItem(root, "summary");
     CHECK_EQ_INT(cJSON_GetArraySize(frames), 3);
     const cJSON *fr0 = cJSON_GetArrayItem(frames, 0), *fr1 = cJSON_GetArrayItem(frames, 1);
-    CHECK_EQ_INT(number(fr0, "sample"), 7);
-    CHECK(number(fr0, "wall_ms") == 12.0);
-    CHECK_EQ_INT(number(fr1, "timings_cut"), 1);
+    CHECK_EQ_INT(cv_test_json_number(fr0, "sample"), 7);
+    CHECK(cv_test_json_number(fr0, "wall_ms") == 12.0);
+    CHECK_EQ_INT(cv_test_json_number(fr1, "timings_cut"), 1);
     const cJSON *b = cJSON_GetArrayItem(cJSON_GetObjectItem(fr0, "devices"), 1);
     CHECK(b && !strcmp(cJSON_GetObjectItem(b, "label")->valuestring, "b\"q\\"));
-    CHECK_EQ_INT(number(cJSON_GetObjectItem(b, "columns"), "x"), 64);
-    CHECK_EQ_INT(number(b, "rays"), 960);
+    CHECK_EQ_INT(cv_test_json_number(cJSON_GetObjectItem(b, "columns"), "x"), 64);
+    CHECK_EQ_INT(cv_test_json_number(b, "rays"), 960);
     const cJSON *vis = cJSON_GetArrayItem(cJSON_GetObjectItem(b, "transfers"), 0);
-    CHECK(vis && number(vis, "bytes") == 40 && number(vis, "ms") == 6.0);
+    CHECK(vis && cv_test_json_number(vis, "bytes") == 40 && cv_test_json_number(vis, "ms") == 6.0);
     CHECK_EQ_INT(cJSON_GetArraySize(cJSON_GetObjectItem(b, "passes")), 1);
-    CHECK_EQ_INT(number(summary, "rays_total"), 5760);
-    CHECK_EQ_INT(number(summary, "devices_lost"), 1);
-    CHECK_EQ_INT(number(summary, "transfer_bytes"), 140);
-    CHECK(number(summary, "frame_ms_mean") == 8.25);
+    CHECK_EQ_INT(cv_test_json_number(summary, "rays_total"), 5760);
+    CHECK_EQ_INT(cv_test_json_number(summary, "reflection_rays"), 1234);
+    CHECK_EQ_INT(cv_test_json_number(summary, "devices_lost"), 1);
+    CHECK_EQ_INT(cv_test_json_number(summary, "transfer_bytes"), 140);
+    CHECK(cv_test_json_number(summary, "frame_ms_mean") == 8.25);
     const cJSON *p;
     uint32_t totals = 0;
     cJSON_ArrayForEach(p, cJSON_GetObjectItem(summary, "passes")) {
         const char *name = cJSON_GetObjectItem(p, "name")->valuestring;
-        double n = number(p, "instances"), ms = number(p, "ms_total");
+        double n = cv_test_json_number(p, "instances"), ms = cv_test_json_number(p, "ms_total");
         totals += (!strcmp(name, "trace") && n == 4 && ms == 11.0) +
                   (!strcmp(name, "accumulate") && n == 2 && ms == 1.5) +
                   (!strcmp(name, "gbuffer") && n == 1 && ms == 2.0) +

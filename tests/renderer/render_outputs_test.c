@@ -22,6 +22,7 @@
 #include "corvid/scene_procedural.h"
 #include "corvid/vulkan.h"
 #include "test_render.h"
+#include "test_json.h"
 
 #define W 160
 #define H 90
@@ -70,62 +71,49 @@ static void count_frame(const cv_render_frame_info *info, void *user) {
     c->calls++;
 }
 
-static cJSON *parse_file(const char *path) {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    static char text[1 << 20];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = 0;
-    return cJSON_Parse(text);
-}
-
-static double number(const cJSON *o, const char *key) {
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
-    return cJSON_IsNumber(v) ? v->valuedouble : NAN;
-}
-
 static const char *string(const cJSON *o, const char *key) {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
     return cJSON_IsString(v) ? v->valuestring : "";
 }
 
 static void check_stats(const char *path, const cv_render_stats *st, uint32_t gpus) {
-    cJSON *root = parse_file(path);
+    cJSON *root = cv_test_json_parse_file(path);
     CHECK(root != NULL);
     const cJSON *frames = cJSON_GetObjectItem(root, "frames"), *summary = cJSON_GetObjectItem(root, "summary");
     CHECK_EQ_INT(cJSON_GetArraySize(frames), st->frames);
-    CHECK_EQ_INT(number(summary, "frames"), st->frames);
-    CHECK_EQ_INT(number(summary, "device_count"), st->device_count);
-    CHECK_EQ_INT(number(summary, "rays_total"), st->rays_total);
-    CHECK_EQ_INT(number(summary, "transfer_bytes"), st->transfer_bytes);
-    CHECK(fabs(number(summary, "frame_ms_mean") - st->frame_ms) < 1e-9 * st->frame_ms + 1e-12);
+    CHECK_EQ_INT(cv_test_json_number(summary, "frames"), st->frames);
+    CHECK_EQ_INT(cv_test_json_number(summary, "device_count"), st->device_count);
+    CHECK_EQ_INT(cv_test_json_number(summary, "rays_total"), st->rays_total);
+    /* Reflections on (the default, full rate): a reflection and a shadow ray per pixel per frame. */
+    CHECK_EQ_INT(cv_test_json_number(summary, "reflection_rays"), st->reflection_rays);
+    CHECK_EQ_INT(st->reflection_rays, (uint64_t)2 * W * H * st->frames);
+    CHECK_EQ_INT(cv_test_json_number(summary, "transfer_bytes"), st->transfer_bytes);
+    CHECK(fabs(cv_test_json_number(summary, "frame_ms_mean") - st->frame_ms) < 1e-9 * st->frame_ms + 1e-12);
     CHECK_EQ_INT(cJSON_GetArraySize(cJSON_GetObjectItem(summary, "devices")), gpus);
     uint64_t rays = 0, bytes = 0;
     uint32_t index = 0, traces = 0;
     const cJSON *frame;
     cJSON_ArrayForEach(frame, frames) {
-        CHECK_EQ_INT(number(frame, "frame"), index++);
-        CHECK(number(frame, "wall_ms") > 0.0);
+        CHECK_EQ_INT(cv_test_json_number(frame, "frame"), index++);
+        CHECK(cv_test_json_number(frame, "wall_ms") > 0.0);
         const cJSON *devices = cJSON_GetObjectItem(frame, "devices"), *dev;
         CHECK_EQ_INT(cJSON_GetArraySize(devices), gpus);
         uint32_t columns = 0;
         cJSON_ArrayForEach(dev, devices) {
             char label[16];
-            snprintf(label, sizeof label, "gpu%d", (int)number(dev, "index"));
+            snprintf(label, sizeof label, "gpu%d", (int)cv_test_json_number(dev, "index"));
             CHECK(strcmp(string(dev, "label"), label) == 0);
             const cJSON *cols = cJSON_GetObjectItem(dev, "columns");
-            columns += (uint32_t)number(cols, "width");
-            rays += (uint64_t)number(dev, "rays");
-            CHECK_EQ_INT(number(dev, "rays"), number(cols, "width") * H * (1 + 2));
+            columns += (uint32_t)cv_test_json_number(cols, "width");
+            rays += (uint64_t)cv_test_json_number(dev, "rays");
+            CHECK_EQ_INT(cv_test_json_number(dev, "rays"), cv_test_json_number(cols, "width") * H * (1 + 2));
             const cJSON *e;
             cJSON_ArrayForEach(e, cJSON_GetObjectItem(dev, "passes")) {
                 traces += strcmp(string(e, "name"), "trace") == 0;
-                CHECK(number(e, "ms") >= 0.0);
+                CHECK(cv_test_json_number(e, "ms") >= 0.0);
             }
             cJSON_ArrayForEach(e, cJSON_GetObjectItem(dev, "transfers")) {
-                bytes += (uint64_t)number(e, "bytes");
+                bytes += (uint64_t)cv_test_json_number(e, "bytes");
                 CHECK(strncmp(string(e, "name"), "transfer '", 10) == 0);
             }
         }
@@ -154,7 +142,7 @@ static int by_track(const void *a, const void *b) {
 /* Expected pass instances: gbuffer (frame 0), trace on every device and
  * accumulate every frame, filter and composite on the last. */
 static void check_trace(const char *path, uint32_t gpus) {
-    cJSON *root = parse_file(path);
+    cJSON *root = cv_test_json_parse_file(path);
     CHECK(root != NULL);
     const cJSON *events = cJSON_GetObjectItem(root, "traceEvents"), *e;
     span spans[512];
@@ -168,11 +156,12 @@ static void check_trace(const char *path, uint32_t gpus) {
         }
         if (strcmp(ph, "X") != 0)
             continue;
-        double dur = number(e, "dur");
-        negative += !(dur >= 0.0) || !(number(e, "ts") >= 0.0);
+        double dur = cv_test_json_number(e, "dur");
+        negative += !(dur >= 0.0) || !(cv_test_json_number(e, "ts") >= 0.0);
         if (count < 512)
-            spans[count++] = (span){ (int)number(e, "pid"), (int)number(e, "tid"), number(e, "ts"), dur };
-        int frame = (int)number(cJSON_GetObjectItem(e, "args"), "frame");
+            spans[count++] = (span){ (int)cv_test_json_number(e, "pid"), (int)cv_test_json_number(e, "tid"),
+                                     cv_test_json_number(e, "ts"), dur };
+        int frame = (int)cv_test_json_number(cJSON_GetObjectItem(e, "args"), "frame");
         if (!strcmp(string(e, "cat"), "pass")) {
             passes++;
             if (frame >= 0 && frame < FRAMES) {
@@ -181,7 +170,7 @@ static void check_trace(const char *path, uint32_t gpus) {
             }
         } else if (!strcmp(string(e, "cat"), "transfer")) {
             transfers++;
-            CHECK(number(cJSON_GetObjectItem(e, "args"), "bytes") > 0);
+            CHECK(cv_test_json_number(cJSON_GetObjectItem(e, "args"), "bytes") > 0);
         }
     }
     CHECK_EQ_INT(named, gpus + 1);

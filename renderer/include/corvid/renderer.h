@@ -11,7 +11,9 @@
  *   -> primary:   each device's visibility and reflection columns are copied back
  *   primary:      temporal accumulation (reprojected with motion vectors when
  *                 the camera orbits), edge-avoiding a-trous filter,
- *                 reflection reconstruction (spatial reuse) and accumulation,
+ *                 reflection reconstruction (spatial reuse) and accumulation
+ *                 (reprojected by the reflected point's and the surface's
+ *                 motion when the camera orbits),
  *                 composite (sun + sky light, emission, Fresnel times the
  *                 reflection; metal/roughness materials) to linear HDR
  *
@@ -91,7 +93,11 @@ typedef struct cv_render_stats {
     uint32_t device_count;
     uint32_t frames;
     cv_render_device_stats devices[CV_MAX_DEVICES];
-    uint64_t rays_total;     /* over all frames */
+    uint64_t rays_total; /* over all frames: shadow and AO rays, (1 + ao_samples) per pixel per frame */
+    /* Over all frames, not in rays_total: reflection rays and the shadow ray from each one's hit, two per
+     * traced pixel per frame (every pixel; at reflection_scale 0.5 the pixels of the frame's slot of each
+     * 2x2 quad). As rays_total, it counts every pixel's rays, sky pixels' and lost samples' included. */
+    uint64_t reflection_rays;
     uint32_t devices_lost;   /* secondaries that died during the render; their columns went to the others */
     uint64_t transfer_bytes; /* over all frames, between devices */
     double transfer_ms;
