@@ -2,10 +2,13 @@
 // columns [x0, x0 + width), rows [y0, y0 + height).
 // Per pixel, 1 + ao_samples rays, pixel-major: a shadow ray toward the sun,
 // jittered inside the sun's cone (soft shadows), then cosine-distributed AO rays
-// of length ao_radius. Sample points are a Halton (2, 3) sequence indexed by
-// frame, Cranley-Patterson rotated per pixel (seed 000, "Hybrid Rendering for
-// Real-Time Ray Tracing"): white noise for the shadow, a spatially
-// decorrelated rotation for AO (sample2). Pixels without geometry get empty
+// of length ao_radius. Sample points come from a 64x64 blue-noise rank mask
+// (corvid/blue_noise.h, built into render_blue_noise.glsl), a value per pixel
+// and sample dimension, offset by the frame's point of a Roberts sequence
+// (shadow_sample, ao_sample): within a frame neighbouring pixels' errors are
+// blue noise, which the a-trous filter removes best; over the frames each
+// pixel walks a low-discrepancy sequence. All in 0.32 fixed point: the points are a
+// function of (pixel, frame) only, the same bits on every device. Pixels without geometry get empty
 // rays (tmax = 0); a shadow ray whose direction is below the surface (the
 // pixel faces away from that point of the sun) gets tmin 0 > tmax -1: no ray,
 // and render.resolve reads it as shadowed, not as a miss.
@@ -20,6 +23,7 @@
 //         uint frame; float ao_radius; float bias; uint y0; }.
 // i0: G-buffer positions (RGBA32F), i1: G-buffer normals (RGBA32F), b2: cv_ray[].
 #version 460
+#extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 struct Ray {
@@ -47,49 +51,66 @@ layout(set = 0, binding = 2, std430) writeonly buffer Rays { Ray rays[]; };
 
 const float PI = 3.14159265358979;
 
-float halton(uint index, uint base) {
-    float f = 1.0, r = 0.0;
-    while (index > 0u) {
-        f /= float(base);
-        r += f * float(index % base);
-        index /= base;
-    }
+#include "render_blue_noise.glsl"
+
+// 0.32 fixed point (a uint as a fraction of 2^32) to a float in [0, 1): the
+// top 24 bits, exact in float32, so every device gets the same bits.
+float unit(uint v) {
+    return float(v >> 8) / 16777216.0;
+}
+
+// The blue-noise mask's value at the pixel for sample dimension d, in 0.32
+// fixed point: the cell's rank centred in its 1/4096 interval. Each dimension
+// reads the mask at its own toroidal offset (an R2 lattice step apart:
+// offsets of a 64x64 void-and-cluster mask this far apart are close to
+// uncorrelated).
+uint mask(uvec2 pixel, uint d) {
+    uvec2 offset = uvec2(d * 3242174889u, d * 2447445414u) >> 26u;   // R2(d) x 64
+    return (blue_noise_rank(pixel.x + offset.x, pixel.y + offset.y) << 20) + (1u << 19);
+}
+
+// Roberts' R2 sequence at the frame, 0.32 fixed point: the per-frame
+// Cranley-Patterson offset every pixel adds to its mask values, so that over
+// the frames each pixel walks an R2 sequence (low discrepancy: its mean is
+// unbiased) while within a frame the pixels' points differ by blue noise.
+uvec2 r2(uint frame) {
+    return uvec2(frame * 3242174889u, frame * 2447445414u);
+}
+
+// The shadow ray's point in the sun's cone (2D, [0, 1)^2).
+vec2 shadow_sample(uvec2 pixel) {
+    uvec2 v = uvec2(mask(pixel, 2u), mask(pixel, 3u)) + r2(pc.frame);
+    return vec2(unit(v.x), unit(v.y));
+}
+
+// The second dimension of Sobol's sequence at index i, 0.32 fixed point (the
+// first is bitfieldReverse(i)): together a (0, 2)-sequence in base 2, whose
+// aligned blocks of 2^m points are stratified in every dyadic box of area 2^-m.
+uint sobol1(uint i) {
+    uint r = 0u;
+    for (uint v = 1u << 31; i != 0u; i >>= 1, v ^= v >> 1)
+        if ((i & 1u) != 0u)
+            r ^= v;
     return r;
 }
 
-uint hash(uint x) {
-    x ^= x >> 16; x *= 0x7feb352du;
-    x ^= x >> 15; x *= 0x846ca68bu;
-    x ^= x >> 16;
-    return x;
-}
-
-// Point k of the pixel's rotated Halton sequence (k = 0: the shadow ray, 1..:
-// the AO rays). The shadow's rotation is white noise (a hash of the pixel);
-// the AO's is spatially decorrelated, so that neighbouring pixels' AO samples
-// cover the hemisphere unlike each other and the filter averages their errors
-// out: the first coordinate (the cosine of the elevation) is Roberts' R2
-// dither (plastic constant), the second (the azimuth) interleaved gradient
-// noise (Jimenez). Over the frames each pixel still gets a Halton sequence
-// under a fixed rotation, so its mean is unbiased; the points are a function
-// of (pixel, frame) only.
-vec2 sample2(uvec2 pixel, uint k) {
-    vec2 rotation;
-    if (k == 0u) {
-        uint h = hash(pixel.x * 73856093u ^ pixel.y * 19349663u);
-        rotation = vec2(float(h & 0xFFFFu), float(h >> 16)) / 65536.0;
-    } else {
-        // In 0.32 fixed point, so that every device computes the same bits:
-        // R2 = fract(0.5 + 0.7548776662 x + 0.5698402910 y),
-        // IGN = fract(52.9829189 fract(0.06711056 x + 0.00583715 y)).
-        uint r2 = 0x80000000u + pixel.x * 3242174889u + pixel.y * 2447445414u;
-        uint g = pixel.x * 288237660u + pixel.y * 25070368u, hi, lo;
-        umulExtended(g, 4221604530u, hi, lo);
-        uint ign = g * 52u + hi;
-        rotation = vec2(float(r2 >> 8), float(ign >> 8)) / 16777216.0;
-    }
-    uint index = pc.frame * (pc.ao_samples + 1u) + k + 1u;
-    return fract(vec2(halton(index, 2u), halton(index, 3u)) + rotation);
+// AO ray k of n = ao_samples: point frame x 2^b + k of Sobol's (0, 2)-sequence
+// (2^b >= n: the frame's rays an aligned block, stratified in x, in y and in
+// the 2x2 squares for n = 4), digitally shifted (xor, which keeps the
+// stratification) by the pixel's blue-noise values: below the block's strata
+// (the mask value / 2^b), so that within its stratum a ray's offset is the
+// pixel's blue noise (a shift in the strata's own bits would only see the
+// mask value modulo 1 / n: white noise), and for y also in the strata's bits
+// (a third mask value: which x stratum pairs with which y stratum). Over the
+// frames each pixel's rays are a digitally shifted Sobol sequence: they fill
+// the square at the rate of frames x n points, and the mean is unbiased.
+vec2 ao_sample(uvec2 pixel, uint k) {
+    uint bits = pc.ao_samples > 1u ? uint(findMSB(pc.ao_samples - 1u)) + 1u : 0u;
+    uint index = (pc.frame << bits) + k;
+    uint strata = bits > 0u ? ~0u << (32u - bits) : 0u;
+    uvec2 v = uvec2(bitfieldReverse(index), sobol1(index)) ^ (uvec2(mask(pixel, 0u), mask(pixel, 1u)) >> bits) ^
+              uvec2(0u, mask(pixel, 4u) & strata);
+    return vec2(unit(v.x), unit(v.y));
 }
 
 vec3 unpack_normal(float w) {
@@ -129,7 +150,7 @@ void main() {
     // Shadow ray: a direction inside the cone around the direction to the sun.
     vec3 to_sun = -pc.sun.xyz, t, b;
     basis(to_sun, t, b);
-    vec2 u = sample2(pixel, 0u);
+    vec2 u = shadow_sample(pixel);
     float cos_theta = 1.0 - u.x * (1.0 - cos(pc.sun.w));
     float sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
     float phi = 2.0 * PI * u.y;
@@ -140,7 +161,7 @@ void main() {
     // Ambient occlusion: cosine-weighted hemisphere around n.
     basis(n, t, b);
     for (uint k = 0u; k < pc.ao_samples; k++) {
-        vec2 v = sample2(pixel, k + 1u);
+        vec2 v = ao_sample(pixel, k);
         float r = sqrt(v.x), a = 2.0 * PI * v.y;
         vec3 d = normalize(t * (r * cos(a)) + b * (r * sin(a)) + n * sqrt(max(0.0, 1.0 - v.x)));
         float below = dot(d, ng);
