@@ -63,10 +63,10 @@ enum {
     TEX_REFLECT_HISTORY,
     TEX_REFLECT_OWN,
     TEX_REFLECT_OUT,
-    TEX_MATERIAL, /* G-buffer: the material at the pixel (textures evaluated): base color rgb, roughness */
-    TEX_EMISSION, /* G-buffer: emission rgb, metalness */
-    TEX_REFLECT_STATE,           /* moving camera: render.reflect_filter's per-pixel history state */
-    TEX_REFLECT_REPROJECTED,     /* moving camera: the reflection histories and state brought to */
+    TEX_MATERIAL,            /* G-buffer: the material at the pixel (textures evaluated): base color rgb, roughness */
+    TEX_EMISSION,            /* G-buffer: emission rgb, metalness */
+    TEX_REFLECT_STATE,       /* moving camera: render.reflect_filter's per-pixel history state */
+    TEX_REFLECT_REPROJECTED, /* moving camera: the reflection histories and state brought to */
     TEX_REFLECT_OWN_REPROJECTED, /* this frame's pixels (render.reflect_reproject) */
     TEX_REFLECT_STATE_REPROJECTED,
     TEX_COUNT

@@ -251,7 +251,8 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: device");
     if (memchr(desc->label, '\0', CV_LABEL_MAX))
         snprintf(bd->label, sizeof(bd->label), "%s", desc->label);
-    cv_result r = vk_shared_parse(getenv("CORVID_VGPU_DEVICE"), &bd->vgpu_shared);
+    vk_vgpu_mode vgpu_mode;
+    cv_result r = vk_shared_parse(getenv("CORVID_VGPU_DEVICE"), &vgpu_mode);
     if (r != CV_OK) {
         free(bd);
         return cv_error(r, "device '%s': %s", desc->label, cv_last_error());
@@ -263,6 +264,9 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     }
     r = pick_adapter(bd->instance, desc->adapter, &bd->adapter);
     if (r == CV_OK) {
+        bd->vgpu_shared = vgpu_mode == VK_VGPU_SHARED ||
+                          (vgpu_mode == VK_VGPU_AUTO &&
+                           vk_shared_auto_choice(bd->adapter.physical, bd->adapter.graphics_family));
         VkPhysicalDeviceExternalMemoryHostPropertiesEXT host = {
             .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_MEMORY_HOST_PROPERTIES_EXT
         };

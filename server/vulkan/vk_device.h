@@ -6,7 +6,8 @@
  * Every backend call except wait() runs under the core's device lock, so the
  * members below need no lock of their own (the memory allocator has one for
  * cv_vulkan_get_memory_stats, which runs outside it). With
- * CORVID_VGPU_DEVICE=shared the VkDevice and its queues are shared with the
+ * CORVID_VGPU_DEVICE=shared (auto's choice where the graphics family has
+ * several queues) the VkDevice and its queues are shared with the
  * other instances of the adapter (vk_shared.h): every submit then takes the
  * queue's mutex (vk_queue_submit). */
 #ifndef CORVID_VK_DEVICE_H

@@ -13,15 +13,30 @@
 static pthread_mutex_t registry_lock = PTHREAD_MUTEX_INITIALIZER;
 static vk_shared_device *registry;
 
-cv_result vk_shared_parse(const char *value, bool *shared) {
-    *shared = false;
-    if (!value || !value[0] || strcmp(value, "separate") == 0)
+cv_result vk_shared_parse(const char *value, vk_vgpu_mode *mode) {
+    *mode = VK_VGPU_AUTO;
+    if (!value || !value[0] || strcmp(value, "auto") == 0)
         return CV_OK;
-    if (strcmp(value, "shared") == 0) {
-        *shared = true;
+    if (strcmp(value, "separate") == 0) {
+        *mode = VK_VGPU_SEPARATE;
         return CV_OK;
     }
-    return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_VGPU_DEVICE='%.32s': expected shared or separate", value);
+    if (strcmp(value, "shared") == 0) {
+        *mode = VK_VGPU_SHARED;
+        return CV_OK;
+    }
+    return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_VGPU_DEVICE='%.32s': expected shared, separate or auto",
+                    value);
+}
+
+bool vk_shared_auto_choice(VkPhysicalDevice physical, uint32_t graphics_family) {
+    uint32_t count = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(physical, &count, NULL);
+    VkQueueFamilyProperties props[32];
+    if (count > 32)
+        count = 32;
+    vkGetPhysicalDeviceQueueFamilyProperties(physical, &count, props);
+    return graphics_family < count && props[graphics_family].queueCount > 1;
 }
 
 static uint32_t extension_key(const VkDeviceCreateInfo *info) {

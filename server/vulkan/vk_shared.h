@@ -58,9 +58,15 @@ struct vk_shared_device {
     uint32_t retired_count;
 };
 
-/* CORVID_VGPU_DEVICE: *shared for "shared", false for unset, "" or "separate";
- * CV_ERROR_INVALID_ARGUMENT for anything else. */
-cv_result vk_shared_parse(const char *value, bool *shared);
+/* CORVID_VGPU_DEVICE: "shared", "separate", or "auto" (also unset or ""):
+ * shared where the adapter's graphics family has more than one queue (the
+ * instances then run concurrently on their own queues: NVIDIA has 16), else
+ * separate (lavapipe has one queue; separate VkDevices bring their own
+ * llvmpipe threads). CV_ERROR_INVALID_ARGUMENT for anything else. */
+typedef enum vk_vgpu_mode { VK_VGPU_AUTO = 0, VK_VGPU_SEPARATE, VK_VGPU_SHARED } vk_vgpu_mode;
+cv_result vk_shared_parse(const char *value, vk_vgpu_mode *mode);
+/* Auto's choice for an adapter: its graphics family has more than one queue. */
+bool vk_shared_auto_choice(VkPhysicalDevice physical, uint32_t graphics_family);
 
 /* Finds the shared VkDevice for bd's instance, adapter and info's extensions,
  * or creates it from info; takes a slot. On failure nothing is held. */

@@ -257,6 +257,34 @@ int main(void) {
     cv_device_destroy(d[0]);
     cv_device_destroy(d[1]);
     d[0] = d[1] = NULL;
+    /* auto (also unset): shared exactly where the graphics family has more
+     * than one queue (NVIDIA: yes; lavapipe: one queue, separate). */
+    const char *autos[2] = { "auto", NULL };
+    for (int k = 0; k < 2; k++) {
+        if (autos[k])
+            setenv("CORVID_VGPU_DEVICE", autos[k], 1);
+        else
+            unsetenv("CORVID_VGPU_DEVICE");
+        CHECK_OK(vkt_device(ctx, NULL, "auto0", &d[0]));
+        CHECK_OK(vkt_device(ctx, NULL, "auto1", &d[1]));
+        if (d[0] && d[1]) {
+            const vk_adapter *a = &bd_of(d[0])->adapter;
+            bool want = vk_shared_auto_choice(a->physical, a->graphics_family);
+            uint32_t n = 0;
+            vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &n, NULL);
+            VkQueueFamilyProperties props[32];
+            n = n > 32 ? 32 : n;
+            vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &n, props);
+            CHECK(want == (props[a->graphics_family].queueCount > 1));
+            CHECK((bd_of(d[0])->shared != NULL) == want && (bd_of(d[1])->shared != NULL) == want);
+            CHECK((bd_of(d[0])->device == bd_of(d[1])->device) == want);
+            fprintf(stderr, "auto (%s): %s (graphics family: %u queues)\n", autos[k] ? autos[k] : "unset",
+                    want ? "shared" : "separate", props[a->graphics_family].queueCount);
+        }
+        cv_device_destroy(d[0]);
+        cv_device_destroy(d[1]);
+        d[0] = d[1] = NULL;
+    }
 
     /* Three instances on one VkDevice, each with its own objects. */
     setenv("CORVID_VGPU_DEVICE", "shared", 1);
