@@ -101,7 +101,7 @@ int main(void) {
     CHECK_EQ_INT(alone.frames, OBSERVED_FRAMES);
     CHECK_EQ_INT(alone.visibility + alone.reflection + alone.gbuffer + alone.wrong, 0); /* nothing moves */
     /* With the virtual GPUs on one VkDevice (CORVID_VGPU_DEVICE=shared, ctest's
-     * renderer_transfer_paths_shared) the direct path too, and auto (which takes it). */
+     * renderer_transfer_paths_shared) the direct path too, and auto. */
     const char *vgpu = getenv("CORVID_VGPU_DEVICE");
     bool shared = vgpu && strcmp(vgpu, "shared") == 0;
     const char *paths[] = { "staged", "host-import", "shared", "device", "auto" };

@@ -149,6 +149,9 @@ static void ping_pong(cv_context *ctx, cv_device *a, cv_device *b, const char *e
 
 int main(void) {
     unsetenv("CORVID_TRANSFER_PATH");
+    /* The waits between separate VkDevices (auto, the default, would share one
+     * VkDevice on a GPU with several queues: vk_shared_device tests that). */
+    setenv("CORVID_VGPU_DEVICE", "separate", 1);
     pure_decisions();
     cv_context *ctx;
     CHECK_OK(cv_context_create(NULL, &ctx));
