@@ -344,8 +344,10 @@ int main(void) {
             CHECK(count[m] >= 20);
             /* Tolerance: the reference's ray differentials measure the G-buffer's dFdxFine/dFdyFine footprint
              * (the same pixel pairs), so only float rounding (uv interpolation, log2) parts them: measured at
-             * most 1e-5; 1e-3 a pixel. */
-            CHECK(count[m] && err_max[m] < 1e-3);
+             * most 1e-5 on lavapipe; the H200's attribute interpolation and derivatives differ more (at most
+             * 1.1e-3, mean 1.6e-4). Bound: half a step of an 8-bit texel (1 / 510) a pixel, 3e-4 on average. */
+            CHECK(count[m] && err_max[m] < 1.0 / 510.0);
+            CHECK(count[m] && err_sum[m] / count[m] < 3e-4);
         }
 
         /* The alpha mask: see-through agrees but next to a hole's edge. */
