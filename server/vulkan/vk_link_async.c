@@ -57,6 +57,22 @@ static cv_result take_cmd(cv_backend_device *bd, vk_async_cmd **out) {
     return CV_OK;
 }
 
+/* take_cmd, then the command buffer reset and begun for one submission;
+ * `what` names the transfer in the error. */
+static cv_result begin_cmd(cv_backend_device *bd, vk_async_cmd **out, const char *what) {
+    cv_result r = take_cmd(bd, out);
+    if (r != CV_OK)
+        return r;
+    VkCommandBufferBeginInfo begin = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+                                       .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT };
+    VkResult vr = vkResetCommandBuffer((*out)->cmd, 0);
+    if (vr == VK_SUCCESS)
+        vr = vkBeginCommandBuffer((*out)->cmd, &begin);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkBeginCommandBuffer (%s, device '%s')", what, bd->label);
+    return CV_OK;
+}
+
 static VkSemaphoreSubmitInfo semaphore_info(VkSemaphore s, uint64_t value) {
     return (VkSemaphoreSubmitInfo){ .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO,
                                     .semaphore = s,
@@ -72,16 +88,9 @@ cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t stag
         r = vk_immediate_flush(bd);
     vk_async_cmd *c = NULL;
     if (r == CV_OK)
-        r = take_cmd(bd, &c);
+        r = begin_cmd(bd, &c, "asynchronous transfer");
     if (r != CV_OK)
         return r;
-    VkCommandBufferBeginInfo begin = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
-                                       .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT };
-    VkResult vr = vkResetCommandBuffer(c->cmd, 0);
-    if (vr == VK_SUCCESS)
-        vr = vkBeginCommandBuffer(c->cmd, &begin);
-    if (vr != VK_SUCCESS)
-        return vk_fail(vr, "vkBeginCommandBuffer (asynchronous transfer, device '%s')", bd->label);
     vk_link_record(bd, c->cmd, staging, staging_offset, type, obj, offset, size, rect, to_staging);
     /* Writes into the staging reach the other device (through host memory
      * for HOST stagings) before the ticket signals. */
@@ -95,7 +104,7 @@ cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t stag
                              .pMemoryBarriers = &out };
     if (to_staging)
         vkCmdPipelineBarrier2(c->cmd, &dep);
-    vr = vkEndCommandBuffer(c->cmd);
+    VkResult vr = vkEndCommandBuffer(c->cmd);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkEndCommandBuffer (asynchronous transfer, device '%s')", bd->label);
     VkSemaphoreSubmitInfo waits[3];
@@ -177,16 +186,9 @@ cv_result vk_link_copy_device(cv_backend_device *bd, cv_backend_device *dst_bd, 
         r = vk_immediate_flush(dst_bd);
     vk_async_cmd *c = NULL;
     if (r == CV_OK)
-        r = take_cmd(bd, &c);
+        r = begin_cmd(bd, &c, "direct transfer");
     if (r != CV_OK)
         return r;
-    VkCommandBufferBeginInfo begin = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
-                                       .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT };
-    VkResult vr = vkResetCommandBuffer(c->cmd, 0);
-    if (vr == VK_SUCCESS)
-        vr = vkBeginCommandBuffer(c->cmd, &begin);
-    if (vr != VK_SUCCESS)
-        return vk_fail(vr, "vkBeginCommandBuffer (direct transfer, device '%s')", bd->label);
     /* Images rest in GENERAL between operations; the semaphore waits below order
      * (and make visible) every earlier use of both resources. */
     if (type == CV_HANDLE_TEXTURE) {
@@ -215,7 +217,7 @@ cv_result vk_link_copy_device(cv_backend_device *bd, cv_backend_device *dst_bd, 
         VkBufferCopy copy = { region->src_offset, region->dst_offset, region->size };
         vkCmdCopyBuffer(c->cmd, s->buffer, d->buffer, 1, &copy);
     }
-    vr = vkEndCommandBuffer(c->cmd);
+    VkResult vr = vkEndCommandBuffer(c->cmd);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkEndCommandBuffer (direct transfer, device '%s')", bd->label);
     /* The copy: after the source's earlier work and host writes, and after the
