@@ -6,6 +6,14 @@
  * messenger prints every warning and error and counts them, so a test can
  * assert that a run was clean.
  *
+ * An instance, once made, is kept for the rest of the process (the last
+ * release does not destroy it): on the NVIDIA H200 machines vkCreateInstance
+ * began to fail with VK_ERROR_INCOMPATIBLE_DRIVER after a few create/destroy
+ * cycles in one process (the 6th to the 14th, docs/nvidia.md), which a node
+ * whose sessions do not overlap, or a program that makes a context per
+ * render, would meet; creating one also costs a loader scan and a layer load.
+ * Devices and everything else are still destroyed with their last user.
+ *
  * CORVID_VK_SYNC_VALIDATION=0/1 turns synchronization validation off/on. It is
  * on by default except in sanitizer builds: the 1.3.239 layer leaks about 3 KB
  * per command buffer with it, which LeakSanitizer would report against us (the
@@ -138,21 +146,11 @@ static cv_result create_instance(vk_instance *inst, bool validation) {
     return CV_OK;
 }
 
-static void destroy_instance(vk_instance *inst) {
-    if (inst->messenger) {
-        PFN_vkDestroyDebugUtilsMessengerEXT destroy_messenger = (PFN_vkDestroyDebugUtilsMessengerEXT)
-            vkGetInstanceProcAddr(inst->instance, "vkDestroyDebugUtilsMessengerEXT");
-        destroy_messenger(inst->instance, inst->messenger, NULL);
-    }
-    vkDestroyInstance(inst->instance, NULL);
-    memset(inst, 0, sizeof(*inst));
-}
-
 cv_result vk_instance_acquire(bool validation, vk_instance **out) {
     pthread_mutex_lock(&instances_lock);
     vk_instance *inst = &instances[validation ? 1 : 0];
     cv_result r = CV_OK;
-    if (inst->refs == 0)
+    if (!inst->instance)
         r = create_instance(inst, validation);
     if (r == CV_OK) {
         inst->refs++;
@@ -164,7 +162,6 @@ cv_result vk_instance_acquire(bool validation, vk_instance **out) {
 
 void vk_instance_release(vk_instance *inst) {
     pthread_mutex_lock(&instances_lock);
-    if (--inst->refs == 0)
-        destroy_instance(inst);
+    inst->refs--; /* kept at 0 (above) */
     pthread_mutex_unlock(&instances_lock);
 }
