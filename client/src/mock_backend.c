@@ -7,6 +7,7 @@
  * and ray traces are validated but not executed (an acceleration structure
  * keeps a copy of its BVH). Submissions finish immediately; pass timings
  * are the host time spent emulating each marker region. */
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -30,7 +31,7 @@ typedef struct mock_compiled {
 } mock_compiled;
 
 struct cv_backend_device {
-    uint64_t completed;
+    _Atomic uint64_t completed; /* written by submit (device lock), read by wait/completed (no lock) */
 };
 
 static cv_result mock_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out) {
@@ -274,18 +275,18 @@ static cv_result mock_submit(cv_backend_device *bd, void *compiled, uint64_t tic
             emulate(mc->dev, l, c);
         }
     }
-    bd->completed = ticket;
+    atomic_store(&bd->completed, ticket);
     return CV_OK;
 }
 
 static cv_result mock_wait(cv_backend_device *bd, uint64_t ticket, uint64_t timeout_ns) {
     (void)timeout_ns;
-    return ticket <= bd->completed
+    return ticket <= atomic_load(&bd->completed)
                ? CV_OK
                : cv_error(CV_ERROR_TIMEOUT, "mock: ticket %llu never submitted", (unsigned long long)ticket);
 }
 
-static uint64_t mock_completed(cv_backend_device *bd) { return bd->completed; }
+static uint64_t mock_completed(cv_backend_device *bd) { return atomic_load(&bd->completed); }
 
 static cv_result mock_timings(cv_backend_device *bd, void *compiled, cv_pass_timing *out, uint32_t capacity,
                               uint32_t *count) {
