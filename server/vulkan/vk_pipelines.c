@@ -1,4 +1,5 @@
-/* Pipeline creation. Each shader is checked against its registry entry before
+/* Pipeline creation. On a VkDevice shared by virtual GPUs (vk_shared.h) the
+ * instances share each pipeline, built once and refcounted. Each shader is checked against its registry entry before
  * Vulkan sees it: binding kinds must match the registry letters, compute local
  * sizes must equal the entry's, so registry and shaders cannot drift apart
  * unnoticed. Fixed state of every graphics pipeline: triangle list, no culling,
@@ -10,6 +11,7 @@
 #include "corvid/shaders.h"
 #include "vk_pipelines.h"
 #include "vk_resources.h"
+#include "vk_shared.h"
 #include "vk_spirv.h"
 
 static const VkDescriptorType descriptor_types[] = {
@@ -196,7 +198,7 @@ static cv_result create_graphics(cv_backend_device *bd, vk_pipeline *p, shader_s
     return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkCreateGraphicsPipelines '%s'", info->name);
 }
 
-void vk_pipeline_release(cv_backend_device *bd, vk_pipeline *p) {
+static void free_own(cv_backend_device *bd, vk_pipeline *p) {
     vkDestroyPipeline(bd->device, p->pipeline, NULL);
     vkDestroyPipelineLayout(bd->device, p->layout, NULL);
     vkDestroyDescriptorSetLayout(bd->device, p->set_layout, NULL);
@@ -215,7 +217,7 @@ cv_result vk_pipeline_create(cv_backend_device *bd, const cv_pipeline_info *info
     return r;
 }
 
-cv_result vk_pipeline_build(cv_backend_device *bd, const cv_pipeline_info *info, vk_pipeline **out) {
+static cv_result build_own(cv_backend_device *bd, const cv_pipeline_info *info, vk_pipeline **out) {
     if (!info)
         return cv_error(CV_ERROR_UNKNOWN_PIPELINE, "vulkan: pipeline without a registry entry");
     if (info->push_constant_size % 4 || info->push_constant_size > bd->limits.maxPushConstantsSize)
@@ -248,9 +250,69 @@ cv_result vk_pipeline_build(cv_backend_device *bd, const cv_pipeline_info *info,
     for (uint32_t i = 0; i < stage_count; i++)
         vkDestroyShaderModule(bd->device, stages[i].module, NULL);
     if (r != CV_OK) {
-        vk_pipeline_release(bd, p);
+        free_own(bd, p);
         return r;
     }
     *out = p;
     return CV_OK;
+}
+
+/* On a shared VkDevice: the entry's pipeline, built by the first instance that
+ * asks (under the lock, so a second one waits and reuses it), see vk_shared.h. */
+static cv_result build_shared(cv_backend_device *bd, const cv_pipeline_info *info, vk_pipeline **out) {
+    vk_shared_device *s = bd->shared;
+    cv_result r = CV_OK;
+    pthread_mutex_lock(&s->pipeline_lock);
+    vk_shared_pipeline *e = s->pipelines;
+    while (e && memcmp(&e->info, info, sizeof(*info)) != 0)
+        e = e->next;
+    if (e) {
+        e->refs++;
+    } else if (!(e = calloc(1, sizeof(*e)))) {
+        r = cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: pipeline '%s'", info->name);
+    } else if ((r = build_own(bd, info, &e->pipeline)) != CV_OK) {
+        free(e);
+        e = NULL;
+    } else {
+        memcpy(&e->info, info, sizeof(*info));
+        e->refs = 1;
+        e->next = s->pipelines;
+        s->pipelines = e;
+    }
+    pthread_mutex_unlock(&s->pipeline_lock);
+    if (e)
+        *out = e->pipeline;
+    return r;
+}
+
+/* Drops one instance's reference; the last destroys the pipeline. */
+static void release_shared(cv_backend_device *bd, vk_pipeline *p) {
+    vk_shared_device *s = bd->shared;
+    pthread_mutex_lock(&s->pipeline_lock);
+    vk_shared_pipeline **link = &s->pipelines;
+    while (*link && (*link)->pipeline != p)
+        link = &(*link)->next;
+    vk_shared_pipeline *last = NULL;
+    if (*link && --(*link)->refs == 0) {
+        last = *link;
+        *link = last->next;
+    }
+    pthread_mutex_unlock(&s->pipeline_lock);
+    if (last) {
+        free_own(bd, p);
+        free(last);
+    }
+}
+
+cv_result vk_pipeline_build(cv_backend_device *bd, const cv_pipeline_info *info, vk_pipeline **out) {
+    if (info && bd->shared)
+        return build_shared(bd, info, out);
+    return build_own(bd, info, out);
+}
+
+void vk_pipeline_release(cv_backend_device *bd, vk_pipeline *p) {
+    if (bd->shared)
+        release_shared(bd, p);
+    else
+        free_own(bd, p);
 }

@@ -56,6 +56,7 @@ static void entry_free(vk_shared_device *s) {
         for (uint32_t i = 0; i < VK_SHARED_MAX_QUEUES; i++)
             pthread_mutex_destroy(&s->queue_locks[q][i]);
     pthread_mutex_destroy(&s->host_lock);
+    pthread_mutex_destroy(&s->pipeline_lock);
     free(s->retired);
     free(s);
 }
@@ -93,6 +94,7 @@ cv_result vk_shared_acquire(cv_backend_device *bd, const VkDeviceCreateInfo *inf
                 for (uint32_t i = 0; i < VK_SHARED_MAX_QUEUES; i++)
                     pthread_mutex_init(&s->queue_locks[q][i], NULL);
             pthread_mutex_init(&s->host_lock, NULL);
+            pthread_mutex_init(&s->pipeline_lock, NULL);
             s->next = registry;
             registry = s;
         }

@@ -18,9 +18,13 @@
  * requires external synchronisation of vkQueueSubmit; held around every submit
  * of every instance of the shared device), and the host lock that serialises
  * semaphore host waits under the validation layer (vk_bridge.h: the layer's
- * lock is per VkDevice). Everything else stays per instance (command pools,
- * semaphores, memory allocator, immediate command buffer, tracer, pipelines,
- * resources).
+ * lock is per VkDevice), and the pipelines: a VkPipeline is immutable and
+ * usable by every queue of its VkDevice, so the instances share one per
+ * registry entry (vk_pipelines.c builds it for the first instance that asks
+ * and destroys it with the last reference; the 2nd..Nth virtual GPU of an
+ * adapter costs no shader compilation). Everything else stays per instance
+ * (command pools, semaphores, memory allocator, immediate command buffer,
+ * tracer, resources).
  *
  * Queue rule: an instance takes the lowest free slot k of its shared device
  * and uses queue index k % queueCount in every family it uses (lavapipe: every
@@ -44,6 +48,14 @@
 
 #define VK_SHARED_MAX_QUEUES 16u
 
+/* One pipeline shared by the instances of a shared VkDevice (vk_pipelines.c). */
+typedef struct vk_shared_pipeline {
+    struct vk_shared_pipeline *next;
+    cv_pipeline_info info; /* the key: the creating entry's contents */
+    vk_pipeline *pipeline;
+    uint32_t refs;
+} vk_shared_pipeline;
+
 struct vk_shared_device {
     struct vk_shared_device *next; /* in the registry */
     vk_instance *instance;
@@ -53,8 +65,10 @@ struct vk_shared_device {
     uint32_t refs;
     uint64_t slots; /* bit k: slot k taken */
     pthread_mutex_t queue_locks[VK_SLOT_COUNT][VK_SHARED_MAX_QUEUES];
-    pthread_mutex_t host_lock; /* vk_bridge.h's host lock, for every instance */
-    VkSemaphore *retired;      /* ticket semaphores of destroyed instances */
+    pthread_mutex_t host_lock;     /* vk_bridge.h's host lock, for every instance */
+    pthread_mutex_t pipeline_lock; /* guards `pipelines`; held while one is built */
+    vk_shared_pipeline *pipelines;
+    VkSemaphore *retired; /* ticket semaphores of destroyed instances */
     uint32_t retired_count;
 };
 

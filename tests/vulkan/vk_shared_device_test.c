@@ -6,6 +6,9 @@
  *     each with its own slot, queue index (k % queueCount), ticket, immediate
  *     command pool and command pools; a submit mutex on each queue;
  *   - compute work on each (its own values) is exact;
+ *   - a pipeline loaded on several instances is one VkPipeline with a
+ *     reference per instance: unloading it from one leaves the others'
+ *     dispatches exact, the last unload destroys it;
  *   - buffers and textures written on one instance and transferred to another
  *     are byte-exact through every path the pair takes (staged, host-import,
  *     shared, device, and auto, which must pick shared memory first), and through rings on
@@ -36,11 +39,51 @@ static void fill(uint8_t *p, size_t n, uint32_t seed) {
 
 static cv_backend_device *bd_of(cv_device *d) { return d->bd; }
 
+/* The shared entries named `name` (vk_shared.h) and their references. */
+static uint32_t shared_pipeline_refs(vk_shared_device *s, const char *name, uint32_t *entries) {
+    uint32_t refs = 0;
+    *entries = 0;
+    pthread_mutex_lock(&s->pipeline_lock);
+    for (vk_shared_pipeline *e = s->pipelines; e; e = e->next)
+        if (strcmp(e->info.name, name) == 0) {
+            refs += e->refs;
+            (*entries)++;
+        }
+    pthread_mutex_unlock(&s->pipeline_lock);
+    return refs;
+}
+
+static void dispatch_fill(cv_context *ctx, cv_device *dev, cv_pipeline fill_u32, uint32_t seed);
+
+/* One pipeline handle loaded on a and b: one VkPipeline, two references. */
+static void pipelines_shared(cv_context *ctx, cv_device *a, cv_device *b, vk_shared_device *s) {
+    uint32_t entries = 0;
+    CHECK_EQ_INT(shared_pipeline_refs(s, "test.fill_u32", &entries), 0);
+    cv_pipeline p = vkt_pipeline(ctx, a, "test.fill_u32");
+    CHECK_EQ_INT(shared_pipeline_refs(s, "test.fill_u32", &entries), 1);
+    CHECK_OK(cv_device_load(b, cv_any(p)));
+    CHECK_EQ_INT(shared_pipeline_refs(s, "test.fill_u32", &entries), 2);
+    CHECK_EQ_INT(entries, 1);
+    dispatch_fill(ctx, a, p, 500);
+    dispatch_fill(ctx, b, p, 600);
+    CHECK_OK(cv_device_unload(a, cv_any(p)));
+    CHECK_EQ_INT(shared_pipeline_refs(s, "test.fill_u32", &entries), 1);
+    dispatch_fill(ctx, b, p, 700); /* b's reference keeps it */
+    CHECK_OK(cv_pipeline_destroy(ctx, p));
+    CHECK_EQ_INT(shared_pipeline_refs(s, "test.fill_u32", &entries), 0);
+    CHECK_EQ_INT(entries, 0);
+}
+
 /* y = fill(seed) then checked on the host: work on one instance alone. */
 static void compute_exact(cv_context *ctx, cv_device *dev, uint32_t seed) {
+    cv_pipeline fill_u32 = vkt_pipeline(ctx, dev, "test.fill_u32");
+    dispatch_fill(ctx, dev, fill_u32, seed);
+    CHECK_OK(cv_pipeline_destroy(ctx, fill_u32));
+}
+
+static void dispatch_fill(cv_context *ctx, cv_device *dev, cv_pipeline fill_u32, uint32_t seed) {
     enum { N = 4096 };
     cv_buffer x = vkt_buffer(ctx, dev, 4 * N, 0, "filled");
-    cv_pipeline fill_u32 = vkt_pipeline(ctx, dev, "test.fill_u32");
     cv_cmdlist list;
     CHECK_OK(cv_cmdlist_create(ctx, &list));
     cv_command_list *l;
@@ -66,7 +109,6 @@ static void compute_exact(cv_context *ctx, cv_device *dev, uint32_t seed) {
     CHECK_EQ_INT(bad, 0);
     free(out);
     CHECK_OK(cv_cmdlist_destroy(ctx, list));
-    CHECK_OK(cv_pipeline_destroy(ctx, fill_u32));
     CHECK_OK(cv_buffer_destroy(ctx, x));
 }
 
@@ -325,6 +367,7 @@ int main(void) {
     fprintf(stderr, "3 instances, slots 0..2, %u queue(s) in the graphics family\n", queues);
     for (int i = 0; i < 3; i++)
         compute_exact(ctx, d[i], 1000u * (uint32_t)i + 7);
+    pipelines_shared(ctx, d[0], d[2], s);
 
     cv_transfer_path best;
     CHECK_OK(cv_transfer_choose_path(d[0], d[1], &best));
