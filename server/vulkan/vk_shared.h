@@ -24,7 +24,8 @@
  * and destroys it with the last reference; the 2nd..Nth virtual GPU of an
  * adapter costs no shader compilation). Everything else stays per instance
  * (command pools, semaphores, memory allocator, immediate command buffer,
- * tracer, resources).
+ * tracer, resources; the tracer's compute traversal pipeline is shared,
+ * its ray-tracing pipeline is not).
  *
  * Queue rule: an instance takes the lowest free slot k of its shared device
  * and uses queue index k % queueCount in every family it uses (lavapipe: every

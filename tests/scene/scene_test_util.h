@@ -1,5 +1,6 @@
 /* Helpers shared by the scene tests: a content hash of a scene, a
- * brute-force ray tracer over every world triangle, and test-model paths. */
+ * brute-force ray tracer over every world triangle, test-model paths, and
+ * whole-file reads and writes. */
 #ifndef CORVID_SCENE_TEST_UTIL_H
 #define CORVID_SCENE_TEST_UTIL_H
 
@@ -25,6 +26,11 @@ bool brute_force_trace(const cv_bvh_tri *tris, uint32_t count, const cv_ray *ray
 /* brute_force_trace over rays[0..n) on all CPUs; returns the number of hits. */
 uint32_t brute_force_batch(const cv_bvh_tri *tris, uint32_t count, const cv_ray *rays, uint32_t n, uint32_t flags,
                            cv_hit *hits);
+
+/* A file written whole (a CHECK fails if it cannot be), and read whole: NULL
+ * if it cannot be read; one byte more is allocated than *size says. */
+void write_whole_file(const char *path, const void *data, size_t size);
+void *read_whole_file(const char *path, size_t *size);
 
 /* Path of an assimp test model ("OBJ/spider.obj"), in a static buffer. */
 const char *model_path(const char *relative);

@@ -28,32 +28,6 @@ static const char *path_of(const char *name) {
     return path[slot];
 }
 
-static void write_file(const char *name, const void *data, size_t size) {
-    FILE *f = fopen(path_of(name), "wb");
-    CHECK(f != NULL);
-    if (!f)
-        return;
-    CHECK(fwrite(data, 1, size, f) == size);
-    fclose(f);
-}
-
-static uint8_t *read_whole(const char *path, size_t *size) {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *data = malloc((size_t)n + 1);
-    if (data && fread(data, 1, (size_t)n, f) != (size_t)n) {
-        free(data);
-        data = NULL;
-    }
-    fclose(f);
-    *size = (size_t)n;
-    return data;
-}
-
 static bool error_mentions(const char *word) {
     bool ok = strstr(cv_last_error(), word) != NULL;
     if (!ok)
@@ -130,7 +104,7 @@ static void write_quad_bin(void) {
     memcpy(bin, pos, 48);
     memcpy(bin + 48, quad_uvs, 32);
     memcpy(bin + 80, idx, 12);
-    write_file("quad.bin", bin, sizeof bin);
+    write_whole_file(path_of("quad.bin"), bin, sizeof bin);
 }
 
 /* A glTF with the quad, and the given images, textures and materials arrays
@@ -158,7 +132,7 @@ static const char *write_gltf(const char *name, const char *images, const char *
              "\"nodes\":[{\"mesh\":0}],\"scenes\":[{\"nodes\":[0]}],\"scene\":0,"
              "\"images\":%s,\"textures\":%s,\"materials\":%s%s}",
              primitives, images, textures, materials, extra);
-    write_file(name, json, strlen(json));
+    write_whole_file(path_of(name), json, strlen(json));
     return path_of(name);
 }
 
@@ -394,15 +368,15 @@ static void test_hostile(void) {
     expect_refused("dir.gltf", "sub", "", "", CV_ERROR_IO, "not a regular file");
 
     size_t size = 0;
-    uint8_t *png = read_whole(path_of("base.png"), &size);
+    uint8_t *png = read_whole_file(path_of("base.png"), &size);
     CHECK(png != NULL);
     if (png) {
-        write_file("truncated.png", png, size / 2);
+        write_whole_file(path_of("truncated.png"), png, size / 2);
         expect_refused("trunc_png.gltf", "truncated.png", "", "", CV_ERROR_MALFORMED, "corrupt PNG");
-        write_file("ends.png", png, size - 12); /* without IEND */
+        write_whole_file(path_of("ends.png"), png, size - 12); /* without IEND */
         expect_refused("ends_png.gltf", "ends.png", "", "", CV_ERROR_MALFORMED, "corrupt PNG");
         png[40] ^= 0x55; /* inside IDAT: the CRC no longer matches */
-        write_file("flipped.png", png, size);
+        write_whole_file(path_of("flipped.png"), png, size);
         expect_refused("flipped_png.gltf", "flipped.png", "", "", CV_ERROR_MALFORMED, "corrupt PNG");
         free(png);
     }
@@ -415,20 +389,20 @@ static void test_hostile(void) {
     huge[24] = 8;
     huge[25] = 6;
     put_be32(huge + 29, crc32_of(huge + 12, 17));
-    write_file("huge.png", huge, sizeof huge);
+    write_whole_file(path_of("huge.png"), huge, sizeof huge);
     expect_refused("huge_png.gltf", "huge.png", "", "", CV_ERROR_LIMIT_EXCEEDED, "100000x100000");
 
-    uint8_t *jpg = read_whole(path_of("emissive.jpg"), &size);
+    uint8_t *jpg = read_whole_file(path_of("emissive.jpg"), &size);
     CHECK(jpg != NULL);
     if (jpg) {
-        write_file("truncated.jpg", jpg, size * 2 / 3);
+        write_whole_file(path_of("truncated.jpg"), jpg, size * 2 / 3);
         expect_refused("trunc_jpg.gltf", "truncated.jpg", "", "", CV_ERROR_MALFORMED, "corrupt JPEG");
         memset(jpg + 4, 0xee, 40); /* the first segment after SOI and its marker */
-        write_file("corrupt.jpg", jpg, size);
+        write_whole_file(path_of("corrupt.jpg"), jpg, size);
         expect_refused("corrupt_jpg.gltf", "corrupt.jpg", "", "", CV_ERROR_MALFORMED, "corrupt JPEG");
         free(jpg);
     }
-    write_file("text.png", "not an image at all", 19);
+    write_whole_file(path_of("text.png"), "not an image at all", 19);
     expect_refused("text.gltf", "text.png", "", "", CV_ERROR_MALFORMED, "neither PNG nor JPEG");
 
     expect_refused("encoded_dotdot.gltf", "%2e%2e/x.png", "", "", CV_ERROR_MALFORMED, "'..'");

@@ -12,6 +12,7 @@
 
 #include "check.h"
 #include "corvid/scene_import.h"
+#include "scene_test_util.h"
 
 static char dir[] = "/tmp/corvid_hostile_XXXXXX";
 
@@ -21,15 +22,6 @@ static const char *path_of(const char *name) {
     slot = (slot + 1) % 4;
     snprintf(path[slot], sizeof path[slot], "%s/%s", dir, name);
     return path[slot];
-}
-
-static void write_file(const char *path, const void *data, size_t size) {
-    FILE *f = fopen(path, "wb");
-    CHECK(f != NULL);
-    if (!f)
-        return;
-    CHECK(fwrite(data, 1, size, f) == size);
-    fclose(f);
 }
 
 static double now_s(void) {
@@ -80,16 +72,16 @@ static void test_glb_lengths(void) {
     memcpy(glb + 16, "JSON", 4);
     memcpy(glb + 20, json, json_size);
     const char *path = path_of("huge_chunk.glb");
-    write_file(path, glb, sizeof glb);
+    write_whole_file(path, glb, sizeof glb);
     expect_rejected(path, CV_ERROR_MALFORMED, "chunk 0 claims 4294967280 bytes, only 568 follow");
     unlink(path);
 
     put32(glb + 12, (uint32_t)json_size);
     path = path_of("cut.glb");
-    write_file(path, glb, 300);
+    write_whole_file(path, glb, 300);
     expect_rejected(path, CV_ERROR_MALFORMED, "truncated GLB: its header says 588 bytes, the file has 300");
     unlink(path);
-    write_file(path, glb, 7);
+    write_whole_file(path, glb, 7);
     expect_rejected(path, CV_ERROR_MALFORMED, "truncated GLB");
     unlink(path);
 }
@@ -108,7 +100,7 @@ static void write_dag(const char *path, int levels, bool cycle) {
             n += snprintf(json + n, sizeof json - n, cycle ? "{\"children\":[0]}" : "{}");
     }
     n += snprintf(json + n, sizeof json - n, "]}");
-    write_file(path, json, (size_t)n);
+    write_whole_file(path, json, (size_t)n);
 }
 
 /* A 1.2 KB glTF of 30 levels, each node referencing the next twice, cost
@@ -120,7 +112,7 @@ static void test_node_graph(void) {
     write_dag(path, 3, true);
     expect_rejected(path, CV_ERROR_MALFORMED, "cycle through node 0");
     const char bad_child[] = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"children\":[7]}]}";
-    write_file(path, bad_child, sizeof bad_child - 1);
+    write_whole_file(path, bad_child, sizeof bad_child - 1);
     expect_rejected(path, CV_ERROR_MALFORMED, "node 0 has a child that is not a node index in 0..0");
     unlink(path);
 }
@@ -130,9 +122,9 @@ static void test_truncated_json(void) {
     const char json[] =
         "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"uri\":\"data:application/octet-stream;base64,AAAA";
     const char *path = path_of("cut.gltf");
-    write_file(path, json, sizeof json - 1);
+    write_whole_file(path, json, sizeof json - 1);
     expect_rejected(path, CV_ERROR_MALFORMED, "truncated glTF");
-    write_file(path, "{\"asset\":}", 11);
+    write_whole_file(path, "{\"asset\":}", 11);
     expect_rejected(path, CV_ERROR_MALFORMED, "invalid glTF: its JSON does not parse at byte 9");
     unlink(path);
 }

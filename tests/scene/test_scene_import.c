@@ -171,12 +171,10 @@ static const char gltf_json[] =
 static const char obj_text[] = "mtllib mat.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nusemtl glass\nf 1 2 3 4\n";
 static const char mtl_text[] = "newmtl glass\nKd 0.1 0.2 0.3\nNs 98\nd 0.4\nNi 1.45\nKe 2 0 0\n";
 
-static void write_file(const char *path, const void *data, size_t size);
-
 static void test_written_files(const char *dir) {
     char path[512];
     snprintf(path, sizeof path, "%s/written.gltf", dir);
-    write_file(path, gltf_json, sizeof gltf_json - 1);
+    write_whole_file(path, gltf_json, sizeof gltf_json - 1);
     cv_scene *s = NULL;
     CHECK_OK(cv_scene_import(path, &s));
     unlink(path);
@@ -208,9 +206,9 @@ static void test_written_files(const char *dir) {
     }
 
     snprintf(path, sizeof path, "%s/mat.mtl", dir);
-    write_file(path, mtl_text, sizeof mtl_text - 1);
+    write_whole_file(path, mtl_text, sizeof mtl_text - 1);
     snprintf(path, sizeof path, "%s/quad.obj", dir);
-    write_file(path, obj_text, sizeof obj_text - 1);
+    write_whole_file(path, obj_text, sizeof obj_text - 1);
     s = NULL;
     CHECK_OK(cv_scene_import(path, &s));
     unlink(path);
@@ -223,28 +221,6 @@ static void test_written_files(const char *dir) {
         CHECK(fabsf(m->transmission - 0.6f) < 1e-6f && m->ior == 1.45f && m->emission[0] == 2.0f);
         cv_scene_destroy(s);
     }
-}
-
-static void write_file(const char *path, const void *data, size_t size) {
-    FILE *f = fopen(path, "wb");
-    CHECK(f != NULL);
-    if (!f)
-        return;
-    CHECK(fwrite(data, 1, size, f) == size);
-    fclose(f);
-}
-
-static void *read_file(const char *path, size_t *size) {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    void *data = malloc((size_t)n);
-    *size = data ? fread(data, 1, (size_t)n, f) : 0;
-    fclose(f);
-    return data;
 }
 
 /* Import must fail with `code` and a message naming the file. */
@@ -267,7 +243,7 @@ static void test_bad_files(void) {
     expect_rejected(path, CV_ERROR_NOT_FOUND, "no such file");
     expect_rejected(dir, CV_ERROR_IO, "directory");
     snprintf(path, sizeof path, "%s/empty.obj", dir);
-    write_file(path, "", 0);
+    write_whole_file(path, "", 0);
     expect_rejected(path, CV_ERROR_MALFORMED, "empty");
 
     /* Garbage bytes (a fixed pseudo-random pattern) under several extensions. */
@@ -280,7 +256,7 @@ static void test_bad_files(void) {
     const char *exts[] = { "obj", "gltf", "glb", "ply", "stl" };
     for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++) {
         snprintf(path, sizeof path, "%s/garbage.%s", dir, exts[i]);
-        write_file(path, garbage, sizeof garbage);
+        write_whole_file(path, garbage, sizeof garbage);
         /* glTF files are checked before assimp sees them. */
         bool gltf = !strcmp(exts[i], "gltf") || !strcmp(exts[i], "glb");
         expect_rejected(path, CV_ERROR_MALFORMED, gltf ? "invalid glTF" : "assimp");
@@ -288,20 +264,20 @@ static void test_bad_files(void) {
 
     /* Truncated copies of a binary glTF and of a glTF's JSON. */
     size_t size = 0;
-    unsigned char *glb = read_file(model_path("glTF2/BoxTextured-glTF-Binary/BoxTextured.glb"), &size);
+    unsigned char *glb = read_whole_file(model_path("glTF2/BoxTextured-glTF-Binary/BoxTextured.glb"), &size);
     CHECK(glb != NULL && size > 1000);
     const size_t cuts[] = { 12, 100, size / 2, size - 1 };
     for (size_t i = 0; glb && i < sizeof cuts / sizeof cuts[0]; i++) {
         snprintf(path, sizeof path, "%s/truncated_%zu.glb", dir, cuts[i]);
-        write_file(path, glb, cuts[i]);
+        write_whole_file(path, glb, cuts[i]);
         expect_rejected(path, CV_ERROR_MALFORMED, "truncated GLB");
     }
     free(glb);
-    unsigned char *json = read_file(model_path("glTF2/BoxTextured-glTF-Embedded/BoxTextured.gltf"), &size);
+    unsigned char *json = read_whole_file(model_path("glTF2/BoxTextured-glTF-Embedded/BoxTextured.gltf"), &size);
     CHECK(json != NULL);
     if (json) {
         snprintf(path, sizeof path, "%s/truncated.gltf", dir);
-        write_file(path, json, size / 2);
+        write_whole_file(path, json, size / 2);
         expect_rejected(path, CV_ERROR_MALFORMED, "truncated glTF");
     }
     free(json);
@@ -309,11 +285,11 @@ static void test_bad_files(void) {
     /* Well-formed files without anything to render. */
     snprintf(path, sizeof path, "%s/points.obj", dir);
     const char points[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\np 1 2 3\n";
-    write_file(path, points, sizeof points - 1);
+    write_whole_file(path, points, sizeof points - 1);
     expect_rejected(path, CV_ERROR_MALFORMED, NULL);
     snprintf(path, sizeof path, "%s/nan.obj", dir);
     const char nan_obj[] = "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n";
-    write_file(path, nan_obj, sizeof nan_obj - 1);
+    write_whole_file(path, nan_obj, sizeof nan_obj - 1);
     expect_rejected(path, CV_ERROR_MALFORMED, "non-finite");
 
     const char *names[] = { "absent.glb",  "empty.obj",   "garbage.obj",    "garbage.gltf", "garbage.glb",

@@ -58,4 +58,12 @@ extern int check_count;
 /* Prints "<name>: N passed, N failed" and returns the process exit code. */
 int check_report(const char *name);
 
+/* How many times a test repeats the same code: `full` normally, `sanitized`
+ * in the ASan and TSan builds (tests/CMakeLists.txt says what may be cut). */
+#ifdef CORVID_TEST_SANITIZED
+#define CV_TEST_REPEATS(full, sanitized) (sanitized)
+#else
+#define CV_TEST_REPEATS(full, sanitized) (full)
+#endif
+
 #endif
