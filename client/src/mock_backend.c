@@ -264,7 +264,9 @@ static cv_result mock_submit(cv_backend_device *bd, void *compiled, uint64_t tic
             cv_pass_timing *t = &mc->timings[mc->timing_count];
             cv_span label = c->type == CV_CMD_TIMESTAMP ? c->u.timestamp.label : c->u.begin_marker.label;
             cv_list_string(l, label, t->label, sizeof(t->label));
-            t->start_ms = now_ms() - start;
+            double now = now_ms();
+            t->start_ms = now - start;
+            t->host_ms = now; /* the mock runs lists on the host: its clock is the host's */
             if (c->type == CV_CMD_BEGIN_MARKER && depth < 64)
                 stack[depth++] = mc->timing_count;
             mc->timing_count++;

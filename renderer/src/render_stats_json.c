@@ -4,7 +4,7 @@
  *   { "frames": [ { "frame": 0, "sample": 0, "wall_ms": 12.5, "timings_cut": 0,
  *                   "devices": [ { "index": 0, "label": "gpu0", "columns": { "x": 0, "width": 48 },
  *                                  "rays": 12960,
- *                                  "passes": [ { "name": "trace", "ms": 3.1 }, ... ],
+ *                                  "passes": [ { "name": "trace", "ms": 3.1, "start_ms": 0.4 }, ... ],
  *                                  "transfers": [ { "name": "transfer 'visibility'",
  *                                                   "bytes": 4096, "ms": 0.2 }, ... ] } ] } ],
  *     "summary": { "frames": 2, "frames_logged": 2, "device_count": 2, "devices_lost": 0,
@@ -15,6 +15,8 @@
  *
  * "rays" and "rays_total" are shadow and AO rays; "reflection_rays" (not in
  * rays_total) the reflection rays and their shadow rays (cv_render_stats).
+ * "start_ms" (passes and transfers whose device says when they began on the
+ * host's clock: cv_graph_timing.host_ms) is ms after the frame's submission.
  * A transfer is listed under its source device. The summary's devices are
  * cv_render_stats's (the last frame's figures). */
 #include <string.h>
@@ -53,6 +55,8 @@ static cJSON *frame_json(const cv_render_log *log, const render_log_frame *fr) {
             if (render_log_is_transfer(t))
                 cJSON_AddNumberToObject(e, "bytes", (double)t->bytes);
             cJSON_AddNumberToObject(e, "ms", t->ms);
+            if (t->host_ms > 0.0) /* clocked: when it began, ms after the frame's submission */
+                cJSON_AddNumberToObject(e, "start_ms", t->host_ms - fr->submit_ms);
             cJSON_AddItemToArray(render_log_is_transfer(t) ? transfers : passes, e);
         }
     }

@@ -80,6 +80,9 @@ static void frame_events(const cv_render_log *log, const render_log_frame *fr, d
             start = transfer_end[label];
         if (!transfer && host > start)
             start = host;
+        bool clocked = t->host_ms > 0.0 && isfinite(t->host_ms); /* where it really began */
+        if (clocked)
+            start = t->host_ms;
         double end = start + ms;
         cJSON *e = complete(transfer ? "transfer" : "pass", t->name, (int)label + 1,
                             transfer ? TID_TRANSFERS : TID_PASSES, ns_from(start, origin), ns_from(end, origin));
@@ -92,6 +95,7 @@ static void frame_events(const cv_render_log *log, const render_log_frame *fr, d
             host = end; /* synchronous on the host: what the graph submits next comes after it */
         } else {
             cJSON_AddBoolToObject(args, "measured", t->ms > 0.0);
+            cJSON_AddBoolToObject(args, "clocked", clocked);
             if (fr->devices[t->device].columns.width && !strcmp(t->name, "trace")) {
                 char cols[32];
                 cv_column_range c = fr->devices[t->device].columns;

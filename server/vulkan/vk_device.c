@@ -40,6 +40,26 @@ bool vk_device_offers(VkPhysicalDevice physical, const char *name) {
     return found;
 }
 
+/* VK_EXT_calibrated_timestamps with both time domains the timings need: the
+ * device's and CLOCK_MONOTONIC (the clock the graph and renderer use). */
+static bool calibration_offered(const cv_backend_device *bd) {
+    if (!vk_device_offers(bd->adapter.physical, VK_EXT_CALIBRATED_TIMESTAMPS_EXTENSION_NAME))
+        return false;
+    PFN_vkGetPhysicalDeviceCalibrateableTimeDomainsEXT domains_of =
+        (PFN_vkGetPhysicalDeviceCalibrateableTimeDomainsEXT)
+            vkGetInstanceProcAddr(bd->instance->instance, "vkGetPhysicalDeviceCalibrateableTimeDomainsEXT");
+    VkTimeDomainEXT domains[8];
+    uint32_t count = 8;
+    if (!domains_of || domains_of(bd->adapter.physical, &count, domains) < 0)
+        return false;
+    bool device = false, monotonic = false;
+    for (uint32_t i = 0; i < count && i < 8; i++) {
+        device |= domains[i] == VK_TIME_DOMAIN_DEVICE_EXT;
+        monotonic |= domains[i] == VK_TIME_DOMAIN_CLOCK_MONOTONIC_EXT;
+    }
+    return device && monotonic;
+}
+
 static cv_result create_vk_device(cv_backend_device *bd) {
     const vk_adapter *a = &bd->adapter;
     uint32_t families[VK_SLOT_COUNT] = { a->graphics_family, a->compute_family, a->copy_family };
@@ -112,7 +132,7 @@ static cv_result create_vk_device(cv_backend_device *bd) {
             .fragmentStoresAndAtomics = have.features.fragmentStoresAndAtomics,
         },
     };
-    const char *extensions[4 + VK_RT_EXTENSION_COUNT] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
+    const char *extensions[5 + VK_RT_EXTENSION_COUNT] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
     uint32_t extension_count = 1;
     for (uint32_t i = 0; bd->ray_tracing && i < VK_RT_EXTENSION_COUNT; i++)
         extensions[extension_count++] = vk_rt_extensions[i];
@@ -126,6 +146,10 @@ static cv_result create_vk_device(cv_backend_device *bd) {
     /* Cross-device waits through imported semaphores, where chosen (vk_cross_wait.h). */
     if (bd->cross_import)
         extensions[extension_count++] = VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME;
+    /* Pass starts on the host's clock (vk_timestamps.h), where the adapter can say. */
+    bool calibrated = calibration_offered(bd);
+    if (calibrated)
+        extensions[extension_count++] = VK_EXT_CALIBRATED_TIMESTAMPS_EXTENSION_NAME;
     VkDeviceCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
         .pNext = &features,
@@ -194,6 +218,10 @@ static cv_result create_vk_device(cv_backend_device *bd) {
                                 bd->label, bd->cross_missing);
         }
     }
+
+    if (calibrated)
+        bd->get_calibrated_timestamps = (PFN_vkGetCalibratedTimestampsEXT)
+            vkGetDeviceProcAddr(bd->device, "vkGetCalibratedTimestampsEXT");
 
     bd->cmd_push_descriptor_set = (PFN_vkCmdPushDescriptorSetKHR)vkGetDeviceProcAddr(bd->device,
                                                                                      "vkCmdPushDescriptorSetKHR");

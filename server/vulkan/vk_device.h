@@ -100,6 +100,9 @@ struct cv_backend_device {
     vk_tracer *tracer; /* the trace paths and the choice between them (vk_trace.h) */
     PFN_vkCmdPushDescriptorSetKHR cmd_push_descriptor_set;
     double timestamp_period_ns;
+    /* VK_EXT_calibrated_timestamps with the device and CLOCK_MONOTONIC domains
+     * (NULL otherwise): pass timings get their start on the host's clock. */
+    PFN_vkGetCalibratedTimestampsEXT get_calibrated_timestamps;
     char label[CV_LABEL_MAX];
 
     /* Cross-device links (vk_link.h): what the device enabled, and its stagings. */

@@ -1,4 +1,6 @@
-/* Timestamp queries of compiled lists (see vk_timestamps.h). Timestamps are
+/* Timestamp queries of compiled lists (see vk_timestamps.h). Where the device
+ * offers calibrated timestamps, each pass also gets its start on the host's
+ * CLOCK_MONOTONIC (cv_pass_timing.host_ms). Timestamps are
  * written at ALL_COMMANDS, i.e. once all earlier work has finished, so a pass
  * measures the work recorded inside it. Queues without timestamp support
  * record nothing; their passes are left out of the results. */
@@ -86,6 +88,25 @@ void vk_timestamps_point(vk_timestamps *ts, VkCommandBuffer cmd, const vk_queue 
     p->begin_query = p->end_query = write_query(ts, cmd, queue);
 }
 
+/* The device's clock and CLOCK_MONOTONIC (ms) read together, where the device
+ * can (bd->get_calibrated_timestamps); read when the timings are, so the
+ * clocks' drift since does not count. */
+static bool calibrate(cv_backend_device *bd, uint64_t *ticks, double *host_ms) {
+    if (!bd->get_calibrated_timestamps)
+        return false;
+    VkCalibratedTimestampInfoEXT infos[2] = {
+        { .sType = VK_STRUCTURE_TYPE_CALIBRATED_TIMESTAMP_INFO_EXT, .timeDomain = VK_TIME_DOMAIN_DEVICE_EXT },
+        { .sType = VK_STRUCTURE_TYPE_CALIBRATED_TIMESTAMP_INFO_EXT,
+          .timeDomain = VK_TIME_DOMAIN_CLOCK_MONOTONIC_EXT },
+    };
+    uint64_t values[2] = { 0 }, deviation = 0;
+    if (bd->get_calibrated_timestamps(bd->device, 2, infos, values, &deviation) != VK_SUCCESS)
+        return false;
+    *ticks = values[0];
+    *host_ms = (double)values[1] / 1e6;
+    return true;
+}
+
 cv_result vk_timestamps_read(cv_backend_device *bd, const vk_timestamps *ts, cv_pass_timing *out, uint32_t capacity,
                              uint32_t *count) {
     *count = 0;
@@ -103,6 +124,9 @@ cv_result vk_timestamps_read(cv_backend_device *bd, const vk_timestamps *ts, cv_
         return vk_fail(vr, "vkGetQueryPoolResults");
     }
     double ms_per_tick = bd->timestamp_period_ns / 1e6;
+    uint64_t now_ticks = 0;
+    double now_host_ms = 0.0;
+    bool calibrated = calibrate(bd, &now_ticks, &now_host_ms);
     uint64_t start = values[2 * ts->start_query];
     bool start_ok = values[2 * ts->start_query + 1] != 0;
     uint32_t n = 0;
@@ -116,6 +140,8 @@ cv_result vk_timestamps_read(cv_backend_device *bd, const vk_timestamps *ts, cv_
         snprintf(t->label, sizeof(t->label), "%s", p->label);
         t->start_ms = (double)((begin - start) & ts->mask) * ms_per_tick;
         t->duration_ms = (double)((end - begin) & ts->mask) * ms_per_tick;
+        /* The pass began before now (its results are in): now minus the ticks since. */
+        t->host_ms = calibrated ? now_host_ms - (double)((now_ticks - begin) & ts->mask) * ms_per_tick : 0.0;
     }
     free(values);
     *count = n;

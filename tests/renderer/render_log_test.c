@@ -3,6 +3,9 @@
  *    starts at its submit time, a device's passes end to end, a transfer from
  *    where the host's submission had got to, passes after a transfer no
  *    earlier than its end, a device's track carried over from frame to frame;
+ *  - a timing that says when it began on the host's clock (host_ms: clocked
+ *    devices, and every transfer) is placed there instead, overlapping
+ *    across devices as it really ran, and marked "clocked";
  *  - a device keeps its process when devices are renumbered (a lost device);
  *  - the stats file holds each frame's figures and the per-pass totals;
  *  - a label with quotes and backslashes stays valid JSON. */
@@ -48,6 +51,43 @@ static void check_span(const cJSON *events, const char *name, int frame, int pid
         fprintf(stderr, "%s frame %d pid %d: ts %.3f dur %.3f, expected %.3f %.3f\n", name, frame, pid,
                 cv_test_json_number(e, "ts"), cv_test_json_number(e, "dur"), ts, dur);
     }
+}
+
+/* One frame whose timings carry host_ms: each is placed where it began. */
+static void check_clocked(const char *trace) {
+    cv_render_log *log = NULL;
+    CHECK_OK(cv_render_log_create(&log));
+    if (!log)
+        return;
+    cv_render_observer obs = cv_render_log_observer(log);
+    cv_graph_timing f[] = { timing("trace", 0, 1.0, 0), timing("trace", 1, 2.0, 0),
+                            timing("transfer 'visibility'", 1, 0.5, 40), timing("accumulate", 0, 0.25, 0) };
+    f[0].host_ms = 501.5; /* device 0 began 1.5 ms after the submission */
+    f[1].host_ms = 501.0; /* device 1 earlier, and still running when device 0 began */
+    f[2].host_ms = 503.25;
+    f[3].host_ms = 504.0;
+    cv_render_frame_info info = { .frame = 0,
+                                  .frames = 1,
+                                  .submit_ms = 500.0,
+                                  .wall_ms = 5.0,
+                                  .device_count = 2,
+                                  .device_labels = { "a", "b" },
+                                  .columns = { { 0, 64 }, { 64, 32 } },
+                                  .timings = f,
+                                  .timing_count = 4 };
+    obs.frame(&info, obs.user);
+    CHECK_OK(cv_render_log_write_trace(log, trace));
+    cJSON *root = cv_test_json_parse_file(trace);
+    const cJSON *events = root ? cJSON_GetObjectItem(root, "traceEvents") : NULL;
+    check_span(events, "trace", 0, 1, 1, 1500.0, 1000.0);
+    check_span(events, "trace", 0, 2, 1, 1000.0, 2000.0);
+    check_span(events, "transfer 'visibility'", 0, 2, 2, 3250.0, 500.0);
+    check_span(events, "accumulate", 0, 1, 1, 4000.0, 250.0);
+    const cJSON *e = event(events, "trace", 0, 1);
+    CHECK(e && cJSON_IsTrue(cJSON_GetObjectItem(cJSON_GetObjectItem(e, "args"), "clocked")));
+    cJSON_Delete(root);
+    cv_render_log_destroy(log);
+    remove(trace);
 }
 
 int main(void) {
@@ -202,6 +242,7 @@ int main(void) {
     cv_render_log_destroy(log);
     cv_render_log_destroy(NULL);
     remove(stats);
+    check_clocked(trace);
     remove(trace);
     CHECK(rmdir(dir) == 0);
     CHECK_NOTHING_LIVE();

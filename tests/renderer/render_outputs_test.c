@@ -9,9 +9,13 @@
  *    (frames, rays, devices, transfer bytes) and its per-frame figures add up;
  *  - its trace JSON has one complete event per pass instance per frame, named
  *    device processes, non-negative durations and no overlap on a track;
+ *    every pass is placed where its device says it began (lavapipe has
+ *    calibrated timestamps: "clocked"), inside its frame's host span
+ *    (submission to timings read, 0.5 ms of slack for the calibration);
  *  - bad destinations are refused with the path in the message. */
 #include <cjson/cJSON.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -147,7 +151,16 @@ static void check_trace(const char *path, uint32_t gpus) {
     const cJSON *events = cJSON_GetObjectItem(root, "traceEvents"), *e;
     span spans[512];
     uint32_t count = 0, passes = 0, per_frame[FRAMES] = { 0 }, traces[FRAMES] = { 0 }, transfers = 0;
-    uint32_t named = 0, negative = 0;
+    uint32_t named = 0, negative = 0, clocked = 0, outside = 0;
+    double frame_start[FRAMES], frame_end[FRAMES];
+    cJSON_ArrayForEach(e, events) {
+        unsigned f;
+        if (!strcmp(string(e, "ph"), "X") && !strcmp(string(e, "cat"), "frame") &&
+            sscanf(string(e, "name"), "frame %u", &f) == 1 && f < FRAMES) {
+            frame_start[f] = cv_test_json_number(e, "ts");
+            frame_end[f] = frame_start[f] + cv_test_json_number(e, "dur");
+        }
+    }
     cJSON_ArrayForEach(e, events) {
         const char *ph = string(e, "ph");
         if (!strcmp(ph, "M") && !strcmp(string(e, "name"), "process_name")) {
@@ -164,7 +177,11 @@ static void check_trace(const char *path, uint32_t gpus) {
         int frame = (int)cv_test_json_number(cJSON_GetObjectItem(e, "args"), "frame");
         if (!strcmp(string(e, "cat"), "pass")) {
             passes++;
+            const cJSON *clock = cJSON_GetObjectItem(cJSON_GetObjectItem(e, "args"), "clocked");
+            clocked += cJSON_IsTrue(clock);
             if (frame >= 0 && frame < FRAMES) {
+                double ts = cv_test_json_number(e, "ts");
+                outside += ts < frame_start[frame] - 500.0 || ts + dur > frame_end[frame] + 500.0;
                 per_frame[frame]++;
                 traces[frame] += !strcmp(string(e, "name"), "trace");
             }
@@ -178,6 +195,8 @@ static void check_trace(const char *path, uint32_t gpus) {
     /* per frame: trace and reflect on every device, accumulate and reflect_filter on the primary;
      * gbuffer on the first frame, filter and composite on the last */
     CHECK_EQ_INT(passes, 1 + FRAMES * (2 * gpus + 2) + 2);
+    CHECK_EQ_INT(clocked, passes);
+    CHECK_EQ_INT(outside, 0);
     for (uint32_t f = 0; f < FRAMES; f++) {
         CHECK_EQ_INT(traces[f], gpus);
         CHECK_EQ_INT(per_frame[f], 2 * gpus + 2 + (f == 0) + 2 * (f == FRAMES - 1));

@@ -49,11 +49,16 @@ typedef struct cv_device_info {
 } cv_device_info;
 
 /* Pass timing: the region between a begin_marker and its end_marker, or a
- * timestamp (duration 0). Times are relative to the start of the list. */
+ * timestamp (duration 0). start_ms is relative to the start of the list;
+ * host_ms is when the pass began on this process's CLOCK_MONOTONIC (ms), so
+ * that passes of several devices can be laid on one timeline: Vulkan devices
+ * with calibrated timestamps and the mock give it; 0 where the device cannot
+ * say (no calibrated clock, a remote node's devices). */
 typedef struct cv_pass_timing {
     char label[CV_LABEL_MAX];
     double start_ms;
     double duration_ms;
+    double host_ms;
 } cv_pass_timing;
 
 cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc, cv_device **out);

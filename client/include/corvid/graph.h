@@ -211,6 +211,8 @@ typedef struct cv_graph_timing {
     uint32_t device;         /* device index (a transfer: its source) */
     double ms;               /* GPU time; a transfer: host time (asynchronous: issuing it only) */
     uint64_t bytes;          /* a transfer: bytes moved between devices */
+    double host_ms;          /* when it began on the host's CLOCK_MONOTONIC (cv_pass_timing.host_ms);
+                                a transfer: when the graph began it; 0: the device cannot say */
 } cv_graph_timing;
 
 /* Records, submits, transfers and waits; one timing per pass instance and per

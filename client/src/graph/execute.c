@@ -149,10 +149,12 @@ void graph_make_rings(cv_graph *g) {
 }
 
 /* Moves a transfer step's copies; last[d] rises to the tickets of asynchronous copies. */
-static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uint64_t *bytes, uint64_t *last) {
+static cv_result run_transfer(cv_graph *g, const graph_step *st, double *start_ms, double *ms, uint64_t *bytes,
+                              uint64_t *last) {
     const graph_resource *r = &g->resources[st->resource];
     cv_handle h = graph_handle_of(g, st->resource, false);
     double start = now_ms();
+    *start_ms = start;
     cv_result res = CV_OK;
     *bytes = 0;
     for (uint32_t c = 0; c < st->plan.count && res == CV_OK; c++) {
@@ -189,21 +191,25 @@ static cv_result run_transfer(cv_graph *g, const graph_step *st, double *ms, uin
     return res;
 }
 
-static double instance_ms(cv_graph *g, uint32_t device, const char *name, uint64_t ticket) {
+/* The pass's GPU time (0: none measured) and its start on the host's clock (0: unknown). */
+static double instance_ms(cv_graph *g, uint32_t device, const char *name, uint64_t ticket, double *host_ms) {
     cv_pass_timing t[4];
     uint32_t n = 0;
+    *host_ms = 0.0;
     if (cv_device_timings(g->devices[device], ticket, t, 4, &n) != CV_OK)
         return 0.0;
     for (uint32_t i = 0; i < n && i < 4; i++)
-        if (strcmp(t[i].label, name) == 0)
+        if (strcmp(t[i].label, name) == 0) {
+            *host_ms = t[i].host_ms;
             return t[i].duration_ms;
+        }
     return 0.0;
 }
 
 static void put_timing(cv_graph_timing *out, uint32_t capacity, uint32_t *count, const char *name, uint32_t device,
-                       double ms, uint64_t bytes) {
+                       double host_ms, double ms, uint64_t bytes) {
     if (out && *count < capacity) {
-        out[*count] = (cv_graph_timing){ .device = device, .ms = ms, .bytes = bytes };
+        out[*count] = (cv_graph_timing){ .device = device, .host_ms = host_ms, .ms = ms, .bytes = bytes };
         /* Pass names fit (graph.c checks them); transfer names may be cut. */
         snprintf(out[*count].name, sizeof(out[*count].name), "%.*s", (int)sizeof(out[*count].name) - 1, name);
     }
@@ -240,11 +246,12 @@ static cv_result collect(cv_graph *g, graph_frame *fr, cv_graph_timing *timings,
         if (e->transfer) {
             char name[CV_LABEL_MAX + 16];
             snprintf(name, sizeof(name), "transfer '%s'", g->resources[e->resource].name);
-            put_timing(timings, capacity, &n, name, e->device, e->ms, e->bytes);
+            put_timing(timings, capacity, &n, name, e->device, e->host_ms, e->ms, e->bytes);
             continue;
         }
-        double t = instance_ms(g, e->device, pass->name, e->ticket);
-        put_timing(timings, capacity, &n, pass->name, e->device, t, 0);
+        double host_ms = 0.0;
+        double t = instance_ms(g, e->device, pass->name, e->ticket, &host_ms);
+        put_timing(timings, capacity, &n, pass->name, e->device, host_ms, t, 0);
         if (pass->policy == CV_MGPU_ALL_DEVICES) {
             ms[e->device] += t > 0.0 ? t : 1e-6;
             balanced_pass = true;
@@ -283,7 +290,7 @@ static cv_result evaluate(cv_graph *g, bool wait, cv_graph_timing *timings, uint
             graph_entry e = {
                 .transfer = true, .pass = st->pass, .resource = st->resource, .device = st->plan.copies[0].src_device
             };
-            res = run_transfer(g, st, &e.ms, &e.bytes, fr->last);
+            res = run_transfer(g, st, &e.host_ms, &e.ms, &e.bytes, fr->last);
             if (res == CV_OK)
                 res = frame_add(fr, e);
             continue;

@@ -107,6 +107,7 @@ typedef struct graph_entry {
     uint32_t device;   /* a transfer: its first source device */
     uint64_t ticket;   /* passes */
     double ms;         /* transfers: host time issuing (async) or moving (sync) */
+    double host_ms;    /* transfers: when it began, CLOCK_MONOTONIC */
     uint64_t bytes;    /* transfers */
 } graph_entry;
 

@@ -217,6 +217,7 @@ static void on_completed(proxy_device *p, const Corvid__Completed *c) {
             snprintf(t->label, sizeof(t->label), "%s", c->timings[i]->label ? c->timings[i]->label : "");
             t->start_ms = c->timings[i]->start_ms;
             t->duration_ms = c->timings[i]->duration_ms;
+            t->host_ms = 0.0; /* the node's clock is not this process's */
         }
     }
     slot->ticket = 0;

@@ -22,17 +22,18 @@
  *     }
  *     cv_render_log_destroy(log);
  *
- * Time base of the trace: the graph reports each pass instance's duration
- * measured on its device (GPU timestamps where the device has them), not when
- * it started. Each frame starts at the host's clock when it was submitted;
- * on every device its passes are laid end to end in the order the graph ran
- * them. A transfer runs on the host, in step order: its time (the host's)
- * runs from when the graph reached it, including the wait for its source's
- * work, so it starts where the previous transfer of the frame ended (or at
- * the frame's start), and passes after it start no earlier than its end. So
- * the trace shows the order, length and overlap across devices of the work,
- * but not the idle gaps inside a device's frame. ts and dur are microseconds
- * (whole nanoseconds) from the first frame's submission.
+ * Time base of the trace: the host's CLOCK_MONOTONIC, ts and dur in
+ * microseconds (whole nanoseconds) from the first frame's submission. A pass
+ * whose device reports when it began on that clock (cv_graph_timing.host_ms:
+ * Vulkan devices with calibrated timestamps, the mock) is placed there, with
+ * its measured duration (args "clocked": true), so the trace shows real
+ * overlap across devices and the idle gaps inside a device's frame. A pass
+ * whose device cannot say (a remote node's devices, a Vulkan driver without
+ * calibrated timestamps; "clocked": false) is laid end to end after the
+ * previous pass of its device, starting no earlier than the frame's
+ * submission. A transfer runs on the host, in step order, from when the graph
+ * began it (its time includes the wait for its source's work); an unclocked
+ * pass after it starts no earlier than its end.
  *
  * A log takes any number of renders (frames are appended). A recording
  * failure (no memory) is kept and returned by the writers. */
