@@ -127,9 +127,49 @@ static void check_edges(uint32_t devices) {
     world_close(&w);
 }
 
+/* A copy waits for the first pass that touches what it moves: 'v' goes back
+ * to the primary after 'other' (which does not read it), just before
+ * 'resolve'; 'w' (an output written on all devices, read by no later pass)
+ * at the end of the frame. */
+static void test_late_transfers(void) {
+    graph_world w;
+    world_open(&w, 2);
+    cv_graph_resource g = texture(&w, "g"), v = texture(&w, "v"), wr = texture(&w, "w"), out = texture(&w, "out");
+    cv_graph_pass gbuffer = add_pass(&w, "gbuffer", CV_MGPU_PRIMARY_ONLY);
+    cv_graph_pass trace = add_pass(&w, "trace", CV_MGPU_ALL_DEVICES);
+    cv_graph_pass other = add_pass(&w, "other", CV_MGPU_ALL_DEVICES);
+    cv_graph_pass resolve = add_pass(&w, "resolve", CV_MGPU_PRIMARY_ONLY);
+    CHECK_OK(cv_graph_write(w.graph, gbuffer, g, CV_GRAPH_COLOR_TARGET, CV_GRAPH_TRANSFER_AUTO));
+    CHECK_OK(cv_graph_read(w.graph, trace, g, CV_GRAPH_SAMPLED));
+    CHECK_OK(cv_graph_write(w.graph, trace, v, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
+    CHECK_OK(cv_graph_read(w.graph, other, g, CV_GRAPH_SAMPLED));
+    CHECK_OK(cv_graph_write(w.graph, other, wr, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
+    CHECK_OK(cv_graph_read(w.graph, resolve, v, CV_GRAPH_STORAGE_READ));
+    CHECK_OK(cv_graph_write(w.graph, resolve, out, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
+    CHECK_OK(cv_graph_output(w.graph, out));
+    CHECK_OK(cv_graph_output(w.graph, wr));
+    CHECK_OK(cv_graph_bake(w.graph, &bake64));
+    char *text = dump_text(w.graph);
+    static const char *const order[] = { "  0 pass 'gbuffer'",
+                                         "  1 transfer 'g' after 'gbuffer'",
+                                         "  2 pass 'trace'",
+                                         "  3 pass 'other'",
+                                         "  4 transfer 'v' after 'trace'",
+                                         "  5 pass 'resolve'",
+                                         "  6 transfer 'w' after 'other'" };
+    for (uint32_t i = 0; i < sizeof(order) / sizeof(order[0]); i++) {
+        CHECK(text && strstr(text, order[i]));
+        if (text && !strstr(text, order[i]))
+            fprintf(stderr, "expected '%s' in:\n%s", order[i], text);
+    }
+    free(text);
+    world_close(&w);
+}
+
 static void test_cross_device_edges(void) {
     check_edges(2);
     check_edges(3);
+    test_late_transfers();
     /* One device: nothing ever crosses. */
     graph_world w;
     world_open(&w, 1);

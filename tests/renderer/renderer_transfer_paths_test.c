@@ -125,7 +125,10 @@ int main(void) {
             fprintf(stderr, "%s, %u devices: %s, %.1f MB moved in %.1f ms\n", paths[p], gpus,
                     same ? "bit-identical" : "DIFFERENT", stats.transfer_bytes / 1e6, stats.transfer_ms);
             cv_render_output_free(&many);
-            /* Exact bytes of every transfer step of every frame. */
+            /* Exact bytes of every transfer step of every frame (sanitizer
+             * builds: on 2 devices; the byte rule is the same on 3). */
+            if (gpus > CV_TEST_REPEATS(4u, 2u))
+                continue;
             transfer_check c = { .gpus = gpus };
             cv_render_output observed = { 0 };
             CHECK_OK(render_on(gpus, scene, bvh, &observed, &stats,

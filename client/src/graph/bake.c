@@ -322,7 +322,7 @@ static const cv_mgpu_transfer transfer_rules[] = {
  * what the primary wrote, back to the primary when the primary reads (or the
  * graph outputs) what all devices wrote. */
 static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_baked *b, uint32_t p, uint32_t a,
-                              uint32_t *capacity) {
+                              graph_step *out, bool *made) {
     const graph_pass *pass = &g->passes[p];
     const graph_access *acc = &pass->accesses[a];
     const graph_resource *r = res_of(g, acc->id);
@@ -345,6 +345,7 @@ static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_bake
                 to_primary |= !primary && reader->policy == CV_MGPU_PRIMARY_ONLY;
             }
     }
+    *made = false;
     if (!to_all && !to_primary)
         return CV_OK;
     graph_step step = { .transfer = true, .pass = p, .resource = (acc->id & ~GRAPH_HISTORY_BIT) - 1 };
@@ -374,20 +375,55 @@ static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_bake
     }
     b->stats.transfers++;
     b->stats.copies += step.plan.count;
-    return push_step(b, capacity, &step);
+    *out = step;
+    *made = true;
+    return CV_OK;
 }
 
-/* Kept passes in order, each a step with one instance per device it runs on,
- * followed by the transfers of what it wrote. */
+/* Whether pass q reads or writes resource index r (its own or its history). */
+static bool pass_touches(const graph_pass *q, uint32_t r) {
+    for (uint32_t c = 0; c < q->access_count; c++)
+        if ((q->accesses[c].id & ~GRAPH_HISTORY_BIT) - 1 == r)
+            return true;
+    return false;
+}
+
+/* Moves the pending transfers that pass q (NULL: the end of the frame) must
+ * come after into the steps, in the order they were made. */
+static cv_result flush_transfers(graph_baked *b, uint32_t *capacity, graph_step *pending, uint32_t *count,
+                                 const graph_pass *q) {
+    uint32_t kept = 0;
+    cv_result res = CV_OK;
+    for (uint32_t i = 0; i < *count; i++) {
+        if (res == CV_OK && (!q || pass_touches(q, pending[i].resource)))
+            res = push_step(b, capacity, &pending[i]);
+        else
+            pending[kept++] = pending[i];
+    }
+    *count = kept;
+    return res;
+}
+
+/* Kept passes in order, each a step with one instance per device it runs on.
+ * The transfers of what a pass wrote wait until the first later pass that
+ * reads or writes the resource (or the frame's end, for outputs): devices run
+ * their submissions in order, so a copy placed right after its producer would
+ * hold every device it touches until its source is done, also passes that do
+ * not need it (measured on an H200: the primary's reflect pass waited 0.9 ms
+ * for the visibility copy-back, which only accumulate reads). */
 static cv_result lay_out_steps(const cv_graph *g, const bake_state *s, graph_baked *b) {
-    uint32_t capacity = 0, instance_capacity = 0;
-    for (uint32_t i = 0; i < s->n; i++) {
+    uint32_t capacity = 0, instance_capacity = 0, pending_count = 0;
+    graph_step *pending = NULL;
+    uint32_t pending_capacity = 0;
+    cv_result res = CV_OK;
+    for (uint32_t i = 0; i < s->n && res == CV_OK; i++) {
         uint32_t p = s->order[i];
         if (!b->kept[p])
             continue;
         const graph_pass *pass = &g->passes[p];
+        res = flush_transfers(b, &capacity, pending, &pending_count, pass);
         graph_step step = { .pass = p, .instance_first = b->instance_count };
-        for (uint32_t d = 0; d < g->device_count; d++) {
+        for (uint32_t d = 0; d < g->device_count && res == CV_OK; d++) {
             cv_column_range window = pass->policy == CV_MGPU_PRIMARY_ONLY ? (cv_column_range){ 0, b->width }
                                                                           : b->partition.ranges[d];
             if (window.width == 0 || (pass->policy == CV_MGPU_PRIMARY_ONLY && d != 0))
@@ -395,8 +431,10 @@ static cv_result lay_out_steps(const cv_graph *g, const bake_state *s, graph_bak
             if (b->instance_count == instance_capacity) {
                 instance_capacity = instance_capacity ? instance_capacity * 2 : 16;
                 graph_instance *q = realloc(b->instances, instance_capacity * sizeof(*q));
-                if (!q)
-                    return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
+                if (!q) {
+                    res = cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
+                    break;
+                }
                 b->instances = q;
             }
             b->instances[b->instance_count] = (graph_instance){ .device = d,
@@ -405,18 +443,37 @@ static cv_result lay_out_steps(const cv_graph *g, const bake_state *s, graph_bak
             b->instance_count++;
             step.instance_count++;
         }
-        cv_result res = push_step(b, &capacity, &step);
+        if (res == CV_OK)
+            res = push_step(b, &capacity, &step);
         for (uint32_t a = 0; a < pass->access_count && res == CV_OK; a++) {
             const graph_access *acc = &pass->accesses[a];
             bool first_write = acc->write;
             for (uint32_t c = 0; c < a && first_write; c++)
                 first_write = !(pass->accesses[c].write && pass->accesses[c].id == acc->id);
+            graph_step transfer;
+            bool made = false;
             if (first_write)
-                res = transfers_of(g, s, b, p, a, &capacity);
+                res = transfers_of(g, s, b, p, a, &transfer, &made);
+            if (res == CV_OK && made) {
+                if (pending_count == pending_capacity) {
+                    uint32_t cap = pending_capacity ? pending_capacity * 2 : 8;
+                    graph_step *grown = realloc(pending, cap * sizeof(*grown));
+                    if (!grown) {
+                        res = cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
+                        break;
+                    }
+                    pending = grown;
+                    pending_capacity = cap;
+                }
+                pending[pending_count++] = transfer;
+            }
         }
-        if (res != CV_OK)
-            return res;
     }
+    if (res == CV_OK)
+        res = flush_transfers(b, &capacity, pending, &pending_count, NULL);
+    free(pending);
+    if (res != CV_OK)
+        return res;
     b->stats.steps = b->step_count;
     return CV_OK;
 }
