@@ -75,9 +75,18 @@ void main() {
     float tmin = rays[i].tmin;
     if (pc.round > 0u && isinf(tmin))
         return;
-    Hit h = pc.round == 0u ? hits[i] : next_hits[i];
-    if (pc.round > 0u)
-        hits[i] = h;
+    // Member by member: glslang's struct copies between the blocks' Hit types are invalid SPIR-V.
+    Hit h;
+    if (pc.round == 0u) {
+        h = Hit(hits[i].t, hits[i].u, hits[i].v, hits[i].triangle, hits[i].instance);
+    } else {
+        h = Hit(next_hits[i].t, next_hits[i].u, next_hits[i].v, next_hits[i].triangle, next_hits[i].instance);
+        hits[i].t = h.t;
+        hits[i].u = h.u;
+        hits[i].v = h.v;
+        hits[i].triangle = h.triangle;
+        hits[i].instance = h.instance;
+    }
     if (h.triangle == 0xFFFFFFFFu || !hit_cut(h)) {
         rays[i].tmin = retired;
         return;
