@@ -41,10 +41,12 @@
  * closer than that behind a cut point are passed with it), closest-hit, front
  * to back; an any-hit ray that stopped at a cut point is re-traced closest-hit
  * from its own tmin first. Rounds run in lockstep over a band's rays (4
- * re-traces for closest-hit rays, 5 for any-hit ones, whatever the hits), so
- * a masked scene costs up to twice its rays again (cv_render_stats.alpha_rays);
- * a scene without masked materials records none of it and renders the same
- * bytes as before the rule. cv_render_reference follows the same rules
+ * re-traces for closest-hit rays, 5 for any-hit ones, whatever the hits;
+ * cv_render_stats.alpha_rays counts their ray slots); a retired ray is
+ * rejected at the BVH root, so they cost far less than as many new rays
+ * (docs/renderer-quality.md: +14% frame time for a scene of masked leaves on
+ * lavapipe). A scene without masked materials records none of it and renders
+ * the same bytes as before the rule. cv_render_reference follows the same rules
  * (camera rays go past every cut point; its other rays by the rule above). */
 #ifndef CORVID_RENDERER_H
 #define CORVID_RENDERER_H
