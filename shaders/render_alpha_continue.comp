@@ -10,8 +10,10 @@
 //   round 0 reads the first trace's hits in place; every later round reads
 //   the re-trace's hits (b2), copies a live ray's into b1 and decides again.
 //   A ray whose hit stands (a miss, an opaque or masked-but-kept point) is
-//   retired: tmin = +infinity, so the next re-traces reject it at the root
-//   (only tmin changes: every later pass reads origin, dir and tmax alone).
+//   retired: tmin = +infinity, above the renderer's finite tmax, so the next
+//   re-traces reject it at the root on the compute path and skip it on the
+//   pipeline path (trace_rt.rgen: tmin > tmax is a miss); only tmin changes:
+//   every later pass reads origin, dir and tmax alone.
 //   Any-hit rays (any_hit = 1: shadow and AO) stop at any hit, perhaps a cut
 //   one with an opaque one nearer: such a ray is not moved in round 0 but
 //   re-traced closest-hit from its own tmin, and walks front to back from

@@ -1,6 +1,8 @@
 /* One hybrid frame across N devices (see renderer.h), declared as a render
  * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame; every frame
- * for a moving camera), 'trace' (every device, over its column window), with
+ * for a moving camera), 'trace' (every device, over its column window; in
+ * a scene with alpha-masked materials the alpha-mask rule's re-traces run
+ * inside it and inside 'reflect', renderer.h), with
  * reflections 'reflect' (every device, its window), 'reflect_reproject'
  * (primary, moving camera only) and 'reflect_filter' (primary), 'reproject'
  * (primary, moving camera only), 'accumulate' (primary), 'filter' and
@@ -122,16 +124,17 @@ enum {
     BUF_LIGHTS,
     BUF_RAYS,
     BUF_HITS,
-    BUF_INSTANCES,          /* instance -> its first triangle in the vertex list (reflection hits) */
-    BUF_REFLECT_RAYS,       /* transients of pass 'reflect', one band each: reflection rays, */
-    BUF_REFLECT_HITS,       /* their closest hits, */
-    BUF_SHADOW_RAYS,        /* shadow rays from those hits */
-    BUF_SHADOW_HITS,        /* and their any hits */
-    BUF_UVS,                /* per flat vertex uv */
-    BUF_IMAGE_TABLE,        /* texture images: where each lies in the pool (scene_upload.h) */
-    BUF_IMAGE_POOL,         /* and their texels */
-    BUF_ALPHA_HITS,         /* masked scenes: the hits of pass 'trace''s re-traces (render_alpha_continue.comp) */
-    BUF_REFLECT_ALPHA_HITS, /* and of pass 'reflect''s */
+    BUF_INSTANCES,    /* instance -> its first triangle in the vertex list (reflection hits) */
+    BUF_REFLECT_RAYS, /* transients of pass 'reflect', one band each: reflection rays, */
+    BUF_REFLECT_HITS, /* their closest hits, */
+    BUF_SHADOW_RAYS,  /* shadow rays from those hits */
+    BUF_SHADOW_HITS,  /* and their any hits */
+    BUF_UVS,          /* per flat vertex uv */
+    BUF_IMAGE_TABLE,  /* texture images: where each lies in the pool (scene_upload.h) */
+    BUF_IMAGE_POOL,   /* and their texels */
+    /* Masked scenes: the hits of the alpha-mask re-traces of passes 'trace' and 'reflect' (renderer.h). */
+    BUF_ALPHA_HITS,
+    BUF_REFLECT_ALPHA_HITS,
     BUF_COUNT
 };
 
