@@ -860,6 +860,9 @@ int main(int argc, char **argv) {
         if (stats.reflection_rays)
             printf("  reflections: %llu rays with their shadow rays (not in the rays and Mrays/s above)\n",
                    (unsigned long long)stats.reflection_rays);
+        if (stats.alpha_rays)
+            printf("  alpha mask: %llu ray slots re-traced past cut points (not in the rays above)\n",
+                   (unsigned long long)stats.alpha_rays);
         printf("transfers between devices: %.1f MB in %.1f ms; total %.1f s\n", stats.transfer_bytes / 1e6,
                stats.transfer_ms, (now_ms() - t0) / 1e3);
         if (o.stats || o.trace)

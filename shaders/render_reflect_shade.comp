@@ -4,8 +4,9 @@
 // (no AO, point lights or further bounces at the hit). The hit's material is
 // evaluated (render_material.glsl) at the uv interpolated from the hit's
 // barycentrics, at level 0 (no footprint: a ray cone's level of detail is
-// future work); the alpha mask does not apply to it (reflection rays see
-// masked geometry as opaque, renderer.h). Stored as
+// future work); the alpha mask does not apply to it (in a masked scene the
+// hit is the one that stands under renderer.h's alpha-mask rule, passes
+// render.alpha_continue). Stored as
 // (rgb = radiance L, a = hit distance; 1e30 for the sky, -1 where there is
 // no sample: no geometry, or the sample was lost; -2 where the pixel was not
 // traced this frame (quarter rate); rgb 0 then).

@@ -9,8 +9,11 @@
  * dFdxFine/dFdyFine measure),
  * the alpha mask cutting points away (the camera ray goes on to the next
  * hit), the normal image mapping the shading normal; at a reflection hit at
- * level 0, as render.reflect_shade. Shadow, AO and reflection rays see
- * alpha-masked geometry as opaque, as the GPU's trace does (renderer.h). Rows are split over pthreads; every pixel's samples come from
+ * level 0, as render.reflect_shade. Shadow, AO and reflection rays (and the
+ * shadow rays of reflection hits) follow renderer.h's alpha-mask rule as the
+ * GPU's render.alpha_continue does (secondary_trace): through at most
+ * CV_RENDER_ALPHA_LAYERS cut points, front to back, tmin = t + the ray-origin
+ * offset. Rows are split over pthreads; every pixel's samples come from
  * its own random stream, so the result does not depend on the thread count. */
 #include "corvid/renderer.h"
 
@@ -36,6 +39,7 @@ typedef struct reference_job {
     cv_render_settings s;
     cv_camera camera;
     cv_material default_material; /* for a scene without materials */
+    bool alpha_mask;              /* some material is alpha-masked: secondary rays follow the alpha-mask rule */
     uint32_t samples;
     cv_render_output *out;
     uint32_t next_row; /* guarded by lock */
@@ -72,15 +76,54 @@ static void basis(const float n[3], float t[3], float b[3]) {
     b[0] = c, b[1] = s + n[1] * n[1] * a, b[2] = -n[1];
 }
 
-static bool occluded(const reference_job *j, const float o[3], const float d[3], float tmax) {
-    cv_ray ray = { { o[0], o[1], o[2] }, 0.0f, { d[0], d[1], d[2] }, tmax };
-    cv_hit hit;
-    return cv_trace_ray(&j->target, &ray, CV_TRACE_ANY_HIT, &hit);
-}
-
 /* Material m of the scene (a scene without materials: the default, as scene_upload.c). */
 static const cv_material *material_of(const reference_job *j, uint32_t m) {
     return cv_scene_material_count(j->scene) ? cv_scene_material(j->scene, m) : &j->default_material;
+}
+
+/* The alpha mask cuts the hit point away: its material is masked and its
+ * alpha at the hit's uv, level 0, is below the cutoff (render_alpha_continue.comp's hit_cut). */
+static bool hit_cut(const reference_job *j, const cv_hit *hit) {
+    const render_scene_data *data = j->data;
+    uint64_t first = j->first_vertex[hit->instance] + 3ull * hit->triangle;
+    uint32_t m = data->vertices[first].material;
+    const cv_material *material = material_of(j, m < data->material_count ? m : data->material_count - 1);
+    if (material->alpha_mode != CV_ALPHA_MASK)
+        return false;
+    const float *uv = &data->uvs[2 * first];
+    float w = 1.0f - hit->u - hit->v;
+    cv_material_eval e;
+    cv_material_evaluate(j->scene, material, uv[0] * w + uv[2] * hit->u + uv[4] * hit->v,
+                         uv[1] * w + uv[3] * hit->u + uv[5] * hit->v, NULL, &e);
+    return !e.present;
+}
+
+/* A secondary ray's hit under renderer.h's alpha-mask rule, as the GPU's
+ * rounds (render_alpha_continue.comp) find it: a hit that is not cut stands;
+ * an any-hit ray that stopped at a cut point is traced again closest-hit from
+ * its own tmin; then front to back, each cut point passed with tmin = t +
+ * the ray-origin offset, at most CV_RENDER_ALPHA_LAYERS of them (the next one
+ * stands, as opaque). */
+static bool secondary_trace(const reference_job *j, cv_ray ray, uint32_t flags, cv_hit *hit) {
+    if (!cv_trace_ray(&j->target, &ray, flags, hit))
+        return false;
+    if (!j->alpha_mask || !hit_cut(j, hit))
+        return true;
+    if ((flags & CV_TRACE_ANY_HIT) && !cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, hit))
+        return false;
+    float offset = j->data->diagonal * 2e-5f;
+    for (uint32_t passed = 0; passed < CV_RENDER_ALPHA_LAYERS && hit_cut(j, hit); passed++) {
+        ray.tmin = hit->t + offset;
+        if (!cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, hit))
+            return false;
+    }
+    return true;
+}
+
+static bool occluded(const reference_job *j, const float o[3], const float d[3], float tmax) {
+    cv_ray ray = { { o[0], o[1], o[2] }, 0.0f, { d[0], d[1], d[2] }, tmax };
+    cv_hit hit;
+    return secondary_trace(j, ray, CV_TRACE_ANY_HIT, &hit);
 }
 
 /* The camera ray through pixel (x, y)'s centre, unit (render_camera_view_proj's frame). */
@@ -136,7 +179,7 @@ static void reflected_radiance(const reference_job *j, const float o[3], const f
     const render_scene_data *data = j->data;
     cv_ray ray = { { o[0], o[1], o[2] }, 0.0f, { d[0], d[1], d[2] }, 1e30f };
     cv_hit hit;
-    if (!cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, &hit)) {
+    if (!secondary_trace(j, ray, CV_TRACE_CLOSEST, &hit)) {
         memcpy(out, sky, sizeof(sky));
         return;
     }
@@ -393,6 +436,8 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
         return res;
     render_sun_direction(&j.s, data.sun_direction, data.sun_direction);
     j.data = &data;
+    for (uint32_t m = 0; m < data.material_count; m++)
+        j.alpha_mask = j.alpha_mask || data.materials[m].alpha_mode == CV_ALPHA_MASK;
     uint64_t *first = malloc((cv_scene_instance_count(scene) + 1) * sizeof(uint64_t));
     size_t n = (size_t)j.s.width * j.s.height * 4;
     cv_render_output o = { .width = j.s.width, .height = j.s.height };

@@ -1,6 +1,8 @@
 /* One hybrid frame across N devices (see renderer.h), declared as a render
  * graph (corvid/graph.h): passes 'gbuffer' (primary, first frame; every frame
- * for a moving camera), 'trace' (every device, over its column window), with
+ * for a moving camera), 'trace' (every device, over its column window; in
+ * a scene with alpha-masked materials the alpha-mask rule's re-traces run
+ * inside it and inside 'reflect', renderer.h), with
  * reflections 'reflect' (every device, its window), 'reflect_reproject'
  * (primary, moving camera only) and 'reflect_filter' (primary), 'reproject'
  * (primary, moving camera only), 'accumulate' (primary), 'filter' and
@@ -36,12 +38,14 @@ enum {
     PIPE_REFLECT_SHADE,
     PIPE_REFLECT_FILTER,
     PIPE_REFLECT_REPROJECT,
+    PIPE_ALPHA_CONTINUE, /* scenes with alpha-masked materials only */
     PIPE_COUNT
 };
 static const char *pipeline_names[PIPE_COUNT] = {
     "render.gbuffer",        "render.raygen",        "render.resolve",        "render.accumulate",
     "render.filter",         "render.composite",     "render.reproject",      "render.reflect_raygen",
     "render.reflect_shadow", "render.reflect_shade", "render.reflect_filter", "render.reflect_reproject",
+    "render.alpha_continue",
 };
 
 /* Size-dependent textures; `everywhere` ones are loaded on every device. */
@@ -128,6 +132,9 @@ enum {
     BUF_UVS,          /* per flat vertex uv */
     BUF_IMAGE_TABLE,  /* texture images: where each lies in the pool (scene_upload.h) */
     BUF_IMAGE_POOL,   /* and their texels */
+    /* Masked scenes: the hits of the alpha-mask re-traces of passes 'trace' and 'reflect' (renderer.h). */
+    BUF_ALPHA_HITS,
+    BUF_REFLECT_ALPHA_HITS,
     BUF_COUNT
 };
 
@@ -141,6 +148,7 @@ struct cv_renderer {
     cv_buffer vertices, materials, lights, instances;
     cv_buffer uvs, image_table, image_pool; /* textured materials (scene_upload.h) */
     cv_accel accel;
+    bool alpha_mask; /* some material is alpha-masked: secondary rays follow the alpha-mask rule */
     cv_pipeline pipelines[PIPE_COUNT];
     uint32_t width, height; /* of the textures below; 0 = none yet */
     cv_texture textures[TEX_COUNT];
@@ -265,7 +273,11 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
         res = load_everywhere(r, cv_any(r->accel));
     for (uint32_t d = 0; d < device_count && res == CV_OK; d++)
         res = cv_device_write_accel(devices[d], r->accel, bvh->nodes2, bvh->tris);
+    for (uint32_t m = 0; m < r->data.material_count && res == CV_OK; m++)
+        r->alpha_mask = r->alpha_mask || r->data.materials[m].alpha_mode == CV_ALPHA_MASK;
     for (int p = 0; p < PIPE_COUNT && res == CV_OK; p++) {
+        if (p == PIPE_ALPHA_CONTINUE && !r->alpha_mask)
+            continue;
         res = cv_pipeline_create(r->ctx, pipeline_names[p], &r->pipelines[p]);
         if (res == CV_OK)
             res = load_everywhere(r, cv_any(r->pipelines[p]));
@@ -438,8 +450,54 @@ static uint64_t band_capacity(const cv_renderer *r, const cv_render_settings *s)
     return row > band ? row : band < image ? band : image;
 }
 
+/* Re-traces of the alpha-mask rule (renderer.h) after a trace with or without CV_TRACE_ANY_HIT. */
+static uint32_t alpha_retraces(bool any_hit) { return CV_RENDER_ALPHA_LAYERS + (any_hit ? 1u : 0u); }
+
+/* The alpha-mask rule for the `count` rays of a band just traced into `hits`
+ * (any_hit: with CV_TRACE_ANY_HIT): render.alpha_continue (round 0 on `hits`),
+ * then alpha_retraces() times a closest-hit re-trace into `scratch` and the
+ * next round; the hits that stand end in `hits`, and the rays' tmin is spent
+ * (render_alpha_continue.comp). Recorded only for a masked scene. */
+static void record_alpha_rounds(const cv_renderer *r, const cv_graph_pass_context *pc, cv_command_list *l,
+                                cv_buffer rays, cv_buffer hits, cv_buffer scratch, uint32_t count, bool any_hit) {
+    cv_binding b[9] = { bind_buffer(rays),
+                        bind_buffer(hits),
+                        bind_buffer(scratch),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_VERTICES])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_INSTANCES])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_UVS])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_MATERIALS])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_IMAGE_TABLE])),
+                        bind_buffer(cv_graph_buffer(pc, r->buf[BUF_IMAGE_POOL])) };
+    uint32_t g = groups(count, 64), gx = g < 32768 ? g : 32768, rounds = alpha_retraces(any_hit);
+    for (uint32_t k = 0; k <= rounds; k++) {
+        struct {
+            uint32_t count, round, any_hit;
+            float bias;
+            uint32_t material_count, layers, pad[2];
+        } push = {
+            count,   k, any_hit ? 1u : 0u, r->data.diagonal * 2e-5f, r->data.material_count, CV_RENDER_ALPHA_LAYERS,
+            { 0, 0 }
+        };
+        cv_cmd_dispatch(l, pc->queue,
+                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_ALPHA_CONTINUE],
+                                             .bindings = b,
+                                             .bindings_count = 9,
+                                             .push = &push,
+                                             .push_size = sizeof(push),
+                                             .groups_x = gx,
+                                             .groups_y = groups(g, gx),
+                                             .groups_z = 1 });
+        if (k < rounds)
+            cv_cmd_trace_rays(l, pc->queue,
+                              &(cv_trace_rays_args){
+                                  .accel = r->accel, .rays = rays, .hits = scratch, .count = count });
+    }
+}
+
 /* Pass 'trace' (every device, its window): for each band of rows of the
- * window, ray generation, trace, resolve into visibility. */
+ * window, ray generation, trace (the alpha-mask rule's rounds in a masked
+ * scene), resolve into visibility. */
 static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
     cv_renderer *r = user;
     const cv_render_settings *s = &r->settings;
@@ -486,6 +544,9 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
             l, pc->queue,
             &(cv_trace_rays_args){
                 .accel = r->accel, .rays = rays, .hits = hits, .count = (uint32_t)count, .flags = CV_TRACE_ANY_HIT });
+        if (r->alpha_mask)
+            record_alpha_rounds(r, pc, l, rays, hits, cv_graph_buffer(pc, r->buf[BUF_ALPHA_HITS]), (uint32_t)count,
+                                true);
         cv_cmd_dispatch(l, pc->queue,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_RESOLVE],
                                              .bindings = res_b,
@@ -662,6 +723,9 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
                                              .groups_z = 1 });
         cv_cmd_trace_rays(l, pc->queue,
                           &(cv_trace_rays_args){ .accel = r->accel, .rays = rays, .hits = hits, .count = count });
+        if (r->alpha_mask)
+            record_alpha_rounds(r, pc, l, rays, hits, cv_graph_buffer(pc, r->buf[BUF_REFLECT_ALPHA_HITS]), count,
+                                false);
         cv_cmd_dispatch(l, pc->queue,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADOW],
                                              .bindings = shadow_b,
@@ -677,6 +741,9 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
                                                  .hits = shadow_hits,
                                                  .count = count,
                                                  .flags = CV_TRACE_ANY_HIT });
+        if (r->alpha_mask)
+            record_alpha_rounds(r, pc, l, shadow_rays, shadow_hits,
+                                cv_graph_buffer(pc, r->buf[BUF_REFLECT_ALPHA_HITS]), count, true);
         cv_cmd_dispatch(l, pc->queue,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADE],
                                              .bindings = shade_b,
@@ -1048,8 +1115,16 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     if (res == CV_OK)
         res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_HIT_BYTES, .label = "hits" }, 0,
                                      &r->buf[BUF_HITS]);
-    if (res == CV_OK && reflect)
+    if (res == CV_OK && (reflect || r->alpha_mask))
         res = cv_graph_import_buffer(g, r->instances, 0, &r->buf[BUF_INSTANCES]);
+    if (res == CV_OK && r->alpha_mask)
+        res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_HIT_BYTES, .label = "alpha hits" }, 0,
+                                     &r->buf[BUF_ALPHA_HITS]);
+    if (res == CV_OK && r->alpha_mask && reflect)
+        res = cv_graph_create_buffer(g,
+                                     &(cv_buffer_desc){ .size = reflect_rays * CV_HIT_BYTES,
+                                                        .label = "reflect alpha hits" },
+                                     0, &r->buf[BUF_REFLECT_ALPHA_HITS]);
     static const char *reflect_labels[4] = { "reflect rays", "reflect hits", "reflect shadow rays",
                                              "reflect shadow hits" };
     for (int k = 0; k < 4 && res == CV_OK && reflect; k++) {
@@ -1090,6 +1165,15 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     WRITE(r->buf[BUF_RAYS], CV_GRAPH_STORAGE_WRITE);
     WRITE(r->buf[BUF_HITS], CV_GRAPH_STORAGE_WRITE);
     WRITE(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_WRITE);
+    if (r->alpha_mask) { /* the alpha-mask rule reads the hits' materials */
+        READ(r->buf[BUF_VERTICES], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_INSTANCES], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_UVS], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_IMAGE_TABLE], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_IMAGE_POOL], CV_GRAPH_STORAGE_READ);
+        WRITE(r->buf[BUF_ALPHA_HITS], CV_GRAPH_STORAGE_WRITE);
+    }
     /* Moving camera: the history follows the surfaces (motion vectors,
      * disocclusion), and the accumulate keeps this frame's G-buffer beside it. */
     r->reproject_pass = (cv_graph_pass){ 0 };
@@ -1121,6 +1205,8 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         for (int k = BUF_REFLECT_RAYS; k <= BUF_SHADOW_HITS; k++)
             WRITE(r->buf[k], CV_GRAPH_STORAGE_WRITE);
         WRITE(r->tex[TEX_REFLECT], CV_GRAPH_STORAGE_WRITE);
+        if (r->alpha_mask)
+            WRITE(r->buf[BUF_REFLECT_ALPHA_HITS], CV_GRAPH_STORAGE_WRITE);
         if (moving) { /* the history follows the reflections (virtual point) and the surfaces */
             PASS("reflect_reproject", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_reflect_reproject);
             READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
@@ -1350,7 +1436,8 @@ static cv_result join_device(cv_renderer *r, cv_device *dev) {
     if (res == CV_OK)
         res = cv_device_write_accel(dev, r->accel, r->bvh->nodes2, r->bvh->tris);
     for (int p = 0; p < PIPE_COUNT && res == CV_OK; p++)
-        res = cv_device_load(dev, cv_any(r->pipelines[p]));
+        if (r->pipelines[p].id) /* render.alpha_continue only for a masked scene */
+            res = cv_device_load(dev, cv_any(r->pipelines[p]));
     for (int t = 0; t < TEX_COUNT && res == CV_OK && r->width; t++)
         if (texture_info[t].everywhere)
             res = cv_device_load(dev, cv_any(r->textures[t]));
@@ -1533,6 +1620,10 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
             st.rays_total += (uint64_t)part.ranges[d].width * r->height * (1 + s.ao_samples);
         if (res == CV_OK && r->graph_reflect)
             st.reflection_rays += 2 * reflect_traced_pixels(r, &s, s.first_frame + f);
+        if (res == CV_OK && r->alpha_mask) /* the rounds run over every ray slot of every band */
+            st.alpha_rays += (uint64_t)r->width * r->height *
+                             ((1 + s.ao_samples) * alpha_retraces(true) +
+                              (r->graph_reflect ? alpha_retraces(false) + alpha_retraces(true) : 0));
         if (res == CV_OK && progress)
             progress(f + 1, s.frames, user);
     }

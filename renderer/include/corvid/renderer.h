@@ -28,11 +28,26 @@
  * by the normal image in the triangle's tangent frame, and discards points
  * the alpha mask cuts away, so the surface behind shows. Reflection hits
  * evaluate the hit's material at its uv at level 0 (no ray-cone level of
- * detail) without the normal image. The alpha-mask rule for secondary rays:
- * shadow, AO and reflection rays are traced by the generic trace, which knows
- * nothing of materials, so they see alpha-masked geometry as opaque (a cut-out
- * leaf casts the shadow of its whole quad). cv_render_reference follows the
- * same rules (camera rays go past cut points; its other rays do not). */
+ * detail) without the normal image. The alpha-mask rule for secondary rays
+ * (shadow, AO, reflection rays and the shadow rays of reflection hits): a ray
+ * goes on through the points the alpha mask cuts away (alpha factor x base
+ * color image alpha at the hit's uv, level 0, below the cutoff), at most
+ * CV_RENDER_ALPHA_LAYERS of them; the next cut point it meets counts as
+ * opaque. The generic trace knows nothing of materials, so in a scene with
+ * any masked material the renderer continues the rays itself (passes 'trace'
+ * and 'reflect', render_alpha_continue.comp): after a trace it reads each
+ * hit's material and re-traces a ray whose hit is cut, the same ray with
+ * tmin = t + 2e-5 x the scene diagonal (the ray-origin offset: surfaces
+ * closer than that behind a cut point are passed with it), closest-hit, front
+ * to back; an any-hit ray that stopped at a cut point is re-traced closest-hit
+ * from its own tmin first. Rounds run in lockstep over a band's rays (4
+ * re-traces for closest-hit rays, 5 for any-hit ones, whatever the hits;
+ * cv_render_stats.alpha_rays counts their ray slots); a retired ray is
+ * rejected at the BVH root, so they cost far less than as many new rays
+ * (docs/renderer-quality.md: +14% frame time for a scene of masked leaves on
+ * lavapipe). A scene without masked materials records none of it and renders
+ * the same bytes as before the rule. cv_render_reference follows the same rules
+ * (camera rays go past every cut point; its other rays by the rule above). */
 #ifndef CORVID_RENDERER_H
 #define CORVID_RENDERER_H
 
@@ -43,6 +58,9 @@
 #include "corvid/partition.h"
 #include "corvid/render_observer.h"
 #include "corvid/scene.h"
+
+/* Cut points of alpha-masked materials a secondary ray passes (the rule above). */
+#define CV_RENDER_ALPHA_LAYERS 4u
 
 /* Rays per trace_rays command: a partition is traced in bands of rows so its
  * ray and hit buffers stay bounded (128 MiB of rays) whatever the image size. */
@@ -98,6 +116,9 @@ typedef struct cv_render_stats {
      * traced pixel per frame (every pixel; at reflection_scale 0.5 the pixels of the frame's slot of each
      * 2x2 quad). As rays_total, it counts every pixel's rays, sky pixels' and lost samples' included. */
     uint64_t reflection_rays;
+    /* Over all frames: ray slots of the alpha-mask re-traces (renderer.h's rule), every ray of a band
+     * per round, retired or not; 0 for a scene without alpha-masked materials (no round runs). */
+    uint64_t alpha_rays;
     uint32_t devices_lost;   /* secondaries that died during the render; their columns went to the others */
     uint64_t transfer_bytes; /* over all frames, between devices */
     double transfer_ms;
