@@ -8,13 +8,15 @@
  *                                  "transfers": [ { "name": "transfer 'visibility'",
  *                                                   "bytes": 4096, "ms": 0.2 }, ... ] } ] } ],
  *     "summary": { "frames": 2, "frames_logged": 2, "device_count": 2, "devices_lost": 0,
- *                  "rays_total": 25920, "reflection_rays": 17280, "frame_ms_mean": 12.0, "upload_ms": 3.0,
+ *                  "rays_total": 25920, "reflection_rays": 17280, "alpha_rays": 0, "frame_ms_mean": 12.0,
+ *                  "upload_ms": 3.0,
  *                  "transfer_bytes": 8192, "transfer_ms": 0.4,
  *                  "devices": [ { "index", "label", "columns", "rays", "trace_ms", "ms_per_column" } ],
  *                  "passes": [ { "name": "trace", "instances": 4, "ms_total": 12.4 }, ... ] } }
  *
  * "rays" and "rays_total" are shadow and AO rays; "reflection_rays" (not in
- * rays_total) the reflection rays and their shadow rays (cv_render_stats).
+ * rays_total) the reflection rays and their shadow rays, "alpha_rays" the
+ * ray slots re-traced past alpha-masked cut points (cv_render_stats).
  * "start_ms" (passes and transfers whose device says when they began on the
  * host's clock: cv_graph_timing.host_ms) is ms after the frame's submission.
  * A transfer is listed under its source device. The summary's devices are
@@ -101,6 +103,7 @@ static cJSON *summary_json(const cv_render_log *log, const cv_render_stats *s) {
     cJSON_AddNumberToObject(o, "devices_lost", s->devices_lost);
     cJSON_AddNumberToObject(o, "rays_total", (double)s->rays_total);
     cJSON_AddNumberToObject(o, "reflection_rays", (double)s->reflection_rays);
+    cJSON_AddNumberToObject(o, "alpha_rays", (double)s->alpha_rays);
     cJSON_AddNumberToObject(o, "frame_ms_mean", s->frame_ms);
     cJSON_AddNumberToObject(o, "upload_ms", s->upload_ms);
     cJSON_AddNumberToObject(o, "transfer_bytes", (double)s->transfer_bytes);

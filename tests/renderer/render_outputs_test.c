@@ -91,6 +91,8 @@ static void check_stats(const char *path, const cv_render_stats *st, uint32_t gp
     /* Reflections on (the default, full rate): a reflection and a shadow ray per pixel per frame. */
     CHECK_EQ_INT(cv_test_json_number(summary, "reflection_rays"), st->reflection_rays);
     CHECK_EQ_INT(st->reflection_rays, (uint64_t)2 * W * H * st->frames);
+    CHECK_EQ_INT(cv_test_json_number(summary, "alpha_rays"), 0); /* the room has no alpha-masked material */
+    CHECK_EQ_INT(st->alpha_rays, 0);
     CHECK_EQ_INT(cv_test_json_number(summary, "transfer_bytes"), st->transfer_bytes);
     CHECK(fabs(cv_test_json_number(summary, "frame_ms_mean") - st->frame_ms) < 1e-9 * st->frame_ms + 1e-12);
     CHECK_EQ_INT(cJSON_GetArraySize(cJSON_GetObjectItem(summary, "devices")), gpus);
