@@ -27,9 +27,10 @@
 #include <string.h>
 
 #include "check.h"
-#include "test_adapter.h"
 #include "corvid/renderer.h"
 #include "corvid/vulkan.h"
+#include "test_quad.h"
+#include "test_render.h"
 
 enum { W = 160, H = 90, SAMPLES = 16 };
 
@@ -37,51 +38,7 @@ static const float SUN[3] = { -0.6f, -0.8f, 0.0f }; /* the way the light travels
 static const float QUAD_LO = -0.6f, QUAD_HI = 0.6f; /* the quads' extent in x and z */
 static const float QUAD_Y[2] = { 1.0f, 1.3f };      /* heights of the striped quads */
 static const float CAMERA[3] = { 0.3f, 2.6f, 3.4f };
-
-static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *s,
-                           cv_render_output *out, cv_render_stats *stats) {
-    cv_context *ctx = NULL;
-    cv_device *devices[2] = { 0 };
-    cv_vulkan_gpu_table table;
-    cv_renderer *r = NULL;
-    cv_result res = cv_context_create(NULL, &ctx);
-    if (res == CV_OK)
-        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = gpus, .adapters = cv_test_adapter() },
-                                        &table);
-    if (res == CV_OK)
-        res = cv_vulkan_create_devices(ctx, &table, true, devices);
-    if (res == CV_OK)
-        res = cv_renderer_create(devices, gpus, scene, bvh, &r);
-    if (res == CV_OK)
-        res = cv_renderer_render(r, s, out, stats, NULL, NULL);
-    cv_renderer_destroy(r);
-    cv_context_destroy(ctx);
-    return res;
-}
-
-/* A quad with uvs (0, 0) .. (1, 1): corner c, edges a (u) and b (v), normal a x b. */
-static cv_result add_quad(cv_scene *scene, const float c[3], const float a[3], const float b[3], uint32_t material) {
-    float n[3] = { a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0] };
-    float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    float p[12], normals[12], uvs[8] = { 0, 0, 1, 0, 1, 1, 0, 1 };
-    for (int k = 0; k < 3; k++) {
-        p[k] = c[k], p[3 + k] = c[k] + a[k], p[6 + k] = c[k] + a[k] + b[k], p[9 + k] = c[k] + b[k];
-        for (int v = 0; v < 4; v++)
-            normals[v * 3 + k] = n[k] / len;
-    }
-    static const uint32_t idx[6] = { 0, 1, 2, 0, 2, 3 };
-    uint32_t mesh;
-    cv_result res = cv_scene_add_mesh(
-        scene,
-        &(cv_mesh_desc){
-            .positions = p, .normals = normals, .uvs = uvs, .vertex_count = 4, .indices = idx, .triangle_count = 2 },
-        &mesh);
-    cv_instance inst = { .mesh = mesh, .material = material };
-    cv_transform_identity(inst.transform);
-    if (res == CV_OK)
-        res = cv_scene_add_instance(scene, &inst, NULL);
-    return res;
-}
+static const float UV_ONE[2] = { 1.0f, 1.0f }; /* quads' uvs: (0, 0) .. (1, 1) */
 
 /* Stripes across u: 4 periods over the image, alpha 255 then 0 (open fraction 1/2 under bilinear filtering). */
 static cv_result add_stripes(cv_scene *scene, bool across_v, uint32_t *ref) {
@@ -143,11 +100,11 @@ static cv_result make_stripes_scene(bool mask, cv_scene **out, cv_bvh **bvh_out)
     for (int q = 0; q < 2 && res == CV_OK; q++)
         res = cv_scene_add_material(scene, &quad[q], NULL);
     if (res == CV_OK)
-        res = add_quad(scene, (float[]){ -3, 0, 3 }, (float[]){ 6, 0, 0 }, (float[]){ 0, 0, -6 }, 0);
+        res = cv_test_add_quad(scene, (float[]){ -3, 0, 3 }, (float[]){ 6, 0, 0 }, (float[]){ 0, 0, -6 }, UV_ONE, 0);
     float side = QUAD_HI - QUAD_LO;
     for (uint32_t q = 0; q < 2 && res == CV_OK; q++)
-        res = add_quad(scene, (float[]){ QUAD_LO, QUAD_Y[q], QUAD_HI }, (float[]){ side, 0, 0 },
-                       (float[]){ 0, 0, -side }, 1 + q);
+        res = cv_test_add_quad(scene, (float[]){ QUAD_LO, QUAD_Y[q], QUAD_HI }, (float[]){ side, 0, 0 },
+                               (float[]){ 0, 0, -side }, UV_ONE, 1 + q);
     if (res == CV_OK)
         res = add_sun_and_camera(scene);
     return finish(scene, res, out, bvh_out);
@@ -165,11 +122,11 @@ static cv_result make_stack_scene(uint32_t layers, cv_scene **out, cv_bvh **bvh_
     if (res == CV_OK)
         res = cv_scene_add_material(scene, &clear, NULL);
     if (res == CV_OK)
-        res = add_quad(scene, (float[]){ -3, 0, 3 }, (float[]){ 6, 0, 0 }, (float[]){ 0, 0, -6 }, 0);
+        res = cv_test_add_quad(scene, (float[]){ -3, 0, 3 }, (float[]){ 6, 0, 0 }, (float[]){ 0, 0, -6 }, UV_ONE, 0);
     float side = QUAD_HI - QUAD_LO;
     for (uint32_t q = 0; q < layers && res == CV_OK; q++)
-        res = add_quad(scene, (float[]){ QUAD_LO, 1.0f + 0.05f * (float)q, QUAD_HI }, (float[]){ side, 0, 0 },
-                       (float[]){ 0, 0, -side }, 1);
+        res = cv_test_add_quad(scene, (float[]){ QUAD_LO, 1.0f + 0.05f * (float)q, QUAD_HI }, (float[]){ side, 0, 0 },
+                               (float[]){ 0, 0, -side }, UV_ONE, 1);
     if (res == CV_OK)
         res = add_sun_and_camera(scene);
     return finish(scene, res, out, bvh_out);
@@ -243,9 +200,9 @@ static void check_stripes(void) {
     /* Two devices tracing in bands (band_rays: 5 rows of the whole image): every band runs its own rounds. */
     cv_render_settings banded = settings;
     banded.band_rays = 5 * W * (1 + settings.ao_samples);
-    CHECK_OK(render_on(1, scene, bvh, &settings, &gpu, &st));
-    CHECK_OK(render_on(2, scene, bvh, &banded, &gpu2, &st2));
-    CHECK_OK(render_on(1, opaque, opaque_bvh, &settings, &gpu_opaque, &st_opaque));
+    CHECK_OK(cv_test_render(1, scene, bvh, &settings, &gpu, &st));
+    CHECK_OK(cv_test_render(2, scene, bvh, &banded, &gpu2, &st2));
+    CHECK_OK(cv_test_render(1, opaque, opaque_bvh, &settings, &gpu_opaque, &st_opaque));
     CHECK_OK(cv_render_reference(scene, bvh, &settings, SAMPLES, 2, &ref));
     if (gpu.visibility && gpu2.visibility && ref.visibility && gpu_opaque.visibility) {
         size_t bytes = (size_t)W * H * 4 * sizeof(float);
@@ -359,7 +316,7 @@ static void check_bound(void) {
         CHECK_OK(make_stack_scene(layers, &scene, &bvh));
         cv_render_output gpu = { 0 }, ref = { 0 };
         if (scene) {
-            CHECK_OK(render_on(1, scene, bvh, &s, &gpu, NULL));
+            CHECK_OK(cv_test_render(1, scene, bvh, &s, &gpu, NULL));
             CHECK_OK(cv_render_reference(scene, bvh, &s, 1, 2, &ref));
         }
         if (gpu.visibility && ref.visibility) {

@@ -30,6 +30,7 @@
 #include "corvid/scene_procedural.h"
 #include "corvid/trace_cpu.h"
 #include "corvid/vulkan.h"
+#include "test_quad.h"
 #include "test_render.h"
 
 /* Moving camera, mirror floor (check_mirror_orbit): at most this share of the
@@ -38,29 +39,6 @@
  * surface's motion alone 48.65% and 0.0795. */
 #define MIRROR_ORBIT_OFF_PERCENT 17
 #define MIRROR_ORBIT_MEAN 0.017
-
-/* A two-sided quad: corner c, edges a and b (normal a x b). */
-static cv_result add_quad(cv_scene *scene, const float c[3], const float a[3], const float b[3], uint32_t material) {
-    float n[3] = { a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0] };
-    float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    float p[12], normals[12];
-    for (int k = 0; k < 3; k++) {
-        p[k] = c[k], p[3 + k] = c[k] + a[k], p[6 + k] = c[k] + a[k] + b[k], p[9 + k] = c[k] + b[k];
-        for (int v = 0; v < 4; v++)
-            normals[v * 3 + k] = n[k] / len;
-    }
-    static const uint32_t idx[6] = { 0, 1, 2, 0, 2, 3 };
-    uint32_t mesh;
-    cv_result res = cv_scene_add_mesh(
-        scene,
-        &(cv_mesh_desc){ .positions = p, .normals = normals, .vertex_count = 4, .indices = idx, .triangle_count = 2 },
-        &mesh);
-    cv_instance inst = { .mesh = mesh, .material = material };
-    cv_transform_identity(inst.transform);
-    if (res == CV_OK)
-        res = cv_scene_add_instance(scene, &inst, NULL);
-    return res;
-}
 
 static cv_result add_material(cv_scene *scene, float r, float g, float b, float rough, float metal, float emit,
                               uint32_t *out) {
@@ -88,12 +66,14 @@ static cv_result make_mirror_scene(cv_scene **out) {
     if (res == CV_OK)
         res = add_material(scene, 1.0f, 0.8f, 0.4f, 0.9f, 0.0f, 2.0f, &panel);
     if (res == CV_OK)
-        res = add_quad(scene, (float[3]){ -4, 0, -3 }, (float[3]){ 0, 0, 8 }, (float[3]){ 8, 0, 0 }, mirror);
+        res = cv_test_add_quad(scene, (float[3]){ -4, 0, -3 }, (float[3]){ 0, 0, 8 }, (float[3]){ 8, 0, 0 }, NULL,
+                               mirror);
     if (res == CV_OK)
-        res = add_quad(scene, (float[3]){ -4, 0, -3 }, (float[3]){ 8, 0, 0 }, (float[3]){ 0, 3, 0 }, wall);
+        res = cv_test_add_quad(scene, (float[3]){ -4, 0, -3 }, (float[3]){ 8, 0, 0 }, (float[3]){ 0, 3, 0 }, NULL,
+                               wall);
     if (res == CV_OK)
-        res = add_quad(scene, (float[3]){ -0.6f, 1.0f, -2.0f }, (float[3]){ 1.2f, 0, 0 }, (float[3]){ 0, 0.8f, 0 },
-                       panel);
+        res = cv_test_add_quad(scene, (float[3]){ -0.6f, 1.0f, -2.0f }, (float[3]){ 1.2f, 0, 0 },
+                               (float[3]){ 0, 0.8f, 0 }, NULL, panel);
     if (res == CV_OK)
         res = cv_scene_add_camera(scene, &(cv_camera){ { 0, 1.0f, 3.0f }, { 0, 0.3f, -1.0f }, { 0, 1, 0 }, 0.9f },
                                   NULL);

@@ -23,58 +23,13 @@
 #include <string.h>
 
 #include "check.h"
-#include "test_adapter.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_import.h"
 #include "corvid/vulkan.h"
+#include "test_quad.h"
+#include "test_render.h"
 
 enum { W = 96, H = 54, SAMPLES = 16 };
-
-static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *s,
-                           cv_render_output *out) {
-    cv_context *ctx = NULL;
-    cv_device *devices[2] = { 0 };
-    cv_vulkan_gpu_table table;
-    cv_renderer *r = NULL;
-    cv_result res = cv_context_create(NULL, &ctx);
-    if (res == CV_OK)
-        res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = gpus, .adapters = cv_test_adapter() },
-                                        &table);
-    if (res == CV_OK)
-        res = cv_vulkan_create_devices(ctx, &table, true, devices);
-    if (res == CV_OK)
-        res = cv_renderer_create(devices, gpus, scene, bvh, &r);
-    if (res == CV_OK)
-        res = cv_renderer_render(r, s, out, NULL, NULL, NULL);
-    cv_renderer_destroy(r);
-    cv_context_destroy(ctx);
-    return res;
-}
-
-/* A quad with uvs (0, 0) .. (su, sv): corner c, edges a (u) and b (v), normal a x b. */
-static cv_result add_quad(cv_scene *scene, const float c[3], const float a[3], const float b[3], float su, float sv,
-                          uint32_t material) {
-    float n[3] = { a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0] };
-    float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    float p[12], normals[12], uvs[8] = { 0, 0, su, 0, su, sv, 0, sv };
-    for (int k = 0; k < 3; k++) {
-        p[k] = c[k], p[3 + k] = c[k] + a[k], p[6 + k] = c[k] + a[k] + b[k], p[9 + k] = c[k] + b[k];
-        for (int v = 0; v < 4; v++)
-            normals[v * 3 + k] = n[k] / len;
-    }
-    static const uint32_t idx[6] = { 0, 1, 2, 0, 2, 3 };
-    uint32_t mesh;
-    cv_result res = cv_scene_add_mesh(
-        scene,
-        &(cv_mesh_desc){
-            .positions = p, .normals = normals, .uvs = uvs, .vertex_count = 4, .indices = idx, .triangle_count = 2 },
-        &mesh);
-    cv_instance inst = { .mesh = mesh, .material = material };
-    cv_transform_identity(inst.transform);
-    if (res == CV_OK)
-        res = cv_scene_add_instance(scene, &inst, NULL);
-    return res;
-}
 
 /* A closed box [lo, hi] (24 vertices, each face's uvs 0..1). */
 static cv_result add_box(cv_scene *scene, const float lo[3], const float hi[3], uint32_t material) {
@@ -204,18 +159,19 @@ static cv_result make_scene(scene_options o, cv_scene **out, cv_bvh **bvh_out) {
         res = cv_scene_add_material(scene, &m[i], NULL);
     /* floor (uvs repeat 4 times), back wall, box, emissive panel on the left, the masked quad */
     if (res == CV_OK)
-        res = add_quad(scene, (float[]){ -2, 0, 2 }, (float[]){ 4, 0, 0 }, (float[]){ 0, 0, -4 }, 4, 4, MAT_FLOOR);
+        res = cv_test_add_quad(scene, (float[]){ -2, 0, 2 }, (float[]){ 4, 0, 0 }, (float[]){ 0, 0, -4 },
+                               (const float[]){ 4, 4 }, MAT_FLOOR);
     if (res == CV_OK)
-        res = add_quad(scene, (float[]){ -2, 0, -2 }, (float[]){ 4, 0, 0 }, (float[]){ 0, 2.5f, 0 }, 2, 1.25f,
-                       MAT_WALL);
+        res = cv_test_add_quad(scene, (float[]){ -2, 0, -2 }, (float[]){ 4, 0, 0 }, (float[]){ 0, 2.5f, 0 },
+                               (const float[]){ 2, 1.25f }, MAT_WALL);
     if (res == CV_OK)
         res = add_box(scene, (float[]){ -1.4f, 0, -0.8f }, (float[]){ -0.6f, 0.8f, 0.0f }, MAT_BOX);
     if (res == CV_OK)
-        res = add_quad(scene, (float[]){ -1.9f, 1.0f, 0.2f }, (float[]){ 0, 0, -1.6f }, (float[]){ 0, 0.8f, 0 }, 1, 1,
-                       MAT_PANEL);
+        res = cv_test_add_quad(scene, (float[]){ -1.9f, 1.0f, 0.2f }, (float[]){ 0, 0, -1.6f },
+                               (float[]){ 0, 0.8f, 0 }, (const float[]){ 1, 1 }, MAT_PANEL);
     if (res == CV_OK)
-        res = add_quad(scene, (float[]){ 0.2f, 0.3f, -1.0f }, (float[]){ 1.4f, 0, 0 }, (float[]){ 0, 1.4f, 0 }, 1, 1,
-                       MAT_MASKED);
+        res = cv_test_add_quad(scene, (float[]){ 0.2f, 0.3f, -1.0f }, (float[]){ 1.4f, 0, 0 },
+                               (float[]){ 0, 1.4f, 0 }, (const float[]){ 1, 1 }, MAT_MASKED);
     cv_camera cam = { { 0.0f, 1.3f, 3.2f }, { 0.0f, 0.8f, -1.0f }, { 0, 1, 0 }, 1.0f };
     if (res == CV_OK)
         res = cv_scene_add_camera(scene, &cam, NULL);
@@ -271,7 +227,7 @@ static void check_box_textured(void) {
         CHECK_OK(cv_bvh_build_flat(scene, NULL, &bvh));
     cv_render_output gpu = { 0 }, ref = { 0 };
     if (bvh) {
-        CHECK_OK(render_on(1, scene, bvh, &settings, &gpu));
+        CHECK_OK(cv_test_render(1, scene, bvh, &settings, &gpu, NULL));
         CHECK_OK(cv_render_reference(scene, bvh, &settings, 4, 2, &ref));
     }
     if (gpu.albedo && ref.albedo) {
@@ -309,10 +265,10 @@ int main(void) {
     if (!scene || !flat || !opaque)
         return check_report("renderer_texture");
     cv_render_output gpu = { 0 }, gpu2 = { 0 }, ref = { 0 }, gpu_flat = { 0 }, ref_opaque = { 0 };
-    CHECK_OK(render_on(1, scene, bvh, &settings, &gpu));
-    CHECK_OK(render_on(2, scene, bvh, &settings, &gpu2));
+    CHECK_OK(cv_test_render(1, scene, bvh, &settings, &gpu, NULL));
+    CHECK_OK(cv_test_render(2, scene, bvh, &settings, &gpu2, NULL));
     CHECK_OK(cv_render_reference(scene, bvh, &settings, SAMPLES, 2, &ref));
-    CHECK_OK(render_on(1, flat, flat_bvh, &settings, &gpu_flat));
+    CHECK_OK(cv_test_render(1, flat, flat_bvh, &settings, &gpu_flat, NULL));
     CHECK_OK(cv_render_reference(opaque, opaque_bvh, &settings, 1, 2, &ref_opaque));
     if (gpu.radiance && gpu2.radiance && ref.radiance && gpu_flat.radiance && ref_opaque.radiance) {
         size_t bytes = (size_t)W * H * 4 * sizeof(float);
