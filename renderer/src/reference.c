@@ -111,7 +111,7 @@ static bool secondary_trace(const reference_job *j, cv_ray ray, uint32_t flags, 
         return true;
     if ((flags & CV_TRACE_ANY_HIT) && !cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, hit))
         return false;
-    float offset = j->data->diagonal * 2e-5f;
+    float offset = render_ray_offset(j->data);
     for (uint32_t passed = 0; passed < CV_RENDER_ALPHA_LAYERS && hit_cut(j, hit); passed++) {
         ray.tmin = hit->t + offset;
         if (!cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, hit))
@@ -204,7 +204,7 @@ static void reflected_radiance(const reference_job *j, const float o[3], const f
         for (int k = 0; k < 3; k++)
             ng[k] = -ng[k], n[k] = -n[k];
     float to_sun[3] = { -data->sun_direction[0], -data->sun_direction[1], -data->sun_direction[2] }, origin[3];
-    float bias = data->diagonal * 2e-5f;
+    float bias = render_ray_offset(data);
     for (int k = 0; k < 3; k++)
         origin[k] = x[k] + ng[k] * bias;
     bool visible = dot3(to_sun, ng) > 0.0f && dot3(to_sun, n) > 0.0f && !occluded(j, origin, to_sun, 1e30f);
@@ -313,7 +313,7 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
             memcpy(n, mapped, sizeof(n));
         }
     }
-    float bias = data->diagonal * 2e-5f, origin[3];
+    float bias = render_ray_offset(data), origin[3];
     for (int k = 0; k < 3; k++)
         origin[k] = p[k] + ng[k] * bias;
     uint64_t rng = ((uint64_t)(y * j->s.width + x) << 20) ^ 0x5EEDull;
@@ -436,8 +436,7 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
         return res;
     render_sun_direction(&j.s, data.sun_direction, data.sun_direction);
     j.data = &data;
-    for (uint32_t m = 0; m < data.material_count; m++)
-        j.alpha_mask = j.alpha_mask || data.materials[m].alpha_mode == CV_ALPHA_MASK;
+    j.alpha_mask = render_scene_alpha_masked(&data);
     uint64_t *first = malloc((cv_scene_instance_count(scene) + 1) * sizeof(uint64_t));
     size_t n = (size_t)j.s.width * j.s.height * 4;
     cv_render_output o = { .width = j.s.width, .height = j.s.height };

@@ -273,8 +273,7 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
         res = load_everywhere(r, cv_any(r->accel));
     for (uint32_t d = 0; d < device_count && res == CV_OK; d++)
         res = cv_device_write_accel(devices[d], r->accel, bvh->nodes2, bvh->tris);
-    for (uint32_t m = 0; m < r->data.material_count && res == CV_OK; m++)
-        r->alpha_mask = r->alpha_mask || r->data.materials[m].alpha_mode == CV_ALPHA_MASK;
+    r->alpha_mask = render_scene_alpha_masked(&r->data);
     for (int p = 0; p < PIPE_COUNT && res == CV_OK; p++) {
         if (p == PIPE_ALPHA_CONTINUE && !r->alpha_mask)
             continue;
@@ -475,10 +474,13 @@ static void record_alpha_rounds(const cv_renderer *r, const cv_graph_pass_contex
             uint32_t count, round, any_hit;
             float bias;
             uint32_t material_count, layers, pad[2];
-        } push = {
-            count,   k, any_hit ? 1u : 0u, r->data.diagonal * 2e-5f, r->data.material_count, CV_RENDER_ALPHA_LAYERS,
-            { 0, 0 }
-        };
+        } push = { count,
+                   k,
+                   any_hit ? 1u : 0u,
+                   render_ray_offset(&r->data),
+                   r->data.material_count,
+                   CV_RENDER_ALPHA_LAYERS,
+                   { 0, 0 } };
         cv_cmd_dispatch(l, pc->queue,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_ALPHA_CONTINUE],
                                              .bindings = b,
@@ -526,7 +528,7 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
                        s->sun_cone_degrees * 3.14159265f / 180.0f },
                      s->first_frame + r->frame,
                      s->ao_radius,
-                     r->data.diagonal * 2e-5f,
+                     render_ray_offset(&r->data),
                      y0 };
         struct {
             uint32_t x0, width, height, ao_samples, y0, pad[3];
@@ -656,7 +658,7 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
                instances = bind_buffer(cv_graph_buffer(pc, r->buf[BUF_INSTANCES]));
     uint64_t rows64 = reflect_capacity(r, s) / cols.width;
     uint32_t rows = rows64 == 0 ? 1 : rows64 < r->height ? (uint32_t)rows64 : r->height;
-    float bias = r->data.diagonal * 2e-5f;
+    float bias = render_ray_offset(&r->data);
     for (uint32_t y0 = 0; y0 < r->height; y0 += rows) {
         uint32_t h = r->height - y0 < rows ? r->height - y0 : rows, count = cols.width * h;
         struct {

@@ -85,4 +85,18 @@ typedef struct render_scene_data {
 cv_result render_scene_data_build(const cv_scene *scene, render_scene_data *out);
 void render_scene_data_free(render_scene_data *d);
 
+/* How far a secondary ray starts from the surface it leaves, along the
+ * geometric normal, and how far past a cut point an alpha-mask continuation
+ * starts (renderer.h): 2e-5 of the scene's diagonal, on the GPU and in the
+ * reference alike. */
+static inline float render_ray_offset(const render_scene_data *d) { return d->diagonal * 2e-5f; }
+
+/* Whether some material is alpha-masked (secondary rays then follow the alpha-mask rule, renderer.h). */
+static inline bool render_scene_alpha_masked(const render_scene_data *d) {
+    for (uint32_t m = 0; m < d->material_count; m++)
+        if (d->materials[m].alpha_mode == CV_ALPHA_MASK)
+            return true;
+    return false;
+}
+
 #endif
