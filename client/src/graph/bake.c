@@ -299,17 +299,22 @@ static cv_result partition(cv_graph *g, const cv_graph_bake_desc *desc, graph_ba
     return CV_OK;
 }
 
-static cv_result push_step(graph_baked *b, uint32_t *capacity, const graph_step *step) {
-    if (b->step_count == *capacity) {
+/* Appends a step to a growing array (the baked steps, or the transfers waiting for their reader). */
+static cv_result append_step(graph_step **items, uint32_t *count, uint32_t *capacity, const graph_step *step) {
+    if (*count == *capacity) {
         uint32_t cap = *capacity ? *capacity * 2 : 16;
-        graph_step *p = realloc(b->steps, cap * sizeof(*p));
+        graph_step *p = realloc(*items, cap * sizeof(*p));
         if (!p)
             return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
-        b->steps = p;
+        *items = p;
         *capacity = cap;
     }
-    b->steps[b->step_count++] = *step;
+    (*items)[(*count)++] = *step;
     return CV_OK;
+}
+
+static cv_result push_step(graph_baked *b, uint32_t *capacity, const graph_step *step) {
+    return append_step(&b->steps, &b->step_count, capacity, step);
 }
 
 static const cv_mgpu_transfer transfer_rules[] = {
@@ -320,9 +325,9 @@ static const cv_mgpu_transfer transfer_rules[] = {
 
 /* The copies one write needs: to all devices when a pass on all devices reads
  * what the primary wrote, back to the primary when the primary reads (or the
- * graph outputs) what all devices wrote. */
+ * graph outputs) what all devices wrote; appended to `pending` (none: nothing). */
 static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_baked *b, uint32_t p, uint32_t a,
-                              graph_step *out, bool *made) {
+                              graph_step **pending, uint32_t *pending_count, uint32_t *pending_capacity) {
     const graph_pass *pass = &g->passes[p];
     const graph_access *acc = &pass->accesses[a];
     const graph_resource *r = res_of(g, acc->id);
@@ -345,7 +350,6 @@ static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_bake
                 to_primary |= !primary && reader->policy == CV_MGPU_PRIMARY_ONLY;
             }
     }
-    *made = false;
     if (!to_all && !to_primary)
         return CV_OK;
     graph_step step = { .transfer = true, .pass = p, .resource = (acc->id & ~GRAPH_HISTORY_BIT) - 1 };
@@ -375,9 +379,7 @@ static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_bake
     }
     b->stats.transfers++;
     b->stats.copies += step.plan.count;
-    *out = step;
-    *made = true;
-    return CV_OK;
+    return append_step(pending, pending_count, pending_capacity, &step);
 }
 
 /* Whether pass q reads or writes resource index r (its own or its history). */
@@ -412,9 +414,8 @@ static cv_result flush_transfers(graph_baked *b, uint32_t *capacity, graph_step 
  * not need it (measured on an H200: the primary's reflect pass waited 0.9 ms
  * for the visibility copy-back, which only accumulate reads). */
 static cv_result lay_out_steps(const cv_graph *g, const bake_state *s, graph_baked *b) {
-    uint32_t capacity = 0, instance_capacity = 0, pending_count = 0;
-    graph_step *pending = NULL;
-    uint32_t pending_capacity = 0;
+    uint32_t capacity = 0, instance_capacity = 0, pending_count = 0, pending_capacity = 0;
+    graph_step *pending = NULL; /* transfers waiting for their first reader */
     cv_result res = CV_OK;
     for (uint32_t i = 0; i < s->n && res == CV_OK; i++) {
         uint32_t p = s->order[i];
@@ -450,23 +451,8 @@ static cv_result lay_out_steps(const cv_graph *g, const bake_state *s, graph_bak
             bool first_write = acc->write;
             for (uint32_t c = 0; c < a && first_write; c++)
                 first_write = !(pass->accesses[c].write && pass->accesses[c].id == acc->id);
-            graph_step transfer;
-            bool made = false;
             if (first_write)
-                res = transfers_of(g, s, b, p, a, &transfer, &made);
-            if (res == CV_OK && made) {
-                if (pending_count == pending_capacity) {
-                    uint32_t cap = pending_capacity ? pending_capacity * 2 : 8;
-                    graph_step *grown = realloc(pending, cap * sizeof(*grown));
-                    if (!grown) {
-                        res = cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
-                        break;
-                    }
-                    pending = grown;
-                    pending_capacity = cap;
-                }
-                pending[pending_count++] = transfer;
-            }
+                res = transfers_of(g, s, b, p, a, &pending, &pending_count, &pending_capacity);
         }
     }
     if (res == CV_OK)
