@@ -29,7 +29,7 @@
 #include "check.h"
 #include "corvid/renderer.h"
 #include "corvid/vulkan.h"
-#include "test_quad.h"
+#include "test_scene.h"
 #include "test_render.h"
 
 enum { W = 160, H = 90, SAMPLES = 16 };
@@ -66,19 +66,6 @@ static cv_result add_sun_and_camera(cv_scene *scene) {
     return res;
 }
 
-static cv_result finish(cv_scene *scene, cv_result res, cv_scene **out, cv_bvh **bvh_out) {
-    cv_bvh *bvh = NULL;
-    if (res == CV_OK)
-        res = cv_bvh_build_flat(scene, NULL, &bvh);
-    if (res != CV_OK) {
-        cv_scene_destroy(scene);
-        return res;
-    }
-    *out = scene;
-    *bvh_out = bvh;
-    return CV_OK;
-}
-
 /* The mirror floor and the two striped quads (masked, or the same quads opaque). */
 static cv_result make_stripes_scene(bool mask, cv_scene **out, cv_bvh **bvh_out) {
     cv_scene *scene = NULL;
@@ -107,7 +94,7 @@ static cv_result make_stripes_scene(bool mask, cv_scene **out, cv_bvh **bvh_out)
                                (float[]){ 0, 0, -side }, UV_ONE, 1 + q);
     if (res == CV_OK)
         res = add_sun_and_camera(scene);
-    return finish(scene, res, out, bvh_out);
+    return cv_test_scene_finish(scene, res, out, bvh_out);
 }
 
 /* A plain floor under `layers` stacked quads 0.05 apart that the mask cuts away everywhere (alpha 0). */
@@ -129,7 +116,7 @@ static cv_result make_stack_scene(uint32_t layers, cv_scene **out, cv_bvh **bvh_
                                (float[]){ 0, 0, -side }, UV_ONE, 1);
     if (res == CV_OK)
         res = add_sun_and_camera(scene);
-    return finish(scene, res, out, bvh_out);
+    return cv_test_scene_finish(scene, res, out, bvh_out);
 }
 
 /* The floor pixel's point, seen along the sun, lies inside the quads' square

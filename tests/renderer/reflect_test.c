@@ -30,7 +30,7 @@
 #include "corvid/scene_procedural.h"
 #include "corvid/trace_cpu.h"
 #include "corvid/vulkan.h"
-#include "test_quad.h"
+#include "test_scene.h"
 #include "test_render.h"
 
 /* Moving camera, mirror floor (check_mirror_orbit): at most this share of the

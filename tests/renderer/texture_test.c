@@ -26,7 +26,7 @@
 #include "corvid/renderer.h"
 #include "corvid/scene_import.h"
 #include "corvid/vulkan.h"
-#include "test_quad.h"
+#include "test_scene.h"
 #include "test_render.h"
 
 enum { W = 96, H = 54, SAMPLES = 16 };
@@ -52,17 +52,11 @@ static cv_result add_box(cv_scene *scene, const float lo[3], const float hi[3], 
         for (int k = 0; k < 6; k++)
             idx[f * 6 + k] = (uint32_t)f * 4 + (s > 0 ? pos[k] : neg[k]);
     }
-    uint32_t mesh;
-    cv_result res = cv_scene_add_mesh(
+    return cv_test_add_mesh_instance(
         scene,
         &(cv_mesh_desc){
             .positions = p, .normals = n, .uvs = uv, .vertex_count = 24, .indices = idx, .triangle_count = 12 },
-        &mesh);
-    cv_instance inst = { .mesh = mesh, .material = material };
-    cv_transform_identity(inst.transform);
-    if (res == CV_OK)
-        res = cv_scene_add_instance(scene, &inst, NULL);
-    return res;
+        material);
 }
 
 typedef void (*texel_fn)(uint32_t x, uint32_t y, uint32_t w, uint32_t h, uint8_t out[4]);
@@ -180,16 +174,7 @@ static cv_result make_scene(scene_options o, cv_scene **out, cv_bvh **bvh_out) {
     };
     if (res == CV_OK)
         res = cv_scene_add_light(scene, &sun, NULL);
-    cv_bvh *bvh = NULL;
-    if (res == CV_OK)
-        res = cv_bvh_build_flat(scene, NULL, &bvh);
-    if (res != CV_OK) {
-        cv_scene_destroy(scene);
-        return res;
-    }
-    *out = scene;
-    *bvh_out = bvh;
-    return CV_OK;
+    return cv_test_scene_finish(scene, res, out, bvh_out);
 }
 
 static const cv_render_settings settings = { .width = W, .height = H, .frames = 2 };
