@@ -128,13 +128,12 @@ cv_result cv_transfer_choose_path(cv_device *src, cv_device *dst, cv_transfer_pa
         return CV_OK;
     }
     if (mode == CV_TRANSFER_AUTO) {
-        /* Shared memory first, also between instances of one VkDevice: on the
-         * H200 (1920x1080, 64 frames, docs/transfers.md) the `device` path's
-         * single copy, ordered after all the source's earlier work, made 4
-         * virtual GPUs slower (8.5 ms a frame) than the two ring copies of
-         * `shared` (6.1 ms); `device` is taken where shared memory is not. */
-        *out = pair_can(src, dst, CV_TRANSFER_SHARED, why, sizeof(why))        ? CV_TRANSFER_SHARED
-               : pair_can(src, dst, CV_TRANSFER_DEVICE, why, sizeof(why))      ? CV_TRANSFER_DEVICE
+        /* One copy between instances of one device first: on the H200
+         * (1920x1080, 64 frames, docs/transfers.md) `device` takes 4.3 ms a
+         * frame on 2 virtual GPUs and 4.5 on 4, the two ring copies of
+         * `shared` 4.8 and 5.3 (one device: 4.4). Then shared memory. */
+        *out = pair_can(src, dst, CV_TRANSFER_DEVICE, why, sizeof(why))        ? CV_TRANSFER_DEVICE
+               : pair_can(src, dst, CV_TRANSFER_SHARED, why, sizeof(why))      ? CV_TRANSFER_SHARED
                : pair_can(src, dst, CV_TRANSFER_HOST_IMPORT, why, sizeof(why)) ? CV_TRANSFER_HOST_IMPORT
                                                                                : CV_TRANSFER_STAGED;
         return CV_OK;

@@ -197,6 +197,7 @@ static cv_result create_vk_device(cv_backend_device *bd) {
     bd->slot_of_type[CV_QUEUE_GRAPHICS] = VK_SLOT_GRAPHICS;
     bd->slot_of_type[CV_QUEUE_COMPUTE] = bd->queues[VK_SLOT_COMPUTE].present ? VK_SLOT_COMPUTE : VK_SLOT_GRAPHICS;
     bd->slot_of_type[CV_QUEUE_COPY] = bd->queues[VK_SLOT_COPY].present ? VK_SLOT_COPY : VK_SLOT_GRAPHICS;
+    bd->link_slot = bd->slot_of_type[bd->link_queue];
 
     if (bd->external_fd)
         bd->get_memory_fd = (PFN_vkGetMemoryFdKHR)vkGetDeviceProcAddr(bd->device, "vkGetMemoryFdKHR");
@@ -281,6 +282,8 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         snprintf(bd->label, sizeof(bd->label), "%s", desc->label);
     vk_vgpu_mode vgpu_mode;
     cv_result r = vk_shared_parse(getenv("CORVID_VGPU_DEVICE"), &vgpu_mode);
+    if (r == CV_OK)
+        r = vk_link_queue_parse(getenv("CORVID_LINK_QUEUE"), &bd->link_queue);
     if (r != CV_OK) {
         free(bd);
         return cv_error(r, "device '%s': %s", desc->label, cv_last_error());

@@ -113,7 +113,12 @@ struct cv_backend_device {
     PFN_vkGetMemoryFdKHR get_memory_fd;
     PFN_vkGetMemoryHostPointerPropertiesEXT get_host_pointer_properties;
     struct vk_staging *links; /* cached stagings, linked */
-    /* Asynchronous link copies (vk_link_async.c): command buffers, each free once its ticket finished. */
+    /* Asynchronous link copies (vk_link_async.c): the queue they run on
+     * (CORVID_LINK_QUEUE, default compute: on the NVIDIA driver copies on the
+     * graphics queue ran at about 24 GB/s, docs/transfers.md), command
+     * buffers, each free once its ticket finished. */
+    cv_queue_type link_queue;
+    vk_queue_slot link_slot;
     VkCommandPool async_pool;
     struct vk_async_cmd *async_cmds;
     uint32_t async_count;

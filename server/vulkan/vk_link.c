@@ -273,8 +273,7 @@ cv_result vk_link_staging(cv_backend_device *bd, cv_staging_desc *d, void **out)
 }
 
 /* Ownership of opaque-fd memory between this device and the others. */
-static void external_barrier(VkCommandBuffer cmd, const cv_backend_device *bd, VkBuffer buffer, bool acquire) {
-    uint32_t family = bd->queues[VK_SLOT_GRAPHICS].family;
+static void external_barrier(VkCommandBuffer cmd, uint32_t family, VkBuffer buffer, bool acquire) {
     VkBufferMemoryBarrier2 b = {
         .sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2,
         .srcStageMask = acquire ? VK_PIPELINE_STAGE_2_NONE : VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
@@ -293,12 +292,14 @@ static void external_barrier(VkCommandBuffer cmd, const cv_backend_device *bd, V
     vkCmdPipelineBarrier2(cmd, &dep);
 }
 
-void vk_link_record(const cv_backend_device *bd, VkCommandBuffer cmd, void *staging, uint64_t staging_offset,
-                    cv_handle_type type, void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging) {
+void vk_link_record(const cv_backend_device *bd, VkCommandBuffer cmd, vk_queue_slot slot, void *staging,
+                    uint64_t staging_offset, cv_handle_type type, void *obj, uint64_t offset, uint64_t size,
+                    cv_rect rect, bool to_staging) {
     vk_staging *s = staging;
     bool external = s->kind != CV_STAGING_HOST;
+    uint32_t family = bd->queues[slot].family;
     if (external)
-        external_barrier(cmd, bd, s->buffer, true);
+        external_barrier(cmd, family, s->buffer, true);
     if (type == CV_HANDLE_TEXTURE) {
         vk_record_texture_rows(cmd, obj, s->buffer, staging_offset, rect, !to_staging);
     } else {
@@ -308,7 +309,7 @@ void vk_link_record(const cv_backend_device *bd, VkCommandBuffer cmd, void *stag
         vkCmdCopyBuffer(cmd, to_staging ? b->buffer : s->buffer, to_staging ? s->buffer : b->buffer, 1, &region);
     }
     if (external)
-        external_barrier(cmd, bd, s->buffer, false);
+        external_barrier(cmd, family, s->buffer, false);
 }
 
 cv_result vk_link_in_range(const cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
@@ -331,7 +332,7 @@ cv_result vk_link_copy(cv_backend_device *bd, void *staging, uint64_t staging_of
         r = vk_immediate_begin(bd, &cmd);
     if (r != CV_OK)
         return r;
-    vk_link_record(bd, cmd, staging, staging_offset, type, obj, offset, size, rect, to_staging);
+    vk_link_record(bd, cmd, VK_SLOT_GRAPHICS, staging, staging_offset, type, obj, offset, size, rect, to_staging);
     return vk_immediate_end(bd);
 }
 

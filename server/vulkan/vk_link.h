@@ -20,8 +20,9 @@
  * buffer from VK_QUEUE_FAMILY_EXTERNAL and releases it back after.
  *
  * Asynchronous copies (vk_link_async.c, backend.h's link_copy_async) record
- * the same commands into a command buffer of their own, submitted on the
- * graphics queue with the next ticket: they wait for the previous ticket (so
+ * the same commands into a command buffer of their own, submitted with the
+ * next ticket on the device's link queue (CORVID_LINK_QUEUE: compute by
+ * default, where the passes that write and read the copied resources run): they wait for the previous ticket (so
  * they follow everything submitted before, as a list does), for the latest
  * immediate submission, and, when asked, for another device's ticket through
  * this device's bridge (vk_bridge.h). Stagings made with desc->owned are not
@@ -50,8 +51,13 @@ cv_result vk_link_copy_device(cv_backend_device *bd, cv_backend_device *dst_bd, 
 /* For vk_link_async.c: the range check, and the commands of one copy. */
 cv_result vk_link_in_range(const cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
                            void *obj, uint64_t size, cv_rect rect);
-void vk_link_record(const cv_backend_device *bd, VkCommandBuffer cmd, void *staging, uint64_t staging_offset,
-                    cv_handle_type type, void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging);
+/* Records a link copy on cmd, a command buffer of `slot`'s family (the
+ * opaque-fd staging's ownership moves between that family and the others). */
+void vk_link_record(const cv_backend_device *bd, VkCommandBuffer cmd, vk_queue_slot slot, void *staging,
+                    uint64_t staging_offset, cv_handle_type type, void *obj, uint64_t offset, uint64_t size,
+                    cv_rect rect, bool to_staging);
+/* CORVID_LINK_QUEUE: compute (also unset or empty), graphics or copy. */
+cv_result vk_link_queue_parse(const char *value, cv_queue_type *queue);
 /* Frees the asynchronous copies' command buffers (the device idle). */
 void vk_link_async_finish(cv_backend_device *bd);
 /* Frees every staging (at device destruction, the device idle). */

@@ -1,5 +1,6 @@
 /* Asynchronous link copies (see vk_link.h, backend.h's link_copy_async). */
 #include <stdlib.h>
+#include <string.h>
 
 #include "vk_bridge.h"
 #include "vk_cross_wait.h"
@@ -23,12 +24,27 @@ void vk_link_async_finish(cv_backend_device *bd) {
     bd->async_count = 0;
 }
 
+cv_result vk_link_queue_parse(const char *value, cv_queue_type *queue) {
+    *queue = CV_QUEUE_COMPUTE;
+    if (!value || !value[0] || strcmp(value, "compute") == 0)
+        return CV_OK;
+    if (strcmp(value, "graphics") == 0) {
+        *queue = CV_QUEUE_GRAPHICS;
+        return CV_OK;
+    }
+    if (strcmp(value, "copy") == 0) {
+        *queue = CV_QUEUE_COPY;
+        return CV_OK;
+    }
+    return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_LINK_QUEUE='%.32s': expected compute, graphics or copy", value);
+}
+
 /* A command buffer no submitted work uses (one of the pool's, or a new one). */
 static cv_result take_cmd(cv_backend_device *bd, vk_async_cmd **out) {
     if (!bd->async_pool) {
         VkCommandPoolCreateInfo info = { .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
                                          .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
-                                         .queueFamilyIndex = bd->queues[VK_SLOT_GRAPHICS].family };
+                                         .queueFamilyIndex = bd->queues[bd->link_slot].family };
         VkResult vr = vkCreateCommandPool(bd->device, &info, NULL, &bd->async_pool);
         if (vr != VK_SUCCESS)
             return vk_fail(vr, "vkCreateCommandPool (asynchronous transfers, device '%s')", bd->label);
@@ -91,7 +107,7 @@ cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t stag
         r = begin_cmd(bd, &c, "asynchronous transfer");
     if (r != CV_OK)
         return r;
-    vk_link_record(bd, c->cmd, staging, staging_offset, type, obj, offset, size, rect, to_staging);
+    vk_link_record(bd, c->cmd, bd->link_slot, staging, staging_offset, type, obj, offset, size, rect, to_staging);
     /* Writes into the staging reach the other device (through host memory
      * for HOST stagings) before the ticket signals. */
     VkMemoryBarrier2 out = { .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
@@ -141,7 +157,7 @@ cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t stag
                              .pCommandBufferInfos = &cmd_info,
                              .signalSemaphoreInfoCount = 1,
                              .pSignalSemaphoreInfos = &signal };
-    vr = vk_queue_submit(bd, VK_SLOT_GRAPHICS, &submit);
+    vr = vk_queue_submit(bd, bd->link_slot, &submit);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkQueueSubmit2 (asynchronous transfer, ticket %llu, device '%s')",
                        (unsigned long long)ticket, bd->label);
@@ -242,7 +258,7 @@ cv_result vk_link_copy_device(cv_backend_device *bd, cv_backend_device *dst_bd, 
                              .pCommandBufferInfos = &cmd_info,
                              .signalSemaphoreInfoCount = 1,
                              .pSignalSemaphoreInfos = &signal };
-    vr = vk_queue_submit(bd, VK_SLOT_GRAPHICS, &submit);
+    vr = vk_queue_submit(bd, bd->link_slot, &submit);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkQueueSubmit2 (direct transfer '%s' -> '%s', ticket %llu)", bd->label, dst_bd->label,
                        (unsigned long long)ticket);
@@ -258,7 +274,7 @@ cv_result vk_link_copy_device(cv_backend_device *bd, cv_backend_device *dst_bd, 
                              .pWaitSemaphoreInfos = marker_waits,
                              .signalSemaphoreInfoCount = 1,
                              .pSignalSemaphoreInfos = &marker_signal };
-    vr = vk_queue_submit(dst_bd, VK_SLOT_GRAPHICS, &marker);
+    vr = vk_queue_submit(dst_bd, dst_bd->link_slot, &marker);
     if (vr != VK_SUCCESS) /* the source's ticket was used: only a lost device fails here */
         return vk_fail(vr, "vkQueueSubmit2 (direct transfer '%s' -> '%s', destination ticket %llu)", bd->label,
                        dst_bd->label, (unsigned long long)dst_ticket);

@@ -20,6 +20,10 @@
  *     (compute and transfers); a new instance takes the freed slot; the last
  *     one destroys the VkDevice (the registry is empty: a new device gets a
  *     fresh entry);
+ *   - CORVID_LINK_QUEUE: a bad value is refused naming it; each value puts
+ *     the asynchronous link copies on that queue type's slot (compute when
+ *     unset), and rings on the device and shared paths stay byte-exact on
+ *     the graphics and copy queues too;
  *   - the validation layer reports nothing (synchronization included). */
 #include <stdlib.h>
 #include <string.h>
@@ -265,6 +269,44 @@ static void ring_textures(cv_context *ctx, cv_device *a, cv_device *b) {
     free(back);
 }
 
+/* CORVID_LINK_QUEUE (read at device creation, vk_device.h's link_slot). */
+static void link_queue(cv_context *ctx) {
+    cv_device *d[2] = { 0 };
+    setenv("CORVID_LINK_QUEUE", "gpu", 1);
+    CHECK_RESULT(vkt_device(ctx, NULL, "badq", &d[0]), CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "CORVID_LINK_QUEUE='gpu'") != NULL);
+    CHECK(d[0] == NULL);
+    static const struct {
+        const char *value;
+        cv_queue_type type;
+    } values[] = { { NULL, CV_QUEUE_COMPUTE },
+                   { "compute", CV_QUEUE_COMPUTE },
+                   { "graphics", CV_QUEUE_GRAPHICS },
+                   { "copy", CV_QUEUE_COPY } };
+    for (size_t k = 0; k < sizeof(values) / sizeof(values[0]); k++) {
+        if (values[k].value)
+            setenv("CORVID_LINK_QUEUE", values[k].value, 1);
+        else
+            unsetenv("CORVID_LINK_QUEUE");
+        CHECK_OK(vkt_device(ctx, NULL, "link0", &d[0]));
+        CHECK_OK(vkt_device(ctx, NULL, "link1", &d[1]));
+        if (d[0] && d[1]) {
+            const cv_backend_device *bd = bd_of(d[0]);
+            CHECK_EQ_INT(bd->link_slot, bd->slot_of_type[values[k].type]);
+            fprintf(stderr, "CORVID_LINK_QUEUE=%s: slot %d\n", values[k].value ? values[k].value : "(unset)",
+                    (int)bd->link_slot);
+            if (values[k].type != CV_QUEUE_COMPUTE) { /* the default ran all of the above */
+                ring_round_trips(ctx, d[0], d[1]);
+                ring_textures(ctx, d[1], d[0]);
+            }
+        }
+        cv_device_destroy(d[0]);
+        cv_device_destroy(d[1]);
+        d[0] = d[1] = NULL;
+    }
+    unsetenv("CORVID_LINK_QUEUE");
+}
+
 int main(void) {
     cv_context *ctx = NULL;
     CHECK_OK(cv_context_create(NULL, &ctx));
@@ -372,7 +414,7 @@ int main(void) {
     cv_transfer_path best;
     CHECK_OK(cv_transfer_choose_path(d[0], d[1], &best));
     fprintf(stderr, "auto between instances: %s\n", cv_transfer_path_name(best));
-    CHECK_EQ_INT(best, CV_TRANSFER_SHARED); /* shared memory first (transfer_path.c says why) */
+    CHECK_EQ_INT(best, CV_TRANSFER_DEVICE); /* one copy first (transfer_path.c says why) */
     fprintf(stderr, "gpu0 -> gpu1\n");
     every_path(ctx, d[0], d[1], best, 1);
     fprintf(stderr, "gpu2 -> gpu0\n");
@@ -417,6 +459,7 @@ int main(void) {
         compute_exact(ctx, d[0], 61);
         cv_device_destroy(d[0]);
     }
+    link_queue(ctx);
     unsetenv("CORVID_VGPU_DEVICE");
     cv_context_destroy(ctx);
     return vkt_report("vk_shared_device");

@@ -217,7 +217,9 @@ static void environment(cv_context *ctx, cv_device *a, cv_device *b) {
     cv_transfer_stats st = { 0 };
     cv_transfer_path chosen;
     CHECK_OK(cv_transfer_choose_path(a, b, &chosen));
-    if (vkt_is_lavapipe() || vgpu_shared()) /* external memory fd (lavapipe, one VkDevice): auto shares */
+    if (vgpu_shared()) /* one VkDevice: auto copies directly */
+        CHECK_EQ_INT(chosen, CV_TRANSFER_DEVICE);
+    else if (vkt_is_lavapipe()) /* external memory fd: auto shares */
         CHECK_EQ_INT(chosen, CV_TRANSFER_SHARED);
     setenv("CORVID_TRANSFER_PATH", "host-import", 1);
     CHECK_OK(cv_transfer_buffer(a, buf, 0, b, buf, 0, 256, &st));
