@@ -46,7 +46,7 @@
 //         int radius; uint material_count; uint quarter; uint moving_cap; }.
 // i0: G-buffer positions, i1: G-buffer normals (w = material), i2: G-buffer
 // material (RGBA32F, w = roughness, textures included: render_gbuffer.frag),
-// i3: this frame's samples (RGBA32F), i4: reconstruction history, i5: own
+// i3: this frame's samples (RGBA16F, a = 1/hit distance: render.reflect_shade), i4: reconstruction history, i5: own
 // history (RGBA32F: rgb = mean, a = mean squared luminance; read and
 // written), i6: output (RGBA32F: rgb = reflected radiance, a = 1 on
 // geometry, 0 elsewhere), i7: reprojected reconstruction history, i8:
@@ -72,7 +72,7 @@ layout(push_constant, std430) uniform Push {
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D gbuffer_material;
-layout(set = 0, binding = 3, rgba32f) uniform readonly image2D samples;
+layout(set = 0, binding = 3, rgba16f) uniform readonly image2D samples;
 layout(set = 0, binding = 4, rgba32f) uniform image2D history;
 layout(set = 0, binding = 5, rgba32f) uniform image2D own_history;
 layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D result;
@@ -176,7 +176,7 @@ void main() {
                 total += qweight;
                 continue;
             }
-            vec3 l = s.a >= 1e29 ? lq : normalize(qpos.xyz + lq * s.a - pos.xyz);
+            vec3 l = s.a == 0.0 ? lq : normalize(qpos.xyz + lq / s.a - pos.xyz);
             if (dot(l, ng) <= 0.0)
                 continue;
             float pdf = ggx_pdf(qv, qnm.xyz, lq, qalpha);
@@ -213,7 +213,7 @@ void main() {
         imageStore(history, p, hr);
         float inv_t = kept ? st.z : -1.0;
         if (own_sample.a >= 0.0) {
-            float x = own_sample.a >= 1e29 ? 0.0 : 1.0 / max(own_sample.a, 1e-6);
+            float x = own_sample.a;
             inv_t = inv_t < 0.0 ? x : inv_t + (x - inv_t) / float(n);
         }
         imageStore(state_out, p, vec4(float(n), float(own_n), inv_t, roughness));

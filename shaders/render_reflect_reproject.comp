@@ -33,7 +33,7 @@
 // i0: positions, i1: normals (w = material), i2: G-buffer material (w = roughness), i3: motion
 // (render.reproject), i4: history positions, i5: history normals (the previous
 // frame's G-buffer, as render.accumulate keeps it), i6: this frame's
-// reflection samples (render.reflect_shade), i7: reconstruction history,
+// reflection samples (render.reflect_shade: RGBA16F, a = 1/hit distance), i7: reconstruction history,
 // i8: own history, i9: state (render.reflect_filter's: x = history length,
 // y = own-sample count, z = mean 1/t (-1 unknown), w = roughness),
 // i10..i12: the same three brought to this frame's pixels (written; the state's
@@ -59,7 +59,7 @@ layout(set = 0, binding = 2, rgba32f) uniform readonly image2D gbuffer_material;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D motion;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D history_position;
 layout(set = 0, binding = 5, rgba32f) uniform readonly image2D history_normal;
-layout(set = 0, binding = 6, rgba32f) uniform readonly image2D samples;
+layout(set = 0, binding = 6, rgba16f) uniform readonly image2D samples;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D history;
 layout(set = 0, binding = 8, rgba32f) uniform readonly image2D own_history;
 layout(set = 0, binding = 9, rgba32f) uniform readonly image2D state;
@@ -137,11 +137,11 @@ void main() {
     float inv_t = -1.0;
     vec4 own = imageLoad(samples, p);
     if (roughness * roughness < ALPHA_MIRROR && own.a >= 0.0)
-        inv_t = own.a >= 1e29 ? 0.0 : 1.0 / max(own.a, 1e-6);
+        inv_t = own.a;
     else if (ws > 0.0 && st_s.z >= 0.0)
         inv_t = st_s.z;
     else if (own.a >= 0.0)
-        inv_t = own.a >= 1e29 ? 0.0 : 1.0 / max(own.a, 1e-6);
+        inv_t = own.a;
     vec4 hr_v = vec4(0.0), ho_v = vec4(0.0), st_v = vec4(0.0, 0.0, -1.0, 0.0);
     float wv = 0.0;
     if (inv_t >= 0.0) {

@@ -7,16 +7,19 @@
 // future work); the alpha mask does not apply to it (in a masked scene the
 // hit is the one that stands under renderer.h's alpha-mask rule, passes
 // render.alpha_continue). Stored as
-// (rgb = radiance L, a = hit distance; 1e30 for the sky, -1 where there is
-// no sample: no geometry, or the sample was lost; -2 where the pixel was not
-// traced this frame (quarter rate); rgb 0 then).
+// RGBA16F (it is copied back from every device each frame): rgb = radiance
+// L (at most 65504, half's largest), a = the inverse hit distance 1/t (0 for
+// the sky; at most 65504, i.e. t from 1.5e-5 up: half keeps 1/t to 1 part in
+// 2048 over the whole range, where t itself would overflow past 65504),
+// -1 where there is no sample: no geometry, or the sample was lost; -2 where
+// the pixel was not traced this frame (quarter rate); rgb 0 then.
 // Records are pixel-major over the band (width x height).
 // Push: { uint x0; uint width; uint height; uint y0; vec4 sun (xyz = unit
 //         direction the light travels, w = irradiance); vec4 sun_color;
 //         vec4 sky (rgb radiance); uint material_count; uint pad[3]; }.
 // i0: G-buffer positions, b1: reflection cv_ray[], b2: their cv_hit[],
 // b3: shadow cv_ray[] (render.reflect_shadow), b4: their cv_hit[], b5: Vertex[],
-// b6: uint instance_first[], b7: Material[], i8: reflection sample (RGBA32F, written),
+// b6: uint instance_first[], b7: Material[], i8: reflection sample (RGBA16F, written),
 // b9: vec2 uvs[] (per vertex, as b5), b10: the image table, b11: the image pool.
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -48,7 +51,9 @@ layout(set = 0, binding = 3, std430) readonly buffer ShadowRays { Ray shadow_ray
 layout(set = 0, binding = 4, std430) readonly buffer ShadowHits { Hit shadow_hits[]; };
 layout(set = 0, binding = 5, std430) readonly buffer Vertices { Vertex vertices[]; };
 layout(set = 0, binding = 6, std430) readonly buffer InstanceFirst { uint instance_first[]; };
-layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D sample_out;
+const float HALF_MAX = 65504.0; // the largest finite half float
+
+layout(set = 0, binding = 8, rgba16f) uniform writeonly image2D sample_out;
 layout(set = 0, binding = 9, std430) readonly buffer Uvs { vec2 uvs[]; };
 
 const float PI = 3.14159265358979;
@@ -66,7 +71,7 @@ void main() {
     if (imageLoad(gbuffer_position, pixel).w != 0.0 && r.tmax > 0.0) {
         Hit h = hits[i];
         if (h.triangle == 0xFFFFFFFFu) {
-            result = vec4(pc.sky.rgb, 1e30);
+            result = vec4(min(pc.sky.rgb, vec3(HALF_MAX)), 0.0);
         } else {
             uint first = 3u * (instance_first[h.instance] + h.triangle);
             Vertex a = vertices[first], b = vertices[first + 1u], c = vertices[first + 2u];
@@ -78,7 +83,7 @@ void main() {
             float visible = shadow_rays[i].tmax > 0.0 && shadow_hits[i].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
             float n_dot_l = max(dot(n, -pc.sun.xyz), 0.0);
             vec3 direct = pc.sun_color.rgb * pc.sun.w * n_dot_l * visible / PI;
-            result = vec4(m.base_color * direct + m.emission, h.t);
+            result = vec4(min(m.base_color * direct + m.emission, vec3(HALF_MAX)), 1.0 / max(h.t, 1.0 / HALF_MAX));
         }
     }
     imageStore(sample_out, pixel, result);

@@ -96,7 +96,9 @@ static const struct {
     [TEX_REPROJECTED] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reprojected history" },
     [TEX_HISTORY_POSITION] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "history position" },
     [TEX_HISTORY_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "history normal" },
-    [TEX_REFLECT] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, true, "reflection samples" },
+    /* RGBA16F: the largest per-frame copy back to the primary (8 bytes a
+     * pixel, not 16); a = the inverse hit distance (render_reflect_shade.comp). */
+    [TEX_REFLECT] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, true, "reflection samples" },
     [TEX_REFLECT_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection history" },
     [TEX_REFLECT_OWN] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection own history" },
     [TEX_REFLECT_OUT] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection" },

@@ -56,7 +56,7 @@ static void observe_frame(const cv_render_frame_info *f, void *user) {
             check_bytes(c, t, secondary_columns * H * 4);
         } else if (strcmp(t->name, "transfer 'reflection samples'") == 0) {
             c->reflection++;
-            check_bytes(c, t, secondary_columns * H * 16);
+            check_bytes(c, t, secondary_columns * H * 8); /* RGBA16F */
         } else if (strcmp(t->name, "transfer 'gbuffer position'") == 0 ||
                    strcmp(t->name, "transfer 'gbuffer normal'") == 0 ||
                    strcmp(t->name, "transfer 'gbuffer material'") == 0) {
