@@ -3,7 +3,7 @@
 // Per pixel, 1 + ao_samples rays, pixel-major: a shadow ray toward the sun,
 // jittered inside the sun's cone (soft shadows), then cosine-distributed AO rays
 // of length ao_radius. Sample points come from a 64x64 blue-noise rank mask
-// (corvid/blue_noise.h, built into render_blue_noise.glsl), a value per pixel
+// (corvid/blue_noise.h, b3, filled by the renderer), a value per pixel
 // and sample dimension, offset by the frame's point of a Roberts sequence
 // (shadow_sample, ao_sample): within a frame neighbouring pixels' errors are
 // blue noise, which the a-trous filter removes best; over the frames each
@@ -21,7 +21,8 @@
 // Push: { uint x0; uint width; uint height; uint ao_samples; vec4 sun (xyz = unit
 //         direction the light travels, w = cone half angle, radians);
 //         uint frame; float ao_radius; float bias; uint y0; }.
-// i0: G-buffer positions (RGBA32F), i1: G-buffer normals (RGBA32F), b2: cv_ray[].
+// i0: G-buffer positions (RGBA32F), i1: G-buffer normals (RGBA32F), b2: cv_ray[],
+// b3: the blue-noise mask (uint[2048], read).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -48,10 +49,19 @@ layout(push_constant, std430) uniform Push {
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
 layout(set = 0, binding = 2, std430) writeonly buffer Rays { Ray rays[]; };
+// The 64x64 blue-noise rank mask (corvid/blue_noise.h), two 16-bit ranks a
+// word, the even x in the low half. A buffer the renderer fills once, not a
+// constant array here: lavapipe took 1.4 s to make this pipeline with one.
+layout(set = 0, binding = 3, std430) readonly buffer BlueNoise { uint blue_noise_words[2048]; };
 
 const float PI = 3.14159265358979;
+const uint BLUE_NOISE_SIZE = 64u;
 
-#include "render_blue_noise.glsl"
+// The rank (0..4095) of cell (x mod 64, y mod 64).
+uint blue_noise_rank(uint x, uint y) {
+    uint i = (y % BLUE_NOISE_SIZE) * BLUE_NOISE_SIZE + x % BLUE_NOISE_SIZE;
+    return (blue_noise_words[i >> 1] >> ((i & 1u) * 16u)) & 0xFFFFu;
+}
 
 // 0.32 fixed point (a uint as a fraction of 2^32) to a float in [0, 1): the
 // top 24 bits, exact in float32, so every device gets the same bits.

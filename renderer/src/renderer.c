@@ -19,6 +19,7 @@
 #include <time.h>
 
 #include "camera.h"
+#include "corvid/blue_noise.h"
 #include "corvid/graph.h"
 #include "corvid/transfer.h"
 #include "frame_observer.h"
@@ -134,6 +135,7 @@ enum {
     BUF_UVS,          /* per flat vertex uv */
     BUF_IMAGE_TABLE,  /* texture images: where each lies in the pool (scene_upload.h) */
     BUF_IMAGE_POOL,   /* and their texels */
+    BUF_BLUE_NOISE,   /* the blue-noise rank mask render.raygen reads (corvid/blue_noise.h) */
     /* Masked scenes: the hits of the alpha-mask re-traces of passes 'trace' and 'reflect' (renderer.h). */
     BUF_ALPHA_HITS,
     BUF_REFLECT_ALPHA_HITS,
@@ -149,6 +151,12 @@ struct cv_renderer {
     render_scene_data data;
     cv_buffer vertices, materials, lights, instances;
     cv_buffer uvs, image_table, image_pool; /* textured materials (scene_upload.h) */
+    /* The blue-noise mask as render.raygen reads it: ranks[y * 64 + x], two a
+     * 32-bit word (the even x in the low half: the bytes of a little-endian
+     * uint16 array). A buffer, not a constant in the shader: lavapipe took
+     * 1.4 s to make a pipeline with a 2048-word constant array. */
+    uint16_t blue_noise_ranks[CV_BLUE_NOISE_CELLS];
+    cv_buffer blue_noise;
     cv_accel accel;
     bool alpha_mask; /* some material is alpha-masked: secondary rays follow the alpha-mask rule */
     cv_pipeline pipelines[PIPE_COUNT];
@@ -264,6 +272,10 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
     if (res == CV_OK)
         res = upload_buffer(r, r->data.instance_first, (r->data.instance_count + 1) * sizeof(uint32_t),
                             "instance first triangles", &r->instances);
+    if (res == CV_OK) {
+        cv_blue_noise_ranks(r->blue_noise_ranks);
+        res = upload_buffer(r, r->blue_noise_ranks, sizeof(r->blue_noise_ranks), "blue noise", &r->blue_noise);
+    }
     /* Immutable scene data goes to every device once (the multicast rule). */
     if (res == CV_OK)
         res = cv_accel_create(r->ctx,
@@ -329,6 +341,7 @@ void cv_renderer_destroy(cv_renderer *r) {
     destroy_handle(r, r->uvs.id);
     destroy_handle(r, r->image_table.id);
     destroy_handle(r, r->image_pool.id);
+    destroy_handle(r, r->blue_noise.id);
     destroy_handle(r, r->accel.id);
     for (int p = 0; p < PIPE_COUNT; p++)
         destroy_handle(r, r->pipelines[p].id);
@@ -510,8 +523,9 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
     cv_texture visibility = cv_graph_texture(pc, r->tex[TEX_VISIBILITY]);
     uint32_t per_pixel = 1 + s->ao_samples;
     uint32_t rows = band_rows(r, s, cols.width);
-    cv_binding gen[3] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
-                          bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])), bind_buffer(rays) };
+    cv_binding gen[4] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
+                          bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])), bind_buffer(rays),
+                          bind_buffer(cv_graph_buffer(pc, r->buf[BUF_BLUE_NOISE])) };
     cv_binding res_b[3] = { bind_buffer(hits), bind_buffer(rays), bind_texture(visibility) };
     for (uint32_t y0 = 0; y0 < r->height; y0 += rows) {
         uint32_t h = r->height - y0 < rows ? r->height - y0 : rows;
@@ -538,7 +552,7 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
         cv_cmd_dispatch(l, pc->queue,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_RAYGEN],
                                              .bindings = gen,
-                                             .bindings_count = 3,
+                                             .bindings_count = 4,
                                              .push = &raygen,
                                              .push_size = sizeof(raygen),
                                              .groups_x = groups(cols.width, 8),
@@ -1114,6 +1128,8 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     if (res == CV_OK)
         res = cv_graph_import_buffer(g, r->image_pool, 0, &r->buf[BUF_IMAGE_POOL]);
     if (res == CV_OK)
+        res = cv_graph_import_buffer(g, r->blue_noise, 0, &r->buf[BUF_BLUE_NOISE]);
+    if (res == CV_OK)
         res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_RAY_BYTES, .label = "rays" }, 0,
                                      &r->buf[BUF_RAYS]);
     if (res == CV_OK)
@@ -1166,6 +1182,7 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     PASS("trace", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES, record_trace);
     READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
     READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
+    READ(r->buf[BUF_BLUE_NOISE], CV_GRAPH_STORAGE_READ);
     WRITE(r->buf[BUF_RAYS], CV_GRAPH_STORAGE_WRITE);
     WRITE(r->buf[BUF_HITS], CV_GRAPH_STORAGE_WRITE);
     WRITE(r->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_WRITE);
@@ -1413,10 +1430,11 @@ static uint32_t drop_lost_devices(cv_renderer *r) {
  * textures every device holds and, once rendered, the G-buffer (the first frame
  * multicasts it; later frames do not render it again). */
 static cv_result join_device(cv_renderer *r, cv_device *dev) {
-    cv_handle scene[] = { cv_any(r->vertices),  cv_any(r->materials), cv_any(r->lights),      cv_any(r->accel),
-                          cv_any(r->instances), cv_any(r->uvs),       cv_any(r->image_table), cv_any(r->image_pool) };
+    cv_handle scene[] = { cv_any(r->vertices),    cv_any(r->materials),  cv_any(r->lights),
+                          cv_any(r->accel),       cv_any(r->instances),  cv_any(r->uvs),
+                          cv_any(r->image_table), cv_any(r->image_pool), cv_any(r->blue_noise) };
     cv_result res = CV_OK;
-    for (int i = 0; i < 8 && res == CV_OK; i++)
+    for (size_t i = 0; i < sizeof(scene) / sizeof(scene[0]) && res == CV_OK; i++)
         res = cv_device_load(dev, scene[i]);
     if (res == CV_OK)
         res = cv_device_write_buffer(dev, r->vertices, 0, r->data.vertex_count * sizeof(render_vertex),
@@ -1437,6 +1455,8 @@ static cv_result join_device(cv_renderer *r, cv_device *dev) {
     if (res == CV_OK)
         res = cv_device_write_buffer(dev, r->image_pool, 0, r->data.image_texels * sizeof(uint32_t),
                                      r->data.image_pool);
+    if (res == CV_OK)
+        res = cv_device_write_buffer(dev, r->blue_noise, 0, sizeof(r->blue_noise_ranks), r->blue_noise_ranks);
     if (res == CV_OK)
         res = cv_device_write_accel(dev, r->accel, r->bvh->nodes2, r->bvh->tris);
     for (int p = 0; p < PIPE_COUNT && res == CV_OK; p++)
@@ -1484,13 +1504,15 @@ cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev) {
     if (res != CV_OK) { /* nothing stays loaded on it */
         char why[1024];
         snprintf(why, sizeof(why), "%s", cv_last_error());
-        cv_handle all[8 + PIPE_COUNT + TEX_COUNT] = { cv_any(r->vertices),    cv_any(r->materials), cv_any(r->lights),
-                                                      cv_any(r->accel),       cv_any(r->instances), cv_any(r->uvs),
-                                                      cv_any(r->image_table), cv_any(r->image_pool) };
+        enum { SCENE = 9 };
+        cv_handle all[SCENE + PIPE_COUNT + TEX_COUNT] = {
+            cv_any(r->vertices), cv_any(r->materials),   cv_any(r->lights),     cv_any(r->accel),     cv_any(r->instances),
+            cv_any(r->uvs),      cv_any(r->image_table), cv_any(r->image_pool), cv_any(r->blue_noise)
+        };
         for (int p = 0; p < PIPE_COUNT; p++)
-            all[8 + p] = cv_any(r->pipelines[p]);
+            all[SCENE + p] = cv_any(r->pipelines[p]);
         for (int t = 0; t < TEX_COUNT; t++)
-            all[8 + PIPE_COUNT + t] = cv_any(r->textures[t]);
+            all[SCENE + PIPE_COUNT + t] = cv_any(r->textures[t]);
         for (size_t i = 0; i < sizeof(all) / sizeof(all[0]); i++)
             if (all[i].id && cv_device_has(dev, all[i]))
                 cv_device_unload(dev, all[i]);

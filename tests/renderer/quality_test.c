@@ -628,7 +628,7 @@ static double low_frequency_share(const uint16_t *ranks) {
 }
 
 /* The blue-noise rank mask (corvid/blue_noise.h), which render.raygen reads
- * (the build writes it into render_blue_noise.glsl): its 4096 ranks are a
+ * (the renderer loads it as a buffer): its 4096 ranks are a
  * permutation; its low-frequency energy share is far below white noise's
  * (measured 0.00002 vs 0.0474 for a hashed permutation; asserted
  * below a tenth of the white mask's); the 10% of cells of lowest rank (a

@@ -5,10 +5,9 @@
  * far apart on the torus, so thresholding the mask at any level gives evenly
  * spread points, and the ranks as values have little low-frequency energy.
  * The mask is computed in integers (the energy kernel is a table of integers,
- * ties go to the lowest index), so it is the same bytes on every host. It is
- * built once, at build time, into the shaders (shaders/CMakeLists.txt runs
- * corvid_blue_noise_glsl, which writes render_blue_noise.glsl); the renderer
- * has no copy of its own.
+ * ties go to the lowest index), so it is the same bytes on every host. The
+ * renderer computes it once per renderer (about 30 ms) and loads it on every
+ * device as a buffer that render.raygen reads.
  *
  *   uint16_t ranks[CV_BLUE_NOISE_CELLS];
  *   cv_blue_noise_ranks(ranks);                 // ranks[y * 64 + x]
