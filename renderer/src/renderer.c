@@ -6,8 +6,9 @@
  * reflections 'reflect' (every device, its window), 'reflect_reproject'
  * (primary, moving camera only) and 'reflect_filter' (primary), 'reproject'
  * (primary, moving camera only), 'accumulate' (primary), 'filter' and
- * 'composite' (primary, last frame). The graph multicasts the G-buffer,
- * copies the secondaries' visibility and reflection windows back, places
+ * 'composite' (primary, last frame). The graph multicasts the G-buffer (a
+ * moving camera's: each device's window of it), copies the secondaries'
+ * visibility and reflection windows back, places
  * barriers and balances the columns from the trace times; no pass sees the
  * device count. */
 #include "corvid/renderer.h"
@@ -1163,17 +1164,24 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
     if (res == CV_OK) \
     res = cv_graph_write(g, p, res_, access, CV_GRAPH_TRANSFER_AUTO)
     /* The G-buffer, on the first frame when the camera is still, on every
-     * frame when it moves; the trace on other devices reads it, so it is
-     * multicast. */
+     * frame when it moves; the trace and reflect passes on other devices read
+     * it, each at the pixels of its own window. A still camera's G-buffer is
+     * multicast whole: it is rendered once and the balancer moves the windows
+     * in later frames. A moving camera's is rendered every frame, so each
+     * device gets only that frame's window of it. */
+    cv_graph_transfer gbuffer_rule = moving ? CV_GRAPH_TRANSFER_PRIMARY_TO_WINDOWS : CV_GRAPH_TRANSFER_MULTICAST;
     PASS("gbuffer", CV_QUEUE_GRAPHICS, CV_MGPU_PRIMARY_ONLY, record_gbuffer);
     READ(r->buf[BUF_VERTICES], CV_GRAPH_STORAGE_READ);
     READ(r->buf[BUF_UVS], CV_GRAPH_STORAGE_READ);
     READ(r->buf[BUF_MATERIALS], CV_GRAPH_STORAGE_READ);
     READ(r->buf[BUF_IMAGE_TABLE], CV_GRAPH_STORAGE_READ);
     READ(r->buf[BUF_IMAGE_POOL], CV_GRAPH_STORAGE_READ);
-    WRITE(r->tex[TEX_POSITION], CV_GRAPH_COLOR_TARGET);
-    WRITE(r->tex[TEX_NORMAL], CV_GRAPH_COLOR_TARGET);
-    WRITE(r->tex[TEX_MATERIAL], CV_GRAPH_COLOR_TARGET);
+    if (res == CV_OK)
+        res = cv_graph_write(g, p, r->tex[TEX_POSITION], CV_GRAPH_COLOR_TARGET, gbuffer_rule);
+    if (res == CV_OK)
+        res = cv_graph_write(g, p, r->tex[TEX_NORMAL], CV_GRAPH_COLOR_TARGET, gbuffer_rule);
+    if (res == CV_OK)
+        res = cv_graph_write(g, p, r->tex[TEX_MATERIAL], CV_GRAPH_COLOR_TARGET, gbuffer_rule);
     WRITE(r->tex[TEX_EMISSION], CV_GRAPH_COLOR_TARGET);
     WRITE(r->tex[TEX_DEPTH], CV_GRAPH_DEPTH_TARGET);
     r->gbuffer_pass = p;

@@ -11,9 +11,12 @@
  * which reports every transfer step of every frame; also bit-identical to one
  * device): the visibility copy-back moves the secondaries' columns only, 4
  * bytes a pixel (render_visibility.glsl's R32_UINT texel); the reflection
- * samples' copy-back their columns, 16 bytes a pixel (RGBA32F); the G-buffer
+ * samples' copy-back their columns, 8 bytes a pixel (RGBA16F); the G-buffer
  * multicast of frame 0 whole images (later frames trace it in windows that
- * move), position and normal, 16 bytes a pixel each, to every secondary. */
+ * move), position, normal and material, 16 bytes a pixel each, to every
+ * secondary. A moving camera (2 devices, path auto, still bit-identical to
+ * one device) renders the G-buffer every frame and sends each secondary only
+ * that frame's window of it. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -32,6 +35,7 @@
 /* What the observer saw of one render's transfers. */
 typedef struct transfer_check {
     uint32_t gpus;
+    bool moving; /* the camera moves: the G-buffer goes out every frame, windows only */
     uint32_t frames;
     uint32_t visibility, reflection, gbuffer; /* transfer steps seen */
     uint32_t wrong;                           /* steps whose bytes were not the expected ones */
@@ -61,7 +65,7 @@ static void observe_frame(const cv_render_frame_info *f, void *user) {
                    strcmp(t->name, "transfer 'gbuffer normal'") == 0 ||
                    strcmp(t->name, "transfer 'gbuffer material'") == 0) {
             c->gbuffer++;
-            check_bytes(c, t, (uint64_t)(c->gpus - 1) * W * H * 16);
+            check_bytes(c, t, c->moving ? secondary_columns * H * 16 : (uint64_t)(c->gpus - 1) * W * H * 16);
         } else if (strncmp(t->name, "transfer", 8) == 0) {
             c->wrong++;
             fprintf(stderr, "%u devices: unexpected %s (%llu bytes)\n", c->gpus, t->name,
@@ -71,13 +75,14 @@ static void observe_frame(const cv_render_frame_info *f, void *user) {
 }
 
 static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out,
-                           cv_render_stats *stats, const cv_render_observer *observer) {
+                           cv_render_stats *stats, const cv_render_observer *observer, bool moving) {
     cv_render_settings s = { .width = W,
                              .height = H,
                              .frames = observer ? OBSERVED_FRAMES : FRAMES,
                              .ao_samples = 2,
                              .sun_cone_degrees = -1,
                              .filter_iterations = -1,
+                             .orbit_degrees = moving ? 1.0f : 0.0f,
                              .observer = observer };
     return cv_test_render(gpus, scene, bvh, &s, out, stats);
 }
@@ -93,11 +98,11 @@ int main(void) {
     cv_render_output one = { 0 }, one_observed = { 0 };
     cv_render_stats stats;
     unsetenv("CORVID_TRANSFER_PATH");
-    CHECK_OK(render_on(1, scene, bvh, &one, &stats, NULL));
+    CHECK_OK(render_on(1, scene, bvh, &one, &stats, NULL, false));
     CHECK(stats.setup_ms == 0); /* one device: no rings, no set-up bake */
     transfer_check alone = { .gpus = 1 };
     CHECK_OK(render_on(1, scene, bvh, &one_observed, &stats,
-                       &(cv_render_observer){ .frame = observe_frame, .user = &alone }));
+                       &(cv_render_observer){ .frame = observe_frame, .user = &alone }, false));
     CHECK_EQ_INT(alone.frames, OBSERVED_FRAMES);
     CHECK_EQ_INT(alone.visibility + alone.reflection + alone.gbuffer + alone.wrong, 0); /* nothing moves */
     /* With the virtual GPUs on one VkDevice (CORVID_VGPU_DEVICE=shared, ctest's
@@ -112,7 +117,7 @@ int main(void) {
         /* Sanitizer builds: 2 and 3 (an even and an uneven split), not 4 as well. */
         for (uint32_t gpus = 2; gpus <= CV_TEST_REPEATS(4u, 3u); gpus++) {
             cv_render_output many = { 0 };
-            CHECK_OK(render_on(gpus, scene, bvh, &many, &stats, NULL));
+            CHECK_OK(render_on(gpus, scene, bvh, &many, &stats, NULL, false));
             CHECK_EQ_INT(stats.device_count, gpus);
             CHECK(stats.transfer_bytes > 0);
             CHECK_EQ_INT(stats.frames, FRAMES);
@@ -132,7 +137,7 @@ int main(void) {
             transfer_check c = { .gpus = gpus };
             cv_render_output observed = { 0 };
             CHECK_OK(render_on(gpus, scene, bvh, &observed, &stats,
-                               &(cv_render_observer){ .frame = observe_frame, .user = &c }));
+                               &(cv_render_observer){ .frame = observe_frame, .user = &c }, false));
             CHECK_EQ_INT(c.frames, OBSERVED_FRAMES);
             CHECK_EQ_INT(c.visibility, OBSERVED_FRAMES);
             CHECK_EQ_INT(c.reflection, OBSERVED_FRAMES);
@@ -145,6 +150,30 @@ int main(void) {
         }
     }
     unsetenv("CORVID_TRANSFER_PATH");
+    /* A moving camera: the G-buffer every frame, each secondary gets its window of it. */
+    cv_render_output moving_one = { 0 }, moving_two = { 0 };
+    transfer_check moving = { .gpus = 2, .moving = true }, moving_alone = { .gpus = 1, .moving = true };
+    CHECK_OK(render_on(1, scene, bvh, &moving_one, &stats,
+                       &(cv_render_observer){ .frame = observe_frame, .user = &moving_alone }, true));
+    CHECK_EQ_INT(moving_alone.gbuffer + moving_alone.visibility + moving_alone.reflection + moving_alone.wrong, 0);
+    CHECK_OK(render_on(2, scene, bvh, &moving_two, &stats,
+                       &(cv_render_observer){ .frame = observe_frame, .user = &moving }, true));
+    CHECK_EQ_INT(moving.frames, OBSERVED_FRAMES);
+    CHECK_EQ_INT(moving.gbuffer, 3 * OBSERVED_FRAMES); /* position, normal, material: every frame */
+    CHECK_EQ_INT(moving.visibility, OBSERVED_FRAMES);
+    CHECK_EQ_INT(moving.reflection, OBSERVED_FRAMES);
+    CHECK_EQ_INT(moving.wrong, 0);
+    CHECK(moving_one.radiance && moving_two.radiance &&
+          memcmp(moving_one.radiance, moving_two.radiance, bytes) == 0 &&
+          memcmp(moving_one.reflection, moving_two.reflection, bytes) == 0 &&
+          memcmp(moving_one.visibility, moving_two.visibility, bytes) == 0);
+    fprintf(stderr, "moving camera, 2 devices: %s, %.1f MB moved\n",
+            moving_one.radiance && moving_two.radiance && memcmp(moving_one.radiance, moving_two.radiance, bytes) == 0
+                ? "bit-identical"
+                : "DIFFERENT",
+            stats.transfer_bytes / 1e6);
+    cv_render_output_free(&moving_one);
+    cv_render_output_free(&moving_two);
     cv_render_output_free(&one);
     cv_render_output_free(&one_observed);
     cv_bvh_destroy(bvh);
