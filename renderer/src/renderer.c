@@ -1513,10 +1513,11 @@ cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev) {
         char why[1024];
         snprintf(why, sizeof(why), "%s", cv_last_error());
         enum { SCENE = 9 };
-        cv_handle all[SCENE + PIPE_COUNT + TEX_COUNT] = {
-            cv_any(r->vertices), cv_any(r->materials),   cv_any(r->lights),     cv_any(r->accel),     cv_any(r->instances),
-            cv_any(r->uvs),      cv_any(r->image_table), cv_any(r->image_pool), cv_any(r->blue_noise)
-        };
+        cv_handle all[SCENE + PIPE_COUNT + TEX_COUNT] = { cv_any(r->vertices),    cv_any(r->materials),
+                                                          cv_any(r->lights),      cv_any(r->accel),
+                                                          cv_any(r->instances),   cv_any(r->uvs),
+                                                          cv_any(r->image_table), cv_any(r->image_pool),
+                                                          cv_any(r->blue_noise) };
         for (int p = 0; p < PIPE_COUNT; p++)
             all[SCENE + p] = cv_any(r->pipelines[p]);
         for (int t = 0; t < TEX_COUNT; t++)

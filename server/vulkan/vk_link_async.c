@@ -36,7 +36,8 @@ cv_result vk_link_queue_parse(const char *value, cv_queue_type *queue) {
         *queue = CV_QUEUE_COPY;
         return CV_OK;
     }
-    return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_LINK_QUEUE='%.32s': expected compute, graphics or copy", value);
+    return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_LINK_QUEUE='%.32s': expected compute, graphics or copy",
+                    value);
 }
 
 /* A command buffer no submitted work uses (one of the pool's, or a new one). */
