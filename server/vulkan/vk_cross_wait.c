@@ -6,6 +6,7 @@
 
 #include "vk_bridge.h"
 #include "vk_cross_wait.h"
+#include "vk_env.h"
 
 /* One imported semaphore on the waiter (bd->imports). */
 typedef struct vk_import {
@@ -15,18 +16,11 @@ typedef struct vk_import {
 } vk_import;
 
 cv_result vk_cross_wait_parse(const char *value, vk_cross_mode *out) {
-    *out = VK_CROSS_AUTO;
-    if (!value || !value[0] || strcmp(value, "auto") == 0)
-        return CV_OK;
-    if (strcmp(value, "bridge") == 0) {
-        *out = VK_CROSS_BRIDGE;
-        return CV_OK;
-    }
-    if (strcmp(value, "import") == 0) {
-        *out = VK_CROSS_IMPORT;
-        return CV_OK;
-    }
-    return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_CROSS_WAIT='%.32s': expected bridge, import or auto", value);
+    static const char *const words[] = { "auto", "bridge", "import" }; /* vk_cross_mode's order */
+    uint32_t k;
+    cv_result r = vk_env_choice("CORVID_CROSS_WAIT", value, words, 3, &k);
+    *out = (vk_cross_mode)k;
+    return r;
 }
 
 bool vk_cross_wait_capable(bool has_extension, const VkExternalSemaphoreProperties *props, char *missing,

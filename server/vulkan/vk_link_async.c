@@ -4,6 +4,7 @@
 
 #include "vk_bridge.h"
 #include "vk_cross_wait.h"
+#include "vk_env.h"
 #include "vk_host_transfer.h"
 #include "vk_immediate.h"
 #include "vk_link.h"
@@ -25,19 +26,12 @@ void vk_link_async_finish(cv_backend_device *bd) {
 }
 
 cv_result vk_link_queue_parse(const char *value, cv_queue_type *queue) {
-    *queue = CV_QUEUE_COMPUTE;
-    if (!value || !value[0] || strcmp(value, "compute") == 0)
-        return CV_OK;
-    if (strcmp(value, "graphics") == 0) {
-        *queue = CV_QUEUE_GRAPHICS;
-        return CV_OK;
-    }
-    if (strcmp(value, "copy") == 0) {
-        *queue = CV_QUEUE_COPY;
-        return CV_OK;
-    }
-    return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_LINK_QUEUE='%.32s': expected compute, graphics or copy",
-                    value);
+    static const char *const words[] = { "compute", "graphics", "copy" };
+    static const cv_queue_type types[] = { CV_QUEUE_COMPUTE, CV_QUEUE_GRAPHICS, CV_QUEUE_COPY };
+    uint32_t k;
+    cv_result r = vk_env_choice("CORVID_LINK_QUEUE", value, words, 3, &k);
+    *queue = types[k];
+    return r;
 }
 
 /* A command buffer no submitted work uses (one of the pool's, or a new one). */

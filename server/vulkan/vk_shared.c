@@ -4,6 +4,7 @@
 
 #include "vk_instance.h"
 #include "vk_shared.h"
+#include "vk_env.h"
 
 /* Process-wide, like vk_instance.c's instances and for the same reason: the
  * instances of one adapter are created by independent cv_device_create calls
@@ -14,19 +15,11 @@ static pthread_mutex_t registry_lock = PTHREAD_MUTEX_INITIALIZER;
 static vk_shared_device *registry;
 
 cv_result vk_shared_parse(const char *value, vk_vgpu_mode *mode) {
-    *mode = VK_VGPU_AUTO;
-    if (!value || !value[0] || strcmp(value, "auto") == 0)
-        return CV_OK;
-    if (strcmp(value, "separate") == 0) {
-        *mode = VK_VGPU_SEPARATE;
-        return CV_OK;
-    }
-    if (strcmp(value, "shared") == 0) {
-        *mode = VK_VGPU_SHARED;
-        return CV_OK;
-    }
-    return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_VGPU_DEVICE='%.32s': expected shared, separate or auto",
-                    value);
+    static const char *const words[] = { "auto", "separate", "shared" }; /* vk_vgpu_mode's order */
+    uint32_t k;
+    cv_result r = vk_env_choice("CORVID_VGPU_DEVICE", value, words, 3, &k);
+    *mode = (vk_vgpu_mode)k;
+    return r;
 }
 
 bool vk_shared_auto_choice(VkPhysicalDevice physical, uint32_t graphics_family) {
