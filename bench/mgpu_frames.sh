@@ -14,19 +14,24 @@
 # virtual GPUs on one VkDevice (CORVID_VGPU_DEVICE=shared: their queues may run
 # concurrently, separate VkDevices are time-sliced) on 2 and 4 virtual GPUs,
 # path auto (which takes the direct "device" path there), async and sync,
-# against the same with separate VkDevices. Prints tables.
+# against the same with separate VkDevices. Then the queue the link copies run
+# on (CORVID_LINK_QUEUE=compute, the default, against graphics and the copy
+# family) on one VkDevice, paths device and shared, 2 and 4 virtual GPUs.
+# Prints tables.
 #   bench/mgpu_frames.sh BIN_DIR ADAPTER [WxH] [FRAMES]   (BENCH_BIN=dir of the benches if elsewhere)
 #   MGPU_MODE=cross-wait bench/mgpu_frames.sh ...   only the one-device run and the cross-wait table
 #   MGPU_MODE=vgpu bench/mgpu_frames.sh ...         only the one-device run and the shared-VkDevice table
+#   MGPU_MODE=link-queue bench/mgpu_frames.sh ...   only the one-device run and the link-queue table
 set -u
 bin=$1 adapter=$2 size=${3:-1920x1080} frames=${4:-16}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 mode=${MGPU_MODE:-all}
-# run PATH GPUS ASYNC [CROSS_WAIT] [VGPU_DEVICE] -> "ms moved_MB transfer_ms" or nothing on failure
+# run PATH GPUS ASYNC [CROSS_WAIT] [VGPU_DEVICE] [LINK_QUEUE] -> "ms moved_MB transfer_ms" or nothing on failure
 run() {
-  local log=$out/$1-$2-$3-${4:-auto}-${5:-separate}.txt
-  CORVID_VGPU_DEVICE=${5:-separate} CORVID_CROSS_WAIT=${4:-auto} CORVID_TRANSFER_PATH=$1 CORVID_TRANSFER_ASYNC=$3 \
+  local log=$out/$1-$2-$3-${4:-auto}-${5:-separate}-${6:-compute}.txt
+  CORVID_LINK_QUEUE=${6:-compute} CORVID_VGPU_DEVICE=${5:-separate} CORVID_CROSS_WAIT=${4:-auto} \
+    CORVID_TRANSFER_PATH=$1 CORVID_TRANSFER_ASYNC=$3 \
     "$bin/corvid-render" --adapters "$adapter" --gpus "$2" \
     --size "$size" --frames "$frames" --out "$out/frame" > "$log" 2>&1 || { echo "$1 x$2 failed: $(tail -1 "$log")" >&2; return; }
   local ms moved
@@ -49,8 +54,8 @@ cross_wait_table() {
     read -r i_ms _ _ <<< "$(run shared "$gpus" 1 import)"
     # What corvid-render's device lines say each run used.
     local b_use i_use
-    b_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-bridge-separate.txt" | head -1)
-    i_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-import-separate.txt" | head -1)
+    b_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-bridge-separate-compute.txt" | head -1)
+    i_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-import-separate-compute.txt" | head -1)
     printf '%-12s %5s %12s %9s %12s %9s %9s  %s\n' shared "$gpus" "${b_ms:--}" "$(ratio "${b_ms:-0}" "${one:-0}")" \
       "${i_ms:--}" "$(ratio "${i_ms:-0}" "${one:-0}")" "$(ratio "${i_ms:-0}" "${b_ms:-0}")" "${b_use:--} / ${i_use:--}"
   done
@@ -71,6 +76,24 @@ vgpu_table() {
       "${s_ms:--}" "$(ratio "${s_ms:-0}" "${one:-0}")" "${p_ms:--}" "$(ratio "${p_ms:-0}" "${one:-0}")" "${a_mb:--}"
   done
 }
+link_queue_table() {
+  echo
+  echo "== the queue of the link copies (CORVID_LINK_QUEUE), one VkDevice (CORVID_VGPU_DEVICE=shared), async (same run)"
+  printf '%-12s %5s %12s %9s %12s %9s %12s %9s\n' path gpus "compute ms/f" vs-1-gpu "graphics" vs-1-gpu "copy" vs-1-gpu
+  for path in device shared; do
+    for gpus in 2 4; do
+      read -r c_ms _ _ <<< "$(run "$path" "$gpus" 1 auto shared compute)"
+      read -r g_ms _ _ <<< "$(run "$path" "$gpus" 1 auto shared graphics)"
+      read -r x_ms _ _ <<< "$(run "$path" "$gpus" 1 auto shared copy)"
+      printf '%-12s %5s %12s %9s %12s %9s %12s %9s\n' "$path" "$gpus" "${c_ms:--}" "$(ratio "${c_ms:-0}" "${one:-0}")" \
+        "${g_ms:--}" "$(ratio "${g_ms:-0}" "${one:-0}")" "${x_ms:--}" "$(ratio "${x_ms:-0}" "${one:-0}")"
+    done
+  done
+}
+if [ "$mode" = link-queue ]; then
+  link_queue_table
+  exit 0
+fi
 if [ "$mode" = cross-wait ]; then
   cross_wait_table
   exit 0
@@ -89,6 +112,7 @@ for path in staged host-import shared; do
 done
 cross_wait_table
 vgpu_table
+link_queue_table
 echo
 echo "== bench_transfer_async (ring transfers vs synchronous ones, same bytes, same run)"
 for cw in bridge import; do
