@@ -3,7 +3,8 @@
  *   - the decision as pure functions of fabricated properties: the
  *     CORVID_CROSS_WAIT values, which external semaphore properties make a
  *     device capable (and what a lacking one reports), the per-device choice,
- *     the per-pair UUID check;
+ *     the per-pair UUID check; vk_env_choice, which parses it and the
+ *     backend's other switches (the default, the message listing the words);
  *   - on the adapter: CORVID_CROSS_WAIT=import where the device cannot import
  *     (lavapipe lacks VK_KHR_external_semaphore_fd) fails with
  *     CV_ERROR_UNSUPPORTED naming the device and what it lacks, and changes
@@ -18,6 +19,7 @@
 
 #include "corvid/transfer.h"
 #include "vk_cross_wait.h"
+#include "vk_env.h"
 #include "vk_test.h"
 
 static void pure_decisions(void) {
@@ -34,7 +36,19 @@ static void pure_decisions(void) {
     CHECK_EQ_INT(m, VK_CROSS_IMPORT);
     CHECK_RESULT(vk_cross_wait_parse("imports", &m), CV_ERROR_INVALID_ARGUMENT);
     CHECK_EQ_INT(m, VK_CROSS_AUTO);
-    CHECK(strstr(cv_last_error(), "CORVID_CROSS_WAIT='imports'") != NULL);
+    CHECK(strstr(cv_last_error(), "CORVID_CROSS_WAIT='imports': expected auto, bridge or import") != NULL);
+    /* vk_env_choice (vk_env.h), which the backend's switches share: the first word is the default. */
+    static const char *const one[] = { "on" }, *const two[] = { "a", "b" };
+    uint32_t k = 7;
+    CHECK_OK(vk_env_choice("X", NULL, two, 2, &k));
+    CHECK_EQ_INT(k, 0);
+    CHECK_OK(vk_env_choice("X", "b", two, 2, &k));
+    CHECK_EQ_INT(k, 1);
+    CHECK_RESULT(vk_env_choice("CORVID_ONE", "off", one, 1, &k), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(k, 0);
+    CHECK(strcmp(cv_last_error(), "CORVID_ONE='off': expected on") == 0);
+    CHECK_RESULT(vk_env_choice("X", "c", two, 2, &k), CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strcmp(cv_last_error(), "X='c': expected a or b") == 0);
 
     const VkExternalSemaphoreHandleTypeFlags fd = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT;
     const VkExternalSemaphoreFeatureFlags ex = VK_EXTERNAL_SEMAPHORE_FEATURE_EXPORTABLE_BIT,
