@@ -51,12 +51,11 @@ layout(set = 0, binding = 3, std430) readonly buffer ShadowRays { Ray shadow_ray
 layout(set = 0, binding = 4, std430) readonly buffer ShadowHits { Hit shadow_hits[]; };
 layout(set = 0, binding = 5, std430) readonly buffer Vertices { Vertex vertices[]; };
 layout(set = 0, binding = 6, std430) readonly buffer InstanceFirst { uint instance_first[]; };
-const float HALF_MAX = 65504.0; // the largest finite half float
-
 layout(set = 0, binding = 8, rgba16f) uniform writeonly image2D sample_out;
 layout(set = 0, binding = 9, std430) readonly buffer Uvs { vec2 uvs[]; };
 
 const float PI = 3.14159265358979;
+const float HALF_MAX = 65504.0; // the largest finite half float
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;

@@ -310,6 +310,15 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
     return CV_OK;
 }
 
+/* The scene's handles every device holds: its buffers and the accel. */
+enum { SCENE_HANDLES = 9 };
+static void scene_handles(const cv_renderer *r, cv_handle out[SCENE_HANDLES]) {
+    const cv_handle all[SCENE_HANDLES] = { cv_any(r->vertices),    cv_any(r->materials),  cv_any(r->lights),
+                                           cv_any(r->accel),       cv_any(r->instances),  cv_any(r->uvs),
+                                           cv_any(r->image_table), cv_any(r->image_pool), cv_any(r->blue_noise) };
+    memcpy(out, all, sizeof(all));
+}
+
 static void destroy_handle(cv_renderer *r, uint64_t id) {
     if (id)
         cv_destroy(r->ctx, (cv_handle){ id });
@@ -335,15 +344,10 @@ void cv_renderer_destroy(cv_renderer *r) {
     for (uint32_t d = 0; d < r->count; d++)
         cv_device_wait_idle(r->devices[d]);
     destroy_targets(r);
-    destroy_handle(r, r->vertices.id);
-    destroy_handle(r, r->materials.id);
-    destroy_handle(r, r->lights.id);
-    destroy_handle(r, r->instances.id);
-    destroy_handle(r, r->uvs.id);
-    destroy_handle(r, r->image_table.id);
-    destroy_handle(r, r->image_pool.id);
-    destroy_handle(r, r->blue_noise.id);
-    destroy_handle(r, r->accel.id);
+    cv_handle scene[SCENE_HANDLES];
+    scene_handles(r, scene);
+    for (int i = 0; i < SCENE_HANDLES; i++)
+        destroy_handle(r, scene[i].id);
     for (int p = 0; p < PIPE_COUNT; p++)
         destroy_handle(r, r->pipelines[p].id);
     render_scene_data_free(&r->data);
@@ -1438,11 +1442,10 @@ static uint32_t drop_lost_devices(cv_renderer *r) {
  * textures every device holds and, once rendered, the G-buffer (the first frame
  * multicasts it; later frames do not render it again). */
 static cv_result join_device(cv_renderer *r, cv_device *dev) {
-    cv_handle scene[] = { cv_any(r->vertices),    cv_any(r->materials),  cv_any(r->lights),
-                          cv_any(r->accel),       cv_any(r->instances),  cv_any(r->uvs),
-                          cv_any(r->image_table), cv_any(r->image_pool), cv_any(r->blue_noise) };
+    cv_handle scene[SCENE_HANDLES];
+    scene_handles(r, scene);
     cv_result res = CV_OK;
-    for (size_t i = 0; i < sizeof(scene) / sizeof(scene[0]) && res == CV_OK; i++)
+    for (int i = 0; i < SCENE_HANDLES && res == CV_OK; i++)
         res = cv_device_load(dev, scene[i]);
     if (res == CV_OK)
         res = cv_device_write_buffer(dev, r->vertices, 0, r->data.vertex_count * sizeof(render_vertex),
@@ -1512,16 +1515,12 @@ cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev) {
     if (res != CV_OK) { /* nothing stays loaded on it */
         char why[1024];
         snprintf(why, sizeof(why), "%s", cv_last_error());
-        enum { SCENE = 9 };
-        cv_handle all[SCENE + PIPE_COUNT + TEX_COUNT] = { cv_any(r->vertices),    cv_any(r->materials),
-                                                          cv_any(r->lights),      cv_any(r->accel),
-                                                          cv_any(r->instances),   cv_any(r->uvs),
-                                                          cv_any(r->image_table), cv_any(r->image_pool),
-                                                          cv_any(r->blue_noise) };
+        cv_handle all[SCENE_HANDLES + PIPE_COUNT + TEX_COUNT];
+        scene_handles(r, all);
         for (int p = 0; p < PIPE_COUNT; p++)
-            all[SCENE + p] = cv_any(r->pipelines[p]);
+            all[SCENE_HANDLES + p] = cv_any(r->pipelines[p]);
         for (int t = 0; t < TEX_COUNT; t++)
-            all[SCENE + PIPE_COUNT + t] = cv_any(r->textures[t]);
+            all[SCENE_HANDLES + PIPE_COUNT + t] = cv_any(r->textures[t]);
         for (size_t i = 0; i < sizeof(all) / sizeof(all[0]); i++)
             if (all[i].id && cv_device_has(dev, all[i]))
                 cv_device_unload(dev, all[i]);

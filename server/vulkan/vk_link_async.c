@@ -1,6 +1,5 @@
 /* Asynchronous link copies (see vk_link.h, backend.h's link_copy_async). */
 #include <stdlib.h>
-#include <string.h>
 
 #include "vk_bridge.h"
 #include "vk_cross_wait.h"

@@ -1,6 +1,5 @@
 /* The registry of VkDevices shared by virtual GPUs (see vk_shared.h). */
 #include <stdlib.h>
-#include <string.h>
 
 #include "vk_instance.h"
 #include "vk_shared.h"
