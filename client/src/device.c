@@ -490,6 +490,122 @@ cv_result cv_device_link_copy_device(cv_device *src, uint64_t src_id, cv_device 
     return r;
 }
 
+bool cv_device_can_alias(cv_device *dev, cv_device *owner, char *why, size_t why_size) {
+    char none[1];
+    if (!why || !why_size) {
+        why = none;
+        why_size = sizeof(none);
+    }
+    why[0] = 0;
+    cv_link_caps a, b;
+    if (!dev || !owner || dev == owner) {
+        snprintf(why, why_size, "%s", !dev || !owner ? "a NULL device" : "it is the same device");
+        return false;
+    }
+    if (dev->backend != owner->backend) {
+        snprintf(why, why_size, "the devices are on different backends (%s, %s)", dev->backend->name,
+                 owner->backend->name);
+        return false;
+    }
+    if (!dev->backend->resource_alias || !dev->backend->link_wait || !cv_device_link_caps(dev, &a) ||
+        !cv_device_link_caps(owner, &b)) {
+        snprintf(why, why_size, "the %s backend cannot share memory between devices", dev->backend->name);
+        return false;
+    }
+    if (!a.shared_memory || !b.shared_memory) {
+        snprintf(why, why_size, "device '%s' lacks %s", !a.shared_memory ? dev->label : owner->label,
+                 !a.shared_memory ? a.shared_missing : b.shared_missing);
+        return false;
+    }
+    if (memcmp(a.driver_uuid, b.driver_uuid, 16) != 0 || memcmp(a.device_uuid, b.device_uuid, 16) != 0) {
+        snprintf(why, why_size, "they are different adapters or drivers (driverUUID/deviceUUID differ)");
+        return false;
+    }
+    return true;
+}
+
+cv_result cv_device_load_alias(cv_device *dev, cv_handle h, cv_device *owner) {
+    if (!dev || !owner)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_load_alias: NULL device");
+    cv_resource_desc desc;
+    cv_result r = cv_context_describe(dev->ctx, h, &desc); /* before the device locks: lock order */
+    if (r != CV_OK)
+        return r;
+    if (owner->ctx != dev->ctx)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "alias on device '%s': device '%s' belongs to another context",
+                        dev->label, owner->label);
+    if (desc.type != CV_HANDLE_TEXTURE)
+        return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "alias on device '%s': a %s handle (only textures alias)",
+                        dev->label, cv_handle_type_name(desc.type));
+    if (!(desc.texture.usage & CV_TEXTURE_USAGE_SHARED))
+        return cv_error(CV_ERROR_USAGE_MISMATCH,
+                        "alias on device '%s': texture '%s' was not created with CV_TEXTURE_USAGE_SHARED", dev->label,
+                        desc.texture.label);
+    char why[160];
+    if (!cv_device_can_alias(dev, owner, why, sizeof(why)))
+        return cv_error(CV_ERROR_UNSUPPORTED, "alias of texture '%s' on device '%s' from device '%s': %s",
+                        desc.texture.label, dev->label, owner->label, why);
+    /* Both locks, in address order (as cv_device_link_copy_device). */
+    cv_device *first = dev < owner ? dev : owner, *second = dev < owner ? owner : dev;
+    pthread_mutex_lock(&first->lock);
+    pthread_mutex_lock(&second->lock);
+    collect_finished(dev);
+    collect_finished(owner);
+    cv_device_resource *src = NULL, *s = NULL;
+    r = cv_device_require(owner, h.id, CV_HANDLE_TEXTURE, "alias (owner)", &src);
+    if (r == CV_OK)
+        r = ensure_slot(dev, h.id, &s);
+    if (r == CV_OK && s->id == h.id)
+        r = cv_error(CV_ERROR_ALREADY_LOADED, "texture handle 0x%016llx is already loaded on device '%s'",
+                     (unsigned long long)h.id, dev->label);
+    if (r == CV_OK && s->id != 0) { /* a stale representation, as in cv_device_load */
+        release_later(dev, cv_handle_type_of(s->id), s->obj, s->last_use);
+        memset(s, 0, sizeof(*s));
+        dev->loaded--;
+        dev->epoch++;
+    }
+    void *obj = NULL;
+    if (r == CV_OK)
+        r = dev->backend->resource_alias(dev->bd, h.id, &desc, owner->bd, src->obj, &obj);
+    if (r == CV_OK) {
+        *s = (cv_device_resource){ .id = h.id, .desc = desc, .obj = obj };
+        dev->loaded++;
+    }
+    pthread_mutex_unlock(&second->lock);
+    pthread_mutex_unlock(&first->lock);
+    return r;
+}
+
+cv_result cv_device_gpu_wait(cv_device *dev, cv_device *other, uint64_t other_ticket, uint64_t *ticket) {
+    if (!dev || !other || !ticket)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_gpu_wait: NULL argument");
+    *ticket = 0;
+    if (dev == other)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_gpu_wait: device '%s' waits on itself", dev->label);
+    if (dev->backend != other->backend || !dev->backend->link_wait)
+        return cv_error(CV_ERROR_UNSUPPORTED, "device '%s' (%s backend) cannot wait on the GPU for device '%s' (%s)",
+                        dev->label, dev->backend->name, other->label, other->backend->name);
+    pthread_mutex_lock(&other->lock); /* alone, not nested: lock order */
+    uint64_t submitted = other->last_ticket;
+    pthread_mutex_unlock(&other->lock);
+    if (other_ticket > submitted)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT,
+                        "device '%s': a GPU wait for ticket %llu of device '%s', which submitted only %llu",
+                        dev->label, (unsigned long long)other_ticket, other->label, (unsigned long long)submitted);
+    /* The other device's backend object never changes: passed without its lock. */
+    cv_link_wait wait = { .device = other->bd, .ticket = other_ticket };
+    pthread_mutex_lock(&dev->lock);
+    collect_finished(dev);
+    uint64_t t = dev->last_ticket + 1;
+    cv_result r = dev->backend->link_wait(dev->bd, &wait, t);
+    if (r == CV_OK) {
+        dev->last_ticket = t;
+        *ticket = t;
+    }
+    pthread_mutex_unlock(&dev->lock);
+    return r;
+}
+
 void cv_device_link_release(cv_device *dev, void *staging) {
     pthread_mutex_lock(&dev->lock);
     dev->backend->link_release(dev->bd, staging);

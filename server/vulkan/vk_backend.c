@@ -76,6 +76,12 @@ static cv_result timings(cv_backend_device *bd, void *compiled, cv_pass_timing *
     return vk_timestamps_read(bd, &((vk_compiled *)compiled)->timestamps, out, capacity, count);
 }
 
+static cv_result resource_alias(cv_backend_device *bd, uint64_t id, const cv_resource_desc *desc,
+                                cv_backend_device *src_bd, void *src_obj, void **out) {
+    (void)id;
+    return vk_texture_alias(bd, &desc->texture, src_bd, src_obj, (vk_texture **)out);
+}
+
 static const cv_backend vulkan_backend = {
     .name = "vulkan",
     .device_create = vk_device_create,
@@ -99,6 +105,8 @@ static const cv_backend vulkan_backend = {
     .link_copy_async = vk_link_copy_async,
     .link_release = vk_link_release,
     .link_copy_device = vk_link_copy_device,
+    .resource_alias = resource_alias,
+    .link_wait = vk_link_wait,
 };
 
 const cv_backend *cv_vulkan_backend(void) { return &vulkan_backend; }

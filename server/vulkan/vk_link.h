@@ -43,11 +43,14 @@ cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t stag
                              const cv_link_wait *wait, uint64_t ticket);
 void vk_link_release(cv_backend_device *bd, void *staging);
 /* One copy between resources of two instances of one shared VkDevice (vk_shared.h;
- * backend.h: link_copy_device), on bd's graphics queue; dst_bd gets an empty
+ * backend.h: link_copy_device), on bd's link queue; dst_bd gets an empty
  * submission with dst_ticket that waits for it. */
 cv_result vk_link_copy_device(cv_backend_device *bd, cv_backend_device *dst_bd, cv_handle_type type, void *src_obj,
                               void *dst_obj, const cv_link_region *region, uint64_t dst_wait, uint64_t ticket,
                               uint64_t dst_ticket);
+/* A GPU-side wait (backend.h: link_wait): an empty submission on bd's link
+ * queue with `ticket`, after ticket-1 and after wait->device's ticket. */
+cv_result vk_link_wait(cv_backend_device *bd, const cv_link_wait *wait, uint64_t ticket);
 /* For vk_link_async.c: the range check, and the commands of one copy. */
 cv_result vk_link_in_range(const cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
                            void *obj, uint64_t size, cv_rect rect);

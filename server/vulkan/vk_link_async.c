@@ -90,6 +90,59 @@ static VkSemaphoreSubmitInfo semaphore_info(VkSemaphore s, uint64_t value) {
                                     .stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT };
 }
 
+/* Appends to waits[*count] the wait for wait->device's ticket (none if it is
+ * already reached, or no device): directly on the other device's semaphore
+ * where both share one VkDevice (vk_shared.h), on its imported semaphore where
+ * the pair allows, else through the bridge. `ticket`: bd's submission that waits. */
+static cv_result cross_wait(cv_backend_device *bd, const cv_link_wait *wait, uint64_t ticket,
+                            VkSemaphoreSubmitInfo *waits, uint32_t *count) {
+    if (!wait || !wait->device || wait->device == bd)
+        return CV_OK;
+    if (vk_host_counter(wait->device, wait->device->ticket) >= wait->ticket)
+        return CV_OK;
+    VkSemaphore imported = VK_NULL_HANDLE;
+    uint64_t value = 0;
+    cv_result r = CV_OK;
+    if (vk_device_same(bd, wait->device))
+        imported = wait->device->ticket;
+    else if (vk_cross_wait_direct(bd, wait->device))
+        r = vk_cross_wait_semaphore(bd, wait->device, ticket, &imported);
+    if (r == CV_OK && !imported)
+        r = vk_bridge_request(bd, wait->device, wait->ticket, &value);
+    if (r == CV_OK)
+        waits[(*count)++] = imported ? semaphore_info(imported, wait->ticket)
+                                     : semaphore_info(bd->bridge.semaphore, value);
+    return r;
+}
+
+cv_result vk_link_wait(cv_backend_device *bd, const cv_link_wait *wait, uint64_t ticket) {
+    /* An empty submission: after the device's previous ticket and host writes,
+     * and after the other device's ticket; later work waits for this one. */
+    cv_result r = vk_immediate_flush(bd); /* images created since the last submission get their first layout */
+    VkSemaphoreSubmitInfo waits[3];
+    uint32_t wait_count = 0;
+    waits[wait_count++] = semaphore_info(bd->ticket, ticket - 1);
+    if (bd->immediate_value)
+        waits[wait_count++] = semaphore_info(bd->immediate, bd->immediate_value);
+    if (r == CV_OK)
+        r = cross_wait(bd, wait, ticket, waits, &wait_count);
+    if (r != CV_OK)
+        return r;
+    VkSemaphoreSubmitInfo signal = semaphore_info(bd->ticket, ticket);
+    VkSubmitInfo2 submit = { .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2,
+                             .waitSemaphoreInfoCount = wait_count,
+                             .pWaitSemaphoreInfos = waits,
+                             .signalSemaphoreInfoCount = 1,
+                             .pSignalSemaphoreInfos = &signal };
+    VkResult vr = vk_queue_submit(bd, bd->link_slot, &submit);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkQueueSubmit2 (GPU wait for device '%s', ticket %llu, device '%s')",
+                       wait && wait->device ? wait->device->label : "?", (unsigned long long)ticket, bd->label);
+    if (ticket > bd->last_ticket)
+        bd->last_ticket = ticket;
+    return CV_OK;
+}
+
 cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
                              void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging,
                              const cv_link_wait *wait, uint64_t ticket) {
@@ -122,25 +175,9 @@ cv_result vk_link_copy_async(cv_backend_device *bd, void *staging, uint64_t stag
     waits[wait_count++] = semaphore_info(bd->ticket, ticket - 1);
     if (bd->immediate_value)
         waits[wait_count++] = semaphore_info(bd->immediate, bd->immediate_value);
-    if (wait && wait->device && wait->device != bd) {
-        uint64_t reached = vk_host_counter(wait->device, wait->device->ticket);
-        uint64_t value = 0;
-        if (reached < wait->ticket) {
-            /* Directly on the other device's semaphore where both share one VkDevice (vk_shared.h),
-             * on its imported semaphore where the pair allows, else through the bridge. */
-            VkSemaphore imported = VK_NULL_HANDLE;
-            if (vk_device_same(bd, wait->device))
-                imported = wait->device->ticket;
-            else if (vk_cross_wait_direct(bd, wait->device))
-                r = vk_cross_wait_semaphore(bd, wait->device, ticket, &imported);
-            if (r == CV_OK && !imported)
-                r = vk_bridge_request(bd, wait->device, wait->ticket, &value);
-            if (r != CV_OK)
-                return r;
-            waits[wait_count++] = imported ? semaphore_info(imported, wait->ticket)
-                                           : semaphore_info(bd->bridge.semaphore, value);
-        }
-    }
+    r = cross_wait(bd, wait, ticket, waits, &wait_count);
+    if (r != CV_OK)
+        return r;
     VkSemaphoreSubmitInfo signal = semaphore_info(bd->ticket, ticket);
     VkCommandBufferSubmitInfo cmd_info = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO,
                                            .commandBuffer = c->cmd };

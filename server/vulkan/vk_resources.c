@@ -3,6 +3,7 @@
  * against the adapter's format features before anything is created. */
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "vk_immediate.h"
 #include "vk_resources.h"
@@ -141,12 +142,90 @@ static cv_result texture_usage(const cv_backend_device *bd, const cv_texture_des
     return CV_OK;
 }
 
+/* Where a texture's memory comes from: the block allocator, or (`external`)
+ * a dedicated opaque-fd allocation of its own, exported (fd < 0) or imported
+ * from `fd` (which is set to -1 once Vulkan owns it). */
+typedef struct image_memory {
+    bool external;
+    int fd;
+    uint32_t memory_type; /* import: the exporter's */
+    VkDeviceSize allocation_size;
+} image_memory;
+
+/* Whether the adapter can export and import such images as opaque fds. */
+static bool external_image_ok(const cv_backend_device *bd, const VkImageCreateInfo *info) {
+    VkPhysicalDeviceExternalImageFormatInfo ext = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_IMAGE_FORMAT_INFO,
+        .handleType = VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT
+    };
+    VkPhysicalDeviceImageFormatInfo2 format = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_IMAGE_FORMAT_INFO_2,
+                                                .pNext = &ext,
+                                                .format = info->format,
+                                                .type = info->imageType,
+                                                .tiling = info->tiling,
+                                                .usage = info->usage,
+                                                .flags = info->flags };
+    VkExternalImageFormatProperties ext_props = { .sType = VK_STRUCTURE_TYPE_EXTERNAL_IMAGE_FORMAT_PROPERTIES };
+    VkImageFormatProperties2 props = { .sType = VK_STRUCTURE_TYPE_IMAGE_FORMAT_PROPERTIES_2, .pNext = &ext_props };
+    if (vkGetPhysicalDeviceImageFormatProperties2(bd->adapter.physical, &format, &props) != VK_SUCCESS)
+        return false;
+    VkExternalMemoryFeatureFlags f = ext_props.externalMemoryProperties.externalMemoryFeatures;
+    return (f & VK_EXTERNAL_MEMORY_FEATURE_EXPORTABLE_BIT) && (f & VK_EXTERNAL_MEMORY_FEATURE_IMPORTABLE_BIT);
+}
+
+/* The dedicated opaque-fd memory of t (image_memory), bound at offset 0. */
+static cv_result bind_external(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture *t, image_memory *m) {
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(bd->device, t->image, &req);
+    bool import = m->fd >= 0;
+    uint32_t type = UINT32_MAX;
+    if (import) {
+        if (m->memory_type < 32 && (req.memoryTypeBits & (1u << m->memory_type)) && m->allocation_size >= req.size)
+            type = m->memory_type;
+    } else {
+        for (uint32_t i = 0; i < bd->memory.properties.memoryTypeCount && type == UINT32_MAX; i++)
+            if ((req.memoryTypeBits & (1u << i)) &&
+                (bd->memory.properties.memoryTypes[i].propertyFlags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT))
+                type = i;
+    }
+    if (type == UINT32_MAX)
+        return cv_error(CV_ERROR_UNSUPPORTED, "texture '%s' on device '%s': %s", desc->label, bd->label,
+                        import ? "the shared memory's type or size does not fit the image"
+                               : "no device-local memory type can back a shareable image");
+    VkMemoryDedicatedAllocateInfo dedicated = { .sType = VK_STRUCTURE_TYPE_MEMORY_DEDICATED_ALLOCATE_INFO,
+                                                .image = t->image };
+    VkExportMemoryAllocateInfo exp = { .sType = VK_STRUCTURE_TYPE_EXPORT_MEMORY_ALLOCATE_INFO,
+                                       .pNext = &dedicated,
+                                       .handleTypes = VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT };
+    VkImportMemoryFdInfoKHR imp = { .sType = VK_STRUCTURE_TYPE_IMPORT_MEMORY_FD_INFO_KHR,
+                                    .pNext = &dedicated,
+                                    .handleType = VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT,
+                                    .fd = m->fd };
+    VkMemoryAllocateInfo alloc = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
+                                   .pNext = import ? (const void *)&imp : (const void *)&exp,
+                                   .allocationSize = import ? m->allocation_size : req.size,
+                                   .memoryTypeIndex = type };
+    VkResult vr = vkAllocateMemory(bd->device, &alloc, NULL, &t->own_memory);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkAllocateMemory (texture '%s', %s, device '%s')", desc->label,
+                       import ? "imported from another device" : "shareable", bd->label);
+    if (import)
+        m->fd = -1; /* Vulkan owns it now */
+    t->allocation_size = alloc.allocationSize;
+    t->memory_type = type;
+    t->exportable = !import;
+    vr = vkBindImageMemory(bd->device, t->image, t->own_memory, 0);
+    return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkBindImageMemory '%s'", desc->label);
+}
+
 static cv_result create_image(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture *t,
-                              VkImageUsageFlags usage) {
+                              VkImageUsageFlags usage, image_memory *m) {
     VkSharingMode sharing;
     uint32_t family_count;
     const uint32_t *families;
     vk_device_sharing(bd, &sharing, &family_count, &families);
+    VkExternalMemoryImageCreateInfo external = { .sType = VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_IMAGE_CREATE_INFO,
+                                                 .handleTypes = VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT };
     VkImageCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
         .imageType = VK_IMAGE_TYPE_2D,
@@ -162,19 +241,40 @@ static cv_result create_image(cv_backend_device *bd, const cv_texture_desc *desc
         .pQueueFamilyIndices = families,
         .initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
     };
+    if (m->external) {
+        /* Identical parameters on every device that shares the memory, so all
+         * of them read its texels alike. */
+        info.flags = VK_IMAGE_CREATE_ALIAS_BIT;
+        info.pNext = &external;
+        if (!bd->external_fd || !external_image_ok(bd, &info)) {
+            if (m->fd >= 0)
+                return cv_error(CV_ERROR_UNSUPPORTED,
+                                "texture '%s': device '%s' cannot import %s images as opaque-fd memory", desc->label,
+                                bd->label, cv_format_name(desc->format));
+            m->external = false; /* not shareable here: an ordinary texture (aliases of it are refused) */
+            info.flags = 0;
+            info.pNext = NULL;
+        }
+    }
     VkResult vr = vkCreateImage(bd->device, &info, NULL, &t->image);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkCreateImage '%s' (%ux%u %s)", desc->label, desc->width, desc->height,
                        cv_format_name(desc->format));
-    VkMemoryRequirements req;
-    vkGetImageMemoryRequirements(bd->device, t->image, &req);
-    cv_result r = vk_memory_alloc(&bd->memory, &req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, VK_MEMORY_OPTIMAL,
-                                  desc->label[0] ? desc->label : "texture", &t->memory);
+    cv_result r;
+    if (m->external) {
+        r = bind_external(bd, desc, t, m);
+    } else {
+        VkMemoryRequirements req;
+        vkGetImageMemoryRequirements(bd->device, t->image, &req);
+        r = vk_memory_alloc(&bd->memory, &req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, VK_MEMORY_OPTIMAL,
+                            desc->label[0] ? desc->label : "texture", &t->memory);
+        if (r == CV_OK) {
+            vr = vkBindImageMemory(bd->device, t->image, t->memory.memory, t->memory.offset);
+            r = vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkBindImageMemory '%s'", desc->label);
+        }
+    }
     if (r != CV_OK)
         return r;
-    vr = vkBindImageMemory(bd->device, t->image, t->memory.memory, t->memory.offset);
-    if (vr != VK_SUCCESS)
-        return vk_fail(vr, "vkBindImageMemory '%s'", desc->label);
     VkImageViewCreateInfo view = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
         .image = t->image,
@@ -189,10 +289,13 @@ static cv_result create_image(cv_backend_device *bd, const cv_texture_desc *desc
 static void release_image(cv_backend_device *bd, vk_texture *t) {
     vkDestroyImageView(bd->device, t->view, NULL);
     vkDestroyImage(bd->device, t->image, NULL);
-    vk_memory_free(&bd->memory, &t->memory);
+    if (t->own_memory)
+        vkFreeMemory(bd->device, t->own_memory, NULL);
+    else
+        vk_memory_free(&bd->memory, &t->memory);
 }
 
-cv_result vk_texture_create(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture **out) {
+static cv_result texture_make(cv_backend_device *bd, const cv_texture_desc *desc, image_memory *m, vk_texture **out) {
     VkFormat format = vk_format_of(desc->format);
     if (format == VK_FORMAT_UNDEFINED)
         return cv_error(CV_ERROR_UNSUPPORTED, "texture '%s': format %s has no Vulkan equivalent", desc->label,
@@ -209,7 +312,7 @@ cv_result vk_texture_create(cv_backend_device *bd, const cv_texture_desc *desc, 
     t->width = desc->width;
     t->height = desc->height;
     t->texel_bytes = cv_format_bytes(desc->format);
-    r = create_image(bd, desc, t, usage);
+    r = create_image(bd, desc, t, usage, m);
     if (r == CV_OK)
         r = vk_immediate_add_image(bd, t);
     if (r != CV_OK) {
@@ -221,6 +324,46 @@ cv_result vk_texture_create(cv_backend_device *bd, const cv_texture_desc *desc, 
     atomic_fetch_add(&bd->images, 1u);
     *out = t;
     return CV_OK;
+}
+
+cv_result vk_texture_create(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture **out) {
+    image_memory m = { .external = (desc->usage & CV_TEXTURE_USAGE_SHARED) != 0, .fd = -1 };
+    return texture_make(bd, desc, &m, out);
+}
+
+cv_result vk_texture_alias(cv_backend_device *bd, const cv_texture_desc *desc, cv_backend_device *src_bd,
+                           vk_texture *src, vk_texture **out) {
+    if (!src->exportable)
+        return cv_error(CV_ERROR_UNSUPPORTED,
+                        "texture '%s': device '%s' could not make it shareable (its adapter does not export %s "
+                        "images as opaque fds), so device '%s' cannot alias it",
+                        desc->label, src_bd->label, cv_format_name(desc->format), bd->label);
+    if (desc->width != src->width || desc->height != src->height || vk_format_of(desc->format) != src->format)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': an alias must match the shared image", desc->label);
+    VkMemoryGetFdInfoKHR get = { .sType = VK_STRUCTURE_TYPE_MEMORY_GET_FD_INFO_KHR,
+                                 .memory = src->own_memory,
+                                 .handleType = VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT };
+    int fd = -1;
+    VkResult vr = src_bd->get_memory_fd(src_bd->device, &get, &fd);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkGetMemoryFdKHR (texture '%s', device '%s')", desc->label, src_bd->label);
+    image_memory m = {
+        .external = true, .fd = fd, .memory_type = src->memory_type, .allocation_size = src->allocation_size
+    };
+    vk_texture *t = NULL;
+    cv_result r = texture_make(bd, desc, &m, &t);
+    if (m.fd >= 0)
+        close(m.fd); /* not imported */
+    /* First layouts now, on both, before either device writes a texel. */
+    if (r == CV_OK)
+        r = vk_immediate_flush(src_bd);
+    if (r == CV_OK)
+        r = vk_immediate_flush(bd);
+    if (r != CV_OK && t)
+        vk_texture_destroy(bd, t);
+    if (r == CV_OK)
+        *out = t;
+    return r;
 }
 
 void vk_texture_destroy(cv_backend_device *bd, vk_texture *t) {

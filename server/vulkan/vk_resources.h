@@ -19,6 +19,14 @@ struct vk_texture {
     VkImageAspectFlags aspect;
     uint32_t width, height, texel_bytes;
     bool pending; /* awaiting its first layout transition (vk_immediate.h) */
+    /* Shareable (CV_TEXTURE_USAGE_SHARED on a device that can export): a
+     * dedicated opaque-fd VkDeviceMemory of its own (`own_memory`, not from the
+     * block allocator), which aliases on other devices import. Aliases own
+     * their import likewise. */
+    bool exportable;
+    VkDeviceMemory own_memory;
+    VkDeviceSize allocation_size;
+    uint32_t memory_type;
 };
 
 typedef struct vk_sampler {
@@ -38,6 +46,13 @@ void vk_buffer_destroy(cv_backend_device *bd, vk_buffer *b);
 /* CV_ERROR_UNSUPPORTED if the adapter's format lacks a feature a usage needs. */
 cv_result vk_texture_create(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture **out);
 void vk_texture_destroy(cv_backend_device *bd, vk_texture *t);
+/* bd's texture over the memory of `src`, src_bd's texture of the same
+ * description (backend.h: resource_alias): an image of identical parameters
+ * bound to src's exported memory, imported on bd. Both images get their first
+ * layout now. CV_ERROR_UNSUPPORTED if src is not exportable or the devices
+ * cannot share it. */
+cv_result vk_texture_alias(cv_backend_device *bd, const cv_texture_desc *desc, cv_backend_device *src_bd,
+                           vk_texture *src, vk_texture **out);
 cv_result vk_sampler_create(cv_backend_device *bd, const cv_sampler_desc *desc, vk_sampler **out);
 void vk_sampler_destroy(cv_backend_device *bd, vk_sampler *s);
 

@@ -52,7 +52,17 @@
  *   then submits on dst_bd, with `dst_ticket` after dst_ticket-1, a wait for
  *   the copy, so dst_bd's later work follows it. The core holds both devices'
  *   locks and marks the source resource used by `ticket`, the destination
- *   resource by `dst_ticket`. */
+ *   resource by `dst_ticket`.
+ * - resource_alias (optional) creates bd's object for texture `id` over the
+ *   memory of src_obj, src_bd's object of the same handle (cv_device_load_alias):
+ *   both devices then share the texels. The core checked that the pair is
+ *   eligible as far as link_caps tells (same backend, shared_memory on both,
+ *   equal UUIDs) and holds both devices' locks; the backend refuses
+ *   (CV_ERROR_UNSUPPORTED) an object it cannot share. Each object keeps the
+ *   memory alive on its own.
+ * - link_wait (optional; needs link_caps) submits on bd, with `ticket` after
+ *   ticket-1, a GPU-side wait until wait->device reached wait->ticket (same
+ *   rules as link_copy_async's wait), so bd's later work follows it. */
 #ifndef CORVID_BACKEND_H
 #define CORVID_BACKEND_H
 
@@ -157,6 +167,10 @@ struct cv_backend {
     cv_result (*link_copy_device)(cv_backend_device *bd, cv_backend_device *dst_bd, cv_handle_type type,
                                   void *src_obj, void *dst_obj, const cv_link_region *region, uint64_t dst_wait,
                                   uint64_t ticket, uint64_t dst_ticket);
+    /* Zero-copy aliases and GPU-side waits (optional, see the contract above). */
+    cv_result (*resource_alias)(cv_backend_device *bd, uint64_t id, const cv_resource_desc *desc,
+                                cv_backend_device *src_bd, void *src_obj, void **out_obj);
+    cv_result (*link_wait)(cv_backend_device *bd, const cv_link_wait *wait, uint64_t ticket);
 };
 
 /* A device's representation of one handle. */

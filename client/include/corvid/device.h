@@ -70,6 +70,26 @@ cv_context *cv_device_context(const cv_device *dev);
 
 /* Creates this device's representation of a buffer/texture/sampler/pipeline. */
 cv_result cv_device_load(cv_device *dev, cv_handle h);
+/* Zero-copy between devices of one adapter: loads texture h on `dev` as an
+ * alias of its representation on `owner`, so both read and write one memory.
+ * h must be loaded on `owner` with CV_TEXTURE_USAGE_SHARED and not on `dev`;
+ * the two devices must be different instances of one adapter and driver
+ * whose backend can share memory (Vulkan: VK_KHR_external_memory_fd, equal
+ * driver and device UUIDs). Load the alias before writing the texture: what
+ * it held before is undefined afterwards. Neither side orders its work after
+ * the other's by itself: the caller does (cv_device_gpu_wait), and two
+ * devices may write at once only texels the other does not touch. Unloading
+ * either side leaves the other's memory alive. CV_ERROR_UNSUPPORTED naming
+ * what is missing when the pair cannot alias; nothing changes then. */
+cv_result cv_device_load_alias(cv_device *dev, cv_handle h, cv_device *owner);
+/* Whether cv_device_load_alias can work between the two devices (false: why,
+ * in `why`). */
+bool cv_device_can_alias(cv_device *dev, cv_device *owner, char *why, size_t why_size);
+/* A GPU-side wait: work submitted to `dev` after this call runs after `other`
+ * (same backend) reached `other_ticket` on the GPU, with the other's writes
+ * visible; the host does not wait. *ticket is the wait's own ticket on dev.
+ * An `other_ticket` already reached costs a ticket and no wait. */
+cv_result cv_device_gpu_wait(cv_device *dev, cv_device *other, uint64_t other_ticket, uint64_t *ticket);
 /* Drops it (released once submitted work using it has finished). */
 cv_result cv_device_unload(cv_device *dev, cv_handle h);
 /* Whether the device holds a representation of exactly this handle (a compiled

@@ -78,6 +78,9 @@ enum cv_texture_usage {
     CV_TEXTURE_USAGE_STORAGE = 1u << 1,
     CV_TEXTURE_USAGE_COLOR_TARGET = 1u << 2,
     CV_TEXTURE_USAGE_DEPTH_TARGET = 1u << 3,
+    /* Other devices of the same adapter may load it as an alias of its memory
+     * (cv_device_load_alias: zero-copy); backends that cannot share ignore it. */
+    CV_TEXTURE_USAGE_SHARED = 1u << 4,
 };
 
 typedef struct cv_texture_desc {
