@@ -283,6 +283,16 @@ bool cv_device_has(cv_device *dev, cv_handle h) {
     return has;
 }
 
+bool cv_device_is_alias(cv_device *dev, cv_handle h) {
+    if (!dev)
+        return false;
+    pthread_mutex_lock(&dev->lock);
+    const cv_device_resource *s = slot_of(dev, h.id);
+    bool alias = s && s->id == h.id && s->alias;
+    pthread_mutex_unlock(&dev->lock);
+    return alias;
+}
+
 uint32_t cv_device_loaded_count(cv_device *dev) {
     pthread_mutex_lock(&dev->lock);
     uint32_t n = dev->loaded;
@@ -568,7 +578,7 @@ cv_result cv_device_load_alias(cv_device *dev, cv_handle h, cv_device *owner) {
     if (r == CV_OK)
         r = dev->backend->resource_alias(dev->bd, h.id, &desc, owner->bd, src->obj, &obj);
     if (r == CV_OK) {
-        *s = (cv_device_resource){ .id = h.id, .desc = desc, .obj = obj };
+        *s = (cv_device_resource){ .id = h.id, .desc = desc, .obj = obj, .alias = true };
         dev->loaded++;
     }
     pthread_mutex_unlock(&second->lock);

@@ -49,7 +49,7 @@ void cv_transfer_clear_path(void) {
     pthread_mutex_unlock(&mode_lock);
 }
 
-static cv_result current_mode(cv_transfer_path *out) {
+cv_result cv_transfer_mode(cv_transfer_path *out) {
     pthread_mutex_lock(&mode_lock);
     bool set = mode_set;
     *out = mode_forced;
@@ -114,7 +114,7 @@ cv_result cv_transfer_choose_path(cv_device *src, cv_device *dst, cv_transfer_pa
     if (!src || !dst || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_transfer_choose_path: NULL argument");
     cv_transfer_path mode;
-    cv_result r = current_mode(&mode);
+    cv_result r = cv_transfer_mode(&mode);
     if (r != CV_OK)
         return r;
     char why[256];

@@ -87,7 +87,9 @@ static const struct {
                        "gbuffer position" },
     [TEX_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_COLOR_TARGET | CV_TEXTURE_USAGE_STORAGE, true,
                      "gbuffer normal" },
-    [TEX_VISIBILITY] = { CV_FORMAT_R32_UINT, CV_TEXTURE_USAGE_STORAGE, true, "visibility" },
+    /* SHARED: with zero-copy gathers (graph.h) every device of one adapter
+     * traces its window straight into the primary's texels. */
+    [TEX_VISIBILITY] = { CV_FORMAT_R32_UINT, CV_TEXTURE_USAGE_STORAGE | CV_TEXTURE_USAGE_SHARED, true, "visibility" },
     [TEX_DEPTH] = { CV_FORMAT_D32F, CV_TEXTURE_USAGE_DEPTH_TARGET, false, "depth" },
     [TEX_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "visibility history" },
     [TEX_PING] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "filter ping" },
@@ -100,7 +102,8 @@ static const struct {
     [TEX_HISTORY_NORMAL] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "history normal" },
     /* RGBA16F: the largest per-frame copy back to the primary (8 bytes a
      * pixel, not 16); a = the inverse hit distance (render_reflect_shade.comp). */
-    [TEX_REFLECT] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE, true, "reflection samples" },
+    [TEX_REFLECT] = { CV_FORMAT_RGBA16F, CV_TEXTURE_USAGE_STORAGE | CV_TEXTURE_USAGE_SHARED, true,
+                      "reflection samples" },
     [TEX_REFLECT_HISTORY] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection history" },
     [TEX_REFLECT_OWN] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection own history" },
     [TEX_REFLECT_OUT] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection" },

@@ -393,8 +393,55 @@ static void test_hybrid_dump(void) {
     world_close(&w);
 }
 
+/* Zero-copy gathers (graph.h): mock devices cannot share memory, so auto
+ * copies, on is refused naming the pair, a bad value is refused naming the
+ * variable, and every refusal keeps the previous bake. */
+static void test_zero_copy_choice(void) {
+    graph_world w;
+    world_open(&w, 2);
+    cv_graph_resource v = texture(&w, "v"), out = texture(&w, "out");
+    cv_graph_pass trace = add_pass(&w, "trace", CV_MGPU_ALL_DEVICES);
+    cv_graph_pass resolve = add_pass(&w, "resolve", CV_MGPU_PRIMARY_ONLY);
+    CHECK_OK(cv_graph_write(w.graph, trace, v, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
+    CHECK_OK(cv_graph_read(w.graph, resolve, v, CV_GRAPH_STORAGE_READ));
+    CHECK_OK(cv_graph_write(w.graph, resolve, out, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
+    CHECK_OK(cv_graph_output(w.graph, out));
+    unsetenv("CORVID_ZERO_COPY");
+    CHECK_OK(cv_graph_bake(w.graph, &bake64));
+    cv_graph_stats st;
+    CHECK_OK(cv_graph_get_stats(w.graph, &st));
+    CHECK_EQ_INT(st.transfers, 1);
+    CHECK_EQ_INT(st.copies, 1);
+    CHECK_EQ_INT(st.zero_copy, 0);
+    setenv("CORVID_ZERO_COPY", "on", 1);
+    expect_rejected(&w, CV_ERROR_UNSUPPORTED,
+                    (const char *const[]){ "CORVID_ZERO_COPY=on", "'gpu1'", "'gpu0'",
+                                           "mock backend cannot share memory", NULL });
+    setenv("CORVID_ZERO_COPY", "always", 1);
+    expect_rejected(&w, CV_ERROR_INVALID_ARGUMENT, (const char *const[]){ "CORVID_ZERO_COPY='always'", NULL });
+    /* The description wins over the environment. */
+    CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = 64, .zero_copy = CV_GRAPH_ZERO_COPY_OFF }));
+    unsetenv("CORVID_ZERO_COPY");
+    CHECK_RESULT(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = 64, .zero_copy = CV_GRAPH_ZERO_COPY_ON }),
+                 CV_ERROR_UNSUPPORTED);
+    CHECK_RESULT(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = 64, .zero_copy = (cv_graph_zero_copy)7 }),
+                 CV_ERROR_INVALID_ARGUMENT);
+    CHECK_OK(cv_graph_get_stats(w.graph, &st));
+    CHECK_EQ_INT(st.copies, 1);
+    world_close(&w);
+    /* One device: nothing to share, on or not. */
+    world_open(&w, 1);
+    v = texture(&w, "v");
+    trace = add_pass(&w, "trace", CV_MGPU_ALL_DEVICES);
+    CHECK_OK(cv_graph_write(w.graph, trace, v, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO));
+    CHECK_OK(cv_graph_output(w.graph, v));
+    CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = 64, .zero_copy = CV_GRAPH_ZERO_COPY_ON }));
+    world_close(&w);
+}
+
 int main(void) {
     test_culling();
+    test_zero_copy_choice();
     test_transient_reuse();
     test_cross_device_edges();
     test_bad_graphs();

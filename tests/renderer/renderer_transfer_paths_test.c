@@ -1,8 +1,10 @@
 /* The hybrid renderer on 1, 2, 3 and 4 virtual GPUs (lavapipe, validation on)
  * with every cross-device transfer forced onto each path in turn through
  * CORVID_TRANSFER_PATH (staged, host-import, shared; with
- * CORVID_VGPU_DEVICE=shared also device and auto): radiance and visibility
- * must be bit-identical to the one-device frame, and validation silent.
+ * CORVID_VGPU_DEVICE=shared also device), and with zero-copy gathers
+ * (CORVID_ZERO_COPY=on: visibility and reflection samples traced straight
+ * into the primary's memory): radiance and visibility must be bit-identical
+ * to the one-device frame, and validation silent.
  * FRAMES frames, more than CV_GRAPH_FRAMES_KEPT: on host-import and shared
  * the frames are pipelined with asynchronous transfers (every list set and
  * ring slot reused several times, the balancer fed from lagged frames, the
@@ -35,7 +37,8 @@
 /* What the observer saw of one render's transfers. */
 typedef struct transfer_check {
     uint32_t gpus;
-    bool moving; /* the camera moves: the G-buffer goes out every frame, windows only */
+    bool moving;    /* the camera moves: the G-buffer goes out every frame, windows only */
+    bool zero_copy; /* gathers through shared memory: visibility and reflection samples move no byte */
     uint32_t frames;
     uint32_t visibility, reflection, gbuffer; /* transfer steps seen */
     uint32_t wrong;                           /* steps whose bytes were not the expected ones */
@@ -57,10 +60,10 @@ static void observe_frame(const cv_render_frame_info *f, void *user) {
         const cv_graph_timing *t = &f->timings[i];
         if (strcmp(t->name, "transfer 'visibility'") == 0) {
             c->visibility++;
-            check_bytes(c, t, secondary_columns * H * 4);
+            check_bytes(c, t, c->zero_copy ? 0 : secondary_columns * H * 4);
         } else if (strcmp(t->name, "transfer 'reflection samples'") == 0) {
             c->reflection++;
-            check_bytes(c, t, secondary_columns * H * 8); /* RGBA16F */
+            check_bytes(c, t, c->zero_copy ? 0 : secondary_columns * H * 8); /* RGBA16F */
         } else if (strcmp(t->name, "transfer 'gbuffer position'") == 0 ||
                    strcmp(t->name, "transfer 'gbuffer normal'") == 0 ||
                    strcmp(t->name, "transfer 'gbuffer material'") == 0) {
@@ -106,14 +109,21 @@ int main(void) {
     CHECK_EQ_INT(alone.frames, OBSERVED_FRAMES);
     CHECK_EQ_INT(alone.visibility + alone.reflection + alone.gbuffer + alone.wrong, 0); /* nothing moves */
     /* With the virtual GPUs on one VkDevice (CORVID_VGPU_DEVICE=shared, ctest's
-     * renderer_transfer_paths_shared) the direct path too, and auto. */
+     * renderer_transfer_paths_shared) the direct path too. "zero-copy": the
+     * path left to auto with CORVID_ZERO_COPY=on (graph.h): the gathers are
+     * GPU-side waits on shared memory; a forced path turns it off. */
     const char *vgpu = getenv("CORVID_VGPU_DEVICE");
     bool shared = vgpu && strcmp(vgpu, "shared") == 0;
-    const char *paths[] = { "staged", "host-import", "shared", "device", "auto" };
-    /* Separate VkDevices: the three memory paths; one VkDevice: the paths that
-     * differ there (staged and host-import are the same code either way). */
-    for (int p = shared ? 2 : 0; p < (shared ? 5 : 3); p++) {
-        setenv("CORVID_TRANSFER_PATH", paths[p], 1);
+    const char *paths[] = { "staged", "host-import", "shared", "device", "zero-copy" };
+    /* Separate VkDevices: the three memory paths and zero-copy; one VkDevice:
+     * the paths that differ there (staged and host-import are the same code
+     * either way). */
+    for (int p = shared ? 2 : 0; p < 5; p++) {
+        bool zero_copy = strcmp(paths[p], "zero-copy") == 0;
+        if (p == 3 && !shared)
+            continue; /* the device path needs one VkDevice */
+        setenv("CORVID_TRANSFER_PATH", zero_copy ? "auto" : paths[p], 1);
+        setenv("CORVID_ZERO_COPY", zero_copy ? "on" : "auto", 1);
         /* Sanitizer builds: 2 and 3 (an even and an uneven split), not 4 as well. */
         for (uint32_t gpus = 2; gpus <= CV_TEST_REPEATS(4u, 3u); gpus++) {
             cv_render_output many = { 0 };
@@ -122,8 +132,12 @@ int main(void) {
             CHECK(stats.transfer_bytes > 0);
             CHECK_EQ_INT(stats.frames, FRAMES);
             CHECK(stats.setup_ms > 0); /* a new multi-device graph: baked once before the frames (its rings) */
-            /* Every frame's visibility columns of the secondaries reached the primary (collected frames too). */
-            CHECK(stats.transfer_bytes >= (uint64_t)FRAMES * 8 * H * 8);
+            /* Every frame's visibility columns of the secondaries reached the primary (collected frames too);
+             * with zero-copy only frame 0's G-buffer moves, 3 images of 16 bytes a pixel to each secondary. */
+            if (zero_copy)
+                CHECK_EQ_INT(stats.transfer_bytes, (uint64_t)(gpus - 1) * 3 * W * H * 16);
+            else
+                CHECK(stats.transfer_bytes >= (uint64_t)FRAMES * 8 * H * 8);
             bool same = one.radiance && many.radiance && memcmp(one.radiance, many.radiance, bytes) == 0 &&
                         memcmp(one.visibility, many.visibility, bytes) == 0;
             CHECK(same);
@@ -134,7 +148,7 @@ int main(void) {
              * builds: on 2 devices; the byte rule is the same on 3). */
             if (gpus > CV_TEST_REPEATS(4u, 2u))
                 continue;
-            transfer_check c = { .gpus = gpus };
+            transfer_check c = { .gpus = gpus, .zero_copy = zero_copy };
             cv_render_output observed = { 0 };
             CHECK_OK(render_on(gpus, scene, bvh, &observed, &stats,
                                &(cv_render_observer){ .frame = observe_frame, .user = &c }, false));
@@ -150,9 +164,13 @@ int main(void) {
         }
     }
     unsetenv("CORVID_TRANSFER_PATH");
-    /* A moving camera: the G-buffer every frame, each secondary gets its window of it. */
+    unsetenv("CORVID_ZERO_COPY");
+    /* A moving camera: the G-buffer every frame, each secondary gets its window
+     * of it; the gathers zero-copy (auto, on lavapipe's separate VkDevices and
+     * on one VkDevice alike). */
     cv_render_output moving_one = { 0 }, moving_two = { 0 };
-    transfer_check moving = { .gpus = 2, .moving = true }, moving_alone = { .gpus = 1, .moving = true };
+    transfer_check moving = { .gpus = 2, .moving = true, .zero_copy = true },
+                   moving_alone = { .gpus = 1, .moving = true };
     CHECK_OK(render_on(1, scene, bvh, &moving_one, &stats,
                        &(cv_render_observer){ .frame = observe_frame, .user = &moving_alone }, true));
     CHECK_EQ_INT(moving_alone.gbuffer + moving_alone.visibility + moving_alone.reflection + moving_alone.wrong, 0);

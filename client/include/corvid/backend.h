@@ -181,6 +181,7 @@ typedef struct cv_device_resource {
     void *obj;                        /* the backend's object */
     uint64_t last_use;                /* ticket of the last submission using it */
     bool ready;                       /* accels: data written, can be traced */
+    bool alias;                       /* textures: loaded by cv_device_load_alias */
 } cv_device_resource;
 
 /* The loaded representation of id on dev, or NULL (not loaded, stale, wrong id).

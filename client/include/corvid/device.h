@@ -82,6 +82,8 @@ cv_result cv_device_load(cv_device *dev, cv_handle h);
  * either side leaves the other's memory alive. CV_ERROR_UNSUPPORTED naming
  * what is missing when the pair cannot alias; nothing changes then. */
 cv_result cv_device_load_alias(cv_device *dev, cv_handle h, cv_device *owner);
+/* Whether h is loaded on dev as an alias (cv_device_load_alias). */
+bool cv_device_is_alias(cv_device *dev, cv_handle h);
 /* Whether cv_device_load_alias can work between the two devices (false: why,
  * in `why`). */
 bool cv_device_can_alias(cv_device *dev, cv_device *owner, char *why, size_t why_size);

@@ -182,10 +182,33 @@ cv_result cv_graph_write(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_g
 cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy policy, cv_graph_resource src,
                                  cv_graph_resource dst, cv_graph_pass *out);
 
+/* Zero-copy gathers. A gathered texture (written by ALL_DEVICES passes, read
+ * by the primary) can live in one memory that every device of one adapter
+ * shares (cv_device_load_alias): each device writes its window straight into
+ * the primary's texels and the transfer becomes a GPU-side wait on the
+ * primary, moving no byte. A texture qualifies when it is a transient with no
+ * history, every transfer of it is a gather to the primary, and no
+ * ALL_DEVICES pass touches it after its gather; ALL_DEVICES passes must then
+ * not read its texels outside their window (the other devices write them at
+ * the same time). Before a device writes such a texture again, it waits on the
+ * GPU for the primary's last use of it.
+ *   AUTO: CORVID_ZERO_COPY in the environment (read at every bake: auto, on
+ *         or off; unset: auto) decides; auto shares where every secondary can
+ *         alias the primary and no transfer path is forced (transfer.h: a
+ *         forced path is kept, for comparisons).
+ *   ON:   shares, or the bake fails naming the pair that cannot.
+ *   OFF:  copies. */
+typedef enum cv_graph_zero_copy {
+    CV_GRAPH_ZERO_COPY_AUTO = 0,
+    CV_GRAPH_ZERO_COPY_ON,
+    CV_GRAPH_ZERO_COPY_OFF,
+} cv_graph_zero_copy;
+
 typedef struct cv_graph_bake_desc {
     uint32_t width;                /* columns of the X axis ALL_DEVICES passes split, > 0 */
     uint32_t tile;                 /* window starts are multiples of it; 0 = 8 */
     const cv_partition *partition; /* NULL: the graph's balancer splits the width */
+    cv_graph_zero_copy zero_copy;
 } cv_graph_bake_desc;
 
 cv_result cv_graph_bake(cv_graph *g, const cv_graph_bake_desc *desc);
@@ -197,6 +220,8 @@ typedef struct cv_graph_stats {
     uint32_t transients, physical; /* transient resources, and the resources holding them */
     uint32_t rings;                /* asynchronous transfer rings the graph holds: made by the bake for each device
                        pair it copies between (where the pair allows rings), not during a frame */
+    uint32_t zero_copy;            /* transfers that are GPU-side waits on shared memory (counted in transfers, not
+                                      in copies) */
 } cv_graph_stats;
 cv_result cv_graph_get_stats(const cv_graph *g, cv_graph_stats *out);
 /* The partition of the last bake. */

@@ -92,6 +92,9 @@ cv_result cv_transfer_path_parse(const char *name, cv_transfer_path *out);
  * pair). Overrides CORVID_TRANSFER_PATH; cv_transfer_clear_path returns to it. */
 cv_result cv_transfer_set_path(cv_transfer_path path);
 void cv_transfer_clear_path(void);
+/* The mode in force: the API's path, else CORVID_TRANSFER_PATH's, else AUTO
+ * (CV_ERROR_INVALID_ARGUMENT naming the variable for a bad value). */
+cv_result cv_transfer_mode(cv_transfer_path *out);
 /* The path a transfer from src to dst would take now (the mode in force,
  * resolved for the pair); CV_ERROR_UNSUPPORTED if a forced path does not fit. */
 cv_result cv_transfer_choose_path(cv_device *src, cv_device *dst, cv_transfer_path *out);

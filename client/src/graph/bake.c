@@ -501,12 +501,22 @@ static cv_result lifetimes(const cv_graph *g, bake_state *s, graph_baked *b) {
     return CV_OK;
 }
 
-static bool same_key(const graph_physical *p, const graph_resource *r) {
+/* The usage a transient's pool entry has: its own (0: the default), with
+ * CV_TEXTURE_USAGE_SHARED exactly when it is a zero-copy gather. */
+static uint32_t pool_usage(const graph_resource *r, bool shared) {
+    uint32_t u = r->texture.usage;
+    if (u == 0)
+        u = cv_format_is_depth(r->texture.format) ? CV_TEXTURE_USAGE_DEPTH_TARGET | CV_TEXTURE_USAGE_SAMPLED
+                                                  : CV_TEXTURE_USAGE_SAMPLED | CV_TEXTURE_USAGE_STORAGE;
+    return shared ? u | CV_TEXTURE_USAGE_SHARED : u & ~(uint32_t)CV_TEXTURE_USAGE_SHARED;
+}
+
+static bool same_key(const graph_physical *p, const graph_resource *r, bool shared) {
     if (p->type != r->type)
         return false;
     if (p->type == CV_HANDLE_TEXTURE)
         return p->texture.width == r->texture.width && p->texture.height == r->texture.height &&
-               p->texture.format == r->texture.format && p->texture.usage == r->texture.usage;
+               p->texture.format == r->texture.format && p->texture.usage == pool_usage(r, shared);
     return p->buffer.size == r->buffer.size && p->buffer.usage == r->buffer.usage;
 }
 
@@ -534,12 +544,15 @@ static cv_result alias(const cv_graph *g, bake_state *s, graph_baked *b) {
             if (b->first[r] != step || res->imported || res->history)
                 continue;
             uint32_t i = 0;
-            while (i < s->physical_count && !(same_key(&s->physical[i], res) && busy_until[i] < (int64_t)step))
+            while (i < s->physical_count &&
+                   !(same_key(&s->physical[i], res, b->shared[r]) && busy_until[i] < (int64_t)step))
                 i++;
             if (i == s->physical_count) {
                 s->physical[i] = (graph_physical){ .type = res->type,
                                                    .texture = res->texture,
                                                    .buffer = res->buffer };
+                if (res->type == CV_HANDLE_TEXTURE)
+                    s->physical[i].texture.usage = pool_usage(res, b->shared[r]);
                 s->physical_count++;
             }
             b->stats.physical += busy_until[i] == -2;
@@ -699,7 +712,10 @@ static cv_result commit(cv_graph *g, bake_state *s, graph_baked *b) {
                     res = load_on(g, gr->frames[1], s->devices[r]);
             } else {
                 cv_handle h = gr->imported ? gr->handle : g->pool[b->physical[r]].handle;
-                res = load_on(g, h, s->devices[r]);
+                bool shareable = gr->imported
+                                     ? gr->type == CV_HANDLE_TEXTURE && (gr->texture.usage & CV_TEXTURE_USAGE_SHARED)
+                                     : graph_physical_shared(&g->pool[b->physical[r]]);
+                res = shareable ? graph_load_shared(g, h, s->devices[r], b->shared[r]) : load_on(g, h, s->devices[r]);
             }
         }
     }
@@ -749,6 +765,9 @@ cv_result cv_graph_bake(cv_graph *g, const cv_graph_bake_desc *desc) {
     /* 7. Lifetimes: each transient's first and last step; the devices using each resource. */
     if (res == CV_OK)
         res = lifetimes(g, &s, &b);
+    /* 7b. Zero-copy: the gathered textures the devices share (graph.h, cv_graph_zero_copy). */
+    if (res == CV_OK)
+        res = graph_choose_zero_copy(g, desc, &b);
     /* 8. Alias: transients to pool entries keyed by description, shared when lifetimes are disjoint. */
     if (res == CV_OK)
         res = alias(g, &s, &b);

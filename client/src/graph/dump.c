@@ -66,6 +66,8 @@ cv_result cv_graph_dump_text(const cv_graph *g, FILE *f) {
                 fprintf(f, " dev%u->dev%u [%u,%u)", cp->src_device, cp->dst_device, cp->columns.x,
                         cp->columns.x + cp->columns.width);
             }
+            if (st->zero_copy)
+                fprintf(f, " (zero-copy: shared memory, GPU-side waits)");
             fputc('\n', f);
             continue;
         }
@@ -106,6 +108,8 @@ cv_result cv_graph_dump_text(const cv_graph *g, FILE *f) {
             "stats: %u passes, %u culled, %u steps, %u transfers, %u copies, %u barriers, %u transients in %u "
             "physical\n",
             st->passes, st->culled, st->steps, st->transfers, st->copies, st->barriers, st->transients, st->physical);
+    if (st->zero_copy)
+        fprintf(f, "zero-copy: %u transfers\n", st->zero_copy);
     return ferror(f) ? cv_error(CV_ERROR_IO, "cv_graph_dump_text: write failed") : CV_OK;
 }
 
@@ -119,8 +123,8 @@ cv_result cv_graph_dump_dot(const cv_graph *g, FILE *f) {
     for (uint32_t s = 0; s < b->step_count; s++) {
         const graph_step *st = &b->steps[s];
         if (st->transfer)
-            fprintf(f, "  s%u [shape=diamond, label=\"%s\\n'%s'\"];\n", s, cv_mgpu_transfer_name(st->rule),
-                    g->resources[st->resource].name);
+            fprintf(f, "  s%u [shape=diamond, label=\"%s%s\\n'%s'\"];\n", s, cv_mgpu_transfer_name(st->rule),
+                    st->zero_copy ? " (zero-copy)" : "", g->resources[st->resource].name);
         else
             fprintf(f, "  s%u [shape=box, label=\"%s\\n%s, %u device%s\"];\n", s, g->passes[st->pass].name,
                     cv_mgpu_policy_name(g->passes[st->pass].policy), st->instance_count,

@@ -135,7 +135,7 @@ void graph_make_rings(cv_graph *g) {
     uint64_t most[CV_MAX_DEVICES][CV_MAX_DEVICES] = { { 0 } };
     for (uint32_t i = 0; i < b->step_count; i++) {
         const graph_step *st = &b->steps[i];
-        for (uint32_t c = 0; st->transfer && c < st->plan.count; c++) {
+        for (uint32_t c = 0; st->transfer && !st->zero_copy && c < st->plan.count; c++) {
             const cv_mgpu_copy *cp = &st->plan.copies[c];
             uint64_t n = graph_copy_bytes(g, st, cp);
             if (n > most[cp->src_device][cp->dst_device])
@@ -290,24 +290,36 @@ static cv_result evaluate(cv_graph *g, bool wait, cv_graph_timing *timings, uint
             graph_entry e = {
                 .transfer = true, .pass = st->pass, .resource = st->resource, .device = st->plan.copies[0].src_device
             };
-            res = run_transfer(g, st, &e.host_ms, &e.ms, &e.bytes, fr->last);
+            if (st->zero_copy) { /* shared memory: the primary waits on the GPU, no byte moves */
+                e.host_ms = now_ms();
+                res = graph_zero_copy_handover(g, st, fr, fr->last);
+                e.ms = now_ms() - e.host_ms;
+            } else {
+                res = run_transfer(g, st, &e.host_ms, &e.ms, &e.bytes, fr->last);
+            }
             if (res == CV_OK)
                 res = frame_add(fr, e);
             continue;
         }
+        uint64_t primary_ticket = 0;
         for (uint32_t i = 0; i < st->instance_count && res == CV_OK; i++) {
             const graph_instance *inst = &b->instances[st->instance_first + i];
             graph_entry e = { .pass = st->pass, .device = inst->device };
-            res = cv_device_submit(g->devices[inst->device], g->lists[inst->list], &e.ticket);
+            res = graph_zero_copy_before(g, st, inst->device, fr->last);
+            if (res == CV_OK)
+                res = cv_device_submit(g->devices[inst->device], g->lists[inst->list], &e.ticket);
             if (res != CV_OK)
                 res = cv_error(res, "graph: pass '%s' on device %u: %s", g->passes[st->pass].name, inst->device,
                                cv_last_error());
             if (res == CV_OK) {
                 if (e.ticket > fr->last[inst->device])
                     fr->last[inst->device] = e.ticket;
+                primary_ticket = inst->device == 0 ? e.ticket : primary_ticket;
                 res = frame_add(fr, e);
             }
         }
+        if (res == CV_OK)
+            graph_zero_copy_after(g, st, primary_ticket);
     }
     if (res != CV_OK) { /* wait for whatever was submitted */
         for (uint32_t d = 0; d < g->device_count; d++)

@@ -63,6 +63,7 @@ void graph_baked_free(graph_baked *b) {
     free(b->physical);
     free(b->first);
     free(b->last);
+    free(b->shared);
     memset(b, 0, sizeof(*b));
 }
 

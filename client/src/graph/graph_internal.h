@@ -26,8 +26,9 @@ typedef struct graph_resource {
     cv_buffer_desc buffer;
     uint64_t column_bytes;
     bool imported, output, history;
-    cv_handle handle;    /* imported */
-    cv_handle frames[2]; /* history: frames[frame & 1] is this frame's, the other the previous */
+    cv_handle handle;        /* imported */
+    cv_handle frames[2];     /* history: frames[frame & 1] is this frame's, the other the previous */
+    uint64_t primary_ticket; /* imported zero-copy gathers: as graph_physical's */
 } graph_resource;
 
 typedef struct graph_access {
@@ -71,6 +72,7 @@ typedef struct graph_step {
     cv_mgpu_transfer rule;                   /* transfers */
     cv_mgpu_copy_plan plan;                  /* transfers */
     uint32_t instance_first, instance_count; /* passes */
+    bool zero_copy;                          /* transfers: shared memory, a GPU-side wait on the primary */
 } graph_step;
 
 /* A resource holding transients (aliased when lifetimes are disjoint). */
@@ -79,6 +81,9 @@ typedef struct graph_physical {
     cv_texture_desc texture; /* key: the description, label left out */
     cv_buffer_desc buffer;
     cv_handle handle;
+    /* Shared (CV_TEXTURE_USAGE_SHARED in `texture`): the primary's latest
+     * ticket that used it, which secondaries wait for before using it again. */
+    uint64_t primary_ticket;
 } graph_physical;
 
 typedef struct graph_baked {
@@ -95,6 +100,7 @@ typedef struct graph_baked {
     bool *kept;             /* per pass */
     int32_t *physical;      /* per resource: pool index or -1 */
     uint32_t *first, *last; /* per resource: lifetime in steps (transients) */
+    bool *shared;           /* per resource: a zero-copy gather (in a shared pool entry) */
     cv_graph_stats stats;
 } graph_baked;
 
@@ -141,8 +147,9 @@ struct cv_graph {
      * them (host-import: ~85 ms a ring on the H200), else at the first copy. */
     cv_transfer_ring *rings[CV_MAX_DEVICES][CV_MAX_DEVICES];
     cv_balancer balancer;
-    uint64_t frame;         /* executes so far: picks the history frames */
-    uint64_t history_epoch; /* g->frame when history frames were last created */
+    uint64_t frame;                          /* executes so far: picks the history frames */
+    uint64_t history_epoch;                  /* g->frame when history frames were last created */
+    uint64_t primary_waited[CV_MAX_DEVICES]; /* per secondary: the primary's ticket it last GPU-waited for */
     graph_baked baked;
 };
 
@@ -168,5 +175,25 @@ void graph_record_copy(const cv_graph_pass_context *pc, cv_command_list *list, v
 uint64_t graph_copy_bytes(const cv_graph *g, const graph_step *st, const cv_mgpu_copy *cp);
 cv_transfer_ring *graph_pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t bytes);
 void graph_make_rings(cv_graph *g);
+
+/* zero_copy.c: which gathered textures the devices share (graph.h,
+ * cv_graph_zero_copy), decided after the steps are laid out: sets b->shared
+ * and the steps' zero_copy, moves their copies in the stats. */
+cv_result graph_choose_zero_copy(cv_graph *g, const cv_graph_bake_desc *desc, graph_baked *b);
+/* Whether pool entry p is shared memory. */
+bool graph_physical_shared(const graph_physical *p);
+/* Loads h (a shared pool entry, or an imported texture created with
+ * CV_TEXTURE_USAGE_SHARED) on the devices in mask: with `shared`, on the
+ * primary and as aliases of it on the others; without, an ordinary
+ * representation everywhere (an alias an earlier bake made is replaced). */
+cv_result graph_load_shared(cv_graph *g, cv_handle h, uint32_t mask, bool shared);
+/* Execution: a zero-copy transfer step (the primary waits for each source's
+ * instance of the writing pass in frame fr; last[] rises to the waits'
+ * tickets); before a secondary's instance, its wait for the
+ * primary's last use of the shared entries the pass touches; after a step,
+ * the primary's ticket recorded on them. */
+cv_result graph_zero_copy_handover(cv_graph *g, const graph_step *st, const graph_frame *fr, uint64_t *last);
+cv_result graph_zero_copy_before(cv_graph *g, const graph_step *st, uint32_t device, uint64_t *last);
+void graph_zero_copy_after(cv_graph *g, const graph_step *st, uint64_t primary_ticket);
 
 #endif
