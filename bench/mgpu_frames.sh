@@ -17,20 +17,25 @@
 # against the same with separate VkDevices. Then the queue the link copies run
 # on (CORVID_LINK_QUEUE=compute, the default, against graphics and the copy
 # family) on one VkDevice, paths device and shared, 2 and 4 virtual GPUs.
+# Then zero-copy gathers (CORVID_ZERO_COPY=on: the secondaries trace into the
+# primary's memory, the gathers are GPU-side waits) against the same frames
+# with copies (=off, path auto), on one VkDevice and on separate ones.
 # Prints tables.
 #   bench/mgpu_frames.sh BIN_DIR ADAPTER [WxH] [FRAMES]   (BENCH_BIN=dir of the benches if elsewhere)
 #   MGPU_MODE=cross-wait bench/mgpu_frames.sh ...   only the one-device run and the cross-wait table
 #   MGPU_MODE=vgpu bench/mgpu_frames.sh ...         only the one-device run and the shared-VkDevice table
 #   MGPU_MODE=link-queue bench/mgpu_frames.sh ...   only the one-device run and the link-queue table
+#   MGPU_MODE=zero-copy bench/mgpu_frames.sh ...    only the one-device run and the zero-copy table
 set -u
 bin=$1 adapter=$2 size=${3:-1920x1080} frames=${4:-16}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 mode=${MGPU_MODE:-all}
-# run PATH GPUS ASYNC [CROSS_WAIT] [VGPU_DEVICE] [LINK_QUEUE] -> "ms moved_MB transfer_ms" or nothing on failure
+# run PATH GPUS ASYNC [CROSS_WAIT] [VGPU_DEVICE] [LINK_QUEUE] [ZERO_COPY]
+#   -> "ms moved_MB transfer_ms" or nothing on failure
 run() {
-  local log=$out/$1-$2-$3-${4:-auto}-${5:-separate}-${6:-compute}.txt
-  CORVID_LINK_QUEUE=${6:-compute} CORVID_VGPU_DEVICE=${5:-separate} CORVID_CROSS_WAIT=${4:-auto} \
+  local log=$out/$1-$2-$3-${4:-auto}-${5:-separate}-${6:-compute}-${7:-off}.txt
+  CORVID_ZERO_COPY=${7:-off} CORVID_LINK_QUEUE=${6:-compute} CORVID_VGPU_DEVICE=${5:-separate} CORVID_CROSS_WAIT=${4:-auto} \
     CORVID_TRANSFER_PATH=$1 CORVID_TRANSFER_ASYNC=$3 \
     "$bin/corvid-render" --adapters "$adapter" --gpus "$2" \
     --size "$size" --frames "$frames" --out "$out/frame" > "$log" 2>&1 || { echo "$1 x$2 failed: $(tail -1 "$log")" >&2; return; }
@@ -54,8 +59,8 @@ cross_wait_table() {
     read -r i_ms _ _ <<< "$(run shared "$gpus" 1 import)"
     # What corvid-render's device lines say each run used.
     local b_use i_use
-    b_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-bridge-separate-compute.txt" | head -1)
-    i_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-import-separate-compute.txt" | head -1)
+    b_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-bridge-separate-compute-off.txt" | head -1)
+    i_use=$(sed -n 's/^gpu1: .*cross-device waits: \([a-z-]*\).*/\1/p' "$out/shared-$gpus-1-import-separate-compute-off.txt" | head -1)
     printf '%-12s %5s %12s %9s %12s %9s %9s  %s\n' shared "$gpus" "${b_ms:--}" "$(ratio "${b_ms:-0}" "${one:-0}")" \
       "${i_ms:--}" "$(ratio "${i_ms:-0}" "${one:-0}")" "$(ratio "${i_ms:-0}" "${b_ms:-0}")" "${b_use:--} / ${i_use:--}"
   done
@@ -90,6 +95,24 @@ link_queue_table() {
     done
   done
 }
+zero_copy_table() {
+  echo
+  echo "== zero-copy gathers (CORVID_ZERO_COPY=on) vs copies (=off), path auto, async (same run)"
+  printf '%-12s %5s %12s %9s %10s %12s %9s %10s\n' vkdevice gpus "zero-copy" vs-1-gpu "moved MB" "copies" vs-1-gpu \
+    "moved MB"
+  for vgpu in shared separate; do
+    for gpus in 2 4; do
+      read -r z_ms z_mb _ <<< "$(run auto "$gpus" 1 auto "$vgpu" compute on)"
+      read -r c_ms c_mb _ <<< "$(run auto "$gpus" 1 auto "$vgpu" compute off)"
+      printf '%-12s %5s %12s %9s %10s %12s %9s %10s\n' "$vgpu" "$gpus" "${z_ms:--}" "$(ratio "${z_ms:-0}" "${one:-0}")" \
+        "${z_mb:--}" "${c_ms:--}" "$(ratio "${c_ms:-0}" "${one:-0}")" "${c_mb:--}"
+    done
+  done
+}
+if [ "$mode" = zero-copy ]; then
+  zero_copy_table
+  exit 0
+fi
 if [ "$mode" = link-queue ]; then
   link_queue_table
   exit 0
@@ -113,6 +136,7 @@ done
 cross_wait_table
 vgpu_table
 link_queue_table
+zero_copy_table
 echo
 echo "== bench_transfer_async (ring transfers vs synchronous ones, same bytes, same run)"
 for cw in bridge import; do
