@@ -120,7 +120,16 @@ cv_result graph_choose_zero_copy(cv_graph *g, const cv_graph_bake_desc *desc, gr
 
 cv_result graph_load_shared(cv_graph *g, cv_handle h, uint32_t mask, bool shared) {
     cv_result res = CV_OK;
-    if (shared || (mask & 1))
+    if (shared && cv_device_is_alias(g->devices[0], h)) {
+        /* The primary holds an alias (it was a secondary of an earlier device
+         * set): the memory must be its own to be shared again. Every device's
+         * representation is made anew; a gather target's texels are rewritten
+         * every frame. */
+        for (uint32_t d = 0; d < g->device_count && res == CV_OK; d++)
+            if (cv_device_has(g->devices[d], h))
+                res = cv_device_unload(g->devices[d], h);
+    }
+    if (res == CV_OK && (shared || (mask & 1)))
         if (!cv_device_has(g->devices[0], h))
             res = cv_device_load(g->devices[0], h);
     for (uint32_t d = 1; d < g->device_count && res == CV_OK; d++) {
