@@ -72,7 +72,15 @@ static void usage(FILE *f) {
             "  --validation       enable VK_LAYER_KHRONOS_validation\n"
             "  --list-adapters    print the Vulkan adapters and exit\n"
             "  --quiet            print only errors\n"
-            "  --help             this text\n",
+            "  --help             this text\n"
+            "Multi-GPU environment (docs/transfers.md):\n"
+            "  CORVID_ZERO_COPY=auto|on|off         columns gathered without copies where devices share\n"
+            "                                       memory (virtual GPUs of one adapter; default auto)\n"
+            "  CORVID_TRANSFER_PATH=auto|device|shared|host-import|staged  force a copy path\n"
+            "  CORVID_VGPU_DEVICE=auto|shared|separate  virtual GPUs on one VkDevice or one each\n"
+            "  CORVID_LINK_QUEUE=compute|graphics|copy  the queue of GPU-side copies (default compute)\n"
+            "  CORVID_CROSS_WAIT=auto|import|bridge     how a GPU waits for another device\n"
+            "  CORVID_TRANSFER_ASYNC=0              every transfer synchronous (for comparisons)\n",
             CV_MAX_TEXTURE_DIM, MAX_FRAMES, MAX_AO_SAMPLES);
 }
 

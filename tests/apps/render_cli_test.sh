@@ -37,7 +37,20 @@ for graph_pass in gbuffer trace accumulate filter composite; do
 done
 check "graph dump: trace on both devices" grep -q "^      dev1 \[" "$tmp/g/graph.txt"
 check "graph dump: G-buffer multicast" grep -q "transfer 'gbuffer position' after 'gbuffer': MULTICAST: dev0->dev1 \[0,64)" "$tmp/g/graph.txt"
-check "graph dump: visibility copied back" grep -q "transfer 'visibility' after 'trace': ISOLATED_TO_ISOLATED: dev1->dev0 \[" "$tmp/g/graph.txt"
+check "graph dump: visibility gathered" grep -q "transfer 'visibility' after 'trace': ISOLATED_TO_ISOLATED: dev1->dev0 \[" "$tmp/g/graph.txt"
+# Virtual GPUs of one adapter share the gathered textures (zero-copy, the default); =off copies.
+check "graph dump: visibility gathered zero-copy" grep -q "transfer 'visibility' after 'trace': .*(zero-copy" "$tmp/g/graph.txt"
+CORVID_ZERO_COPY=off "$render" --gpus 2 --adapters llvmpipe --size 64x32 --frames 1 --ao-samples 1 --quiet \
+  --out "$tmp/g/frame" --dump-graph "$tmp/g/copies.txt" 2> "$tmp/err.txt"
+check "CORVID_ZERO_COPY=off exits 0" test $? -eq 0
+check "CORVID_ZERO_COPY=off: the gathers copy" not grep -q "zero-copy" "$tmp/g/copies.txt"
+CORVID_ZERO_COPY=sometimes "$render" --gpus 2 --adapters llvmpipe --size 64x32 --frames 1 --quiet \
+  --out "$tmp/zb/frame" 2> "$tmp/err.txt"
+check "bad CORVID_ZERO_COPY exits 1" test $? -eq 1
+check "bad CORVID_ZERO_COPY explained" grep -qF "CORVID_ZERO_COPY='sometimes' is not one of auto, on, off" "$tmp/err.txt"
+check "bad CORVID_ZERO_COPY: nothing written" test ! -e "$tmp/zb"
+"$render" --help > "$tmp/help.txt"
+check "--help lists CORVID_ZERO_COPY" grep -q "CORVID_ZERO_COPY=auto|on|off" "$tmp/help.txt"
 check "graph dot written" grep -q "^digraph corvid_graph" "$tmp/g/graph.txt.dot"
 check "graph dot has the trace node" grep -q 'label="trace' "$tmp/g/graph.txt.dot"
 
