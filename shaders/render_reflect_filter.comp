@@ -36,7 +36,10 @@
 // not kept), capped at moving_cap frames (the history follows the newest
 // frames: its reprojection error does not pile up), and the output is the
 // reconstruction's mean (reuse) or the own mean (no reuse, mirrors) without
-// the error blend (it starts at 16 frames, beyond the cap). The state (i10)
+// the error blend (it starts at 16 frames, beyond the cap). A mirror's
+// samples are exact, so a traced mirror pixel shows its own sample of the
+// frame (history length 1) and, at quarter rate, an untraced one its traced
+// same-surface neighbours' samples of the frame. The state (i10)
 // keeps the length, the own-sample count, the mean 1/hit distance (the sky
 // 0; -1 unknown) for the next frame's virtual point, and the roughness for its
 // disocclusion test. A still camera (moving_cap 0) reads none of i7..i10.
@@ -194,6 +197,12 @@ void main() {
         uint own_n = kept ? uint(st.y + 0.5) : 0u;
         float v;
         vec4 ho = imageLoad(reprojected_own, p);
+        /* A mirror's samples are exact: a traced one keeps this frame's
+         * (history length 1, an older sample can only lag); at quarter rate
+         * the frames between show it reprojected. */
+        bool exact = mirror && traced;
+        if (exact)
+            own_n = 0u;
         if (traced) {
             own_n = min(own_n + 1u, pc.moving_cap);
             ho = accumulate(ho, own, own_n, v);
@@ -202,7 +211,7 @@ void main() {
         }
         imageStore(own_history, p, ho);
         vec3 color = ho.rgb;
-        if (mirror && own_n == 0u)
+        if (mirror && (own_n == 0u || (!traced && filled > 0.0)))
             color = filled > 0.0 ? fill / filled : vec3(0.0);
         vec4 hr = imageLoad(reprojected_history, p);
         if (reuse) {
@@ -214,7 +223,7 @@ void main() {
         float inv_t = kept ? st.z : -1.0;
         if (own_sample.a >= 0.0) {
             float x = own_sample.a;
-            inv_t = inv_t < 0.0 ? x : inv_t + (x - inv_t) / float(n);
+            inv_t = inv_t < 0.0 || exact ? x : inv_t + (x - inv_t) / float(n);
         }
         imageStore(state_out, p, vec4(float(n), float(own_n), inv_t, roughness));
         imageStore(result, p, vec4(color, 1.0));
