@@ -189,6 +189,8 @@ cv_result cv_texture_create(cv_context *ctx, const cv_texture_desc *desc, cv_tex
                         desc->height, CV_MAX_TEXTURE_DIM);
     if (desc->format == CV_FORMAT_UNDEFINED || (unsigned)desc->format >= CV_FORMAT_COUNT)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': invalid format %d", desc->label, (int)desc->format);
+    if (desc->usage & ~(uint32_t)CV_TEXTURE_USAGE_ALL)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': unknown usage bits 0x%x", desc->label, desc->usage);
     cv_resource_desc d = { .type = CV_HANDLE_TEXTURE, .texture = *desc };
     bool depth = cv_format_is_depth(desc->format);
     if (d.texture.usage == 0)

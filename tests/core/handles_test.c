@@ -146,6 +146,24 @@ static void test_context_handles(void) {
                                                        .usage = CV_TEXTURE_USAGE_STORAGE },
                                    &t),
                  CV_ERROR_USAGE_MISMATCH);
+    /* Usage bits Corvid does not know (e.g. from a newer or hostile client) are refused, naming them. */
+    CHECK_RESULT(cv_texture_create(ctx,
+                                   &(cv_texture_desc){ .width = 4,
+                                                       .height = 4,
+                                                       .format = CV_FORMAT_R32F,
+                                                       .usage = CV_TEXTURE_USAGE_STORAGE | 0x100u,
+                                                       .label = "odd" },
+                                   &t),
+                 CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "'odd': unknown usage bits 0x102") != NULL);
+    CHECK_OK(cv_texture_create(ctx,
+                               &(cv_texture_desc){ .width = 4,
+                                                   .height = 4,
+                                                   .format = CV_FORMAT_R32F,
+                                                   .usage = CV_TEXTURE_USAGE_ALL &
+                                                            ~(uint32_t)CV_TEXTURE_USAGE_DEPTH_TARGET },
+                               &t));
+    CHECK_OK(cv_texture_destroy(ctx, t));
     cv_accel accel;
     CHECK_RESULT(cv_accel_create(ctx, &(cv_accel_desc){ .triangle_count = 0, .node_count = 1 }, &accel),
                  CV_ERROR_OUT_OF_RANGE);

@@ -81,6 +81,7 @@ enum cv_texture_usage {
     /* Other devices of the same adapter may load it as an alias of its memory
      * (cv_device_load_alias: zero-copy); backends that cannot share ignore it. */
     CV_TEXTURE_USAGE_SHARED = 1u << 4,
+    CV_TEXTURE_USAGE_ALL = 0x1Fu,
 };
 
 typedef struct cv_texture_desc {
