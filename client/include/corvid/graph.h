@@ -195,7 +195,8 @@ cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy p
  *   AUTO: CORVID_ZERO_COPY in the environment (read at every bake: auto, on
  *         or off; unset: auto) decides; auto shares where every secondary can
  *         alias the primary and no transfer path is forced (transfer.h: a
- *         forced path is kept, for comparisons).
+ *         forced path is kept, for comparisons); a texture whose format the
+ *         adapter cannot export (the alias is refused) is copied.
  *   ON:   shares, or the bake fails naming the pair that cannot.
  *   OFF:  copies. */
 typedef enum cv_graph_zero_copy {

@@ -716,6 +716,11 @@ static cv_result commit(cv_graph *g, bake_state *s, graph_baked *b) {
                                      ? gr->type == CV_HANDLE_TEXTURE && (gr->texture.usage & CV_TEXTURE_USAGE_SHARED)
                                      : graph_physical_shared(&g->pool[b->physical[r]]);
                 res = shareable ? graph_load_shared(g, h, s->devices[r], b->shared[r]) : load_on(g, h, s->devices[r]);
+                if (res == CV_ERROR_UNSUPPORTED && b->shared[r] && !b->zero_copy_required) {
+                    /* auto: the adapter could not export this texture: copies, as without zero-copy */
+                    graph_unshare(b, r);
+                    res = graph_load_shared(g, h, s->devices[r], false);
+                }
             }
         }
     }

@@ -97,10 +97,11 @@ typedef struct graph_baked {
     uint32_t instance_count;
     graph_barrier *barriers;
     uint32_t barrier_count;
-    bool *kept;             /* per pass */
-    int32_t *physical;      /* per resource: pool index or -1 */
-    uint32_t *first, *last; /* per resource: lifetime in steps (transients) */
-    bool *shared;           /* per resource: a zero-copy gather (in a shared pool entry) */
+    bool *kept;              /* per pass */
+    int32_t *physical;       /* per resource: pool index or -1 */
+    uint32_t *first, *last;  /* per resource: lifetime in steps (transients) */
+    bool *shared;            /* per resource: a zero-copy gather (in a shared pool entry) */
+    bool zero_copy_required; /* CV_GRAPH_ZERO_COPY_ON: a texture that cannot be shared fails the bake */
     cv_graph_stats stats;
 } graph_baked;
 
@@ -180,6 +181,9 @@ void graph_make_rings(cv_graph *g);
  * cv_graph_zero_copy), decided after the steps are laid out: sets b->shared
  * and the steps' zero_copy, moves their copies in the stats. */
 cv_result graph_choose_zero_copy(cv_graph *g, const cv_graph_bake_desc *desc, graph_baked *b);
+/* Resource r copies after all (its texture could not be shared): its steps
+ * and the stats go back to copies. */
+void graph_unshare(graph_baked *b, uint32_t r);
 /* Whether pool entry p is shared memory. */
 bool graph_physical_shared(const graph_physical *p);
 /* Loads h (a shared pool entry, or an imported texture created with

@@ -95,6 +95,7 @@ cv_result graph_choose_zero_copy(cv_graph *g, const cv_graph_bake_desc *desc, gr
     if (!any)
         return CV_OK;
     char why[256];
+    b->zero_copy_required = mode == CV_GRAPH_ZERO_COPY_ON;
     if (mode == CV_GRAPH_ZERO_COPY_AUTO) {
         cv_transfer_path path;
         if (cv_transfer_mode(&path) != CV_OK || path != CV_TRANSFER_AUTO || !devices_can(g, why, sizeof(why)))
@@ -116,6 +117,18 @@ cv_result graph_choose_zero_copy(cv_graph *g, const cv_graph_bake_desc *desc, gr
         }
     }
     return CV_OK;
+}
+
+void graph_unshare(graph_baked *b, uint32_t r) {
+    b->shared[r] = false;
+    for (uint32_t i = 0; i < b->step_count; i++) {
+        graph_step *st = &b->steps[i];
+        if (st->transfer && st->resource == r && st->zero_copy) {
+            st->zero_copy = false;
+            b->stats.copies += st->plan.count;
+            b->stats.zero_copy--;
+        }
+    }
 }
 
 cv_result graph_load_shared(cv_graph *g, cv_handle h, uint32_t mask, bool shared) {
