@@ -4,7 +4,9 @@
 // (no AO, point lights or further bounces at the hit). The hit's material is
 // evaluated (render_material.glsl) at the uv interpolated from the hit's
 // barycentrics, at level 0 (no footprint: a ray cone's level of detail is
-// future work); the alpha mask does not apply to it (in a masked scene the
+// future work); a normal image tilts the normal of the sun's cosine (the
+// triangle's tangent frame, as the G-buffer's; the shadow ray was decided
+// on the interpolated normal); the alpha mask does not apply to it (in a masked scene the
 // hit is the one that stands under renderer.h's alpha-mask rule, passes
 // render.alpha_continue). Stored as
 // RGBA16F (it is copied back from every device each frame): rgb = radiance
@@ -78,7 +80,14 @@ void main() {
             hit_frame(a, b, c, h, r.dir, ng, n);
             float w = 1.0 - h.u - h.v;
             vec2 uv = uvs[first] * w + uvs[first + 1u] * h.u + uvs[first + 2u] * h.v;
-            MaterialEval m = material_evaluate(materials[min(a.material, pc.material_count - 1u)], uv, vec4(0.0));
+            Material mat = materials[min(a.material, pc.material_count - 1u)];
+            MaterialEval m = material_evaluate(mat, uv, vec4(0.0));
+            if (mat.normal_image != 0u) { /* tilts the sun's cosine (the shadow ray kept the interpolated n) */
+                vec3 t, bt;
+                bool frame = triangle_tangents(a.position, b.position, c.position, uvs[first], uvs[first + 1u],
+                                               uvs[first + 2u], t, bt);
+                n = tangent_to_world(t, bt, frame, n, m.normal);
+            }
             float visible = shadow_rays[i].tmax > 0.0 && shadow_hits[i].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
             float n_dot_l = max(dot(n, -pc.sun.xyz), 0.0);
             vec3 direct = pc.sun_color.rgb * pc.sun.w * n_dot_l * visible / PI;

@@ -212,8 +212,26 @@ static void reflected_radiance(const reference_job *j, const float o[3], const f
     /* The material at the hit's uv, level 0 (no footprint), whatever its alpha. */
     const float *uv = &data->uvs[2 * (j->first_vertex[hit.instance] + 3ull * hit.triangle)];
     cv_material_eval e;
-    cv_material_evaluate(j->scene, material_of(j, m), uv[0] * w + uv[2] * hit.u + uv[4] * hit.v,
+    const cv_material *material = material_of(j, m);
+    cv_material_evaluate(j->scene, material, uv[0] * w + uv[2] * hit.u + uv[4] * hit.v,
                          uv[1] * w + uv[3] * hit.u + uv[5] * hit.v, NULL, &e);
+    /* The normal image tilts the normal the sun's cosine uses (level 0, the
+     * triangle's tangent frame, as at camera hits); the visibility test above
+     * keeps the interpolated normal, as render.reflect_shadow does. */
+    if (material->normal_image != CV_NO_IMAGE) {
+        float tp[3][3], tuv[3][2], t[3], b[3];
+        for (int c = 0; c < 3; c++) {
+            memcpy(tp[c], v[c].position, sizeof(tp[c]));
+            memcpy(tuv[c], &uv[2 * c], sizeof(tuv[c]));
+        }
+        if (cv_triangle_tangent_frame(tp, tuv, n, t, b)) {
+            float mapped[3];
+            for (int k = 0; k < 3; k++)
+                mapped[k] = t[k] * e.normal[0] + b[k] * e.normal[1] + n[k] * e.normal[2];
+            normalize3(mapped);
+            memcpy(n, mapped, sizeof(n));
+        }
+    }
     float ndl = fmaxf(dot3(n, to_sun), 0.0f);
     for (int k = 0; k < 3; k++)
         out[k] = e.base_color[k] * data->sun_color[k] * data->sun_irradiance * ndl * (visible ? 1.0f : 0.0f) /
