@@ -81,6 +81,27 @@ static const cv_material *material_of(const reference_job *j, uint32_t m) {
     return cv_scene_material_count(j->scene) ? cv_scene_material(j->scene, m) : &j->default_material;
 }
 
+/* n, the unit shading normal of triangle v (uvs uv[6]), tilted by the material's
+ * normal image: the tangent-space normal `tn` (cv_material_evaluate's) carried
+ * by the triangle's tangent frame; n as it is without an image or a frame. */
+static void normal_image_apply(const cv_material *material, const render_vertex v[3], const float uv[6],
+                               const float tn[3], float n[3]) {
+    if (material->normal_image == CV_NO_IMAGE)
+        return;
+    float tp[3][3], tuv[3][2], t[3], b[3];
+    for (int c = 0; c < 3; c++) {
+        memcpy(tp[c], v[c].position, sizeof(tp[c]));
+        memcpy(tuv[c], &uv[2 * c], sizeof(tuv[c]));
+    }
+    if (!cv_triangle_tangent_frame(tp, tuv, n, t, b))
+        return;
+    float mapped[3];
+    for (int k = 0; k < 3; k++)
+        mapped[k] = t[k] * tn[0] + b[k] * tn[1] + n[k] * tn[2];
+    normalize3(mapped);
+    memcpy(n, mapped, sizeof(mapped));
+}
+
 /* The alpha mask cuts the hit point away: its material is masked and its
  * alpha at the hit's uv, level 0, is below the cutoff (render_alpha_continue.comp's hit_cut). */
 static bool hit_cut(const reference_job *j, const cv_hit *hit) {
@@ -218,20 +239,7 @@ static void reflected_radiance(const reference_job *j, const float o[3], const f
     /* The normal image tilts the normal the sun's cosine uses (level 0, the
      * triangle's tangent frame, as at camera hits); the visibility test above
      * keeps the interpolated normal, as render.reflect_shadow does. */
-    if (material->normal_image != CV_NO_IMAGE) {
-        float tp[3][3], tuv[3][2], t[3], b[3];
-        for (int c = 0; c < 3; c++) {
-            memcpy(tp[c], v[c].position, sizeof(tp[c]));
-            memcpy(tuv[c], &uv[2 * c], sizeof(tuv[c]));
-        }
-        if (cv_triangle_tangent_frame(tp, tuv, n, t, b)) {
-            float mapped[3];
-            for (int k = 0; k < 3; k++)
-                mapped[k] = t[k] * e.normal[0] + b[k] * e.normal[1] + n[k] * e.normal[2];
-            normalize3(mapped);
-            memcpy(n, mapped, sizeof(n));
-        }
-    }
+    normal_image_apply(material, v, uv, e.normal, n);
     float ndl = fmaxf(dot3(n, to_sun), 0.0f);
     for (int k = 0; k < 3; k++)
         out[k] = e.base_color[k] * data->sun_color[k] * data->sun_irradiance * ndl * (visible ? 1.0f : 0.0f) /
@@ -317,20 +325,7 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
         for (int k = 0; k < 3; k++)
             ng[k] = -ng[k], n[k] = -n[k];
     const cv_material *material = material_of(j, m);
-    if (material->normal_image != CV_NO_IMAGE) { /* the normal image, in the triangle's tangent frame */
-        float tp[3][3], tuv[3][2], t[3], b[3];
-        for (int c = 0; c < 3; c++) {
-            memcpy(tp[c], v[c].position, sizeof(tp[c]));
-            memcpy(tuv[c], &tri_uv[2 * c], sizeof(tuv[c]));
-        }
-        if (cv_triangle_tangent_frame(tp, tuv, n, t, b)) {
-            float mapped[3];
-            for (int k = 0; k < 3; k++)
-                mapped[k] = t[k] * me.normal[0] + b[k] * me.normal[1] + n[k] * me.normal[2];
-            normalize3(mapped);
-            memcpy(n, mapped, sizeof(n));
-        }
-    }
+    normal_image_apply(material, v, tri_uv, me.normal, n); /* the normal image, in the triangle's tangent frame */
     float bias = render_ray_offset(data), origin[3];
     for (int k = 0; k < 3; k++)
         origin[k] = p[k] + ng[k] * bias;
