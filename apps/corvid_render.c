@@ -36,7 +36,7 @@ static void usage(FILE *f) {
             "  --seed N           seed of procedural scenes, 0..4294967295 (default 1)\n"
             "  --size WxH         image size, each side 1..%u (default 640x360)\n"
             "  --frames N         frames accumulated, 1..%u (default 4)\n"
-            "  --filter N         variance-guided a-trous filter iterations, 0..8 (default 3; 0 = unfiltered)\n"
+            "  --filter N         variance-guided a-trous filter iterations, 0..8 (default 2; 0 = unfiltered)\n"
             "  --ao-samples N     ambient occlusion rays per pixel per frame, 1..%u (default 4;\n"
             "                     AO cannot be turned off, so 0 is refused)\n"
             "  --ao-radius M      AO ray length in scene units, > 0 (default 2%% of the scene diagonal)\n"

@@ -1001,7 +1001,7 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
     if (!s.tile)
         s.tile = 8;
     if (s.filter_iterations == 0)
-        s.filter_iterations = 3;
+        s.filter_iterations = 2;
     if (s.filter_iterations < 0)
         s.filter_iterations = 0;
     if (!s.band_rays)
