@@ -292,7 +292,11 @@ static void check_reflected_normal_map(void) {
             floor, changed, off, worst);
         CHECK(floor >= 200);
         CHECK(changed >= 50);
-        CHECK_EQ_INT(off, 0);
+        /* Measured: lavapipe 0 off (worst 3.6e-4); the H200 3 of 1089 (worst 2.3e-3: its hit points, and so the
+         * bump texels read, differ in the last bits). Allowed: 1% of the pixels off, none by 0.01 (the bumps
+         * change the reflection by up to 0.33). */
+        CHECK(off * 100 <= floor);
+        CHECK(worst < 0.01);
     }
     cv_render_output_free(&gpu);
     cv_render_output_free(&ref);
@@ -446,8 +450,8 @@ int main(void) {
         CHECK(panel >= 20);
         CHECK(bright[0] > 0 && bright[1] > 0 && bright[2] > 0);
         /* The same texels by the same rules (the G-buffer's footprint against the reference's ray differentials,
-         * as the albedo check above): measured 1.7e-5 on lavapipe (the H200's derivatives differ more: see the
-         * albedo); half an 8-bit step of the emission strength (3 / 510) allowed, 0.03 when the check still
+         * as the albedo check above): measured 1.7e-5 on lavapipe, 2.4e-3 on the H200 (its derivatives differ
+         * more: see the albedo); half an 8-bit step of the emission strength (3 / 510) allowed, 0.03 when the check still
          * had the reflection in it. */
         CHECK(rad_err < 3.0 / 510.0);
         cv_render_output_free(&gpu_e);
