@@ -182,6 +182,15 @@ static cv_result ensure_slot(cv_device *dev, uint64_t id, cv_device_resource **o
     return CV_OK;
 }
 
+/* Empties a loaded slot (lock held); its object is released once no
+ * submitted work uses it. */
+static void release_slot(cv_device *dev, cv_device_resource *s) {
+    release_later(dev, cv_handle_type_of(s->id), s->obj, s->last_use);
+    memset(s, 0, sizeof(*s));
+    dev->loaded--;
+    dev->epoch++;
+}
+
 cv_result cv_device_load(cv_device *dev, cv_handle h) {
     if (!dev)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_load: NULL device");
@@ -199,14 +208,8 @@ cv_result cv_device_load(cv_device *dev, cv_handle h) {
     if (r == CV_OK && s->id == h.id)
         r = cv_error(CV_ERROR_ALREADY_LOADED, "%s handle 0x%016llx is already loaded on device '%s'",
                      cv_handle_type_name(desc.type), (unsigned long long)h.id, dev->label);
-    if (r == CV_OK && s->id != 0) {
-        /* A stale representation of an older generation of this slot: the
-         * context destroyed it but this device was not told yet. */
-        release_later(dev, desc.type, s->obj, s->last_use);
-        memset(s, 0, sizeof(*s));
-        dev->loaded--;
-        dev->epoch++;
-    }
+    if (r == CV_OK && s->id != 0) /* an older generation's: the context destroyed it, this device was not told */
+        release_slot(dev, s);
     void *obj = NULL;
     if (r == CV_OK)
         r = dev->backend->resource_create(dev->bd, h.id, &desc, pipeline, &obj);
@@ -234,10 +237,7 @@ static bool drop(cv_device *dev, uint64_t id) {
     cv_device_resource *s = slot_of(dev, id);
     if (!s || s->id != id)
         return false;
-    release_later(dev, t, s->obj, s->last_use);
-    memset(s, 0, sizeof(*s));
-    dev->loaded--;
-    dev->epoch++;
+    release_slot(dev, s);
     return true;
 }
 
@@ -568,12 +568,8 @@ cv_result cv_device_load_alias(cv_device *dev, cv_handle h, cv_device *owner) {
     if (r == CV_OK && s->id == h.id)
         r = cv_error(CV_ERROR_ALREADY_LOADED, "texture handle 0x%016llx is already loaded on device '%s'",
                      (unsigned long long)h.id, dev->label);
-    if (r == CV_OK && s->id != 0) { /* a stale representation, as in cv_device_load */
-        release_later(dev, cv_handle_type_of(s->id), s->obj, s->last_use);
-        memset(s, 0, sizeof(*s));
-        dev->loaded--;
-        dev->epoch++;
-    }
+    if (r == CV_OK && s->id != 0) /* an older generation's: the context destroyed it, this device was not told */
+        release_slot(dev, s);
     void *obj = NULL;
     if (r == CV_OK)
         r = dev->backend->resource_alias(dev->bd, h.id, &desc, owner->bd, src->obj, &obj);

@@ -52,6 +52,15 @@ cv_pipeline vkt_pipeline(cv_context *ctx, cv_device *dev, const char *name) {
     return p;
 }
 
+cv_result vkt_two_virtual_gpus(cv_context *ctx, cv_device *out[2]) {
+    out[0] = out[1] = NULL;
+    cv_vulkan_gpu_table table;
+    cv_result r = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 2,
+                                                                     .adapters = vkt_adapter() },
+                                            &table);
+    return r == CV_OK ? cv_vulkan_create_devices(ctx, &table, true, out) : r;
+}
+
 cv_result vkt_run(cv_device *dev, cv_cmdlist list, uint64_t *ticket) {
     uint64_t t = 0;
     cv_result r = cv_device_submit(dev, list, &t);

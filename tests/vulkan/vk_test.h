@@ -21,6 +21,8 @@ cv_texture vkt_texture(cv_context *ctx, cv_device *dev, uint32_t w, uint32_t h, 
                        const char *label);
 cv_sampler vkt_sampler(cv_context *ctx, cv_device *dev, cv_filter filter, cv_address_mode address);
 cv_pipeline vkt_pipeline(cv_context *ctx, cv_device *dev, const char *name);
+/* Two validated virtual GPUs of vkt_adapter() (labels gpu0, gpu1; both NULL on failure). */
+cv_result vkt_two_virtual_gpus(cv_context *ctx, cv_device *out[2]);
 /* Submits an ended list and waits for it; *ticket (if given) gets its ticket. */
 cv_result vkt_run(cv_device *dev, cv_cmdlist list, uint64_t *ticket);
 /* Checks that the validation layer reported nothing, then prints the summary. */

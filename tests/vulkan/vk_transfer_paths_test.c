@@ -253,11 +253,8 @@ int main(void) {
     setenv("CORVID_VGPU_DEVICE", "separate", 0);
     cv_context *ctx;
     CHECK_OK(cv_context_create(NULL, &ctx));
-    cv_vulkan_gpu_table table;
-    CHECK_OK(cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 2, .adapters = vkt_adapter() },
-                                       &table));
     cv_device *gpu[2] = { NULL, NULL };
-    CHECK_OK(cv_vulkan_create_devices(ctx, &table, true, gpu));
+    CHECK_OK(vkt_two_virtual_gpus(ctx, gpu));
     if (gpu[0] && gpu[1]) {
         each_path(ctx, gpu[0], gpu[1]);
         across_backends(ctx, gpu[0]);

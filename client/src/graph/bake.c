@@ -382,14 +382,6 @@ static cv_result transfers_of(const cv_graph *g, const bake_state *s, graph_bake
     return append_step(pending, pending_count, pending_capacity, &step);
 }
 
-/* Whether pass q reads or writes resource index r (its own or its history). */
-static bool pass_touches(const graph_pass *q, uint32_t r) {
-    for (uint32_t c = 0; c < q->access_count; c++)
-        if ((q->accesses[c].id & ~GRAPH_HISTORY_BIT) - 1 == r)
-            return true;
-    return false;
-}
-
 /* Moves the pending transfers that pass q (NULL: the end of the frame) must
  * come after into the steps, in the order they were made. */
 static cv_result flush_transfers(graph_baked *b, uint32_t *capacity, graph_step *pending, uint32_t *count,
@@ -397,7 +389,7 @@ static cv_result flush_transfers(graph_baked *b, uint32_t *capacity, graph_step 
     uint32_t kept = 0;
     cv_result res = CV_OK;
     for (uint32_t i = 0; i < *count; i++) {
-        if (res == CV_OK && (!q || pass_touches(q, pending[i].resource)))
+        if (res == CV_OK && (!q || graph_pass_touches(q, pending[i].resource)))
             res = push_step(b, capacity, &pending[i]);
         else
             pending[kept++] = pending[i];

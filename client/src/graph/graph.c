@@ -55,6 +55,13 @@ cv_result cv_graph_create(cv_context *ctx, cv_device *const *devices, uint32_t c
     return CV_OK;
 }
 
+bool graph_pass_touches(const graph_pass *q, uint32_t r) {
+    for (uint32_t c = 0; c < q->access_count; c++)
+        if ((q->accesses[c].id & ~GRAPH_HISTORY_BIT) - 1 == r)
+            return true;
+    return false;
+}
+
 void graph_baked_free(graph_baked *b) {
     free(b->steps);
     free(b->instances);

@@ -166,6 +166,8 @@ const graph_resource *graph_lookup(const cv_graph *g, uint32_t id, bool *history
 /* The handle an access to resource `index` (its history if `history`) uses on the devices. */
 cv_handle graph_handle_of(const cv_graph *g, uint32_t index, bool history);
 bool graph_access_writes(cv_graph_access a);
+/* Whether pass q reads or writes resource index r (its own or its history). */
+bool graph_pass_touches(const graph_pass *q, uint32_t r);
 void graph_baked_free(graph_baked *b);
 /* The built-in copy pass's record callback. */
 void graph_record_copy(const cv_graph_pass_context *pc, cv_command_list *list, void *user);

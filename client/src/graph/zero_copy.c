@@ -48,13 +48,6 @@ static bool devices_can(const cv_graph *g, char *why, size_t cap) {
     return true;
 }
 
-static bool pass_touches(const graph_pass *p, uint32_t r) {
-    for (uint32_t a = 0; a < p->access_count; a++)
-        if ((p->accesses[a].id & ~GRAPH_HISTORY_BIT) - 1 == r)
-            return true;
-    return false;
-}
-
 /* A texture without history (a transient, or imported and created with
  * CV_TEXTURE_USAGE_SHARED), every transfer of it a gather, no ALL_DEVICES
  * pass touching it after its last gather. */
@@ -75,7 +68,7 @@ static bool qualifies(const cv_graph *g, const graph_baked *b, uint32_t r) {
     for (uint32_t i = (uint32_t)(last_gather + 1); last_gather >= 0 && i < b->step_count; i++) {
         const graph_step *st = &b->steps[i];
         if (!st->transfer && g->passes[st->pass].policy == CV_MGPU_ALL_DEVICES &&
-            pass_touches(&g->passes[st->pass], r))
+            graph_pass_touches(&g->passes[st->pass], r))
             return false;
     }
     return last_gather >= 0;
