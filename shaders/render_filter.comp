@@ -3,21 +3,33 @@
 // accumulated visibility: 5x5 B3-spline kernel with holes of `step` pixels,
 // run with steps 1, 2, 4, ... Each neighbour q of pixel p is weighted by
 //   normal:   max(n_p . n_q, 0)^32
-//   position: exp(-|x_p - x_q|^2 / position_sigma^2)
+//   position: exp(-|x_p - x_q|^2 / sigma^2), sigma per channel (below)
 //   signal:   exp(-|l_p - l_q| / (sigma_l * sqrt(g3x3(var_p)) + 1e-4)), per channel
 // where var is the variance of the accumulated mean (the estimate the filter
 // reduces), so the filter stops at shadow and AO edges that are real and
 // smooths where the estimate is noisy. Shadow (r) and AO (g) are filtered
 // separately, each with its own variance.
 //
+// Pixel footprint: F = the distance from the eye to p times pixel_angle (the
+// world size of one pixel at p facing the camera).
+//
+// AO sigma: ao_sigma_scale x F^(1/3), where the host puts 0.7 x ao_radius^(2/3)
+// in ao_sigma_scale. The kernel trades bias (an AO gradient ~ 1 / radius^2
+// curvature averaged over sigma^2) against noise (pixels in the kernel ~
+// (sigma / F)^2); the sum's least is at sigma^3 ~ radius^2 F. A fixed world
+// sigma (1% of the diagonal) was too narrow at 160x90 and too wide at
+// 640x360; this one matches the best fixed sigma at each size measured
+// (docs/renderer-quality.md, "Filter reach from the pixel footprint").
+//
 // Penumbra-aware shadow (seed 000's shadow filter: the kernel follows the
 // penumbra): the shadow's position sigma is the width of the penumbra at p,
 // 2 tan(cone) times the mean blocker distance of the shadow rays that hit
 // something in p's 5x5 same-surface neighbourhood (render.resolve's b, a of
-// the last frame), times penumbra_scale, between position_sigma / 4 and
-// 4 position_sigma: a sharp contact shadow is filtered within its narrow
+// the last frame), times penumbra_scale, between one pixel footprint and
+// 8 position_sigma: a sharp contact shadow is filtered within its narrow
 // penumbra, a soft one far from its blocker across its width. Without a
-// blocker nearby (lit) the shadow has no variance and is not filtered.
+// blocker nearby (lit, or facing away from the sun: a terminator is as sharp
+// as the geometry) the shadow's sigma is two footprints.
 //
 // Variance: the history holds per pixel the means over n frames of the
 // per-frame value and of its square, so the per-frame variance is
@@ -38,7 +50,8 @@
 //         float sigma_l; float converged_variance; uint flags;
 //         float penumbra_scale (2 tan(cone) x the scale; 0 = off);
 //         float sigma_l_spatial (sigma_l where the variance is the spatial
-//         estimate, fewer than 4 frames); float pad[2]; }
+//         estimate, fewer than 4 frames); float pixel_angle (2 tan(fov / 2) /
+//         height); float ao_sigma_scale; vec4 eye (xyz: the camera); }
 // flags: bit 0 = first iteration (source is the history), bit 1 = last (b, a
 // get the history's mean squares, as render.accumulate wrote them, so the
 // output keeps its documented layout), bit 2 = moving camera: each pixel's
@@ -64,9 +77,14 @@ layout(push_constant, std430) uniform Push {
     uint flags;
     float penumbra_scale;
     float sigma_l_spatial;
-    float pad1;
-    float pad2;
+    float pixel_angle;
+    float ao_sigma_scale;
+    vec4 eye;
 } pc;
+
+// The shadow's sigma in pixel footprints: at least SHADOW_MIN_FOOTPRINTS,
+// SHADOW_UNBLOCKED_FOOTPRINTS without a blocker nearby (see the header).
+const float SHADOW_MIN_FOOTPRINTS = 1.0, SHADOW_UNBLOCKED_FOOTPRINTS = 2.0;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
@@ -102,8 +120,9 @@ float geometry_weight(vec3 cp, vec3 cn, ivec2 q) {
     return geometry_weights(cp, cn, q, vec2(pc.position_sigma)).y;
 }
 
-// The shadow's position sigma at p: the penumbra's width (see the header).
-float shadow_sigma(ivec2 p, vec3 cp, vec3 cn) {
+// The shadow's position sigma at p, whose pixel footprint is `footprint`:
+// the penumbra's width (see the header).
+float shadow_sigma(ivec2 p, vec3 cp, vec3 cn, float footprint) {
     if (pc.penumbra_scale <= 0.0)
         return pc.position_sigma;
     float sum = 0.0, count = 0.0;
@@ -118,8 +137,9 @@ float shadow_sigma(ivec2 p, vec3 cp, vec3 cn) {
             count += w;
         }
     if (count <= 1e-6)
-        return pc.position_sigma;
-    return clamp(pc.penumbra_scale * sum / count, 0.25 * pc.position_sigma, 8.0 * pc.position_sigma);
+        return SHADOW_UNBLOCKED_FOOTPRINTS * footprint;
+    float lo = SHADOW_MIN_FOOTPRINTS * footprint;
+    return clamp(pc.penumbra_scale * sum / count, lo, max(lo, 8.0 * pc.position_sigma));
 }
 
 // The temporal variance of the mean of shadow and AO at q, from the history.
@@ -191,7 +211,8 @@ void main() {
 
     const float kernel[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
     vec2 denom = (spatial ? pc.sigma_l_spatial : pc.sigma_l) * sqrt(guide) + 1e-4;
-    vec2 sigma = vec2(shadow_sigma(p, cp.xyz, cn), pc.position_sigma);
+    float footprint = distance(cp.xyz, pc.eye.xyz) * pc.pixel_angle;
+    vec2 sigma = vec2(shadow_sigma(p, cp.xyz, cn, footprint), pc.ao_sigma_scale * pow(footprint, 1.0 / 3.0));
     vec2 sum = vec2(0.0), weight = vec2(0.0), var_sum = vec2(0.0);
     for (int dy = -2; dy <= 2; dy++) {
         for (int dx = -2; dx <= 2; dx++) {

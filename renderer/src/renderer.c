@@ -890,11 +890,16 @@ static int filtered_texture(uint32_t iterations) {
  * unfiltered.
  * Penumbra scale: the shadow's position sigma in penumbra widths (0.5, 1, 2,
  * 3, 4 measured on the same frame: 2 is best, shadow RMSE 0.0223 with
- * sigma_l 8). */
+ * sigma_l 8).
+ * AO sigma: FILTER_AO_SIGMA x ao_radius^(2/3) x footprint^(1/3)
+ * (render_filter.comp); 0.5 / 0.7 / 1 / 2 measured at 160x90, 320x180 and
+ * 640x360 (docs/renderer-quality.md, "Filter reach from the pixel
+ * footprint"): 0.7 is best or within 0.0002 of it at every size. */
 #define FILTER_SIGMA_L 4.0f
 #define FILTER_SIGMA_L_SPATIAL 8.0f
 #define FILTER_CONVERGED_STD 0.02f
 #define FILTER_PENUMBRA_SCALE 2.0f
+#define FILTER_AO_SIGMA 0.7f
 /* The shadow's filter radius is the penumbra's width: 2 tan(cone) times the
  * blocker distance (render_filter.comp), times FILTER_PENUMBRA_SCALE. */
 static float penumbra_scale(const cv_renderer *r) {
@@ -909,7 +914,8 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
             uint32_t width, height, step, frames;
             float position_sigma, sigma_l, converged_variance;
             uint32_t flags;
-            float penumbra_scale, sigma_l_spatial, pad[2];
+            float penumbra_scale, sigma_l_spatial, pixel_angle, ao_sigma_scale;
+            float eye[4];
         } push = { r->width,
                    r->height,
                    1u << i,
@@ -920,7 +926,9 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
                    (i == 0 ? 1u : 0u) | (i + 1 == iterations ? 2u : 0u) | (r->graph_moving ? 4u : 0u),
                    penumbra_scale(r),
                    FILTER_SIGMA_L_SPATIAL,
-                   { 0 } };
+                   2.0f * tanf(0.5f * r->camera.vertical_fov) / (float)r->height,
+                   FILTER_AO_SIGMA * cbrtf(r->settings.ao_radius * r->settings.ao_radius),
+                   { r->camera.position[0], r->camera.position[1], r->camera.position[2], 0.0f } };
         /* A still camera's history length is `frames` everywhere: no motion texture. */
         cv_binding b[7] = { bind_texture(r->textures[TEX_POSITION]),
                             bind_texture(r->textures[TEX_NORMAL]),
