@@ -51,8 +51,10 @@
 // material (RGBA32F, w = roughness, textures included: render_gbuffer.frag),
 // i3: this frame's samples (RGBA16F, a = 1/hit distance: render.reflect_shade), i4: reconstruction history, i5: own
 // history (RGBA32F: rgb = mean, a = mean squared luminance; read and
-// written), i6: output (RGBA32F: rgb = reflected radiance, a = 1 on
-// geometry, 0 elsewhere), i7: reprojected reconstruction history, i8:
+// written), i6: output (RGBA32F: rgb = reflected radiance; a = the variance
+// of its luminance, from the running moments once a still camera has 8
+// frames (the blend's: a^2 v_reuse + (1 - a)^2 v_own), else -1 (unknown:
+// render.reflect_denoise estimates it); 0 off geometry), i7: reprojected reconstruction history, i8:
 // reprojected own history, i9: reprojected state (render.reflect_reproject),
 // i10: state (RGBA32F, written).
 #version 460
@@ -226,7 +228,7 @@ void main() {
             inv_t = inv_t < 0.0 || exact ? x : inv_t + (x - inv_t) / float(n);
         }
         imageStore(state_out, p, vec4(float(n), float(own_n), inv_t, roughness));
-        imageStore(result, p, vec4(color, 1.0));
+        imageStore(result, p, vec4(color, -1.0));
         return;
     }
 
@@ -243,6 +245,7 @@ void main() {
         ho = vec4(0.0);
     imageStore(own_history, p, ho);
     vec3 color = ho.rgb;
+    float variance = v_own;
     if (mirror && own_n == 0u)
         color = filled > 0.0 ? fill / filled : vec3(0.0);
     if (reuse) {
@@ -254,6 +257,7 @@ void main() {
         float d = luminance(hr.rgb) - luminance(ho.rgb), b2 = max(d * d - v_own, 0.0);
         float a = pc.accumulated + 1u < BLEND_FRAMES || own_n < 4u ? 1.0 : v_own / max(v_own + v_reuse + b2, 1e-20);
         color = mix(ho.rgb, hr.rgb, a);
+        variance = a * a * v_reuse + (1.0 - a) * (1.0 - a) * v_own;
     }
-    imageStore(result, p, vec4(color, 1.0));
+    imageStore(result, p, vec4(color, pc.accumulated + 1u >= 8u && own_n >= 8u ? variance : -1.0));
 }

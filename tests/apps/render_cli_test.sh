@@ -73,7 +73,7 @@ e = json.load(open(sys.argv[1]))["traceEvents"]
 names = {x["args"]["name"] for x in e if x["ph"] == "M" and x["name"] == "process_name"}
 assert names == {"gpu0", "gpu1", "host"}, names
 passes = [x for x in e if x["ph"] == "X" and x["cat"] == "pass"]
-assert len(passes) == 1 + 3 * (2 * 2 + 2) + 2, len(passes)  # trace, reflect x2; accumulate, reflect_filter
+assert len(passes) == 1 + 3 * (2 * 2 + 2) + 3, len(passes)  # gbuffer; trace, reflect x2, accumulate, reflect_filter a frame; reflect_denoise, filter, composite
 assert all(x["dur"] >= 0 and x["ts"] >= 0 for x in e if x["ph"] == "X")' "$tmp/s/trace.json"
 compare_direct() { "$(dirname "$render")/corvid-compare" "$1" "$1" --layer direct > /dev/null; }
 check "corvid-compare reads the direct layer" compare_direct "$tmp/s/frame.exr"

@@ -74,7 +74,8 @@ typedef struct cv_render_settings {
     float sun_cone_degrees;             /* [1.5] half angle of the sun's cone (soft shadows); < 0 = hard shadows */
     uint32_t camera;                    /* [0] scene camera index; a framing camera if the scene has none */
     uint32_t tile;                      /* [8] partition tile width, pixels */
-    int32_t filter_iterations;          /* [2] a-trous iterations (steps 1, 2, 4, ...); -1 = none */
+    int32_t filter_iterations;          /* [2] a-trous iterations (steps 1, 2, 4, ...) of shadow and AO;
+                                           -1 = none, and no reflection denoise either */
     uint32_t band_rays;                 /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
     uint32_t first_frame;               /* [0] sample index of the first frame: frames draw the sample sets of
                                  * first_frame .. first_frame + frames - 1 (a render can continue
