@@ -22,12 +22,13 @@
 // (docs/renderer-quality.md, "Filter reach from the pixel footprint").
 //
 // Penumbra-aware shadow (seed 000's shadow filter: the kernel follows the
-// penumbra): the shadow's position sigma is the width of the penumbra at p,
-// 2 tan(cone) times the mean blocker distance of the shadow rays that hit
-// something in p's 5x5 same-surface neighbourhood (render.resolve's b, a of
-// the last frame), times penumbra_scale, between one pixel footprint and
-// 8 position_sigma: a sharp contact shadow is filtered within its narrow
-// penumbra, a soft one far from its blocker across its width. Without a
+// penumbra): the shadow's position sigma follows the width P of the penumbra
+// at p, penumbra_scale (2 tan(cone)) times the mean blocker distance of the
+// shadow rays that hit something in p's 5x5 same-surface neighbourhood
+// (render.resolve's b, a of the last frame): eye.w x P^(2/3) x F^(1/3) (the
+// AO's trade-off, with the penumbra's width for the AO radius), between one
+// pixel footprint and 8 position_sigma: a sharp contact shadow is filtered
+// within its narrow penumbra, a soft one far from its blocker across its width. Without a
 // blocker nearby (lit, or facing away from the sun: a terminator is as sharp
 // as the geometry) the shadow's sigma is two footprints.
 //
@@ -48,10 +49,11 @@
 //
 // Push: { uint width; uint height; uint step; uint frames; float position_sigma;
 //         float sigma_l; float converged_variance; uint flags;
-//         float penumbra_scale (2 tan(cone) x the scale; 0 = off);
+//         float penumbra_scale (2 tan(cone); 0 = off);
 //         float sigma_l_spatial (sigma_l where the variance is the spatial
 //         estimate, fewer than 4 frames); float pixel_angle (2 tan(fov / 2) /
-//         height); float ao_sigma_scale; vec4 eye (xyz: the camera); }
+//         height); float ao_sigma_scale; vec4 eye (xyz: the camera, w: the
+//         shadow sigma's constant); }
 // flags: bit 0 = first iteration (source is the history), bit 1 = last (b, a
 // get the history's mean squares, as render.accumulate wrote them, so the
 // output keeps its documented layout), bit 2 = moving camera: each pixel's
@@ -139,7 +141,9 @@ float shadow_sigma(ivec2 p, vec3 cp, vec3 cn, float footprint) {
     if (count <= 1e-6)
         return SHADOW_UNBLOCKED_FOOTPRINTS * footprint;
     float lo = SHADOW_MIN_FOOTPRINTS * footprint;
-    return clamp(pc.penumbra_scale * sum / count, lo, max(lo, 8.0 * pc.position_sigma));
+    float penumbra = pc.penumbra_scale * sum / count;
+    float sigma = pc.eye.w * pow(penumbra, 2.0 / 3.0) * pow(footprint, 1.0 / 3.0);
+    return clamp(sigma, lo, max(lo, 8.0 * pc.position_sigma));
 }
 
 // The temporal variance of the mean of shadow and AO at q, from the history.

@@ -944,9 +944,12 @@ static int filtered_texture(uint32_t iterations) {
  * Converged: a channel whose variance of the mean is below FILTER_CONVERGED_STD^2
  * (standard error 0.02; a binary shadow ray gets there by 625 frames) is left
  * unfiltered.
- * Penumbra scale: the shadow's position sigma in penumbra widths (0.5, 1, 2,
- * 3, 4 measured on the same frame: 2 is best, shadow RMSE 0.0223 with
- * sigma_l 8).
+ * Shadow sigma: FILTER_PENUMBRA_SIGMA x P^(2/3) x footprint^(1/3), P the
+ * penumbra's width (render_filter.comp). A sigma of a fixed number of
+ * penumbra widths was best at 2 at 64x36 and 160x90, at 1 at 640x360 (the
+ * room; docs/renderer-quality.md, "Filter reach from the pixel footprint");
+ * the constant 1 / 1.5 / 1.75 / 2 / 3 measured from 64x36 to 640x360 and on
+ * the glTF engine: 1.75 is within 0.0017 of the best at every size.
  * AO sigma: FILTER_AO_SIGMA x ao_radius^(2/3) x footprint^(1/3)
  * (render_filter.comp); 0.5 / 0.7 / 1 / 2 measured at 160x90, 320x180 and
  * 640x360 (docs/renderer-quality.md, "Filter reach from the pixel
@@ -954,12 +957,11 @@ static int filtered_texture(uint32_t iterations) {
 #define FILTER_SIGMA_L 4.0f
 #define FILTER_SIGMA_L_SPATIAL 8.0f
 #define FILTER_CONVERGED_STD 0.02f
-#define FILTER_PENUMBRA_SCALE 2.0f
+#define FILTER_PENUMBRA_SIGMA 1.75f
 #define FILTER_AO_SIGMA 0.7f
-/* The shadow's filter radius is the penumbra's width: 2 tan(cone) times the
- * blocker distance (render_filter.comp), times FILTER_PENUMBRA_SCALE. */
+/* The penumbra's width per unit of blocker distance: 2 tan(cone). */
 static float penumbra_scale(const cv_renderer *r) {
-    return FILTER_PENUMBRA_SCALE * 2.0f * tanf(r->settings.sun_cone_degrees * 3.14159265f / 180.0f);
+    return 2.0f * tanf(r->settings.sun_cone_degrees * 3.14159265f / 180.0f);
 }
 
 static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, cv_command_list *l) {
@@ -984,7 +986,7 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
                    FILTER_SIGMA_L_SPATIAL,
                    2.0f * tanf(0.5f * r->camera.vertical_fov) / (float)r->height,
                    FILTER_AO_SIGMA * cbrtf(r->settings.ao_radius * r->settings.ao_radius),
-                   { r->camera.position[0], r->camera.position[1], r->camera.position[2], 0.0f } };
+                   { r->camera.position[0], r->camera.position[1], r->camera.position[2], FILTER_PENUMBRA_SIGMA } };
         /* A still camera's history length is `frames` everywhere: no motion texture. */
         cv_binding b[7] = { bind_texture(r->textures[TEX_POSITION]),
                             bind_texture(r->textures[TEX_NORMAL]),

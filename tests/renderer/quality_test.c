@@ -458,9 +458,11 @@ static void check_filter_keeps_umbra(const cv_scene *scene, const cv_bvh *bvh) {
  * worst): RMSE below the unfiltered frame's and below ONE_FRAME_RMSE_*
  * (measured 0.0289 and 0.0638 before the penumbra-aware shadow kernel, 0.0239
  * and 0.0630 with it; unfiltered 0.0304 and 0.0669; with the blue-noise
- * sample points 0.0212 and 0.0524, unfiltered 0.0335 and 0.0560), mean bias
- * within 0.01. */
-#define ONE_FRAME_RMSE_SHADOW 0.023
+ * sample points 0.0212 and 0.0524, unfiltered 0.0335 and 0.0560; with the
+ * kernels from the pixel footprint 0.0223 and 0.0510: the shadow's kernel
+ * trades this size for the larger ones, docs/renderer-quality.md), mean
+ * bias within 0.01. */
+#define ONE_FRAME_RMSE_SHADOW 0.025
 #define ONE_FRAME_RMSE_AO 0.056
 static void check_filter_one_frame(const cv_scene *scene, const cv_bvh *bvh) {
     enum { OW = 64, OH = 36 };
