@@ -9,8 +9,9 @@
 //            0 unless |roughness_q - roughness_p| <= 0.1 (reflect_filter's test)
 //   lobe:    exp(-|x_q - x_p|^2 / (lobe_scale alpha_p t_p)^2): a glossy surface
 //            shows the scene blurred over about alpha x the hit distance t_p
-//            (the pixel's own sample of 1/t, i3.a; the sky: no limit), at
-//            least one pixel footprint
+//            (the pixel's own sample of 1/t, i3.a; not traced this frame
+//            (quarter rate) or lost: a same-surface 3x3 neighbour's; the sky
+//            or none: no limit), at least one pixel footprint
 //   signal:  exp(-|l_p - l_q| / (sigma_l sqrt(var_p) + 1e-4)), l = luminance.
 // Mirrors (alpha < ALPHA_MIRROR) keep their value: their samples are exact.
 // Variance: render.reflect_filter gives the variance of its output's
@@ -117,7 +118,16 @@ void main() {
         var_p = max(m2 / wsum - m1 * m1, 0.0);
     }
     float footprint = distance(pos.xyz, pc.camera.xyz) * pc.pixel_angle;
+    // The hit distance: the pixel's own sample, else (not traced this frame
+    // at quarter rate, or lost) a 3x3 neighbour's on its surface (at quarter
+    // rate 0.0663 / 0.0352 at 1 / 4 frames against no limit's 0.0666 / 0.0361).
     float inv_t = imageLoad(samples, p).a;
+    for (int k = 0; k < 8 && inv_t < 0.0; k++) {
+        ivec2 q = p + ivec2(k < 3 ? k - 1 : (k < 5 ? (k == 3 ? -1 : 1) : k - 6), k < 3 ? -1 : (k < 5 ? 0 : 1));
+        vec3 qp;
+        if (inside(q) && surface_weight(pos.xyz, cn, rough, q, qp) > 0.5)
+            inv_t = imageLoad(samples, q).a;
+    }
     float lobe = inv_t > 0.0 ? max(pc.lobe_scale * alpha / inv_t, footprint) : 1e30;
     float denom = (temporal ? pc.sigma_l_temporal : pc.sigma_l_spatial) * sqrt(var_p) + 1e-4;
 

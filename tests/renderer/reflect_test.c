@@ -214,9 +214,8 @@ static void check_mirror(const cv_test_gpus *g, const cv_scene *scene, const cv_
         if (o.reflection) {
             mirror_figures m = compare_mirror(scene, bvh, &s, &o);
             fprintf(stderr,
-                    "mirror floor %ux%u%s: %u floor pixels reflect wall %u, its shadow %u, panel %u, sky %u; %u "
-                    "differ "
-                    "from the CPU by > 1e-3, the others by <= %.2g; radiance - reflection <= %.2g\n",
+                    "mirror floor %ux%u%s: %u floor pixels reflect wall %u, its shadow %u, panel %u, sky %u; "
+                    "%u differ from the CPU by > 1e-3, the others by <= %.2g; radiance - reflection <= %.2g\n",
                     MW, MH, filtered ? " (filtered)" : "", m.floor, m.wall, m.shadowed, m.panel, m.sky, m.off,
                     m.worst, m.worst_radiance);
             CHECK(m.floor > 2000);
