@@ -28,9 +28,10 @@
 // (render.resolve's b, a of the last frame): eye.w x P^(2/3) x F^(1/3) (the
 // AO's trade-off, with the penumbra's width for the AO radius), between one
 // pixel footprint and 8 position_sigma: a sharp contact shadow is filtered
-// within its narrow penumbra, a soft one far from its blocker across its width. Without a
-// blocker nearby (lit, or facing away from the sun: a terminator is as sharp
-// as the geometry) the shadow's sigma is two footprints.
+// within its narrow penumbra, a soft one far from its blocker across its
+// width. Without a blocker nearby (lit, or facing away from the sun: a
+// terminator is as sharp as the geometry) the shadow's sigma is two
+// footprints.
 //
 // Variance: the history holds per pixel the means over n frames of the
 // per-frame value and of its square, so the per-frame variance is

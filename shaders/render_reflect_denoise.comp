@@ -87,18 +87,14 @@ void main() {
         imageStore(target, p, vec4(centre.rgb, 0.0));
         return;
     }
-    if ((pc.flags & COPY) != 0u) {
+    float rough = imageLoad(gbuffer_material, p).w, alpha = rough * rough;
+    if ((pc.flags & COPY) != 0u || alpha < ALPHA_MIRROR) {
         imageStore(target, p, vec4(centre.rgb, last ? 1.0 : centre.a));
         return;
     }
     vec3 cn = imageLoad(gbuffer_normal, p).xyz;
-    float rough = imageLoad(gbuffer_material, p).w, alpha = rough * rough;
     bool temporal = centre.a >= 0.0;
     float var_p = variance_of(centre.a);
-    if (alpha < ALPHA_MIRROR) {
-        imageStore(target, p, vec4(centre.rgb, last ? 1.0 : centre.a));
-        return;
-    }
     float l_p = luminance(centre.rgb);
     if (first && !temporal) {
         float m1 = 0.0, m2 = 0.0, wsum = 0.0;
@@ -122,12 +118,13 @@ void main() {
     // at quarter rate, or lost) a 3x3 neighbour's on its surface (at quarter
     // rate 0.0663 / 0.0352 at 1 / 4 frames against no limit's 0.0666 / 0.0361).
     float inv_t = imageLoad(samples, p).a;
-    for (int k = 0; k < 8 && inv_t < 0.0; k++) {
-        ivec2 q = p + ivec2(k < 3 ? k - 1 : (k < 5 ? (k == 3 ? -1 : 1) : k - 6), k < 3 ? -1 : (k < 5 ? 0 : 1));
-        vec3 qp;
-        if (inside(q) && surface_weight(pos.xyz, cn, rough, q, qp) > 0.5)
-            inv_t = imageLoad(samples, q).a;
-    }
+    for (int dy = -1; dy <= 1 && inv_t < 0.0; dy++)
+        for (int dx = -1; dx <= 1 && inv_t < 0.0; dx++) {
+            ivec2 q = p + ivec2(dx, dy);
+            vec3 qp;
+            if (q != p && inside(q) && surface_weight(pos.xyz, cn, rough, q, qp) > 0.5)
+                inv_t = imageLoad(samples, q).a;
+        }
     float lobe = inv_t > 0.0 ? max(pc.lobe_scale * alpha / inv_t, footprint) : 1e30;
     float denom = (temporal ? pc.sigma_l_temporal : pc.sigma_l_spatial) * sqrt(var_p) + 1e-4;
 

@@ -879,6 +879,12 @@ static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_li
     dispatch_image(r, l, pc->queue, PIPE_REFLECT_FILTER, b, 11, &push, sizeof(push));
 }
 
+/* The angle one pixel subtends at the camera (2 tan(fov / 2) / height): times
+ * a distance, the world size of a pixel there (the filters' footprint). */
+static float pixel_angle(const cv_renderer *r) {
+    return 2.0f * tanf(0.5f * r->camera.vertical_fov) / (float)r->height;
+}
+
 /* render.reflect_denoise (render_reflect_denoise.comp) on the frame that is
  * composited: REFLECT_DENOISE_ITERATIONS a-trous steps over the reconstructed
  * reflection. Measured on the room at 640x360 against 4096 samples
@@ -920,7 +926,7 @@ static void record_reflect_denoise(const cv_graph_pass_context *pc, cv_command_l
                    { r->camera.position[0], r->camera.position[1], r->camera.position[2], r->data.diagonal * 0.01f },
                    REFLECT_DENOISE_SIGMA_L_SPATIAL,
                    REFLECT_DENOISE_LOBE_SCALE,
-                   2.0f * tanf(0.5f * r->camera.vertical_fov) / (float)r->height,
+                   pixel_angle(r),
                    REFLECT_DENOISE_SIGMA_L_TEMPORAL };
         int tex[6] = { TEX_POSITION, TEX_NORMAL, TEX_MATERIAL, TEX_REFLECT, src, dst };
         cv_binding b[6];
@@ -984,7 +990,7 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
                    (i == 0 ? 1u : 0u) | (i + 1 == iterations ? 2u : 0u) | (r->graph_moving ? 4u : 0u),
                    penumbra_scale(r),
                    FILTER_SIGMA_L_SPATIAL,
-                   2.0f * tanf(0.5f * r->camera.vertical_fov) / (float)r->height,
+                   pixel_angle(r),
                    FILTER_AO_SIGMA * cbrtf(r->settings.ao_radius * r->settings.ao_radius),
                    { r->camera.position[0], r->camera.position[1], r->camera.position[2], FILTER_PENUMBRA_SIGMA } };
         /* A still camera's history length is `frames` everywhere: no motion texture. */
