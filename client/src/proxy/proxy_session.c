@@ -233,6 +233,11 @@ static void on_completed(proxy_device *p, const Corvid__Completed *c) {
 }
 
 static void on_message(proxy_device *p, const Corvid__NodeMessage *m) {
+    /* A session is dead once a send failed or a request timed out, while messages received before
+     * may still be queued: the caller has been told, and what they name may be freed (lists of
+     * tickets the dead session reports finished). */
+    if (p->dead != CV_OK)
+        return;
     switch (m->msg_case) {
     case CORVID__NODE_MESSAGE__MSG_HELLO:
         if (p->pending.seq == m->seq && p->pending.hello_info && m->hello->device) {
