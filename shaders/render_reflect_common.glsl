@@ -7,41 +7,10 @@
 //   Distribution of Visible Normals"). A sample's weight (BRDF * cos / pdf,
 //   Fresnel left to render.composite) is G2 / G1. Below ALPHA_MIRROR the
 //   surface is a mirror: the sample is the mirror direction, weight 1.
-// A pixel's sample depends only on the pixel and the frame: a Halton (2, 3)
-// point indexed by frame, Cranley-Patterson rotated by a hash of the pixel
-// (another hash than render.raygen's, so it is not the shadow ray's point).
-// At quarter rate a pixel is traced every 4th frame and its point is indexed
-// by frame / 4: a stride-4 subsequence of Halton (2, 3) would keep the first
-// coordinate in one quarter of [0, 1).
+// A pixel's sample point: render_reflect_sample.glsl.
 
 const float PI = 3.14159265358979;
 const float ALPHA_MIRROR = 1e-3;
-
-float halton(uint index, uint base) {
-    float f = 1.0, r = 0.0;
-    while (index > 0u) {
-        f /= float(base);
-        r += f * float(index % base);
-        index /= base;
-    }
-    return r;
-}
-
-uint hash(uint x) {
-    x ^= x >> 16; x *= 0x7feb352du;
-    x ^= x >> 15; x *= 0x846ca68bu;
-    x ^= x >> 16;
-    return x;
-}
-
-vec2 reflect_sample_point(uvec2 pixel, uint frame, bool quarter) {
-    if (quarter)
-        frame /= 4u;
-    uint h = hash((pixel.x * 2654435761u) ^ (pixel.y * 40503u) ^ 0x9e3779b9u);
-    vec2 rotation = vec2(float(h & 0xFFFFu), float(h >> 16)) / 65536.0;
-    uint index = frame + 1u;
-    return fract(vec2(halton(index, 2u), halton(index, 3u)) + rotation);
-}
 
 vec3 unpack_normal(float w) {
     uint code = uint(round((w - 1.0) * 4194304.0));

@@ -15,7 +15,7 @@
 // `radius` pixels whose surface is p's (shading normals within ~25 degrees,
 // q on p's tangent plane within plane_sigma, roughness within 0.1) lends its
 // sample as if p had drawn it: q's direction l_q is drawn again
-// (render_reflect_common.glsl, same pixel and frame), its hit point seen
+// (render_reflect_sample.glsl, same pixel and frame), its hit point seen
 // from p gives p's direction l (the sky: l_q), and the sample is weighted by
 // the ratio w = BRDF_p(l) cos / pdf_q(l_q) (Fresnel is render.composite's).
 // The estimate is the ratio estimator E_p * sum(w L) / sum(w) (Stachowiak
@@ -56,7 +56,7 @@
 // frames (the blend's: a^2 v_reuse + (1 - a)^2 v_own), else -1 (unknown:
 // render.reflect_denoise estimates it); 0 off geometry), i7: reprojected reconstruction history, i8:
 // reprojected own history, i9: reprojected state (render.reflect_reproject),
-// i10: state (RGBA32F, written).
+// i10: state (RGBA32F, written), b11: the blue-noise mask (render_blue_noise.glsl).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_reflect_common.glsl"
@@ -85,6 +85,9 @@ layout(set = 0, binding = 7, rgba32f) uniform readonly image2D reprojected_histo
 layout(set = 0, binding = 8, rgba32f) uniform readonly image2D reprojected_own;
 layout(set = 0, binding = 9, rgba32f) uniform readonly image2D reprojected_state;
 layout(set = 0, binding = 10, rgba32f) uniform writeonly image2D state_out;
+#define BLUE_NOISE_BINDING 11
+#include "render_blue_noise.glsl"
+#include "render_reflect_sample.glsl"
 
 const uint BLEND_FRAMES = 16u;
 const float NOT_TRACED = -2.0;

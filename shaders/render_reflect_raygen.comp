@@ -12,7 +12,7 @@
 //         w = origin offset); uint frame; uint material_count; uint quarter; uint pad; }.
 // i0: G-buffer positions, i1: G-buffer normals (w = material), i2: G-buffer
 // material (RGBA32F, w = roughness, textures included: render_gbuffer.frag),
-// b3: cv_ray[] (written).
+// b3: cv_ray[] (written), b4: the blue-noise mask (render_blue_noise.glsl).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_reflect_common.glsl"
@@ -41,6 +41,9 @@ layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D gbuffer_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D gbuffer_material;
 layout(set = 0, binding = 3, std430) writeonly buffer Rays { Ray rays[]; };
+#define BLUE_NOISE_BINDING 4
+#include "render_blue_noise.glsl"
+#include "render_reflect_sample.glsl"
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;

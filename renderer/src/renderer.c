@@ -144,7 +144,7 @@ enum {
     BUF_UVS,          /* per flat vertex uv */
     BUF_IMAGE_TABLE,  /* texture images: where each lies in the pool (scene_upload.h) */
     BUF_IMAGE_POOL,   /* and their texels */
-    BUF_BLUE_NOISE,   /* the blue-noise rank mask render.raygen reads (corvid/blue_noise.h) */
+    BUF_BLUE_NOISE,   /* the blue-noise rank mask (corvid/blue_noise.h): render.raygen, the reflection samples */
     /* Masked scenes: the hits of the alpha-mask re-traces of passes 'trace' and 'reflect' (renderer.h). */
     BUF_ALPHA_HITS,
     BUF_REFLECT_ALPHA_HITS,
@@ -727,8 +727,8 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
                     { 0.12f, 0.15f, 0.2f, 0.0f },
                     r->data.material_count,
                     { 0, 0, 0 } };
-        cv_binding gen_b[4] = { positions, normals, bind_texture(cv_graph_texture(pc, r->tex[TEX_MATERIAL])),
-                                bind_buffer(rays) };
+        cv_binding gen_b[5] = { positions, normals, bind_texture(cv_graph_texture(pc, r->tex[TEX_MATERIAL])),
+                                bind_buffer(rays), bind_buffer(cv_graph_buffer(pc, r->buf[BUF_BLUE_NOISE])) };
         cv_binding shadow_b[5] = { bind_buffer(rays), bind_buffer(hits), vertices, instances,
                                    bind_buffer(shadow_rays) };
         cv_binding shade_b[12] = { positions,
@@ -746,7 +746,7 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
         cv_cmd_dispatch(l, pc->queue,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_RAYGEN],
                                              .bindings = gen_b,
-                                             .bindings_count = 4,
+                                             .bindings_count = 5,
                                              .push = &gen,
                                              .push_size = sizeof(gen),
                                              .groups_x = groups(cols.width, 8),
@@ -873,10 +873,11 @@ static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_li
                     moving ? TEX_REFLECT_OWN_REPROJECTED : TEX_REFLECT_OWN,
                     moving ? TEX_REFLECT_STATE_REPROJECTED : TEX_REFLECT_HISTORY,
                     moving ? TEX_REFLECT_STATE : TEX_REFLECT_OWN };
-    cv_binding b[11];
+    cv_binding b[12];
     for (int i = 0; i < 11; i++)
         b[i] = bind_texture(cv_graph_texture(pc, r->tex[tex[i]]));
-    dispatch_image(r, l, pc->queue, PIPE_REFLECT_FILTER, b, 11, &push, sizeof(push));
+    b[11] = bind_buffer(cv_graph_buffer(pc, r->buf[BUF_BLUE_NOISE]));
+    dispatch_image(r, l, pc->queue, PIPE_REFLECT_FILTER, b, 12, &push, sizeof(push));
 }
 
 /* The angle one pixel subtends at the camera (2 tan(fov / 2) / height): times
@@ -1310,6 +1311,7 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
         READ(r->buf[BUF_UVS], CV_GRAPH_STORAGE_READ);
         READ(r->buf[BUF_IMAGE_TABLE], CV_GRAPH_STORAGE_READ);
         READ(r->buf[BUF_IMAGE_POOL], CV_GRAPH_STORAGE_READ);
+        READ(r->buf[BUF_BLUE_NOISE], CV_GRAPH_STORAGE_READ);
         for (int k = BUF_REFLECT_RAYS; k <= BUF_SHADOW_HITS; k++)
             WRITE(r->buf[k], CV_GRAPH_STORAGE_WRITE);
         WRITE(r->tex[TEX_REFLECT], CV_GRAPH_STORAGE_WRITE);
@@ -1332,6 +1334,7 @@ static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays)
             WRITE(r->tex[TEX_REFLECT_STATE_REPROJECTED], CV_GRAPH_STORAGE_WRITE);
         }
         PASS("reflect_filter", CV_QUEUE_COMPUTE, CV_MGPU_PRIMARY_ONLY, record_reflect_filter);
+        READ(r->buf[BUF_BLUE_NOISE], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
         READ(r->tex[TEX_MATERIAL], CV_GRAPH_STORAGE_READ);
