@@ -125,7 +125,8 @@ static void on_stream(cv_rpc_stream *s, const char *method, void *user) {
 }
 
 int main(void) {
-    setenv("CORVID_NODE_TIMEOUT_MS", "300", 1); /* read at device creation */
+    /* Read at device creation; long enough for a loaded sanitizer run to connect. */
+    setenv("CORVID_NODE_TIMEOUT_MS", "2000", 1);
     script sc = { 0 };
     const char *methods[] = { CV_NODE_METHOD_SESSION, NULL };
     cv_rpc_server *server = NULL;
