@@ -353,22 +353,29 @@ static void check_room_against_reference(const cv_test_gpus *g, const cv_scene *
     error_pool pools[2] = { { 0 } };
     s.reflection_radius = 0;
     s.reflection_scale = 1.0f;
-    for (int k = 0; k < 2 * ONE_FRAME_RENDERS + 1 && ref.reflection; k++) {
-        bool converged = k == 2 * ONE_FRAME_RENDERS, denoised = k % 2 == 1;
-        s.frames = converged ? 64 : 1;
-        s.first_frame = converged ? 0 : (uint32_t)(k / 2) * 16;
-        s.filter_iterations = converged || denoised ? 0 : -1;
-        cv_render_output o = { 0 };
-        CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &o, NULL));
-        if (o.reflection && converged)
-            compare_reflection(&o, &ref, &conv, &conv_bias);
-        else if (o.reflection)
-            pool_reflection(&pools[denoised], &o, &ref);
-        cv_render_output_free(&o);
-    }
-    s.first_frame = 0;
+    s.frames = 1;
+    for (uint32_t r = 0; r < ONE_FRAME_RENDERS && ref.reflection; r++)
+        for (int denoised = 0; denoised < 2; denoised++) {
+            s.first_frame = r * 16;
+            s.filter_iterations = denoised ? 0 : -1;
+            cv_render_output o = { 0 };
+            CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &o, NULL));
+            if (o.reflection)
+                pool_reflection(&pools[denoised], &o, &ref);
+            cv_render_output_free(&o);
+        }
     for (int k = 0; k < 2; k++)
         pool_result(&pools[k], &one[k], &one_bias[k]);
+    s.frames = 64;
+    s.first_frame = 0;
+    s.filter_iterations = 0;
+    if (ref.reflection) {
+        cv_render_output o = { 0 };
+        CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &o, NULL));
+        if (o.reflection)
+            compare_reflection(&o, &ref, &conv, &conv_bias);
+        cv_render_output_free(&o);
+    }
     fprintf(stderr,
             "room %ux%u, reflection vs reference %u samples, 1 frame: reconstruction RMSE %.4f, bias %+.4f; "
             "denoised RMSE %.4f, bias %+.4f; 64 frames denoised RMSE %.4f, bias %+.4f\n",
