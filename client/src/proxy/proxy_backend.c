@@ -434,13 +434,8 @@ static cv_result proxy_list_compile(cv_backend_device *p, cv_device *dev, const 
 
 static void proxy_list_release(cv_backend_device *p, void *obj) {
     proxy_list *compiled = obj;
-    /* A dead session reports every ticket finished, so the core may release a list whose Completed
-     * never came: the receiver must not find it in the in-flight ring afterwards. */
-    pthread_mutex_lock(&p->lock);
-    for (uint32_t i = 0; p->dead != CV_OK && i < PROXY_INFLIGHT; i++)
-        if (p->inflight[i].list == compiled)
-            p->inflight[i] = (proxy_inflight){ 0 };
-    pthread_mutex_unlock(&p->lock);
+    /* Released before its Completed only when the session is dead (which reports every ticket
+     * finished): the receiver then ignores every message (proxy_session.c, on_message). */
     release_list(p, compiled->id);
     free(compiled);
 }
