@@ -10,16 +10,28 @@
 // smooths where the estimate is noisy. Shadow (r) and AO (g) are filtered
 // separately, each with its own variance.
 //
+// Estimate: the shadow's is the weighted mean of the taps. The AO's is a
+// local linear fit (weighted least squares of l ~ a + b u + c v, (u, v) the
+// tap's offset in p's tangent plane; the estimate is a, the fit's value at
+// p): where the surface's same-surface neighbours lie on one side of p, at a
+// crease or a depth step, the mean of an AO gradient is biased toward the
+// side it has, and the fit is not. On the glTF engine, one frame at 640x360,
+// that bias was most of the error at its edges (docs/renderer-quality.md, "AO:
+// a local linear fit; shadow rays per pixel"). The shadow keeps the mean: its edges are steps, which
+// a line fits no better, and the fit's larger variance cost it at 64x36.
+//
 // Pixel footprint: F = the distance from the eye to p times pixel_angle (the
 // world size of one pixel at p facing the camera).
 //
-// AO sigma: ao_sigma_scale x F^(1/3), where the host puts 0.7 x ao_radius^(2/3)
-// in ao_sigma_scale. The kernel trades bias (an AO gradient ~ 1 / radius^2
-// curvature averaged over sigma^2) against noise (pixels in the kernel ~
-// (sigma / F)^2); the sum's least is at sigma^3 ~ radius^2 F. A fixed world
-// sigma (1% of the diagonal) was too narrow at 160x90 and too wide at
-// 640x360; this one matches the best fixed sigma at each size measured
-// (docs/renderer-quality.md, "Filter reach from the pixel footprint").
+// AO sigma: ao_sigma_scale x F^(1/3), where the host puts 1.05 x sqrt(4 /
+// ao_samples) x ao_radius^(2/3) in ao_sigma_scale. The kernel trades bias (an
+// AO gradient ~ 1 / radius^2 curvature averaged over sigma^2) against noise
+// (pixels in the kernel ~ (sigma / F)^2); the sum's least is at sigma^3 ~
+// radius^2 F. A fixed world sigma (1% of the diagonal) was too narrow at
+// 160x90 and too wide at 640x360; this one matches the best fixed sigma at
+// each size measured (docs/renderer-quality.md, "Filter reach from the pixel
+// footprint"). The fit allows a wider kernel than the mean's best (1.05 against 0.7 at 4
+// rays), and fewer rays want a wider one (the sqrt: measured at 1, 4 and 16).
 //
 // Penumbra-aware shadow (seed 000's shadow filter: the kernel follows the
 // penumbra): the shadow's position sigma follows the width P of the penumbra
@@ -31,7 +43,8 @@
 // within its narrow penumbra, a soft one far from its blocker across its
 // width. Without a blocker nearby (lit, or facing away from the sun: a
 // terminator is as sharp as the geometry) the shadow's sigma is two
-// footprints.
+// footprints. The sigma is then scaled by shadow_sigma_scale, 1 /
+// sqrt(shadow_samples): more rays a frame, less noise to remove.
 //
 // Variance: the history holds per pixel the means over n frames of the
 // per-frame value and of its square, so the per-frame variance is
@@ -40,9 +53,9 @@
 // iteration estimates the per-frame variance spatially instead, from the
 // moments of the 7x7 neighbours on the same surface (normal and position
 // weights), as SVGF does; from 4 frames on, the first iteration takes the
-// temporal one. Each iteration writes the variance of its output (sum w^2
-// var_q / (sum w)^2) in b, a for the next, which pre-filters it 3x3 (Gaussian)
-// before use.
+// temporal one. Each iteration writes the variance of its output (for an
+// estimate sum g_q l_q: sum g_q^2 var_q; the mean's g_q = w_q / sum w) in b, a
+// for the next, which pre-filters it 3x3 (Gaussian) before use.
 //
 // Converged: a channel whose own variance of the mean (the first iteration's
 // estimate, unfiltered) is below `converged_variance` is left as accumulated
@@ -54,7 +67,7 @@
 //         float sigma_l_spatial (sigma_l where the variance is the spatial
 //         estimate, fewer than 4 frames); float pixel_angle (2 tan(fov / 2) /
 //         height); float ao_sigma_scale; vec4 eye (xyz: the camera, w: the
-//         shadow sigma's constant); }
+//         shadow sigma's constant); float shadow_sigma_scale; }
 // flags: bit 0 = first iteration (source is the history), bit 1 = last (b, a
 // get the history's mean squares, as render.accumulate wrote them, so the
 // output keeps its documented layout), bit 2 = moving camera: each pixel's
@@ -83,6 +96,7 @@ layout(push_constant, std430) uniform Push {
     float pixel_angle;
     float ao_sigma_scale;
     vec4 eye;
+    float shadow_sigma_scale;
 } pc;
 
 // The shadow's sigma in pixel footprints: at least SHADOW_MIN_FOOTPRINTS,
@@ -145,6 +159,28 @@ float shadow_sigma(ivec2 p, vec3 cp, vec3 cn, float footprint) {
     float penumbra = pc.penumbra_scale * sum / count;
     float sigma = pc.eye.w * pow(penumbra, 2.0 / 3.0) * pow(footprint, 1.0 / 3.0);
     return clamp(sigma, lo, max(lo, 8.0 * pc.position_sigma));
+}
+
+// An orthonormal basis around n (Frisvad, revised by Duff et al.; as render.raygen's).
+void basis(vec3 n, out vec3 t, out vec3 b) {
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float c = n.x * n.y * a;
+    t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
+    b = vec3(c, s + n.y * n.y * a, -n.y);
+}
+
+// The weighted least-squares fit of l ~ a + b u + c v over the taps, whose
+// sums of w x x^T (x = (1, u, v)) are xtx, gives a = g . sum(w l x) with g
+// the first column of xtx's inverse. A ridge of LINEAR_FIT_RIDGE x sum(w) on
+// the slopes keeps the fit defined where the taps lie on a line or on p
+// alone (it then tends to the weighted mean, g = (1 / sum(w), 0, 0)).
+const float LINEAR_FIT_RIDGE = 0.05;
+vec3 linear_fit_weights(mat3 xtx) {
+    float ridge = LINEAR_FIT_RIDGE * xtx[0][0];
+    xtx[1][1] += ridge;
+    xtx[2][2] += ridge;
+    return inverse(xtx)[0];
 }
 
 // The temporal variance of the mean of shadow and AO at q, from the history.
@@ -217,8 +253,14 @@ void main() {
     const float kernel[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
     vec2 denom = (spatial ? pc.sigma_l_spatial : pc.sigma_l) * sqrt(guide) + 1e-4;
     float footprint = distance(cp.xyz, pc.eye.xyz) * pc.pixel_angle;
-    vec2 sigma = vec2(shadow_sigma(p, cp.xyz, cn, footprint), pc.ao_sigma_scale * pow(footprint, 1.0 / 3.0));
-    vec2 sum = vec2(0.0), weight = vec2(0.0), var_sum = vec2(0.0);
+    vec2 sigma = vec2(shadow_sigma(p, cp.xyz, cn, footprint) * pc.shadow_sigma_scale, pc.ao_sigma_scale * pow(footprint, 1.0 / 3.0));
+    // The local linear fit's sums, per channel: x = (1, u, v), the offset of q
+    // in p's tangent plane in units of the taps' reach.
+    vec3 tangent, bitangent;
+    basis(cn, tangent, bitangent);
+    float reach = float(pc.step) * 2.0 * footprint;
+    mat3 xx[2] = mat3[2](mat3(0.0), mat3(0.0)), xx_var[2] = mat3[2](mat3(0.0), mat3(0.0));
+    vec3 xl[2] = vec3[2](vec3(0.0), vec3(0.0));
     for (int dy = -2; dy <= 2; dy++) {
         for (int dx = -2; dx <= 2; dx++) {
             ivec2 q = p + ivec2(dx, dy) * int(pc.step);
@@ -230,13 +272,23 @@ void main() {
             vec4 v = imageLoad(source, q);
             vec2 var_q = dx == 0 && dy == 0 ? var_in : (first ? (spatial ? var_in : temporal_variance(q)) : v.ba);
             vec2 w = wg * exp(-abs(v.rg - centre.rg) / denom);
-            sum += v.rg * w;
-            weight += w;
-            var_sum += w * w * var_q;
+            vec3 d = imageLoad(gbuffer_position, q).xyz - cp.xyz;
+            vec3 x = vec3(1.0, dot(d, tangent) / reach, dot(d, bitangent) / reach);
+            mat3 xxt = outerProduct(x, x);
+            for (int c = 0; c < 2; c++) {
+                xx[c] += w[c] * xxt;
+                xx_var[c] += w[c] * w[c] * var_q[c] * xxt;
+                xl[c] += w[c] * v[c] * x;
+            }
         }
     }
     // weight > 0: the centre itself has weight 1 in every factor.
-    vec2 filtered = sum / weight, var_out = var_sum / (weight * weight);
+    vec2 filtered, var_out;
+    for (int c = 0; c < 2; c++) {
+        vec3 g = c == 1 ? linear_fit_weights(xx[c]) : vec3(1.0 / xx[c][0][0], 0.0, 0.0);
+        filtered[c] = clamp(dot(g, xl[c]), 0.0, 1.0);   // a fit may overshoot; visibility is a fraction
+        var_out[c] = dot(g, xx_var[c] * g);
+    }
     vec2 value = mix(filtered, centre.rg, vec2(converged));
     vec2 variance = mix(var_out, var_in, vec2(converged));
     imageStore(target, p, vec4(value, last ? h.ba : variance));

@@ -1,14 +1,15 @@
 // render.raygen: rays for one band of one column partition of the G-buffer:
 // columns [x0, x0 + width), rows [y0, y0 + height).
-// Per pixel, 1 + ao_samples rays, pixel-major: a shadow ray toward the sun,
-// jittered inside the sun's cone (soft shadows), then cosine-distributed AO rays
-// of length ao_radius. Sample points come from a 64x64 blue-noise rank mask
-// (corvid/blue_noise.h, b3, filled by the renderer), a value per pixel
-// and sample dimension, offset by the frame's point of a Roberts sequence
-// (shadow_sample, ao_sample): within a frame neighbouring pixels' errors are
-// blue noise, which the a-trous filter removes best; over the frames each
-// pixel walks a low-discrepancy sequence. All in 0.32 fixed point: the points are a
-// function of (pixel, frame) only, the same bits on every device. Pixels without geometry get empty
+// Per pixel, shadow_samples + ao_samples rays, pixel-major: the shadow rays
+// toward the sun, jittered inside the sun's cone (soft shadows), then
+// cosine-distributed AO rays of length ao_radius. Sample points come from a
+// 64x64 blue-noise rank mask (corvid/blue_noise.h, b3, filled by the
+// renderer), a value per pixel and sample dimension, offset by the frame's
+// point of a Roberts sequence (shadow_sample, ao_sample): within a frame
+// neighbouring pixels' errors are blue noise, which the a-trous filter
+// removes best; over the frames each pixel walks a low-discrepancy sequence.
+// All in 0.32 fixed point: the points are a function of (pixel, frame) only,
+// the same bits on every device. Pixels without geometry get empty
 // rays (tmax = 0); a shadow ray whose direction is below the surface (the
 // pixel faces away from that point of the sun) gets tmin 0 > tmax -1: no ray,
 // and render.resolve reads it as shadowed, not as a miss.
@@ -20,7 +21,7 @@
 // mirrored across it, so a smooth low-poly mesh does not occlude itself.
 // Push: { uint x0; uint width; uint height; uint ao_samples; vec4 sun (xyz = unit
 //         direction the light travels, w = cone half angle, radians);
-//         uint frame; float ao_radius; float bias; uint y0; }.
+//         uint frame; float ao_radius; float bias; uint y0; uint shadow_samples; }.
 // i0: G-buffer positions (RGBA32F), i1: G-buffer normals (RGBA32F), b2: cv_ray[],
 // b3: the blue-noise mask (uint[2048], read).
 #version 460
@@ -44,6 +45,7 @@ layout(push_constant, std430) uniform Push {
     float ao_radius;
     float bias;
     uint y0;
+    uint shadow_samples;
 } pc;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
@@ -54,9 +56,12 @@ layout(set = 0, binding = 2, std430) writeonly buffer Rays { Ray rays[]; };
 
 const float PI = 3.14159265358979;
 
-// The shadow ray's point in the sun's cone (2D, [0, 1)^2).
-vec2 shadow_sample(uvec2 pixel) {
-    uvec2 v = uvec2(mask(pixel, 2u), mask(pixel, 3u)) + r2(pc.frame);
+// Shadow ray k's point in the sun's cone (2D, [0, 1)^2): the pixel's mask
+// values offset by point frame x shadow_samples + k of the R2 sequence, so a
+// pixel's rays, within a frame and over the frames, walk one low-discrepancy
+// sequence (one ray a frame: the frame's point).
+vec2 shadow_sample(uvec2 pixel, uint k) {
+    uvec2 v = uvec2(mask(pixel, 2u), mask(pixel, 3u)) + r2(pc.frame * pc.shadow_samples + k);
     return vec2(unit(v.x), unit(v.y));
 }
 
@@ -113,10 +118,11 @@ void main() {
     if (local.x >= pc.width || local.y >= pc.height)
         return;
     uvec2 pixel = uvec2(local.x + pc.x0, local.y + pc.y0);
-    uint first = (local.y * pc.width + local.x) * (pc.ao_samples + 1u);
+    uint per_pixel = pc.shadow_samples + pc.ao_samples;
+    uint first = (local.y * pc.width + local.x) * per_pixel;
     vec4 p = imageLoad(gbuffer_position, ivec2(pixel));
     if (p.w == 0.0) {
-        for (uint k = 0u; k <= pc.ao_samples; k++)
+        for (uint k = 0u; k < per_pixel; k++)
             rays[first + k] = Ray(vec3(0.0), 0.0, vec3(0.0, 0.0, 1.0), 0.0);
         return;
     }
@@ -124,16 +130,18 @@ void main() {
     vec3 ng = unpack_normal(p.w);
     vec3 origin = p.xyz + ng * pc.bias;
 
-    // Shadow ray: a direction inside the cone around the direction to the sun.
+    // Shadow rays: directions inside the cone around the direction to the sun.
     vec3 to_sun = -pc.sun.xyz, t, b;
     basis(to_sun, t, b);
-    vec2 u = shadow_sample(pixel);
-    float cos_theta = 1.0 - u.x * (1.0 - cos(pc.sun.w));
-    float sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
-    float phi = 2.0 * PI * u.y;
-    vec3 dir = normalize(t * (cos(phi) * sin_theta) + b * (sin(phi) * sin_theta) + to_sun * cos_theta);
-    float tmax = dot(dir, n) > 0.0 && dot(dir, ng) > 0.0 ? 1e30 : -1.0;   // facing away from the sun: in shadow
-    rays[first] = Ray(origin, 0.0, dir, tmax);
+    for (uint k = 0u; k < pc.shadow_samples; k++) {
+        vec2 u = shadow_sample(pixel, k);
+        float cos_theta = 1.0 - u.x * (1.0 - cos(pc.sun.w));
+        float sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
+        float phi = 2.0 * PI * u.y;
+        vec3 dir = normalize(t * (cos(phi) * sin_theta) + b * (sin(phi) * sin_theta) + to_sun * cos_theta);
+        float tmax = dot(dir, n) > 0.0 && dot(dir, ng) > 0.0 ? 1e30 : -1.0;   // facing away from the sun: in shadow
+        rays[first + k] = Ray(origin, 0.0, dir, tmax);
+    }
 
     // Ambient occlusion: cosine-weighted hemisphere around n.
     basis(n, t, b);
@@ -144,6 +152,6 @@ void main() {
         float below = dot(d, ng);
         if (below < 0.0)
             d = normalize(d - 2.0 * below * ng);
-        rays[first + 1u + k] = Ray(origin, 0.0, d, pc.ao_radius);
+        rays[first + pc.shadow_samples + k] = Ray(origin, 0.0, d, pc.ao_radius);
     }
 }

@@ -1,14 +1,16 @@
 // render.resolve: turns any-hit results of render.raygen's rays into visibility
-// for one band of the partition's pixels: sun visibility (0 or 1), the
-// unoccluded fraction of the AO rays, the distance to the shadow ray's
-// blocker (the any-hit t, at most 65000 to stay finite in half float; 0 when
-// nothing was hit), and 1 when the shadow ray hit a blocker, else 0 (the
-// penumbra-aware filter averages the distance over those), packed into one
-// R32_UINT texel (render_visibility.glsl). Written at the pixel's
-// full-image position.
-// A shadow ray with tmax < 0 is render.raygen's mark for a surface facing away
-// from the sun: in shadow (0), though tracing it is a miss.
-// Push: { uint x0; uint width; uint height; uint ao_samples; uint y0; uint pad[3]; }.
+// for one band of the partition's pixels: the fraction of the shadow rays
+// that reach the sun, the unoccluded fraction of the AO rays, the mean
+// distance to the shadow rays' blockers (the any-hit t, each at most 65000 to
+// stay finite in half float; 0 when nothing was hit), and 1 when a shadow ray
+// hit a blocker, else 0 (the penumbra-aware filter averages the distance over
+// those), packed into one R32_UINT texel (render_visibility.glsl). Written at
+// the pixel's full-image position.
+// A shadow ray with tmax < 0 is render.raygen's mark for a direction below
+// the surface (it faces away from that point of the sun): in shadow, though
+// tracing it is a miss.
+// Push: { uint x0; uint width; uint height; uint ao_samples; uint y0;
+//         uint shadow_samples (1, 2, 4, 8, 16 or 32); uint pad[2]; }.
 // b0: cv_hit[] (20 bytes: t, u, v, triangle, instance), b1: the cv_ray[] they
 // answer (32 bytes: origin, tmin, dir, tmax), i2: visibility (R32_UINT, render_visibility.glsl).
 #version 460
@@ -30,7 +32,7 @@ layout(push_constant, std430) uniform Push {
     uint height;
     uint ao_samples;
     uint y0;
-    uint pad0;
+    uint shadow_samples;
     uint pad1;
     uint pad2;
 } pc;
@@ -50,14 +52,24 @@ void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
     if (local.x >= pc.width || local.y >= pc.height)
         return;
-    uint first = (local.y * pc.width + local.x) * (pc.ao_samples + 1u);
-    bool sun_below = rays[first].tmax < 0.0;
-    bool blocked = !sun_below && hits[first].triangle != 0xFFFFFFFFu;
-    float sun = !sun_below && !blocked ? 1.0 : 0.0;
+    uint first = (local.y * pc.width + local.x) * (pc.shadow_samples + pc.ao_samples);
+    uint lit = 0u;
+    float blockers = 0.0, blocker_sum = 0.0;
+    for (uint k = 0u; k < pc.shadow_samples; k++) {
+        if (rays[first + k].tmax < 0.0)
+            continue;
+        if (hits[first + k].triangle == 0xFFFFFFFFu) {
+            lit++;
+        } else {
+            blockers += 1.0;
+            blocker_sum += min(hits[first + k].t, 65000.0);
+        }
+    }
     float open = 0.0;
+    uint ao_first = first + pc.shadow_samples;
     for (uint k = 0u; k < pc.ao_samples; k++)
-        open += hits[first + 1u + k].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
+        open += hits[ao_first + k].triangle == 0xFFFFFFFFu ? 1.0 : 0.0;
     float ao = pc.ao_samples > 0u ? open / float(pc.ao_samples) : 1.0;
-    vec2 blocker = blocked ? vec2(min(hits[first].t, 65000.0), 1.0) : vec2(0.0);
-    imageStore(visibility, ivec2(local.x + pc.x0, local.y + pc.y0), uvec4(visibility_encode(sun, ao, blocker.x, blocker.y)));
+    vec2 blocker = blockers > 0.0 ? vec2(blocker_sum / blockers, 1.0) : vec2(0.0);
+    imageStore(visibility, ivec2(local.x + pc.x0, local.y + pc.y0), uvec4(visibility_encode(lit * (32u / pc.shadow_samples), ao, blocker.x, blocker.y)));
 }

@@ -84,6 +84,9 @@ cv_result cv_render_settings_check(const cv_render_settings *s) {
         return cv_error(CV_ERROR_OUT_OF_RANGE,
                         "renderer: sun cone half angle %g degrees is outside [0, 90) (negative = hard shadows)",
                         s->sun_cone_degrees);
+    if (s->shadow_samples > 32 || (s->shadow_samples & (s->shadow_samples - 1)) != 0)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %u shadow samples: not 1, 2, 4, 8, 16 or 32",
+                        s->shadow_samples);
     if (!isfinite(s->orbit_degrees))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: orbit %g degrees per frame: not a finite number",
                         s->orbit_degrees);

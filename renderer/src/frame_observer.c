@@ -20,7 +20,7 @@ void render_observe_frame(const render_frame_report *rep) {
     for (uint32_t d = 0; d < rep->device_count && d < CV_MAX_DEVICES; d++) {
         info.device_labels[d] = cv_device_label(rep->devices[d]);
         info.columns[d] = rep->partition->ranges[d];
-        info.rays[d] = (uint64_t)info.columns[d].width * rep->height * (1 + s->ao_samples);
+        info.rays[d] = (uint64_t)info.columns[d].width * rep->height * cv_render_rays_per_pixel(s);
     }
     s->observer->frame(&info, s->observer->user);
 }

@@ -463,7 +463,7 @@ static uint64_t band_rays(const cv_renderer *r, const cv_render_settings *s) {
 
 /* Rows per band for a window `width` columns wide. */
 static uint32_t band_rows(const cv_renderer *r, const cv_render_settings *s, uint32_t width) {
-    uint64_t rows = band_rays(r, s) / ((uint64_t)width * (1 + s->ao_samples));
+    uint64_t rows = band_rays(r, s) / ((uint64_t)width * cv_render_rays_per_pixel(s));
     if (rows == 0)
         rows = 1;
     return rows < r->height ? (uint32_t)rows : r->height;
@@ -472,7 +472,7 @@ static uint32_t band_rows(const cv_renderer *r, const cv_render_settings *s, uin
 /* Rays the ray and hit buffers must hold for a band of any window of the
  * image: a band of a narrower window is never larger (at least a row). */
 static uint64_t band_capacity(const cv_renderer *r, const cv_render_settings *s) {
-    uint64_t per_pixel = 1 + s->ao_samples, row = (uint64_t)r->width * per_pixel;
+    uint64_t per_pixel = cv_render_rays_per_pixel(s), row = (uint64_t)r->width * per_pixel;
     uint64_t image = row * r->height, band = band_rays(r, s);
     return row > band ? row : band < image ? band : image;
 }
@@ -534,7 +534,7 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
     cv_column_range cols = { pc->x, pc->width };
     cv_buffer rays = cv_graph_buffer(pc, r->buf[BUF_RAYS]), hits = cv_graph_buffer(pc, r->buf[BUF_HITS]);
     cv_texture visibility = cv_graph_texture(pc, r->tex[TEX_VISIBILITY]);
-    uint32_t per_pixel = 1 + s->ao_samples;
+    uint32_t per_pixel = cv_render_rays_per_pixel(s);
     uint32_t rows = band_rows(r, s, cols.width);
     cv_binding gen[4] = { bind_texture(cv_graph_texture(pc, r->tex[TEX_POSITION])),
                           bind_texture(cv_graph_texture(pc, r->tex[TEX_NORMAL])), bind_buffer(rays),
@@ -548,7 +548,7 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
             float sun[4];
             uint32_t frame;
             float ao_radius, bias;
-            uint32_t y0;
+            uint32_t y0, shadow_samples;
         } raygen = { cols.x,
                      cols.width,
                      h,
@@ -558,10 +558,11 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
                      s->first_frame + r->frame,
                      s->ao_radius,
                      render_ray_offset(&r->data),
-                     y0 };
+                     y0,
+                     s->shadow_samples };
         struct {
-            uint32_t x0, width, height, ao_samples, y0, pad[3];
-        } resolve = { cols.x, cols.width, h, s->ao_samples, y0, { 0 } };
+            uint32_t x0, width, height, ao_samples, y0, shadow_samples, pad[2];
+        } resolve = { cols.x, cols.width, h, s->ao_samples, y0, s->shadow_samples, { 0 } };
         cv_cmd_dispatch(l, pc->queue,
                         &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_RAYGEN],
                                              .bindings = gen,
@@ -956,16 +957,23 @@ static int filtered_texture(uint32_t iterations) {
  * penumbra widths was best at 2 at 64x36 and 160x90, at 1 at 640x360 (the
  * room; docs/renderer-quality.md, "Filter reach from the pixel footprint");
  * the constant 1 / 1.5 / 1.75 / 2 / 3 measured from 64x36 to 640x360 and on
- * the glTF engine: 1.75 is within 0.0017 of the best at every size.
- * AO sigma: FILTER_AO_SIGMA x ao_radius^(2/3) x footprint^(1/3)
- * (render_filter.comp); 0.5 / 0.7 / 1 / 2 measured at 160x90, 320x180 and
- * 640x360 (docs/renderer-quality.md, "Filter reach from the pixel
- * footprint"): 0.7 is best or within 0.0002 of it at every size. */
+ * the glTF engine: 1.75 is within 0.0017 of the best at every size. With
+ * shadow_samples rays a frame the whole sigma (floors included) is divided
+ * by sqrt(shadow_samples), as the noise is: one frame of the glTF engine at
+ * 640x360, 2 / 4 / 8 rays, was best at 0.7 / 0.5 / 0.35 of the one-ray sigma
+ * (docs/renderer-quality.md, "AO: a local linear fit; shadow rays per
+ * pixel").
+ * AO sigma: FILTER_AO_SIGMA x sqrt(4 / ao_samples) x ao_radius^(2/3) x
+ * footprint^(1/3) (render_filter.comp). The AO's estimate is a local linear
+ * fit, not a weighted mean, which lets the kernel be wider than the mean's
+ * best (0.7 with 4 rays) without the mean's bias at creases: with the fit,
+ * 1 / 1.5 / 2 (x 0.7) measured on the room and the glTF engine at 640x360,
+ * and 1 and 16 rays a frame (docs/renderer-quality.md, same section). */
 #define FILTER_SIGMA_L 4.0f
 #define FILTER_SIGMA_L_SPATIAL 8.0f
 #define FILTER_CONVERGED_STD 0.02f
 #define FILTER_PENUMBRA_SIGMA 1.75f
-#define FILTER_AO_SIGMA 0.7f
+#define FILTER_AO_SIGMA 1.05f
 /* The penumbra's width per unit of blocker distance: 2 tan(cone). */
 static float penumbra_scale(const cv_renderer *r) {
     return 2.0f * tanf(r->settings.sun_cone_degrees * 3.14159265f / 180.0f);
@@ -981,6 +989,7 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
             uint32_t flags;
             float penumbra_scale, sigma_l_spatial, pixel_angle, ao_sigma_scale;
             float eye[4];
+            float shadow_sigma_scale;
         } push = { r->width,
                    r->height,
                    1u << i,
@@ -992,8 +1001,10 @@ static void record_filter(cv_renderer *r, uint32_t iterations, uint32_t frames, 
                    penumbra_scale(r),
                    FILTER_SIGMA_L_SPATIAL,
                    pixel_angle(r),
-                   FILTER_AO_SIGMA * cbrtf(r->settings.ao_radius * r->settings.ao_radius),
-                   { r->camera.position[0], r->camera.position[1], r->camera.position[2], FILTER_PENUMBRA_SIGMA } };
+                   FILTER_AO_SIGMA * sqrtf(4.0f / (float)r->settings.ao_samples) *
+                       cbrtf(r->settings.ao_radius * r->settings.ao_radius),
+                   { r->camera.position[0], r->camera.position[1], r->camera.position[2], FILTER_PENUMBRA_SIGMA },
+                   1.0f / sqrtf((float)r->settings.shadow_samples) };
         /* A still camera's history length is `frames` everywhere: no motion texture. */
         cv_binding b[7] = { bind_texture(r->textures[TEX_POSITION]),
                             bind_texture(r->textures[TEX_NORMAL]),
@@ -1060,6 +1071,8 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
         s.frames = 4;
     if (!s.ao_samples)
         s.ao_samples = 4;
+    if (!s.shadow_samples)
+        s.shadow_samples = 1;
     if (s.ao_radius <= 0.0f) {
         float lo[3], hi[3];
         cv_scene_bounds(scene, lo, hi);
@@ -1466,7 +1479,7 @@ static void add_frame_timings(const cv_renderer *r, cv_render_stats *st, const c
             double ms = t->ms > 0.0 ? t->ms : frame_wall; /* no GPU timing: the frame's wall time */
             st->devices[t->device] = (cv_render_device_stats){ .columns = cols,
                                                                .rays = (uint64_t)cols.width * r->height *
-                                                                       (1 + s->ao_samples),
+                                                                       cv_render_rays_per_pixel(s),
                                                                .trace_ms = ms,
                                                                .ms_per_column = ms / cols.width };
         }
@@ -1748,12 +1761,12 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
             render_observe_frame(&(render_frame_report){ r->devices, r->count, &part, &s, f, r->height, submitted,
                                                          frame_wall, timings, n, 64 });
         for (uint32_t d = 0; d < r->count && res == CV_OK; d++)
-            st.rays_total += (uint64_t)part.ranges[d].width * r->height * (1 + s.ao_samples);
+            st.rays_total += (uint64_t)part.ranges[d].width * r->height * cv_render_rays_per_pixel(&s);
         if (res == CV_OK && r->graph_reflect)
             st.reflection_rays += 2 * reflect_traced_pixels(r, &s, s.first_frame + f);
         if (res == CV_OK && r->alpha_mask) /* the rounds run over every ray slot of every band */
             st.alpha_rays += (uint64_t)r->width * r->height *
-                             ((1 + s.ao_samples) * alpha_retraces(true) +
+                             (cv_render_rays_per_pixel(&s) * alpha_retraces(true) +
                               (r->graph_reflect ? alpha_retraces(false) + alpha_retraces(true) : 0));
         if (res == CV_OK && progress)
             progress(f + 1, s.frames, user);

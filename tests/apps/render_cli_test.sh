@@ -26,6 +26,12 @@ for layer in albedo.R normal.X depth.Z shadow.Y ao.Y direct.R direct.G direct.B;
   check "EXR has $layer" grep -q "$layer" "$tmp/a/frame.exr"
 done
 check "reports both devices" grep -q "gpu1: columns" "$tmp/out.txt"
+check "reports its rays" grep -q "1 shadow + 2 AO rays/pixel/frame" "$tmp/out.txt"
+# --shadow-samples: several shadow rays a pixel, said in the summary.
+"$render" --gpus 2 --adapters llvmpipe --size 64x32 --frames 1 --ao-samples 1 --shadow-samples=4 \
+  --out "$tmp/ss/frame" > "$tmp/out.txt" 2> "$tmp/err.txt"
+check "--shadow-samples 4 renders" test $? -eq 0 -a -s "$tmp/ss/frame.exr"
+check "--shadow-samples 4 reported" grep -q "4 shadow + 1 AO rays/pixel/frame" "$tmp/out.txt"
 
 # --dump-graph: the frame's render graph as text (and FILE.dot), naming the
 # passes and, on 2 devices, the G-buffer multicast and the visibility copy-back.
@@ -173,6 +179,9 @@ refused "size with a sign" "--size: '-8x8' is not WxH" --size=-8x8
 refused "size 0" "--size: '0x10' is not WxH" --size 0x10
 refused "AO samples 0" "--ao-samples: '0' is not a whole number in 1..32" --ao-samples 0
 refused "AO samples 33" "--ao-samples: '33' is not a whole number in 1..32" --ao-samples=33
+refused "shadow samples 3" "--shadow-samples: '3' is not one of 1, 2, 4, 8, 16, 32" --shadow-samples 3
+refused "shadow samples 64" "--shadow-samples: '64' is not one of 1, 2, 4, 8, 16, 32" --shadow-samples=64
+refused "shadow samples 0" "--shadow-samples: '0' is not one of 1, 2, 4, 8, 16, 32" --shadow-samples 0
 refused "frames over the limit" "--frames: '5000' is not a whole number in 1..4096" --frames 5000
 refused "filter over 8" "--filter: '9' is not a whole number in 0..8" --filter 9
 refused "negative seed" "--seed: '-1' is not a whole number in 0..4294967295" --seed -1
@@ -236,6 +245,7 @@ check "help lists --gpus" grep -q -- "--gpus" "$tmp/help.txt"
 check "help lists --dump-graph" grep -q -- "--dump-graph" "$tmp/help.txt"
 check "help lists --stats and --trace" grep -q -- "--stats FILE.*--trace FILE" <(tr -d '\n' < "$tmp/help.txt")
 check "help says what --ao-samples 0 does" grep -q "0 is refused" "$tmp/help.txt"
+check "help lists --shadow-samples" grep -q -- "--shadow-samples N" "$tmp/help.txt"
 
 echo "render_cli: $pass passed, $fail failed"
 test "$fail" -eq 0

@@ -431,7 +431,7 @@ static void check_room_orbit(const cv_test_gpus *g, const cv_scene *scene, const
 /* cv_render_stats.reflection_rays: a reflection ray and its shadow ray per
  * traced pixel per frame, counted here pixel by pixel (at half resolution the
  * pixels whose 2x2 quad slot (x & 1) + 2 (y & 1) is the frame's sample index
- * mod 4); not in rays_total, which stays (1 + ao_samples) rays per pixel per
+ * mod 4); not in rays_total, which stays (shadow_samples + ao_samples) rays per pixel per
  * frame; 0 with reflections off. */
 static void check_stats(const cv_test_gpus *g, const cv_scene *scene, const cv_bvh *bvh) {
     enum { SW = 33, SH = 17 }; /* odd sizes: quads cut at the edges */

@@ -6,7 +6,9 @@
  *  - the rasterized G-buffer is the visible surface: a CPU ray from the camera
  *    toward each G-buffer position hits the scene at that position;
  *  - hard-shadow visibility equals CPU any-hit traversal from the G-buffer;
- *  - AO and radiance are in range; bad settings are refused. */
+ *  - AO and radiance are in range; bad settings are refused;
+ *  - soft shadows with 4 shadow rays a pixel are bit-identical on 1 and 3
+ *    devices, and counted as 4 rays. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -179,11 +181,36 @@ int main(void) {
     cv_render_output_free(&orbit1);
     cv_render_output_free(&orbit4);
 
+    /* Soft shadows with 4 shadow rays a pixel, filtered: 3 devices give 1's
+     * image bit for bit, and the stats count 4 + 2 rays a pixel a frame. */
+    cv_render_settings soft = settings();
+    soft.sun_cone_degrees = 1.5f, soft.shadow_samples = 4, soft.filter_iterations = 0;
+    cv_render_output soft1 = { 0 }, soft3 = { 0 };
+    CHECK_OK(cv_test_render(1, scene, bvh, &soft, &soft1, &stats));
+    CHECK_EQ_INT(stats.rays_total, (uint64_t)W * H * soft.frames * (4 + 2));
+    CHECK_OK(cv_test_render(3, scene, bvh, &soft, &soft3, &stats));
+    if (soft1.radiance && soft3.radiance) {
+        CHECK(memcmp(soft1.radiance, soft3.radiance, bytes) == 0);
+        CHECK(memcmp(soft1.visibility, soft3.visibility, bytes) == 0);
+    }
+    cv_render_output_free(&soft1);
+    cv_render_output_free(&soft3);
+
     cv_render_settings bad = settings();
     bad.ao_samples = 33;
     cv_render_output none = { 0 };
     CHECK_RESULT(cv_test_render(1, scene, bvh, &bad, &none, NULL), CV_ERROR_OUT_OF_RANGE);
     CHECK(none.radiance == NULL);
+    /* shadow_samples: a power of two up to 32 (the visibility texel holds the
+     * sun's fraction in 32nds), refused by both renderers, naming the field. */
+    for (uint32_t k = 0; k < 3; k++) {
+        bad = settings();
+        bad.shadow_samples = (uint32_t[]){ 3, 12, 64 }[k];
+        CHECK_RESULT(cv_test_render(1, scene, bvh, &bad, &none, NULL), CV_ERROR_OUT_OF_RANGE);
+        CHECK(strstr(cv_last_error(), "shadow samples") != NULL);
+        CHECK_RESULT(cv_render_reference(scene, bvh, &bad, 1, 1, &none), CV_ERROR_OUT_OF_RANGE);
+        CHECK(none.radiance == NULL);
+    }
     CHECK_RESULT(cv_renderer_create(NULL, 0, scene, bvh, &(cv_renderer *){ NULL }), CV_ERROR_INVALID_ARGUMENT);
     CHECK_EQ_INT(cv_vulkan_validation_message_count(), 0);
     cv_bvh_destroy(bvh);

@@ -70,6 +70,7 @@ typedef struct cv_render_settings {
     uint32_t width, height;             /* [640x360] pixels */
     uint32_t frames;                    /* [4] frames accumulated (more = less noise) */
     uint32_t ao_samples;                /* [4] AO rays per pixel per frame (0..32) */
+    uint32_t shadow_samples;            /* [1] shadow rays per pixel per frame: 1, 2, 4, 8, 16 or 32 */
     float ao_radius;                    /* [2% of the scene diagonal] AO ray length, metres */
     float sun_cone_degrees;             /* [1.5] half angle of the sun's cone (soft shadows); < 0 = hard shadows */
     uint32_t camera;                    /* [0] scene camera index; a framing camera if the scene has none */
@@ -112,7 +113,7 @@ typedef struct cv_render_stats {
     uint32_t device_count;
     uint32_t frames;
     cv_render_device_stats devices[CV_MAX_DEVICES];
-    uint64_t rays_total; /* over all frames: shadow and AO rays, (1 + ao_samples) per pixel per frame */
+    uint64_t rays_total; /* over all frames: shadow and AO rays, (shadow_samples + ao_samples) per pixel per frame */
     /* Over all frames, not in rays_total: reflection rays and the shadow ray from each one's hit, two per
      * traced pixel per frame (every pixel; at reflection_scale 0.5 the pixels of the frame's slot of each
      * 2x2 quad). As rays_total, it counts every pixel's rays, sky pixels' and lost samples' included. */
@@ -199,7 +200,8 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
 
 /* Checks the view and light controls of `s`: finite numbers, camera_fov_degrees
  * 0 or in (0, 180) with camera_eye != camera_target, sun_toward not 0,0,0 when
- * set (any finite value is "set"), sun_cone_degrees below 90. The error names
+ * set (any finite value is "set"), sun_cone_degrees below 90, shadow_samples
+ * 0 (the default) or a power of two up to 32. The error names
  * the field and its value; cv_renderer_render and cv_render_reference check
  * the same. */
 cv_result cv_render_settings_check(const cv_render_settings *s);
@@ -210,6 +212,11 @@ cv_result cv_render_settings_check(const cv_render_settings *s);
  * vertical axis through its target. The CPU reference renders the camera of
  * first_frame + frames - 1, the frame cv_renderer_render's image shows. */
 cv_camera cv_render_camera(const cv_render_settings *s, const cv_scene *scene, uint32_t frame);
+
+/* Shadow and AO rays per pixel per frame of resolved settings. */
+static inline uint32_t cv_render_rays_per_pixel(const cv_render_settings *s) {
+    return s->shadow_samples + s->ao_samples;
+}
 
 /* The settings with defaults filled in for this scene. */
 cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene);
