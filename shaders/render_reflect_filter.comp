@@ -22,7 +22,9 @@
 // 2015, stochastic screen-space reflections), where E_p, the integral of
 // BRDF_p cos over the hemisphere (the mean sample weight G2 / G1, lost
 // samples 0), is computed without tracing from 16 stratified VNDF samples.
-// Lost samples of neighbours carry no radiance and are skipped. Mirrors
+// Lost samples of neighbours carry no radiance and are skipped. A frame of
+// n samples a pixel (reflection_samples, renderer.h) lends all n of every
+// neighbour, and a pixel's own estimate is its n samples' mean. Mirrors
 // (alpha < ALPHA_MIRROR) and radius 0 keep their own sample, G2 / G1 * L:
 // the estimator of the CPU reference.
 // Quarter rate (render.reflect_raygen traced one pixel per 2x2 quad; samples
@@ -46,10 +48,11 @@
 // Push: { uint width; uint height; uint frame (sample index, as
 //         render.reflect_raygen's); uint accumulated (frames before this one
 //         in the running mean); vec4 camera (xyz = eye, w = plane_sigma);
-//         int radius; uint material_count; uint quarter; uint moving_cap; }.
+//         int radius; uint material_count; uint quarter; uint moving_cap;
+//         uint samples (n); uint pad[3]; }.
 // i0: G-buffer positions, i1: G-buffer normals (w = material), i2: G-buffer
 // material (RGBA32F, w = roughness, textures included: render_gbuffer.frag),
-// i3: this frame's samples (RGBA16F, a = 1/hit distance: render.reflect_shade), i4: reconstruction history, i5: own
+// i3: this frame's samples (RGBA16F, a = 1/hit distance; n images, one above the other: render.reflect_shade), i4: reconstruction history, i5: own
 // history (RGBA32F: rgb = mean, a = mean squared luminance; read and
 // written), i6: output (RGBA32F: rgb = reflected radiance; a = the variance
 // of its luminance, from the running moments once a still camera has 8
@@ -72,6 +75,10 @@ layout(push_constant, std430) uniform Push {
     uint material_count;
     uint quarter;
     uint moving_cap;
+    uint samples;
+    uint pad0;
+    uint pad1;
+    uint pad2;
 } pc;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
@@ -95,6 +102,12 @@ const float NOT_TRACED = -2.0;
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 
 float roughness_of(ivec2 pixel) { return imageLoad(gbuffer_material, pixel).w; }
+
+// Where sample k of a pixel's n is (render.reflect_shade), and its point.
+ivec2 layer(ivec2 pixel, uint k) { return pixel + ivec2(0, int(k * pc.height)); }
+vec2 sample_point(ivec2 pixel, uint k) {
+    return reflect_sample_point(uvec2(pixel), pc.frame, pc.quarter != 0u, k, pc.samples);
+}
 
 // Frames f in [0, n) in which a pixel of quad slot q is traced.
 uint traced_before(uint n, uint q) { return pc.quarter != 0u ? (n + 3u - q) / 4u : n; }
@@ -127,17 +140,23 @@ void main() {
     vec3 ng = unpack_normal(pos.w), v = normalize(pc.camera.xyz - pos.xyz);
     float roughness = roughness_of(p), alpha = roughness * roughness;
 
-    // The pixel's own sample, if it was traced this frame.
-    vec4 own_sample = imageLoad(samples, p);
-    bool traced = own_sample.a != NOT_TRACED;
+    // The pixel's own samples, if it was traced this frame: their mean
+    // estimate (a lost sample counts 0) and mean inverse hit distance.
+    bool traced = imageLoad(samples, p).a != NOT_TRACED;
     vec3 own = vec3(0.0);
-    {
+    float inv_t_sum = 0.0, inv_t_count = 0.0;
+    for (uint k = 0u; k < pc.samples; k++) {
+        vec4 own_sample = imageLoad(samples, layer(p, k));
         vec3 l;
         float weight;
-        if (own_sample.a >= 0.0 &&
-            reflect_sample(v, nm.xyz, ng, roughness, reflect_sample_point(uvec2(p), pc.frame, pc.quarter != 0u), l, weight))
-            own = own_sample.rgb * weight;
+        if (own_sample.a >= 0.0) {
+            inv_t_sum += own_sample.a;
+            inv_t_count += 1.0;
+        }
+        if (own_sample.a >= 0.0 && reflect_sample(v, nm.xyz, ng, roughness, sample_point(p, k), l, weight))
+            own += own_sample.rgb * weight;
     }
+    own /= float(pc.samples);
 
     // Spatial reuse (also gathers the traced same-surface neighbours of a mirror at quarter rate).
     bool mirror = alpha < ALPHA_MIRROR, reuse = pc.radius > 0 && !mirror;
@@ -166,32 +185,34 @@ void main() {
             if (dot(nm.xyz, qnm.xyz) < 0.9 || abs(dot(nm.xyz, qpos.xyz - pos.xyz)) > pc.camera.w ||
                 abs(qrough - roughness) > 0.1 || (qalpha < ALPHA_MIRROR) != mirror)
                 continue;
-            vec4 s = imageLoad(samples, q);
-            if (s.a < 0.0) /* lost or not traced: no radiance to lend */
-                continue;
-            vec3 qv = normalize(pc.camera.xyz - qpos.xyz), lq;
-            float qweight;
-            if (!reflect_sample(qv, qnm.xyz, unpack_normal(qpos.w), qrough, reflect_sample_point(uvec2(q), pc.frame, pc.quarter != 0u),
-                                lq, qweight))
-                continue;
-            if (mirror) {
-                fill += s.rgb * qweight;
-                filled += 1.0;
-                continue;
-            }
-            if (q == p) {
-                sum += s.rgb * qweight;
-                total += qweight;
-                continue;
-            }
-            vec3 l = s.a == 0.0 ? lq : normalize(qpos.xyz + lq / s.a - pos.xyz);
-            if (dot(l, ng) <= 0.0)
-                continue;
-            float pdf = ggx_pdf(qv, qnm.xyz, lq, qalpha);
-            if (pdf > 0.0) {
-                float w = ggx_brdf_cos(v, nm.xyz, l, alpha) / pdf;
-                sum += s.rgb * w;
-                total += w;
+            vec3 qv = normalize(pc.camera.xyz - qpos.xyz), qng = unpack_normal(qpos.w);
+            for (uint k = 0u; k < pc.samples; k++) {
+                vec4 s = imageLoad(samples, layer(q, k));
+                if (s.a < 0.0) /* lost or not traced: no radiance to lend */
+                    continue;
+                vec3 lq;
+                float qweight;
+                if (!reflect_sample(qv, qnm.xyz, qng, qrough, sample_point(q, k), lq, qweight))
+                    continue;
+                if (mirror) {
+                    fill += s.rgb * qweight;
+                    filled += 1.0;
+                    continue;
+                }
+                if (q == p) {
+                    sum += s.rgb * qweight;
+                    total += qweight;
+                    continue;
+                }
+                vec3 l = s.a == 0.0 ? lq : normalize(qpos.xyz + lq / s.a - pos.xyz);
+                if (dot(l, ng) <= 0.0)
+                    continue;
+                float pdf = ggx_pdf(qv, qnm.xyz, lq, qalpha);
+                if (pdf > 0.0) {
+                    float w = ggx_brdf_cos(v, nm.xyz, l, alpha) / pdf;
+                    sum += s.rgb * w;
+                    total += w;
+                }
             }
         }
 
@@ -226,8 +247,8 @@ void main() {
         }
         imageStore(history, p, hr);
         float inv_t = kept ? st.z : -1.0;
-        if (own_sample.a >= 0.0) {
-            float x = own_sample.a;
+        if (inv_t_count > 0.0) {
+            float x = inv_t_sum / inv_t_count;
             inv_t = inv_t < 0.0 || exact ? x : inv_t + (x - inv_t) / float(n);
         }
         imageStore(state_out, p, vec4(float(n), float(own_n), inv_t, roughness));

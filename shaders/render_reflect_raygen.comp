@@ -1,6 +1,7 @@
 // render.reflect_raygen: one GGX reflection ray per pixel for one band of one
 // column partition of the G-buffer: columns [x0, x0 + width), rows [y0, y0 +
-// height), pixel-major (render_reflect_common.glsl draws the direction).
+// height), pixel-major (render_reflect_common.glsl draws the direction); the
+// ray of sample k of the frame's n (render_reflect_sample.glsl).
 // Pixels without geometry get empty rays (tmin 0, tmax 0: a miss nobody
 // reads); a lost sample (render_reflect_common.glsl) gets tmax -1, which
 // render.reflect_shade reads as radiance 0. At quarter rate (half resolution,
@@ -9,7 +10,8 @@
 // (tmin 1, tmax 0: rejected at the root). The origin is offset along the
 // geometric normal (the G-buffer position's w), as render.raygen's rays.
 // Push: { uint x0; uint width; uint height; uint y0; vec4 camera (xyz = eye,
-//         w = origin offset); uint frame; uint material_count; uint quarter; uint pad; }.
+//         w = origin offset); uint frame; uint material_count; uint quarter;
+//         uint samples (n); uint sample (k); uint pad[3]; }.
 // i0: G-buffer positions, i1: G-buffer normals (w = material), i2: G-buffer
 // material (RGBA32F, w = roughness, textures included: render_gbuffer.frag),
 // b3: cv_ray[] (written), b4: the blue-noise mask (render_blue_noise.glsl).
@@ -34,7 +36,11 @@ layout(push_constant, std430) uniform Push {
     uint frame;
     uint material_count;
     uint quarter;
-    uint pad;
+    uint samples;
+    uint sample_index;
+    uint pad0;
+    uint pad1;
+    uint pad2;
 } pc;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D gbuffer_position;
@@ -65,6 +71,6 @@ void main() {
     float roughness = imageLoad(gbuffer_material, ivec2(pixel)).w;
     vec3 v = normalize(pc.camera.xyz - p.xyz), l;
     float weight;
-    bool ok = reflect_sample(v, nm.xyz, ng, roughness, reflect_sample_point(pixel, pc.frame, pc.quarter != 0u), l, weight);
+    bool ok = reflect_sample(v, nm.xyz, ng, roughness, reflect_sample_point(pixel, pc.frame, pc.quarter != 0u, pc.sample_index, pc.samples), l, weight);
     rays[i] = Ray(p.xyz + ng * pc.camera.w, 0.0, l, ok ? 1e30 : -1.0);
 }

@@ -15,10 +15,13 @@
 // 2048 over the whole range, where t itself would overflow past 65504),
 // -1 where there is no sample: no geometry, or the sample was lost; -2 where
 // the pixel was not traced this frame (quarter rate); rgb 0 then.
-// Records are pixel-major over the band (width x height).
+// Records are pixel-major over the band (width x height). Sample k of a
+// frame's n is written at row k * height of the image below its pixel's
+// (the sample texture holds n images, one above the other).
 // Push: { uint x0; uint width; uint height; uint y0; vec4 sun (xyz = unit
 //         direction the light travels, w = irradiance); vec4 sun_color;
-//         vec4 sky (rgb radiance); uint material_count; uint pad[3]; }.
+//         vec4 sky (rgb radiance); uint material_count; uint row_offset (k *
+//         the image height); uint pad[2]; }.
 // i0: G-buffer positions, b1: reflection cv_ray[], b2: their cv_hit[],
 // b3: shadow cv_ray[] (render.reflect_shadow), b4: their cv_hit[], b5: Vertex[],
 // b6: uint instance_first[], b7: Material[], i8: reflection sample (RGBA16F, written),
@@ -41,7 +44,7 @@ layout(push_constant, std430) uniform Push {
     vec4 sun_color;
     vec4 sky;
     uint material_count;
-    uint pad0;
+    uint row_offset;
     uint pad1;
     uint pad2;
 } pc;
@@ -94,5 +97,5 @@ void main() {
             result = vec4(min(m.base_color * direct + m.emission, vec3(HALF_MAX)), 1.0 / max(h.t, 1.0 / HALF_MAX));
         }
     }
-    imageStore(sample_out, pixel, result);
+    imageStore(sample_out, pixel + ivec2(0, int(pc.row_offset)), result);
 }

@@ -87,6 +87,16 @@ cv_result cv_render_settings_check(const cv_render_settings *s) {
     if (s->shadow_samples > 32 || (s->shadow_samples & (s->shadow_samples - 1)) != 0)
         return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %u shadow samples: not 1, 2, 4, 8, 16 or 32",
                         s->shadow_samples);
+    if (s->reflection_samples > 8 || (s->reflection_samples & (s->reflection_samples - 1)) != 0)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %u reflection samples: not 1, 2, 4 or 8",
+                        s->reflection_samples);
+    /* render.reflect_shade's samples: reflection_samples images, one above the other, in one texture. */
+    if (s->reflections != -1 && s->height > CV_MAX_TEXTURE_DIM / (s->reflection_samples ? s->reflection_samples : 1))
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "renderer: %u reflection samples of a %u-row image need a sample texture of %llu rows "
+                        "(limit %u): use fewer reflection samples, a lower image or no reflections",
+                        s->reflection_samples, s->height, (unsigned long long)s->height * s->reflection_samples,
+                        CV_MAX_TEXTURE_DIM);
     if (!isfinite(s->orbit_degrees))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: orbit %g degrees per frame: not a finite number",
                         s->orbit_degrees);

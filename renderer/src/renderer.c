@@ -169,7 +169,8 @@ struct cv_renderer {
     cv_accel accel;
     bool alpha_mask; /* some material is alpha-masked: secondary rays follow the alpha-mask rule */
     cv_pipeline pipelines[PIPE_COUNT];
-    uint32_t width, height; /* of the textures below; 0 = none yet */
+    uint32_t width, height;  /* of the textures below; 0 = none yet */
+    uint32_t reflect_layers; /* images in TEX_REFLECT, one a reflection sample (reflection_samples) */
     cv_texture textures[TEX_COUNT];
     double upload_ms;
     /* The frame as a render graph (rebuilt when the size, the filter
@@ -343,7 +344,7 @@ static void destroy_targets(cv_renderer *r) {
     for (int t = 0; t < TEX_COUNT; t++)
         destroy_handle(r, r->textures[t].id);
     memset(r->textures, 0, sizeof(r->textures));
-    r->width = r->height = 0;
+    r->width = r->height = r->reflect_layers = 0;
 }
 
 void cv_renderer_destroy(cv_renderer *r) {
@@ -362,15 +363,18 @@ void cv_renderer_destroy(cv_renderer *r) {
     free(r);
 }
 
-static cv_result ensure_targets(cv_renderer *r, uint32_t width, uint32_t height) {
-    if (r->width == width && r->height == height)
+/* The textures for width x height images; the reflection samples' holds
+ * `layers` images, one above the other (render.reflect_shade). */
+static cv_result ensure_targets(cv_renderer *r, uint32_t width, uint32_t height, uint32_t layers) {
+    if (r->width == width && r->height == height && r->reflect_layers == layers)
         return CV_OK;
     destroy_targets(r);
     cv_result res = CV_OK;
     for (int t = 0; t < TEX_COUNT && res == CV_OK; t++) {
-        cv_texture_desc desc = {
-            .width = width, .height = height, .format = texture_info[t].format, .usage = texture_info[t].usage
-        };
+        cv_texture_desc desc = { .width = width,
+                                 .height = t == TEX_REFLECT ? height * layers : height,
+                                 .format = texture_info[t].format,
+                                 .usage = texture_info[t].usage };
         strncpy(desc.label, texture_info[t].label, sizeof(desc.label) - 1);
         res = cv_texture_create(r->ctx, &desc, &r->textures[t]);
         if (res == CV_OK)
@@ -380,6 +384,7 @@ static cv_result ensure_targets(cv_renderer *r, uint32_t width, uint32_t height)
     if (res == CV_OK) {
         r->width = width;
         r->height = height;
+        r->reflect_layers = layers;
     }
     return res;
 }
@@ -668,11 +673,12 @@ static uint64_t reflect_traced_pixels(const cv_renderer *r, const cv_render_sett
     return (uint64_t)((r->width - x0 + 1) / 2) * ((r->height - y0 + 1) / 2);
 }
 
-/* Pass 'reflect' (every device, its window): for each band of rows, one GGX
- * reflection ray per pixel (render.reflect_raygen), closest hit, a shadow ray
- * from each hit toward the sun (render.reflect_shadow), any hit, and the
- * radiance each reflection ray brings back (render.reflect_shade) into the
- * window of the reflection samples. */
+/* Pass 'reflect' (every device, its window): for each band of rows and each
+ * of the reflection_samples samples, one GGX reflection ray per pixel
+ * (render.reflect_raygen), closest hit, a shadow ray from each hit toward the
+ * sun (render.reflect_shadow), any hit, and the radiance each reflection ray
+ * brings back (render.reflect_shade) into the window of the sample's image
+ * of the reflection samples. */
 static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
     cv_renderer *r = user;
     const cv_render_settings *s = &r->settings;
@@ -694,7 +700,7 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
         struct {
             uint32_t x0, width, height, y0;
             float camera[4];
-            uint32_t frame, material_count, quarter, pad;
+            uint32_t frame, material_count, quarter, samples, sample, pad[3];
         } gen = { cols.x,
                   cols.width,
                   h,
@@ -703,7 +709,9 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
                   s->first_frame + r->frame,
                   r->data.material_count,
                   s->reflection_scale < 1.0f ? 1u : 0u,
-                  0 };
+                  s->reflection_samples,
+                  0,
+                  { 0, 0, 0 } };
         struct {
             uint32_t width, height;
             float bias;
@@ -717,7 +725,7 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
         struct {
             uint32_t x0, width, height, y0;
             float sun[4], sun_color[4], sky[4];
-            uint32_t material_count, pad[3];
+            uint32_t material_count, row_offset, pad[2];
         } shade = { cols.x,
                     cols.width,
                     h,
@@ -727,7 +735,8 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
                     { r->data.sun_color[0], r->data.sun_color[1], r->data.sun_color[2], 0.0f },
                     { 0.12f, 0.15f, 0.2f, 0.0f },
                     r->data.material_count,
-                    { 0, 0, 0 } };
+                    0,
+                    { 0, 0 } };
         cv_binding gen_b[5] = { positions, normals, bind_texture(cv_graph_texture(pc, r->tex[TEX_MATERIAL])),
                                 bind_buffer(rays), bind_buffer(cv_graph_buffer(pc, r->buf[BUF_BLUE_NOISE])) };
         cv_binding shadow_b[5] = { bind_buffer(rays), bind_buffer(hits), vertices, instances,
@@ -744,47 +753,51 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
                                    bind_buffer(cv_graph_buffer(pc, r->buf[BUF_UVS])),
                                    bind_buffer(cv_graph_buffer(pc, r->buf[BUF_IMAGE_TABLE])),
                                    bind_buffer(cv_graph_buffer(pc, r->buf[BUF_IMAGE_POOL])) };
-        cv_cmd_dispatch(l, pc->queue,
-                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_RAYGEN],
-                                             .bindings = gen_b,
-                                             .bindings_count = 5,
-                                             .push = &gen,
-                                             .push_size = sizeof(gen),
-                                             .groups_x = groups(cols.width, 8),
-                                             .groups_y = groups(h, 8),
-                                             .groups_z = 1 });
-        cv_cmd_trace_rays(l, pc->queue,
-                          &(cv_trace_rays_args){ .accel = r->accel, .rays = rays, .hits = hits, .count = count });
-        if (r->alpha_mask)
-            record_alpha_rounds(r, pc, l, rays, hits, cv_graph_buffer(pc, r->buf[BUF_REFLECT_ALPHA_HITS]), count,
-                                false);
-        cv_cmd_dispatch(l, pc->queue,
-                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADOW],
-                                             .bindings = shadow_b,
-                                             .bindings_count = 5,
-                                             .push = &shadow,
-                                             .push_size = sizeof(shadow),
-                                             .groups_x = groups(cols.width, 8),
-                                             .groups_y = groups(h, 8),
-                                             .groups_z = 1 });
-        cv_cmd_trace_rays(l, pc->queue,
-                          &(cv_trace_rays_args){ .accel = r->accel,
-                                                 .rays = shadow_rays,
-                                                 .hits = shadow_hits,
-                                                 .count = count,
-                                                 .flags = CV_TRACE_ANY_HIT });
-        if (r->alpha_mask)
-            record_alpha_rounds(r, pc, l, shadow_rays, shadow_hits,
-                                cv_graph_buffer(pc, r->buf[BUF_REFLECT_ALPHA_HITS]), count, true);
-        cv_cmd_dispatch(l, pc->queue,
-                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADE],
-                                             .bindings = shade_b,
-                                             .bindings_count = 12,
-                                             .push = &shade,
-                                             .push_size = sizeof(shade),
-                                             .groups_x = groups(cols.width, 8),
-                                             .groups_y = groups(h, 8),
-                                             .groups_z = 1 });
+        for (uint32_t k = 0; k < s->reflection_samples; k++) {
+            gen.sample = k;
+            shade.row_offset = k * r->height;
+            cv_cmd_dispatch(l, pc->queue,
+                            &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_RAYGEN],
+                                                 .bindings = gen_b,
+                                                 .bindings_count = 5,
+                                                 .push = &gen,
+                                                 .push_size = sizeof(gen),
+                                                 .groups_x = groups(cols.width, 8),
+                                                 .groups_y = groups(h, 8),
+                                                 .groups_z = 1 });
+            cv_cmd_trace_rays(l, pc->queue,
+                              &(cv_trace_rays_args){ .accel = r->accel, .rays = rays, .hits = hits, .count = count });
+            if (r->alpha_mask)
+                record_alpha_rounds(r, pc, l, rays, hits, cv_graph_buffer(pc, r->buf[BUF_REFLECT_ALPHA_HITS]), count,
+                                    false);
+            cv_cmd_dispatch(l, pc->queue,
+                            &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADOW],
+                                                 .bindings = shadow_b,
+                                                 .bindings_count = 5,
+                                                 .push = &shadow,
+                                                 .push_size = sizeof(shadow),
+                                                 .groups_x = groups(cols.width, 8),
+                                                 .groups_y = groups(h, 8),
+                                                 .groups_z = 1 });
+            cv_cmd_trace_rays(l, pc->queue,
+                              &(cv_trace_rays_args){ .accel = r->accel,
+                                                     .rays = shadow_rays,
+                                                     .hits = shadow_hits,
+                                                     .count = count,
+                                                     .flags = CV_TRACE_ANY_HIT });
+            if (r->alpha_mask)
+                record_alpha_rounds(r, pc, l, shadow_rays, shadow_hits,
+                                    cv_graph_buffer(pc, r->buf[BUF_REFLECT_ALPHA_HITS]), count, true);
+            cv_cmd_dispatch(l, pc->queue,
+                            &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADE],
+                                                 .bindings = shade_b,
+                                                 .bindings_count = 12,
+                                                 .push = &shade,
+                                                 .push_size = sizeof(shade),
+                                                 .groups_x = groups(cols.width, 8),
+                                                 .groups_y = groups(h, 8),
+                                                 .groups_z = 1 });
+        }
     }
 }
 
@@ -852,7 +865,7 @@ static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_li
         uint32_t width, height, frame, accumulated;
         float camera[4];
         int32_t radius;
-        uint32_t material_count, quarter, moving_cap;
+        uint32_t material_count, quarter, moving_cap, samples, pad[3];
     } push = { r->width,
                r->height,
                s->first_frame + r->frame,
@@ -862,7 +875,9 @@ static void record_reflect_filter(const cv_graph_pass_context *pc, cv_command_li
                s->reflection_scale < 1.0f ? s->reflection_radius + 1 : s->reflection_radius,
                r->data.material_count,
                s->reflection_scale < 1.0f ? 1u : 0u,
-               moving ? REFLECT_MAX_HISTORY : 0u };
+               moving ? REFLECT_MAX_HISTORY : 0u,
+               s->reflection_samples,
+               { 0, 0, 0 } };
     int tex[11] = { TEX_POSITION,
                     TEX_NORMAL,
                     TEX_MATERIAL,
@@ -1100,6 +1115,8 @@ cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, cons
         s.reflection_radius = 0;
     if (s.reflection_scale == 0.0f)
         s.reflection_scale = 1.0f;
+    if (!s.reflection_samples)
+        s.reflection_samples = 1;
     return s;
 }
 
@@ -1666,7 +1683,7 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     render_sun_direction(&s, r->data.sun_direction, r->sun_direction);
     r->settings = s;
     r->graph_frames = s.frames;
-    res = ensure_targets(r, s.width, s.height);
+    res = ensure_targets(r, s.width, s.height, s.reflections == 1 ? s.reflection_samples : 1);
     if (res == CV_OK)
         res = build_graph(r, (uint32_t)s.filter_iterations, band_capacity(r, &s));
     /* Several devices, a new graph: its first frame baked once before the
@@ -1763,11 +1780,12 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         for (uint32_t d = 0; d < r->count && res == CV_OK; d++)
             st.rays_total += (uint64_t)part.ranges[d].width * r->height * cv_render_rays_per_pixel(&s);
         if (res == CV_OK && r->graph_reflect)
-            st.reflection_rays += 2 * reflect_traced_pixels(r, &s, s.first_frame + f);
+            st.reflection_rays += 2 * reflect_traced_pixels(r, &s, s.first_frame + f) * s.reflection_samples;
         if (res == CV_OK && r->alpha_mask) /* the rounds run over every ray slot of every band */
-            st.alpha_rays += (uint64_t)r->width * r->height *
-                             (cv_render_rays_per_pixel(&s) * alpha_retraces(true) +
-                              (r->graph_reflect ? alpha_retraces(false) + alpha_retraces(true) : 0));
+            st.alpha_rays +=
+                (uint64_t)r->width * r->height *
+                (cv_render_rays_per_pixel(&s) * alpha_retraces(true) +
+                 (r->graph_reflect ? (alpha_retraces(false) + alpha_retraces(true)) * s.reflection_samples : 0));
         if (res == CV_OK && progress)
             progress(f + 1, s.frames, user);
     }

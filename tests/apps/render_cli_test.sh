@@ -32,6 +32,12 @@ check "reports its rays" grep -q "1 shadow + 2 AO rays/pixel/frame" "$tmp/out.tx
   --out "$tmp/ss/frame" > "$tmp/out.txt" 2> "$tmp/err.txt"
 check "--shadow-samples 4 renders" test $? -eq 0 -a -s "$tmp/ss/frame.exr"
 check "--shadow-samples 4 reported" grep -q "4 shadow + 1 AO rays/pixel/frame" "$tmp/out.txt"
+# --reflection-samples: several reflection rays a pixel, said in the summary
+# (64x32 pixels, 1 frame, 2 samples: 8192 rays with their shadow rays).
+"$render" --gpus 2 --adapters llvmpipe --size 64x32 --frames 1 --ao-samples 1 --reflection-samples 2 \
+  --out "$tmp/rs/frame" > "$tmp/out.txt" 2> "$tmp/err.txt"
+check "--reflection-samples 2 renders" test $? -eq 0 -a -s "$tmp/rs/frame.exr"
+check "--reflection-samples 2 reported" grep -q "reflections: 8192 rays with their shadow rays, 4 a traced pixel a frame" "$tmp/out.txt"
 
 # --dump-graph: the frame's render graph as text (and FILE.dot), naming the
 # passes and, on 2 devices, the G-buffer multicast and the visibility copy-back.
@@ -182,6 +188,10 @@ refused "AO samples 33" "--ao-samples: '33' is not a whole number in 1..32" --ao
 refused "shadow samples 3" "--shadow-samples: '3' is not one of 1, 2, 4, 8, 16, 32" --shadow-samples 3
 refused "shadow samples 64" "--shadow-samples: '64' is not one of 1, 2, 4, 8, 16, 32" --shadow-samples=64
 refused "shadow samples 0" "--shadow-samples: '0' is not one of 1, 2, 4, 8, 16, 32" --shadow-samples 0
+refused "reflection samples 3" "--reflection-samples: '3' is not one of 1, 2, 4, 8" --reflection-samples 3
+refused "reflection samples 16" "--reflection-samples: '16' is not one of 1, 2, 4, 8" --reflection-samples=16
+refused "reflection samples 0" "--reflection-samples: '0' is not one of 1, 2, 4, 8" --reflection-samples 0
+refused "reflection samples over the texture limit" "8 reflection samples of a 4096-row image" --size 16x4096 --reflection-samples 8
 refused "frames over the limit" "--frames: '5000' is not a whole number in 1..4096" --frames 5000
 refused "filter over 8" "--filter: '9' is not a whole number in 0..8" --filter 9
 refused "negative seed" "--seed: '-1' is not a whole number in 0..4294967295" --seed -1
@@ -246,6 +256,7 @@ check "help lists --dump-graph" grep -q -- "--dump-graph" "$tmp/help.txt"
 check "help lists --stats and --trace" grep -q -- "--stats FILE.*--trace FILE" <(tr -d '\n' < "$tmp/help.txt")
 check "help says what --ao-samples 0 does" grep -q "0 is refused" "$tmp/help.txt"
 check "help lists --shadow-samples" grep -q -- "--shadow-samples N" "$tmp/help.txt"
+check "help lists --reflection-samples" grep -q -- "--reflection-samples N" "$tmp/help.txt"
 
 echo "render_cli: $pass passed, $fail failed"
 test "$fail" -eq 0

@@ -18,8 +18,14 @@
  *    for pixels at an edge of the reflection; the room's reflection after 16
  *    orbit frames is nearer the reference at the last view than that frame
  *    alone;
- *  - cv_render_stats.reflection_rays is two rays per traced pixel per frame
- *    (full and half resolution, 1 and 2 devices), 0 with reflections off.
+ *  - cv_render_stats.reflection_rays is two rays per reflection sample per
+ *    traced pixel per frame (full and half resolution, 1 and 4 samples, 1
+ *    and 2 devices), 0 with reflections off;
+ *  - reflection_samples n: a pixel's own estimate after F frames of n
+ *    samples is the one after n F frames of 1 (the same Halton points); n
+ *    samples on 3 devices give one device's bytes; 4 samples bring one
+ *    denoised frame nearer the reference than 1; 3, 16 and a sample texture
+ *    over the size limit are refused.
  * All renders run on one set of 3 virtual GPUs (tests/support's cv_test_gpus):
  * the process creates 2 VkInstances (validation on, and a plain one for the
  * GPU table), not a pair per render. */
@@ -43,6 +49,10 @@
  * its last 4 traced samples: 88.20% and 0.1439). At full rate a mirror keeps
  * no history (its samples are exact): none may be off (the mean of 4 frames:
  * 15.2% and 0.0149). */
+/* Four reflection samples a pixel in one frame, denoised, room 96x54: RMSE
+ * against the reference below this share of one sample's (pooled over
+ * ONE_FRAME_RENDERS; measured 0.0594 against 0.0968, 0.61). */
+#define FOUR_SAMPLES_ONE_FRAME_GAIN 0.8
 /* The reflection denoise at one frame, room 96x54: its RMSE against the
  * reference below this share of the reconstruction's alone (measured, pooled
  * over ONE_FRAME_RENDERS: 0.0968 against 0.1179, 0.82; 640x360, one render against
@@ -349,22 +359,24 @@ static void check_room_against_reference(const cv_test_gpus *g, const cv_scene *
      * RMSE below DENOISE_ONE_FRAME_GAIN of the reconstruction's; 64 frames
      * (the temporal variance steers it): within the goal and not above the
      * reconstruction's RMSE by more than 5%. */
-    double one[2] = { 0 }, one_bias[2] = { 0 }, conv = 0, conv_bias = 0;
-    error_pool pools[2] = { { 0 } };
+    double one[3] = { 0 }, one_bias[3] = { 0 }, conv = 0, conv_bias = 0;
+    error_pool pools[3] = { { 0 } };
     s.reflection_radius = 0;
     s.reflection_scale = 1.0f;
     s.frames = 1;
     for (uint32_t r = 0; r < ONE_FRAME_RENDERS && ref.reflection; r++)
-        for (int denoised = 0; denoised < 2; denoised++) {
+        for (int mode = 0; mode < 3; mode++) { /* reconstruction; denoised; denoised, 4 samples */
             s.first_frame = r * 16;
-            s.filter_iterations = denoised ? 0 : -1;
+            s.filter_iterations = mode ? 0 : -1;
+            s.reflection_samples = mode == 2 ? 4 : 1;
             cv_render_output o = { 0 };
             CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &o, NULL));
             if (o.reflection)
-                pool_reflection(&pools[denoised], &o, &ref);
+                pool_reflection(&pools[mode], &o, &ref);
             cv_render_output_free(&o);
         }
-    for (int k = 0; k < 2; k++)
+    s.reflection_samples = 1;
+    for (int k = 0; k < 3; k++)
         pool_result(&pools[k], &one[k], &one_bias[k]);
     s.frames = 64;
     s.first_frame = 0;
@@ -378,10 +390,13 @@ static void check_room_against_reference(const cv_test_gpus *g, const cv_scene *
     }
     fprintf(stderr,
             "room %ux%u, reflection vs reference %u samples, 1 frame: reconstruction RMSE %.4f, bias %+.4f; "
-            "denoised RMSE %.4f, bias %+.4f; 64 frames denoised RMSE %.4f, bias %+.4f\n",
-            RW, RH, SAMPLES, one[0], one_bias[0], one[1], one_bias[1], conv, conv_bias);
+            "denoised RMSE %.4f, bias %+.4f; 4 samples denoised RMSE %.4f, bias %+.4f; 64 frames denoised RMSE "
+            "%.4f, bias %+.4f\n",
+            RW, RH, SAMPLES, one[0], one_bias[0], one[1], one_bias[1], one[2], one_bias[2], conv, conv_bias);
     CHECK(one[1] > 0.0 && one[1] < DENOISE_ONE_FRAME_GAIN * one[0]);
     CHECK(fabs(one_bias[1]) < 0.01);
+    CHECK(one[2] > 0.0 && one[2] < FOUR_SAMPLES_ONE_FRAME_GAIN * one[1]);
+    CHECK(fabs(one_bias[2]) < 0.01);
     CHECK(conv > 0.0 && conv < 0.03 && conv < 1.05 * rmse[1][1]);
     CHECK(fabs(conv_bias) < 0.01);
     cv_render_output_free(&ref);
@@ -429,7 +444,7 @@ static void check_room_orbit(const cv_test_gpus *g, const cv_scene *scene, const
 }
 
 /* cv_render_stats.reflection_rays: a reflection ray and its shadow ray per
- * traced pixel per frame, counted here pixel by pixel (at half resolution the
+ * reflection sample per traced pixel per frame, counted here pixel by pixel (at half resolution the
  * pixels whose 2x2 quad slot (x & 1) + 2 (y & 1) is the frame's sample index
  * mod 4); not in rays_total, which stays (shadow_samples + ao_samples) rays per pixel per
  * frame; 0 with reflections off. */
@@ -439,7 +454,9 @@ static void check_stats(const cv_test_gpus *g, const cv_scene *scene, const cv_b
         float scale;
         uint32_t first, frames, gpus;
         int32_t reflections;
-    } cases[] = { { 1.0f, 0, 3, 1, 0 }, { 0.5f, 2, 5, 2, 0 }, { 0.5f, 0, 4, 1, 0 }, { 1.0f, 0, 2, 1, -1 } };
+        uint32_t samples;
+    } cases[] = { { 1.0f, 0, 3, 1, 0, 1 },  { 0.5f, 2, 5, 2, 0, 1 }, { 0.5f, 0, 4, 1, 0, 1 },
+                  { 1.0f, 0, 2, 1, -1, 1 }, { 1.0f, 1, 2, 2, 0, 4 }, { 0.5f, 3, 3, 1, 0, 4 } };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         cv_render_settings s = { .width = SW,
                                  .height = SH,
@@ -447,7 +464,8 @@ static void check_stats(const cv_test_gpus *g, const cv_scene *scene, const cv_b
                                  .first_frame = cases[c].first,
                                  .ao_samples = 2,
                                  .reflections = cases[c].reflections,
-                                 .reflection_scale = cases[c].scale };
+                                 .reflection_scale = cases[c].scale,
+                                 .reflection_samples = cases[c].samples };
         cv_render_output o = { 0 };
         cv_render_stats st = { 0 };
         CHECK_OK(cv_test_gpus_render(g, cases[c].gpus, scene, bvh, &s, &o, &st));
@@ -456,11 +474,13 @@ static void check_stats(const cv_test_gpus *g, const cv_scene *scene, const cv_b
             for (uint32_t y = 0; y < SH; y++)
                 for (uint32_t x = 0; x < SW; x++)
                     if (cases[c].scale == 1.0f || (x & 1) + 2 * (y & 1) == f % 4)
-                        want += 2;
+                        want += 2 * cases[c].samples;
         fprintf(stderr,
-                "stats %ux%u, scale %.1f, frames %u..%u, %u device(s): %llu reflection rays (expected %llu)\n", SW,
-                SH, (double)cases[c].scale, cases[c].first, cases[c].first + cases[c].frames - 1, cases[c].gpus,
-                (unsigned long long)st.reflection_rays, (unsigned long long)want);
+                "stats %ux%u, scale %.1f, %u sample(s), frames %u..%u, %u device(s): %llu reflection rays (expected "
+                "%llu)\n",
+                SW, SH, (double)cases[c].scale, cases[c].samples, cases[c].first,
+                cases[c].first + cases[c].frames - 1, cases[c].gpus, (unsigned long long)st.reflection_rays,
+                (unsigned long long)want);
         CHECK_EQ_INT(st.reflection_rays, want);
         CHECK_EQ_INT(st.rays_total, (uint64_t)SW * SH * 3 * cases[c].frames);
         cv_render_output_free(&o);
@@ -508,6 +528,62 @@ static void check_multi_device(const cv_test_gpus *g, const cv_scene *scene, con
     }
     cv_render_output_free(&one);
     cv_render_output_free(&three);
+    /* Two reflection samples a pixel (the sample texture two images tall, copied back by columns). */
+    s = (cv_render_settings){ .width = DW, .height = DH, .frames = 2, .tile = 8, .reflection_samples = 2 };
+    CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &one, NULL));
+    CHECK_OK(cv_test_gpus_render(g, 3, scene, bvh, &s, &three, NULL));
+    if (one.reflection && three.reflection) {
+        CHECK(memcmp(one.reflection, three.reflection, bytes) == 0);
+        CHECK(memcmp(one.radiance, three.radiance, bytes) == 0);
+    }
+    cv_render_output_free(&one);
+    cv_render_output_free(&three);
+}
+
+/* reflection_samples n draws, in frame f, the Halton points n f + 1 .. n f + n
+ * (render_reflect_sample.glsl): without reuse (radius 0) and denoise, a
+ * pixel's reflection after F frames of n samples is its own mean of the
+ * points 1 .. n F, as after n F frames of one sample (the running means add
+ * the same values in other groupings: equal within float rounding, 1e-5
+ * relative). A wrong layer, point or mean would differ by the noise (about
+ * 0.1 here). */
+static void check_samples_sequence(const cv_test_gpus *g, const cv_scene *scene, const cv_bvh *bvh) {
+    enum { QW = 64, QH = 36 };
+    static const uint32_t samples[2] = { 2, 4 };
+    cv_render_settings s = { .width = QW, .height = QH, .reflection_radius = -1, .filter_iterations = -1 };
+    for (int c = 0; c < 2; c++) {
+        cv_render_output many = { 0 }, one = { 0 };
+        s.reflection_samples = samples[c];
+        s.frames = 2;
+        CHECK_OK(cv_test_gpus_render(g, c + 1, scene, bvh, &s, &many, NULL));
+        s.reflection_samples = 1;
+        s.frames = 2 * samples[c];
+        CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &one, NULL));
+        double worst = 0.0, differ = 0.0, lit = 0.0;
+        if (many.reflection && one.reflection) {
+            cv_render_output single = { 0 };
+            s.frames = 2;
+            CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &single, NULL));
+            for (uint32_t i = 0; single.reflection && i < QW * QH * 4; i++) {
+                if ((i & 3) == 3)
+                    continue;
+                double a = many.reflection[i], b = one.reflection[i];
+                worst = fmax(worst, fabs(a - b) / fmax(fabs(b), 1e-3));
+                differ = fmax(differ, fabs(b - single.reflection[i]));
+                lit += b;
+            }
+            cv_render_output_free(&single);
+        }
+        fprintf(stderr,
+                "room %ux%u, %u reflection samples x 2 frames vs 1 x %u frames (own samples): worst relative "
+                "difference %.2e; 1 x 2 frames differs by up to %.3f\n",
+                QW, QH, samples[c], 2 * samples[c], worst, differ);
+        CHECK(lit > 0.0);
+        CHECK(worst < 1e-5);
+        CHECK(differ > 0.05); /* the comparison can tell sample sets apart */
+        cv_render_output_free(&many);
+        cv_render_output_free(&one);
+    }
 }
 
 static void check_settings(const cv_test_gpus *g, const cv_scene *scene, const cv_bvh *bvh) {
@@ -531,6 +607,31 @@ static void check_settings(const cv_test_gpus *g, const cv_scene *scene, const c
     CHECK(strstr(cv_last_error(), "reflection scale 0.7") != NULL);
     CHECK(o.radiance == NULL);
     s.reflection_scale = 0.0f;
+    static const uint32_t bad_samples[2] = { 3, 16 };
+    for (int k = 0; k < 2; k++) {
+        char want[64];
+        snprintf(want, sizeof want, "%u reflection samples: not 1, 2, 4 or 8", bad_samples[k]);
+        s.reflection_samples = bad_samples[k];
+        CHECK_EQ_INT(cv_test_gpus_render(g, 1, scene, bvh, &s, &o, NULL), CV_ERROR_OUT_OF_RANGE);
+        CHECK(strstr(cv_last_error(), want) != NULL);
+        CHECK(o.radiance == NULL);
+        CHECK_EQ_INT(cv_render_reference(scene, bvh, &s, 1, 1, &o), CV_ERROR_OUT_OF_RANGE);
+        CHECK(strstr(cv_last_error(), want) != NULL);
+        CHECK(o.radiance == NULL);
+    }
+    /* 8 samples of 2049 rows: a sample texture of 16392 rows, over the limit (nothing is allocated). */
+    s.width = 4;
+    s.height = 2049;
+    s.reflection_samples = 8;
+    CHECK_EQ_INT(cv_test_gpus_render(g, 1, scene, bvh, &s, &o, NULL), CV_ERROR_OUT_OF_RANGE);
+    CHECK(strstr(cv_last_error(), "8 reflection samples of a 2049-row image") != NULL);
+    CHECK(o.radiance == NULL);
+    s.reflections = -1; /* no reflections: no sample texture, no limit */
+    s.frames = 1;
+    CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &o, NULL));
+    CHECK(o.radiance != NULL && o.reflection == NULL);
+    cv_render_output_free(&o);
+    s = (cv_render_settings){ .width = 64, .height = 36, .frames = 1 };
     s.reflection_radius = 0;
     s.reflections = 3;
     CHECK_EQ_INT(cv_render_reference(scene, bvh, &s, 1, 1, &o), CV_ERROR_OUT_OF_RANGE);
@@ -559,6 +660,7 @@ int main(void) {
         check_settings(&g, scene, bvh);
         check_stats(&g, scene, bvh);
         check_multi_device(&g, scene, bvh);
+        check_samples_sequence(&g, scene, bvh);
         check_room_against_reference(&g, scene, bvh);
         check_room_orbit(&g, scene, bvh);
     }

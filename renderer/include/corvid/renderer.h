@@ -84,21 +84,24 @@ typedef struct cv_render_settings {
     const cv_render_observer *observer; /* [NULL] called after every frame with its timings
                                          * (corvid/render_observer.h); NULL = none */
     /* View and light controls (corvid-render --camera, --sun, --orbit); zeros keep the scene's. */
-    float camera_eye[3];       /* with camera_fov_degrees > 0, the camera at camera_eye looks at */
-    float camera_target[3];    /* camera_target, up +y (+z when it looks straight up or down) */
-    float camera_fov_degrees;  /* [0 = the scene's camera, `camera`] vertical field of view, (0, 180) */
-    float sun_toward[3];       /* [0,0,0 = the scene's sun] direction toward the sun, any length > 0;
+    float camera_eye[3];         /* with camera_fov_degrees > 0, the camera at camera_eye looks at */
+    float camera_target[3];      /* camera_target, up +y (+z when it looks straight up or down) */
+    float camera_fov_degrees;    /* [0 = the scene's camera, `camera`] vertical field of view, (0, 180) */
+    float sun_toward[3];         /* [0,0,0 = the scene's sun] direction toward the sun, any length > 0;
                                * its cone is sun_cone_degrees */
-    float orbit_degrees;       /* [0] the camera turns by this much per frame (sample index) about the
+    float orbit_degrees;         /* [0] the camera turns by this much per frame (sample index) about the
                                * vertical axis (its up) through its target: a moving camera, whose
                                * G-buffer runs every frame and whose history is reprojected */
-    int32_t reflections;       /* [1] 1 = GGX reflections (one ray per pixel per frame, shaded with the
+    int32_t reflections;         /* [1] 1 = GGX reflections (one ray per pixel per frame, shaded with the
                                  * sun, a shadow ray and the sky), -1 = none (no specular term) */
-    int32_t reflection_radius; /* [1] spatial reuse radius of the reflection filter, pixels (0..8);
+    int32_t reflection_radius;   /* [1] spatial reuse radius of the reflection filter, pixels (0..8);
                                  * -1 = none (every pixel keeps its own samples) */
-    float reflection_scale;    /* [1] reflection rays per pixel side: 1, or 0.5 = half resolution (one
+    float reflection_scale;      /* [1] reflection rays per pixel side: 1, or 0.5 = half resolution (one
                                  * ray per 2x2 quad per frame, the quad's pixels in turn; the filter
                                  * fills the others, its reuse radius one pixel wider) */
+    uint32_t reflection_samples; /* [1] reflection rays per traced pixel per frame: 1, 2, 4 or 8 (each
+                                  * with its shadow ray; the filter reuses all of them); the image
+                                  * height times this is at most CV_MAX_TEXTURE_DIM */
 } cv_render_settings;
 
 /* Per-device figures of the last frame. */
@@ -115,8 +118,8 @@ typedef struct cv_render_stats {
     cv_render_device_stats devices[CV_MAX_DEVICES];
     uint64_t rays_total; /* over all frames: shadow and AO rays, (shadow_samples + ao_samples) per pixel per frame */
     /* Over all frames, not in rays_total: reflection rays and the shadow ray from each one's hit, two per
-     * traced pixel per frame (every pixel; at reflection_scale 0.5 the pixels of the frame's slot of each
-     * 2x2 quad). As rays_total, it counts every pixel's rays, sky pixels' and lost samples' included. */
+     * reflection sample per traced pixel per frame (every pixel; at reflection_scale 0.5 the pixels of the
+     * frame's slot of each 2x2 quad). As rays_total, it counts every pixel's rays, sky pixels' and lost samples' included. */
     uint64_t reflection_rays;
     /* Over all frames: ray slots of the alpha-mask re-traces (renderer.h's rule), every ray of a band
      * per round, retired or not; 0 for a scene without alpha-masked materials (no round runs). */
@@ -201,7 +204,9 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
 /* Checks the view and light controls of `s`: finite numbers, camera_fov_degrees
  * 0 or in (0, 180) with camera_eye != camera_target, sun_toward not 0,0,0 when
  * set (any finite value is "set"), sun_cone_degrees below 90, shadow_samples
- * 0 (the default) or a power of two up to 32. The error names
+ * 0 (the default) or a power of two up to 32, reflection_samples 0 (the
+ * default) or a power of two up to 8 and, with reflections on, height times
+ * reflection_samples at most CV_MAX_TEXTURE_DIM. The error names
  * the field and its value; cv_renderer_render and cv_render_reference check
  * the same. */
 cv_result cv_render_settings_check(const cv_render_settings *s);
