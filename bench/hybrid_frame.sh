@@ -6,13 +6,16 @@
 # with --stats (each frame waits so that its GPU pass times are read: the
 # per-pass figures). Prints both and the mean GPU ms of every pass per frame
 # (python3 reads the stats JSON; without it the JSON is left in OUT_DIR).
-#   bench/hybrid_frame.sh BIN_DIR ADAPTER [WxH] [FRAMES] [AO] [REFLECTION_SCALE] [OUT_DIR]
+# REFLECTION_SAMPLES (default 1) is --reflection-samples; OUT_DIR may be "" to
+# keep nothing.
+#   bench/hybrid_frame.sh BIN_DIR ADAPTER [WxH] [FRAMES] [AO] [REFLECTION_SCALE] [OUT_DIR] [REFLECTION_SAMPLES]
 set -u
-bin=$1 adapter=$2 size=${3:-1920x1080} frames=${4:-64} ao=${5:-1} scale=${6:-0.5} keep=${7:-}
+bin=$1 adapter=$2 size=${3:-1920x1080} frames=${4:-64} ao=${5:-1} scale=${6:-0.5} keep=${7:-} rs=${8:-1}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 common=(--adapters "$adapter" --gpus 1 --size "$size" --frames "$frames" --ao-samples "$ao" --reflection-scale "$scale")
-echo "corvid-render $size, $frames frames, $ao AO ray(s)/pixel, reflections at scale $scale, adapter $adapter"
+[ "$rs" != 1 ] && common+=(--reflection-samples "$rs")
+echo "corvid-render $size, $frames frames, $ao AO ray(s)/pixel, reflections at scale $scale x $rs sample(s), adapter $adapter"
 "$bin/corvid-render" "${common[@]}" --out "$out/pipelined" 2>&1 | grep -E "ms per frame" || echo "pipelined run failed"
 "$bin/corvid-render" "${common[@]}" --out "$out/timed" --stats "$out/stats.json" 2>&1 | grep -E "ms per frame" ||
   echo "timed run failed"

@@ -10,7 +10,7 @@
  *    (render.reflect_denoise) brings one frame nearer, and 64 frames no
  *    further, than the reconstruction alone;
  *  - 2 and 3 virtual GPUs give the same reflection and radiance bytes as one
- *    (3: also with a moving camera);
+ *    (3: also with a moving camera, and with 2 reflection samples);
  *  - reflections off: no reflection plane; bad reflection settings are
  *    refused with a message and change nothing;
  *  - a moving camera (render.reflect_reproject): the mirror floor after 16
@@ -528,16 +528,21 @@ static void check_multi_device(const cv_test_gpus *g, const cv_scene *scene, con
     }
     cv_render_output_free(&one);
     cv_render_output_free(&three);
-    /* Two reflection samples a pixel (the sample texture two images tall, copied back by columns). */
-    s = (cv_render_settings){ .width = DW, .height = DH, .frames = 2, .tile = 8, .reflection_samples = 2 };
-    CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &one, NULL));
-    CHECK_OK(cv_test_gpus_render(g, 3, scene, bvh, &s, &three, NULL));
-    if (one.reflection && three.reflection) {
-        CHECK(memcmp(one.reflection, three.reflection, bytes) == 0);
-        CHECK(memcmp(one.radiance, three.radiance, bytes) == 0);
+    /* Two reflection samples a pixel (the sample texture two images tall, copied back by columns), with a
+     * still and a moving camera. */
+    for (int moving = 0; moving < 2; moving++) {
+        s = (cv_render_settings){
+            .width = DW, .height = DH, .frames = 3, .tile = 8, .reflection_samples = 2, .orbit_degrees = moving * 1.0f
+        };
+        CHECK_OK(cv_test_gpus_render(g, 1, scene, bvh, &s, &one, NULL));
+        CHECK_OK(cv_test_gpus_render(g, 3, scene, bvh, &s, &three, NULL));
+        if (one.reflection && three.reflection) {
+            CHECK(memcmp(one.reflection, three.reflection, bytes) == 0);
+            CHECK(memcmp(one.radiance, three.radiance, bytes) == 0);
+        }
+        cv_render_output_free(&one);
+        cv_render_output_free(&three);
     }
-    cv_render_output_free(&one);
-    cv_render_output_free(&three);
 }
 
 /* reflection_samples n draws, in frame f, the Halton points n f + 1 .. n f + n
