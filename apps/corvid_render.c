@@ -212,12 +212,21 @@ static bool opt_reflection_scale(options *o, const char *name, const char *value
     return true;
 }
 
-static bool opt_reflection_samples(options *o, const char *name, const char *value) {
+/* A power of two in 1..max, refused with the list of them ("one of 1, 2, 4, 8"). */
+static bool set_power_of_two(const char *name, const char *value, uint32_t max, uint32_t *out) {
     uint64_t n;
-    if (!parse_uint(value, 1, 8, &n) || (n & (n - 1)) != 0)
-        return refuse(name, value, "one of 1, 2, 4, 8");
-    o->settings.reflection_samples = (uint32_t)n;
+    if (!parse_uint(value, 1, max, &n) || (n & (n - 1)) != 0) {
+        char list[64] = "one of 1";
+        for (uint32_t p = 2; p <= max && strlen(list) + 8 < sizeof list; p *= 2)
+            snprintf(list + strlen(list), sizeof list - strlen(list), ", %u", p);
+        return refuse(name, value, list);
+    }
+    *out = (uint32_t)n;
     return true;
+}
+
+static bool opt_reflection_samples(options *o, const char *name, const char *value) {
+    return set_power_of_two(name, value, 8, &o->settings.reflection_samples);
 }
 
 static bool opt_ao_samples(options *o, const char *name, const char *value) {
@@ -225,11 +234,7 @@ static bool opt_ao_samples(options *o, const char *name, const char *value) {
 }
 
 static bool opt_shadow_samples(options *o, const char *name, const char *value) {
-    uint64_t n;
-    if (!parse_uint(value, 1, 32, &n) || (n & (n - 1)) != 0)
-        return refuse(name, value, "one of 1, 2, 4, 8, 16, 32");
-    o->settings.shadow_samples = (uint32_t)n;
-    return true;
+    return set_power_of_two(name, value, 32, &o->settings.shadow_samples);
 }
 
 static bool opt_ao_radius(options *o, const char *name, const char *value) {
