@@ -92,8 +92,9 @@ typedef struct cv_render_settings {
     float orbit_degrees;         /* [0] the camera turns by this much per frame (sample index) about the
                                * vertical axis (its up) through its target: a moving camera, whose
                                * G-buffer runs every frame and whose history is reprojected */
-    int32_t reflections;         /* [1] 1 = GGX reflections (one ray per pixel per frame, shaded with the
-                                 * sun, a shadow ray and the sky), -1 = none (no specular term) */
+    int32_t reflections;         /* [1] 1 = GGX reflections (reflection_samples rays per pixel per frame,
+                                  * shaded with the sun, a shadow ray and the sky), -1 = none (no
+                                  * specular term) */
     int32_t reflection_radius;   /* [1] spatial reuse radius of the reflection filter, pixels (0..8);
                                  * -1 = none (every pixel keeps its own samples) */
     float reflection_scale;      /* [1] reflection rays per pixel side: 1, or 0.5 = half resolution (one
