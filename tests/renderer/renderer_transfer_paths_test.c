@@ -18,12 +18,19 @@
  * move), position, normal and material, 16 bytes a pixel each, to every
  * secondary. A moving camera (2 devices, path auto, still bit-identical to
  * one device) renders the G-buffer every frame and sends each secondary only
- * that frame's window of it. */
+ * that frame's window of it.
+ * The zero-copy fallback (cv_graph_bake, zero-copy auto: a texture the
+ * adapter cannot export is gathered by copies, the others still shared):
+ * devices of a backend that refuses to alias the reflection samples copy
+ * exactly those back, 8 bytes a pixel of the secondaries' columns, move no
+ * visibility byte, and still give one device's bytes. */
 #include <stdlib.h>
 #include <string.h>
 
 #include "check.h"
+#include "test_adapter.h"
 #include "test_render.h"
+#include "corvid/backend.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_procedural.h"
 #include "corvid/transfer.h"
@@ -37,8 +44,9 @@
 /* What the observer saw of one render's transfers. */
 typedef struct transfer_check {
     uint32_t gpus;
-    bool moving;    /* the camera moves: the G-buffer goes out every frame, windows only */
-    bool zero_copy; /* gathers through shared memory: visibility and reflection samples move no byte */
+    bool moving;            /* the camera moves: the G-buffer goes out every frame, windows only */
+    bool zero_copy;         /* gathers through shared memory: visibility and reflection samples move no byte */
+    bool reflection_copied; /* with zero_copy: the reflection samples could not be shared, and are copied */
     uint32_t frames;
     uint32_t visibility, reflection, gbuffer; /* transfer steps seen */
     uint32_t wrong;                           /* steps whose bytes were not the expected ones */
@@ -63,7 +71,7 @@ static void observe_frame(const cv_render_frame_info *f, void *user) {
             check_bytes(c, t, c->zero_copy ? 0 : secondary_columns * H * 4);
         } else if (strcmp(t->name, "transfer 'reflection samples'") == 0) {
             c->reflection++;
-            check_bytes(c, t, c->zero_copy ? 0 : secondary_columns * H * 8); /* RGBA16F */
+            check_bytes(c, t, c->zero_copy && !c->reflection_copied ? 0 : secondary_columns * H * 8); /* RGBA16F */
         } else if (strcmp(t->name, "transfer 'gbuffer position'") == 0 ||
                    strcmp(t->name, "transfer 'gbuffer normal'") == 0 ||
                    strcmp(t->name, "transfer 'gbuffer material'") == 0) {
@@ -88,6 +96,59 @@ static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *b
                              .orbit_degrees = moving ? 1.0f : 0.0f,
                              .observer = observer };
     return cv_test_render(gpus, scene, bvh, &s, out, stats);
+}
+
+/* The Vulkan backend, but a texture labelled "reflection samples" cannot be
+ * aliased (as if the adapter could not export it). */
+static cv_result alias_but_reflection(cv_backend_device *bd, uint64_t id, const cv_resource_desc *desc,
+                                      cv_backend_device *src_bd, void *src_obj, void **out_obj) {
+    if (strcmp(desc->texture.label, "reflection samples") == 0)
+        return cv_error(CV_ERROR_UNSUPPORTED, "test: texture '%s' cannot be exported", desc->texture.label);
+    return cv_vulkan_backend()->resource_alias(bd, id, desc, src_bd, src_obj, out_obj);
+}
+
+static void check_zero_copy_fallback(const cv_scene *scene, const cv_bvh *bvh, const cv_render_output *alone) {
+    cv_backend refusing = *cv_vulkan_backend();
+    refusing.resource_alias = alias_but_reflection;
+    cv_context *ctx = NULL;
+    cv_device *devices[2] = { NULL, NULL };
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    for (int d = 0; d < 2 && ctx; d++) {
+        cv_device_desc desc = { .adapter = cv_test_adapter(), .validation = true };
+        snprintf(desc.label, sizeof desc.label, "gpu%d", d);
+        CHECK_OK(cv_device_create(ctx, &refusing, &desc, &devices[d]));
+    }
+    setenv("CORVID_ZERO_COPY", "auto", 1);
+    transfer_check c = { .gpus = 2, .zero_copy = true, .reflection_copied = true };
+    cv_render_settings s = { .width = W,
+                             .height = H,
+                             .frames = OBSERVED_FRAMES,
+                             .ao_samples = 2,
+                             .sun_cone_degrees = -1,
+                             .filter_iterations = -1,
+                             .observer = &(cv_render_observer){ .frame = observe_frame, .user = &c } };
+    cv_renderer *r = NULL;
+    cv_render_output out = { 0 };
+    if (devices[0] && devices[1]) {
+        CHECK_OK(cv_renderer_create(devices, 2, scene, bvh, &r));
+        if (r)
+            CHECK_OK(cv_renderer_render(r, &s, &out, NULL, NULL, NULL));
+    }
+    cv_renderer_destroy(r);
+    unsetenv("CORVID_ZERO_COPY");
+    CHECK_EQ_INT(c.frames, OBSERVED_FRAMES);
+    CHECK_EQ_INT(c.visibility, OBSERVED_FRAMES);
+    CHECK_EQ_INT(c.reflection, OBSERVED_FRAMES);
+    CHECK_EQ_INT(c.wrong, 0);
+    size_t bytes = (size_t)W * H * 4 * sizeof(float);
+    bool same = alone->radiance && out.radiance && memcmp(alone->radiance, out.radiance, bytes) == 0 &&
+                memcmp(alone->visibility, out.visibility, bytes) == 0 &&
+                memcmp(alone->reflection, out.reflection, bytes) == 0;
+    CHECK(same);
+    fprintf(stderr, "zero-copy with the reflection samples unshareable, 2 devices: %s\n",
+            same ? "bit-identical, the reflection samples copied" : "DIFFERENT");
+    cv_render_output_free(&out);
+    cv_context_destroy(ctx);
 }
 
 int main(void) {
@@ -192,6 +253,7 @@ int main(void) {
             stats.transfer_bytes / 1e6);
     cv_render_output_free(&moving_one);
     cv_render_output_free(&moving_two);
+    check_zero_copy_fallback(scene, bvh, &one_observed);
     cv_render_output_free(&one);
     cv_render_output_free(&one_observed);
     cv_bvh_destroy(bvh);
