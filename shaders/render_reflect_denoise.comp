@@ -9,7 +9,7 @@
 //            0 unless |roughness_q - roughness_p| <= 0.1 (reflect_filter's test)
 //   lobe:    exp(-|x_q - x_p|^2 / (lobe_scale alpha_p t_p)^2): a glossy surface
 //            shows the scene blurred over about alpha x the hit distance t_p
-//            (the pixel's own sample of 1/t, i3.a; not traced this frame
+//            (1 / the mean of the pixel's samples' 1/t, i3.a; not traced this frame
 //            (quarter rate) or lost: a same-surface 3x3 neighbour's; the sky
 //            or none: no limit), at least one pixel footprint
 //   signal:  exp(-|l_p - l_q| / (sigma_l sqrt(var_p) + 1e-4)), l = luminance.
@@ -60,6 +60,21 @@ const uint FIRST = 1u, LAST = 2u, COPY = 4u;
 float variance_of(float a) { return a >= 0.0 ? a : max(-1.0 - a, 0.0); }
 
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
+// A pixel's mean 1/hit distance over its samples of the frame (the sample
+// texture holds one image a sample, one above the other); -1 if it has none.
+float mean_inv_t(ivec2 q) {
+    uint n = uint(imageSize(samples).y) / pc.height;
+    float sum = 0.0, count = 0.0;
+    for (uint k = 0u; k < n; k++) {
+        float a = imageLoad(samples, q + ivec2(0, int(k * pc.height))).a;
+        if (a >= 0.0) {
+            sum += a;
+            count += 1.0;
+        }
+    }
+    return count > 0.0 ? sum / count : -1.0;
+}
 
 bool inside(ivec2 q) {
     return all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, ivec2(pc.width, pc.height)));
@@ -117,13 +132,13 @@ void main() {
     // The hit distance: the pixel's own sample, else (not traced this frame
     // at quarter rate, or lost) a 3x3 neighbour's on its surface (at quarter
     // rate 0.0663 / 0.0352 at 1 / 4 frames against no limit's 0.0666 / 0.0361).
-    float inv_t = imageLoad(samples, p).a;
+    float inv_t = mean_inv_t(p);
     for (int dy = -1; dy <= 1 && inv_t < 0.0; dy++)
         for (int dx = -1; dx <= 1 && inv_t < 0.0; dx++) {
             ivec2 q = p + ivec2(dx, dy);
             vec3 qp;
             if (q != p && inside(q) && surface_weight(pos.xyz, cn, rough, q, qp) > 0.5)
-                inv_t = imageLoad(samples, q).a;
+                inv_t = mean_inv_t(q);
         }
     float lobe = inv_t > 0.0 ? max(pc.lobe_scale * alpha / inv_t, footprint) : 1e30;
     float denom = (temporal ? pc.sigma_l_temporal : pc.sigma_l_spatial) * sqrt(var_p) + 1e-4;

@@ -51,7 +51,7 @@
  * 15.2% and 0.0149). */
 /* Four reflection samples a pixel in one frame, denoised, room 96x54: RMSE
  * against the reference below this share of one sample's (pooled over
- * ONE_FRAME_RENDERS; measured 0.0594 against 0.0968, 0.61). */
+ * ONE_FRAME_RENDERS; measured 0.0581 against 0.0968, 0.60). */
 #define FOUR_SAMPLES_ONE_FRAME_GAIN 0.8
 /* The reflection denoise at one frame, room 96x54: its RMSE against the
  * reference below this share of the reconstruction's alone (measured, pooled
