@@ -393,18 +393,26 @@ static cv_binding bind_texture(cv_texture t) { return (cv_binding){ .resource = 
 static cv_binding bind_buffer(cv_buffer b) { return (cv_binding){ .resource = cv_any(b) }; }
 static uint32_t groups(uint32_t n, uint32_t size) { return (n + size - 1) / size; }
 
-/* One 8x8-group dispatch over the whole image: the primary's per-pixel passes. */
-static void dispatch_image(const cv_renderer *r, cv_command_list *l, cv_queue_type queue, int pipeline,
-                           const cv_binding *b, uint32_t count, const void *push, uint32_t push_size) {
+/* One dispatch of 8x8 groups over width x height pixels (a band of a
+ * partition's columns: the trace and reflect passes' per-ray shaders). */
+static void dispatch_pixels(const cv_renderer *r, cv_command_list *l, cv_queue_type queue, int pipeline,
+                            const cv_binding *b, uint32_t count, const void *push, uint32_t push_size, uint32_t width,
+                            uint32_t height) {
     cv_cmd_dispatch(l, queue,
                     &(cv_dispatch_args){ .pipeline = r->pipelines[pipeline],
                                          .bindings = b,
                                          .bindings_count = count,
                                          .push = push,
                                          .push_size = push_size,
-                                         .groups_x = groups(r->width, 8),
-                                         .groups_y = groups(r->height, 8),
+                                         .groups_x = groups(width, 8),
+                                         .groups_y = groups(height, 8),
                                          .groups_z = 1 });
+}
+
+/* The same over the whole image: the primary's per-pixel passes. */
+static void dispatch_image(const cv_renderer *r, cv_command_list *l, cv_queue_type queue, int pipeline,
+                           const cv_binding *b, uint32_t count, const void *push, uint32_t push_size) {
+    dispatch_pixels(r, l, queue, pipeline, b, count, push, push_size, r->width, r->height);
 }
 
 /* The view-projection of `camera` for the G-buffer (and the reprojection). */
@@ -568,15 +576,7 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
         struct {
             uint32_t x0, width, height, ao_samples, y0, shadow_samples, pad[2];
         } resolve = { cols.x, cols.width, h, s->ao_samples, y0, s->shadow_samples, { 0 } };
-        cv_cmd_dispatch(l, pc->queue,
-                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_RAYGEN],
-                                             .bindings = gen,
-                                             .bindings_count = 4,
-                                             .push = &raygen,
-                                             .push_size = sizeof(raygen),
-                                             .groups_x = groups(cols.width, 8),
-                                             .groups_y = groups(h, 8),
-                                             .groups_z = 1 });
+        dispatch_pixels(r, l, pc->queue, PIPE_RAYGEN, gen, 4, &raygen, sizeof(raygen), cols.width, h);
         cv_cmd_trace_rays(
             l, pc->queue,
             &(cv_trace_rays_args){
@@ -584,15 +584,7 @@ static void record_trace(const cv_graph_pass_context *pc, cv_command_list *l, vo
         if (r->alpha_mask)
             record_alpha_rounds(r, pc, l, rays, hits, cv_graph_buffer(pc, r->buf[BUF_ALPHA_HITS]), (uint32_t)count,
                                 true);
-        cv_cmd_dispatch(l, pc->queue,
-                        &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_RESOLVE],
-                                             .bindings = res_b,
-                                             .bindings_count = 3,
-                                             .push = &resolve,
-                                             .push_size = sizeof(resolve),
-                                             .groups_x = groups(cols.width, 8),
-                                             .groups_y = groups(h, 8),
-                                             .groups_z = 1 });
+        dispatch_pixels(r, l, pc->queue, PIPE_RESOLVE, res_b, 3, &resolve, sizeof(resolve), cols.width, h);
     }
 }
 
@@ -756,29 +748,14 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
         for (uint32_t k = 0; k < s->reflection_samples; k++) {
             gen.sample = k;
             shade.row_offset = k * r->height;
-            cv_cmd_dispatch(l, pc->queue,
-                            &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_RAYGEN],
-                                                 .bindings = gen_b,
-                                                 .bindings_count = 5,
-                                                 .push = &gen,
-                                                 .push_size = sizeof(gen),
-                                                 .groups_x = groups(cols.width, 8),
-                                                 .groups_y = groups(h, 8),
-                                                 .groups_z = 1 });
+            dispatch_pixels(r, l, pc->queue, PIPE_REFLECT_RAYGEN, gen_b, 5, &gen, sizeof(gen), cols.width, h);
             cv_cmd_trace_rays(l, pc->queue,
                               &(cv_trace_rays_args){ .accel = r->accel, .rays = rays, .hits = hits, .count = count });
             if (r->alpha_mask)
                 record_alpha_rounds(r, pc, l, rays, hits, cv_graph_buffer(pc, r->buf[BUF_REFLECT_ALPHA_HITS]), count,
                                     false);
-            cv_cmd_dispatch(l, pc->queue,
-                            &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADOW],
-                                                 .bindings = shadow_b,
-                                                 .bindings_count = 5,
-                                                 .push = &shadow,
-                                                 .push_size = sizeof(shadow),
-                                                 .groups_x = groups(cols.width, 8),
-                                                 .groups_y = groups(h, 8),
-                                                 .groups_z = 1 });
+            dispatch_pixels(r, l, pc->queue, PIPE_REFLECT_SHADOW, shadow_b, 5, &shadow, sizeof(shadow), cols.width,
+                            h);
             cv_cmd_trace_rays(l, pc->queue,
                               &(cv_trace_rays_args){ .accel = r->accel,
                                                      .rays = shadow_rays,
@@ -788,15 +765,7 @@ static void record_reflect(const cv_graph_pass_context *pc, cv_command_list *l, 
             if (r->alpha_mask)
                 record_alpha_rounds(r, pc, l, shadow_rays, shadow_hits,
                                     cv_graph_buffer(pc, r->buf[BUF_REFLECT_ALPHA_HITS]), count, true);
-            cv_cmd_dispatch(l, pc->queue,
-                            &(cv_dispatch_args){ .pipeline = r->pipelines[PIPE_REFLECT_SHADE],
-                                                 .bindings = shade_b,
-                                                 .bindings_count = 12,
-                                                 .push = &shade,
-                                                 .push_size = sizeof(shade),
-                                                 .groups_x = groups(cols.width, 8),
-                                                 .groups_y = groups(h, 8),
-                                                 .groups_z = 1 });
+            dispatch_pixels(r, l, pc->queue, PIPE_REFLECT_SHADE, shade_b, 12, &shade, sizeof(shade), cols.width, h);
         }
     }
 }
