@@ -14,7 +14,7 @@
 /* With validation: one slice of a host wait under the host lock. */
 #define HOST_SLICE_NS (200ull * 1000)
 
-static uint64_t now_ns(void) {
+uint64_t vk_now_ns(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
@@ -23,9 +23,9 @@ static uint64_t now_ns(void) {
 VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, uint64_t timeout_ns) {
     if (!bd->bridge.serialize)
         return vkWaitSemaphores(bd->device, info, timeout_ns);
-    uint64_t start = now_ns();
+    uint64_t start = vk_now_ns();
     for (;;) {
-        uint64_t spent = now_ns() - start;
+        uint64_t spent = vk_now_ns() - start;
         uint64_t left = spent >= timeout_ns ? 0 : timeout_ns - spent;
         pthread_mutex_lock(bd->bridge.host);
         VkResult vr = vkWaitSemaphores(bd->device, info, left < HOST_SLICE_NS ? left : HOST_SLICE_NS);

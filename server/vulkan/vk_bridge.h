@@ -55,4 +55,7 @@ bool vk_watch_closing(vk_watch *w);
 VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, uint64_t timeout_ns);
 uint64_t vk_host_counter(cv_backend_device *bd, VkSemaphore semaphore);
 
+/* CLOCK_MONOTONIC in nanoseconds: the host's clock for waits and stats. */
+uint64_t vk_now_ns(void);
+
 #endif

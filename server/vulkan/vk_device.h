@@ -20,6 +20,7 @@
 #include "vk_memory.h"
 
 typedef struct vk_texture vk_texture;
+typedef struct vk_buffer vk_buffer;
 typedef struct vk_watch vk_watch;
 
 /* vk_bridge.h's state, defined here because the device embeds it. */
@@ -90,9 +91,11 @@ struct cv_backend_device {
 
     VkCommandPool immediate_pool;
     VkCommandBuffer immediate_cmd;
-    VkSemaphore immediate;       /* timeline; value = immediate submissions finished */
-    uint64_t immediate_value;    /* value of the latest immediate submission */
-    vk_texture **pending_images; /* created, still in VK_IMAGE_LAYOUT_UNDEFINED */
+    VkSemaphore immediate;    /* timeline; value = immediate submissions finished */
+    uint64_t immediate_value; /* value of the latest immediate submission */
+    /* Created and not yet initialised (vk_immediate.h): images still in
+     * VK_IMAGE_LAYOUT_UNDEFINED, buffers the host cannot map not yet zeroed. */
+    struct vk_pending_init *pending;
     uint32_t pending_count, pending_capacity;
 
     vk_memory memory;
@@ -133,6 +136,10 @@ struct cv_backend_device {
     uint32_t import_count;
 
     atomic_uint buffers, images, samplers, pipelines; /* live objects, for stats */
+    /* New resources zeroed (vk_immediate.h) and the host time it took; atomic
+     * only so that stats may be read while the device works. */
+    atomic_uint_least64_t zeroed_bytes, zero_ns;
+    uint64_t zero_started_ns; /* the immediate submission being recorded zeroes something: its start */
 };
 
 cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out);

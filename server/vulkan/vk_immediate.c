@@ -1,5 +1,5 @@
-/* The immediate command buffer and the batch of images awaiting their first
- * layout transition (see vk_immediate.h). */
+/* The immediate command buffer and the batch of new images and buffers
+ * awaiting their first layout transition and zero fill (see vk_immediate.h). */
 #include <stdlib.h>
 #include <string.h>
 
@@ -30,39 +30,135 @@ cv_result vk_immediate_init(cv_backend_device *bd) {
 void vk_immediate_finish(cv_backend_device *bd) {
     vkDestroySemaphore(bd->device, bd->immediate, NULL);
     vkDestroyCommandPool(bd->device, bd->immediate_pool, NULL);
-    free(bd->pending_images);
-    bd->pending_images = NULL;
+    free(bd->pending);
+    bd->pending = NULL;
     bd->pending_count = bd->pending_capacity = 0;
 }
 
-static void record_pending(cv_backend_device *bd, VkCommandBuffer cmd) {
-    if (!bd->pending_count)
+/* One object awaiting its initialisation: an image or a buffer. */
+struct vk_pending_init {
+    vk_texture *image;
+    vk_buffer *buffer;
+};
+
+/* Image barriers recorded in batches of 64, with an optional memory barrier. */
+typedef struct barrier_batch {
+    VkImageMemoryBarrier2 images[64];
+    uint32_t count;
+} barrier_batch;
+
+static void batch_flush(VkCommandBuffer cmd, barrier_batch *b, const VkMemoryBarrier2 *memory) {
+    if (!b->count && !memory)
         return;
-    VkImageMemoryBarrier2 barriers[64];
-    uint32_t done = 0;
-    while (done < bd->pending_count) {
-        uint32_t n = 0;
-        for (; n < 64 && done < bd->pending_count; n++, done++) {
-            vk_texture *t = bd->pending_images[done];
-            t->pending = false;
-            barriers[n] = (VkImageMemoryBarrier2){
-                .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2,
-                .srcStageMask = VK_PIPELINE_STAGE_2_NONE,
-                .dstStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
-                .dstAccessMask = VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
-                .oldLayout = VK_IMAGE_LAYOUT_UNDEFINED,
-                .newLayout = VK_IMAGE_LAYOUT_GENERAL,
-                .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-                .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-                .image = t->image,
-                .subresourceRange = { t->aspect, 0, 1, 0, 1 },
-            };
-        }
-        VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
-                                 .imageMemoryBarrierCount = n,
-                                 .pImageMemoryBarriers = barriers };
-        vkCmdPipelineBarrier2(cmd, &dep);
+    VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
+                             .memoryBarrierCount = memory ? 1 : 0,
+                             .pMemoryBarriers = memory,
+                             .imageMemoryBarrierCount = b->count,
+                             .pImageMemoryBarriers = b->images };
+    vkCmdPipelineBarrier2(cmd, &dep);
+    b->count = 0;
+}
+
+static void batch_add(VkCommandBuffer cmd, barrier_batch *b, const vk_texture *t, VkImageLayout from,
+                      VkImageLayout to, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
+                      VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
+    if (b->count == 64)
+        batch_flush(cmd, b, NULL);
+    b->images[b->count++] = (VkImageMemoryBarrier2){
+        .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2,
+        .srcStageMask = src_stage,
+        .srcAccessMask = src_access,
+        .dstStageMask = dst_stage,
+        .dstAccessMask = dst_access,
+        .oldLayout = from,
+        .newLayout = to,
+        .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+        .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+        .image = t->image,
+        .subresourceRange = { t->aspect, 0, 1, 0, 1 },
+    };
+}
+
+#define ALL_ACCESS (VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT)
+
+/* First layouts: GENERAL, or TRANSFER_DST_OPTIMAL for an image to be cleared
+ * (a clear in GENERAL followed by a memory barrier did not satisfy the
+ * synchronisation validation of a later layout transition; a transition after
+ * the clear does). */
+static void record_layouts(cv_backend_device *bd, VkCommandBuffer cmd) {
+    barrier_batch batch = { .count = 0 };
+    for (uint32_t i = 0; i < bd->pending_count; i++) {
+        const vk_texture *t = bd->pending[i].image;
+        if (t && t->clear)
+            batch_add(cmd, &batch, t, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                      VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                      VK_ACCESS_2_TRANSFER_WRITE_BIT);
+        else if (t)
+            batch_add(cmd, &batch, t, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_NONE, 0,
+                      VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, ALL_ACCESS);
     }
+    batch_flush(cmd, &batch, NULL);
+}
+
+/* Zero clears of new images and fills of new buffers (after record_layouts). */
+static void record_zeroes(cv_backend_device *bd, VkCommandBuffer cmd) {
+    uint64_t bytes = 0;
+    for (uint32_t i = 0; i < bd->pending_count; i++) {
+        const vk_texture *t = bd->pending[i].image;
+        if (bd->pending[i].buffer) {
+            vkCmdFillBuffer(cmd, bd->pending[i].buffer->buffer, 0, VK_WHOLE_SIZE, 0);
+            bytes += bd->pending[i].buffer->size;
+            continue;
+        }
+        if (!t->clear)
+            continue;
+        bytes += (uint64_t)t->width * t->height * t->texel_bytes;
+        VkImageSubresourceRange range = { t->aspect, 0, 1, 0, 1 };
+        VkImageLayout layout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+        if (t->aspect & VK_IMAGE_ASPECT_DEPTH_BIT)
+            vkCmdClearDepthStencilImage(cmd, t->image, layout, &(VkClearDepthStencilValue){ 0 }, 1, &range);
+        else
+            vkCmdClearColorImage(cmd, t->image, layout, &(VkClearColorValue){ 0 }, 1, &range);
+    }
+    if (bytes) {
+        atomic_fetch_add(&bd->zeroed_bytes, bytes);
+        bd->zero_started_ns = vk_now_ns();
+    }
+}
+
+/* Cleared images to GENERAL and the fills before everything after them (in
+ * this command buffer; later lists wait for the immediate submission). */
+static void record_zeroed(cv_backend_device *bd, VkCommandBuffer cmd) {
+    barrier_batch batch = { .count = 0 };
+    bool buffers = false;
+    for (uint32_t i = 0; i < bd->pending_count; i++) {
+        vk_texture *t = bd->pending[i].image;
+        vk_buffer *b = bd->pending[i].buffer;
+        if (b) {
+            b->pending = false;
+            buffers = true;
+            continue;
+        }
+        if (t->clear)
+            batch_add(cmd, &batch, t, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL,
+                      VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, ALL_ACCESS);
+        t->pending = t->clear = false;
+    }
+    VkMemoryBarrier2 filled = {
+        .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+        .srcStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, /* fills are transfers, clears too */
+        .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+        .dstStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+        .dstAccessMask = ALL_ACCESS,
+    };
+    batch_flush(cmd, &batch, buffers ? &filled : NULL);
+}
+
+static void record_pending(cv_backend_device *bd, VkCommandBuffer cmd) {
+    record_layouts(bd, cmd);
+    record_zeroes(bd, cmd);
+    record_zeroed(bd, cmd);
     bd->pending_count = 0;
 }
 
@@ -125,6 +221,10 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
                                       .pSemaphores = &bd->immediate,
                                       .pValues = &bd->immediate_value };
     vr = vk_host_wait(bd, &wait_info, UINT64_MAX);
+    if (bd->zero_started_ns) {
+        atomic_fetch_add(&bd->zero_ns, vk_now_ns() - bd->zero_started_ns);
+        bd->zero_started_ns = 0;
+    }
     return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkWaitSemaphores (immediate, device '%s')", bd->label);
 }
 
@@ -136,27 +236,55 @@ cv_result vk_immediate_flush(cv_backend_device *bd) {
     return r == CV_OK ? vk_immediate_end(bd) : r;
 }
 
-cv_result vk_immediate_add_image(cv_backend_device *bd, vk_texture *tex) {
+static cv_result add_pending(cv_backend_device *bd, struct vk_pending_init item) {
     if (bd->pending_count == bd->pending_capacity) {
         uint32_t cap = bd->pending_capacity ? bd->pending_capacity * 2 : 64;
-        vk_texture **grown = realloc(bd->pending_images, cap * sizeof(*grown));
+        struct vk_pending_init *grown = realloc(bd->pending, cap * sizeof(*grown));
         if (!grown)
-            return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: pending image list of %u", cap);
-        bd->pending_images = grown;
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: pending initialisation list of %u", cap);
+        bd->pending = grown;
         bd->pending_capacity = cap;
     }
-    tex->pending = true;
-    bd->pending_images[bd->pending_count++] = tex;
+    bd->pending[bd->pending_count++] = item;
     return CV_OK;
 }
 
-void vk_immediate_forget_image(cv_backend_device *bd, vk_texture *tex) {
-    if (!tex->pending)
-        return;
+static void forget_pending(cv_backend_device *bd, const void *object) {
     for (uint32_t i = bd->pending_count; i-- > 0;)
-        if (bd->pending_images[i] == tex) {
-            bd->pending_images[i] = bd->pending_images[--bd->pending_count];
-            break;
+        if ((const void *)bd->pending[i].image == object || (const void *)bd->pending[i].buffer == object) {
+            bd->pending[i] = bd->pending[--bd->pending_count];
+            return;
         }
+}
+
+cv_result vk_immediate_add_image(cv_backend_device *bd, vk_texture *tex) {
+    cv_result r = add_pending(bd, (struct vk_pending_init){ .image = tex });
+    tex->pending = r == CV_OK;
+    return r;
+}
+
+void vk_immediate_forget_image(cv_backend_device *bd, vk_texture *tex) {
+    if (tex->pending)
+        forget_pending(bd, tex);
     tex->pending = false;
+}
+
+cv_result vk_immediate_zero_buffer(cv_backend_device *bd, vk_buffer *buf) {
+    if (buf->memory.mapped) {
+        uint64_t start = vk_now_ns();
+        memset(buf->memory.mapped, 0, buf->size);
+        vk_memory_flush(&bd->memory, &buf->memory, 0, buf->size);
+        atomic_fetch_add(&bd->zeroed_bytes, buf->size);
+        atomic_fetch_add(&bd->zero_ns, vk_now_ns() - start);
+        return CV_OK;
+    }
+    cv_result r = add_pending(bd, (struct vk_pending_init){ .buffer = buf });
+    buf->pending = r == CV_OK;
+    return r;
+}
+
+void vk_immediate_forget_buffer(cv_backend_device *bd, vk_buffer *buf) {
+    if (buf->pending)
+        forget_pending(bd, buf);
+    buf->pending = false;
 }

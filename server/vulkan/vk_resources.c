@@ -89,11 +89,20 @@ cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBuffe
     return CV_OK;
 }
 
+/* A buffer the core asked for reads as zeros until written: its memory may
+ * hold what an earlier owner left (on a node, another session's data). */
 cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk_buffer **out) {
-    return vk_buffer_create_raw(bd, desc->size, buffer_usage(desc->usage), 0, desc->label, out);
+    vk_buffer *b = NULL;
+    cv_result r = vk_buffer_create_raw(bd, desc->size, buffer_usage(desc->usage), 0, desc->label, &b);
+    if (r == CV_OK && (r = vk_immediate_zero_buffer(bd, b)) != CV_OK)
+        vk_buffer_destroy(bd, b);
+    if (r == CV_OK)
+        *out = b;
+    return r;
 }
 
 void vk_buffer_destroy(cv_backend_device *bd, vk_buffer *b) {
+    vk_immediate_forget_buffer(bd, b);
     vkDestroyBuffer(bd->device, b->buffer, NULL);
     vk_memory_free(&bd->memory, &b->memory);
     atomic_fetch_sub(&bd->buffers, 1u);
@@ -312,6 +321,7 @@ static cv_result texture_make(cv_backend_device *bd, const cv_texture_desc *desc
     t->width = desc->width;
     t->height = desc->height;
     t->texel_bytes = cv_format_bytes(desc->format);
+    t->clear = m->fd < 0; /* new memory reads as zeros until written; an alias shows the exporter's texels */
     r = create_image(bd, desc, t, usage, m);
     if (r == CV_OK)
         r = vk_immediate_add_image(bd, t);

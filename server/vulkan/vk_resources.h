@@ -4,12 +4,13 @@
 
 #include "vk_device.h"
 
-typedef struct vk_buffer {
+struct vk_buffer {
     VkBuffer buffer;
     vk_allocation memory;
     VkDeviceSize size;
     VkDeviceAddress address; /* storage buffers: where kernels find it (trace_rays); else 0 */
-} vk_buffer;
+    bool pending;            /* awaiting its zero fill on the GPU (vk_immediate.h) */
+};
 
 struct vk_texture {
     VkImage image;
@@ -19,6 +20,7 @@ struct vk_texture {
     VkImageAspectFlags aspect;
     uint32_t width, height, texel_bytes;
     bool pending; /* awaiting its first layout transition (vk_immediate.h) */
+    bool clear;   /* ... and its zero clear: a new image, not an alias of another device's */
     /* Shareable (CV_TEXTURE_USAGE_SHARED on a device that can export): a
      * dedicated opaque-fd VkDeviceMemory of its own (`own_memory`, not from the
      * block allocator), which aliases on other devices import. Aliases own

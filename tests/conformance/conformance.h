@@ -6,6 +6,7 @@
 
 void conformance_bad_lists(world *w);
 void conformance_resources(world *w);
+void conformance_fresh_resources(world *w);
 void conformance_data_movement(world *w);
 void conformance_resubmit(world *w);
 void conformance_lifetimes(world *w);

@@ -17,6 +17,7 @@ int main(int argc, char **argv) {
     CHECK_OK(r);
     if (r == CV_OK) {
         conformance_resources(&w);
+        conformance_fresh_resources(&w);
         conformance_data_movement(&w);
         conformance_bad_lists(&w);
         conformance_resubmit(&w);
