@@ -123,5 +123,7 @@ cv_result cv_vulkan_get_memory_stats(cv_device *dev, cv_vulkan_memory_stats *out
     out->images = atomic_load(&bd->images);
     out->samplers = atomic_load(&bd->samplers);
     out->pipelines = atomic_load(&bd->pipelines);
+    out->zeroed_bytes = atomic_load(&bd->zeroed_bytes);
+    out->zero_ms = (double)atomic_load(&bd->zero_ns) / 1e6;
     return CV_OK;
 }

@@ -86,6 +86,11 @@ typedef struct cv_vulkan_memory_stats {
     uint32_t allocation_count; /* live sub-allocations (resources, staging) */
     uint64_t allocated_bytes;
     uint32_t buffers, images, samplers, pipelines; /* live Vulkan objects */
+    /* New buffers and textures read as zeros (their memory may hold an earlier owner's data): the bytes zeroed
+       so far, and the host time it took (memset of mapped buffers, and the immediate submissions that carried
+       GPU fills and clears, measured whole: an upper bound). */
+    uint64_t zeroed_bytes;
+    double zero_ms;
 } cv_vulkan_memory_stats;
 
 /* Stats of one Vulkan device; CV_ERROR_INVALID_ARGUMENT for another backend's. */
