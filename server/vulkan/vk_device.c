@@ -10,6 +10,7 @@
 #include "vk_cross_wait.h"
 #include "vk_immediate.h"
 #include "vk_link.h"
+#include "vk_resources.h"
 #include "vk_shared.h"
 #include "vk_trace.h"
 #include "vk_trace_rt.h"
@@ -324,6 +325,8 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     if (r == CV_OK) {
         vk_memory_init(&bd->memory, bd->device, bd->adapter.physical);
         bd->memory.device_address = true;
+        if (bd->external_host && vk_resources_host_import_ok(bd))
+            vk_memory_enable_host_import(&bd->memory, bd->get_host_pointer_properties, bd->host_import_alignment);
         r = create_timeline(bd, &bd->ticket, "ticket", bd->cross_import);
     }
     if (r == CV_OK)

@@ -18,6 +18,7 @@ typedef struct staging {
 static cv_result staging_create(cv_backend_device *bd, VkDeviceSize size, bool for_reading, staging *out) {
     VkBufferCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
+        .pNext = vk_memory_buffer_external(&bd->memory),
         .size = size,
         .usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
         .sharingMode = VK_SHARING_MODE_EXCLUSIVE,

@@ -270,6 +270,8 @@ void vk_immediate_forget_image(cv_backend_device *bd, vk_texture *tex) {
 }
 
 cv_result vk_immediate_zero_buffer(cv_backend_device *bd, vk_buffer *buf) {
+    if (buf->memory.zeroed)
+        return CV_OK; /* fresh pages (vk_memory.h) */
     if (buf->memory.mapped) {
         uint64_t start = vk_now_ns();
         memset(buf->memory.mapped, 0, buf->size);

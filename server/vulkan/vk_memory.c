@@ -5,10 +5,14 @@
  * on free. Requests larger than half a block get a block of their own. One
  * empty block per list is kept for reuse, so creating and destroying resources
  * in a loop does not call vkAllocateMemory each time; other empty blocks are
- * freed at once. Host-visible blocks are mapped once, for their lifetime. */
+ * freed at once. Host-visible blocks are mapped once, for their lifetime.
+ * Where the device imports host memory (vk_memory.h), blocks are fresh
+ * anonymous mappings of our own. */
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include "vk_memory.h"
 
@@ -24,6 +28,8 @@ struct vk_block {
     VkDeviceSize size;
     uint32_t type;
     void *mapped;
+    void *host;              /* an imported anonymous mapping of our own (munmapped with the block), or NULL */
+    VkDeviceSize clean_from; /* host: ranges at or above it were never handed out (zero pages) */
     bool dedicated;
     uint32_t live; /* allocations in this block */
     free_range *ranges;
@@ -46,9 +52,11 @@ void vk_memory_init(vk_memory *m, VkDevice device, VkPhysicalDevice physical) {
 }
 
 static void block_destroy(vk_memory *m, vk_block *b) {
-    if (b->mapped)
+    if (b->mapped && !b->host)
         vkUnmapMemory(m->device, b->memory);
     vkFreeMemory(m->device, b->memory, NULL);
+    if (b->host)
+        munmap(b->host, b->size);
     atomic_fetch_sub(&live_blocks, 1u);
     m->block_count--;
     m->block_bytes -= b->size;
@@ -66,6 +74,40 @@ void vk_memory_finish(vk_memory *m) {
             }
     pthread_mutex_destroy(&m->lock);
 }
+
+bool vk_memory_enable_host_import(vk_memory *m, PFN_vkGetMemoryHostPointerPropertiesEXT properties,
+                                  VkDeviceSize alignment) {
+    long page = sysconf(_SC_PAGESIZE);
+    if (!properties || !alignment || (alignment & (alignment - 1)) || page <= 0 || alignment > (VkDeviceSize)page)
+        return false;
+    void *probe = mmap(NULL, (size_t)page, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (probe == MAP_FAILED)
+        return false;
+    VkMemoryHostPointerPropertiesEXT host = { .sType = VK_STRUCTURE_TYPE_MEMORY_HOST_POINTER_PROPERTIES_EXT };
+    VkResult vr = properties(m->device, VK_EXTERNAL_MEMORY_HANDLE_TYPE_HOST_ALLOCATION_BIT_EXT, probe, &host);
+    munmap(probe, (size_t)page);
+    const VkMemoryPropertyFlags own = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT;
+    uint32_t types = 0;
+    for (uint32_t i = 0; vr == VK_SUCCESS && i < m->properties.memoryTypeCount; i++)
+        if ((host.memoryTypeBits & (1u << i)) && (m->properties.memoryTypes[i].propertyFlags & own) == own)
+            types |= 1u << i;
+    m->host_import_types = types;
+    m->host_import_alignment = alignment;
+    m->host_pointer_properties = properties;
+    return types != 0;
+}
+
+static const VkExternalMemoryBufferCreateInfo host_buffer = {
+    .sType = VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_BUFFER_CREATE_INFO,
+    .handleTypes = VK_EXTERNAL_MEMORY_HANDLE_TYPE_HOST_ALLOCATION_BIT_EXT
+};
+static const VkExternalMemoryImageCreateInfo host_image = {
+    .sType = VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_IMAGE_CREATE_INFO,
+    .handleTypes = VK_EXTERNAL_MEMORY_HANDLE_TYPE_HOST_ALLOCATION_BIT_EXT
+};
+
+const void *vk_memory_buffer_external(const vk_memory *m) { return m->host_import_types ? &host_buffer : NULL; }
+const void *vk_memory_image_external(const vk_memory *m) { return m->host_import_types ? &host_image : NULL; }
 
 /* Best memory type for the request, or UINT32_MAX. */
 static uint32_t choose_type(const vk_memory *m, uint32_t allowed, VkMemoryPropertyFlags required,
@@ -89,22 +131,43 @@ static uint32_t choose_type(const vk_memory *m, uint32_t allowed, VkMemoryProper
     return best;
 }
 
-static cv_result block_create(vk_memory *m, uint32_t type, vk_memory_kind kind, VkDeviceSize size, bool dedicated,
-                              const char *what, vk_block **out) {
-    vk_block *b = calloc(1, sizeof(*b));
-    if (!b)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: host memory for the record of a %llu-byte block for %s",
-                        (unsigned long long)size, what);
-    /* Buffers in linear blocks may be read through device addresses (trace kernels, acceleration structures). */
-    VkMemoryAllocateFlagsInfo flags = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO,
-                                        .flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT };
+static VkDeviceSize align_up(VkDeviceSize v, VkDeviceSize a) { return (v + a - 1) / a * a; }
+
+/* Maps `size` bytes of fresh anonymous memory and imports them as b's memory
+ * (vk_memory_enable_host_import); false, holding nothing, where the type is
+ * not imported or the import fails (the caller allocates as usual). */
+static bool import_host_block(vk_memory *m, uint32_t type, const void *next, VkDeviceSize size, vk_block *b) {
+    if (!(m->host_import_types & (1u << type)))
+        return false;
+    void *host = mmap(NULL, size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (host == MAP_FAILED)
+        return false;
+    VkImportMemoryHostPointerInfoEXT import = { .sType = VK_STRUCTURE_TYPE_IMPORT_MEMORY_HOST_POINTER_INFO_EXT,
+                                                .pNext = next,
+                                                .handleType = VK_EXTERNAL_MEMORY_HANDLE_TYPE_HOST_ALLOCATION_BIT_EXT,
+                                                .pHostPointer = host };
     VkMemoryAllocateInfo info = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
-                                  .pNext = m->device_address && kind == VK_MEMORY_LINEAR ? &flags : NULL,
+                                  .pNext = &import,
+                                  .allocationSize = size,
+                                  .memoryTypeIndex = type };
+    if (vkAllocateMemory(m->device, &info, NULL, &b->memory) != VK_SUCCESS) {
+        munmap(host, size);
+        return false;
+    }
+    b->host = b->mapped = host;
+    b->clean_from = 0;
+    return true;
+}
+
+/* b's memory from the driver, mapped if host-visible. */
+static cv_result allocate_block(vk_memory *m, uint32_t type, const void *next, VkDeviceSize size, bool dedicated,
+                                const char *what, vk_block *b) {
+    VkMemoryAllocateInfo info = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
+                                  .pNext = next,
                                   .allocationSize = size,
                                   .memoryTypeIndex = type };
     VkResult vr = vkAllocateMemory(m->device, &info, NULL, &b->memory);
     if (vr != VK_SUCCESS) {
-        free(b);
         uint32_t heap = m->properties.memoryTypes[type].heapIndex;
         return vk_fail(vr,
                        "vkAllocateMemory of %llu bytes (%s) for %s from heap %u of %llu bytes (memory type %u, "
@@ -113,23 +176,42 @@ static cv_result block_create(vk_memory *m, uint32_t type, vk_memory_kind kind, 
                        (unsigned long long)m->properties.memoryHeaps[heap].size, type,
                        (unsigned long long)m->block_bytes);
     }
+    b->clean_from = size; /* what the driver hands out may hold anything */
     if (m->properties.memoryTypes[type].propertyFlags & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) {
         vr = vkMapMemory(m->device, b->memory, 0, VK_WHOLE_SIZE, 0, &b->mapped);
         if (vr != VK_SUCCESS) {
             vkFreeMemory(m->device, b->memory, NULL);
-            free(b);
             return vk_fail(vr, "vkMapMemory of a %llu-byte block for %s", (unsigned long long)size, what);
         }
     }
-    b->ranges = malloc(4 * sizeof(*b->ranges));
-    if (!b->ranges) {
-        if (b->mapped)
-            vkUnmapMemory(m->device, b->memory);
-        vkFreeMemory(m->device, b->memory, NULL);
+    return CV_OK;
+}
+
+static cv_result block_create(vk_memory *m, uint32_t type, vk_memory_kind kind, VkDeviceSize size, bool dedicated,
+                              const char *what, vk_block **out) {
+    vk_block *b = calloc(1, sizeof(*b));
+    free_range *ranges = malloc(4 * sizeof(*ranges));
+    if (!b || !ranges) {
         free(b);
+        free(ranges);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: host memory for the record of a %llu-byte block for %s",
                         (unsigned long long)size, what);
     }
+    /* Buffers in linear blocks may be read through device addresses (trace kernels, acceleration structures). */
+    VkMemoryAllocateFlagsInfo flags = { .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO,
+                                        .flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT };
+    const void *next = m->device_address && kind == VK_MEMORY_LINEAR ? &flags : NULL;
+    if (m->host_import_types & (1u << type))
+        size = align_up(size, m->host_import_alignment);
+    cv_result r = CV_OK;
+    if (!import_host_block(m, type, next, size, b))
+        r = allocate_block(m, type, next, size, dedicated, what, b);
+    if (r != CV_OK) {
+        free(ranges);
+        free(b);
+        return r;
+    }
+    b->ranges = ranges;
     b->ranges[0] = (free_range){ 0, size };
     b->range_count = 1;
     b->range_capacity = 4;
@@ -142,8 +224,6 @@ static cv_result block_create(vk_memory *m, uint32_t type, vk_memory_kind kind, 
     *out = b;
     return CV_OK;
 }
-
-static VkDeviceSize align_up(VkDeviceSize v, VkDeviceSize a) { return (v + a - 1) / a * a; }
 
 /* First fit within one block; false if it does not fit. */
 static bool block_take(vk_block *b, VkDeviceSize size, VkDeviceSize alignment, VkDeviceSize *offset) {
@@ -256,7 +336,10 @@ cv_result vk_memory_alloc(vk_memory *m, const VkMemoryRequirements *req, VkMemor
             .size = req->size,
             .mapped = block->mapped ? (char *)block->mapped + offset : NULL,
             .coherent = flags & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+            .zeroed = offset >= block->clean_from,
         };
+        if (block->clean_from < offset + req->size)
+            block->clean_from = offset + req->size;
     }
     pthread_mutex_unlock(&m->lock);
     return r;

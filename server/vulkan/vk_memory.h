@@ -20,6 +20,7 @@ typedef struct vk_allocation {
     VkDeviceSize offset, size;
     void *mapped; /* host pointer to offset, NULL if not host-visible */
     bool coherent;
+    bool zeroed; /* reads as zeros: fresh pages of an imported block, never handed out before */
 } vk_allocation;
 
 typedef struct vk_memory {
@@ -29,6 +30,11 @@ typedef struct vk_memory {
     VkDeviceSize atom;   /* nonCoherentAtomSize */
     bool device_address; /* linear blocks allocated with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT
                                   (set when the device enables bufferDeviceAddress) */
+    /* Host import (vk_memory_enable_host_import): blocks of these memory types are anonymous mappings of
+     * our own, imported; 0 = none. */
+    uint32_t host_import_types;
+    VkDeviceSize host_import_alignment;
+    PFN_vkGetMemoryHostPointerPropertiesEXT host_pointer_properties;
     pthread_mutex_t lock;
     vk_block *blocks[VK_MAX_MEMORY_TYPES][2]; /* per type and kind, linked */
     uint32_t block_count, allocation_count;
@@ -36,6 +42,25 @@ typedef struct vk_memory {
 } vk_memory;
 
 void vk_memory_init(vk_memory *m, VkDevice device, VkPhysicalDevice physical);
+
+/* Fresh memory for free. A new resource must read as zeros, and zeroing costs
+ * a pass over its bytes. Where the device's own memory is host memory that it
+ * can import (lavapipe: VK_EXT_external_memory_host into the memory type its
+ * resources use), blocks become anonymous mappings of our own, imported: the
+ * kernel hands their pages out as zeros, so a range of a block that was never
+ * handed out needs no zeroing (vk_allocation.zeroed; a block keeps the
+ * watermark below which ranges have been used). Every buffer and image is
+ * then created with the host-allocation handle type (vk_memory_buffer_external,
+ * vk_memory_image_external), as binding to imported memory requires; the
+ * caller has checked that every kind of buffer and image it makes can be
+ * (vk_resources_host_import_ok). Enables it only if a probe import lands in
+ * the memory type device-local allocations choose; returns whether it did.
+ * Call before the first allocation. */
+bool vk_memory_enable_host_import(vk_memory *m, PFN_vkGetMemoryHostPointerPropertiesEXT properties,
+                                  VkDeviceSize alignment);
+/* The pNext for VkBufferCreateInfo / VkImageCreateInfo that host import needs, or NULL. */
+const void *vk_memory_buffer_external(const vk_memory *m);
+const void *vk_memory_image_external(const vk_memory *m);
 /* Frees every block (all allocations must have been freed). */
 void vk_memory_finish(vk_memory *m);
 

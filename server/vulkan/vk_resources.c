@@ -48,6 +48,7 @@ cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBuffe
     vk_device_sharing(bd, &sharing, &family_count, &families);
     VkBufferCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
+        .pNext = vk_memory_buffer_external(&bd->memory),
         .size = size,
         .usage = usage,
         .sharingMode = sharing,
@@ -237,6 +238,7 @@ static cv_result create_image(cv_backend_device *bd, const cv_texture_desc *desc
                                                  .handleTypes = VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT };
     VkImageCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
+        .pNext = vk_memory_image_external(&bd->memory),
         .imageType = VK_IMAGE_TYPE_2D,
         .format = t->format,
         .extent = { desc->width, desc->height, 1 },
@@ -262,7 +264,7 @@ static cv_result create_image(cv_backend_device *bd, const cv_texture_desc *desc
                                 bd->label, cv_format_name(desc->format));
             m->external = false; /* not shareable here: an ordinary texture (aliases of it are refused) */
             info.flags = 0;
-            info.pNext = NULL;
+            info.pNext = vk_memory_image_external(&bd->memory);
         }
     }
     VkResult vr = vkCreateImage(bd->device, &info, NULL, &t->image);
@@ -323,6 +325,8 @@ static cv_result texture_make(cv_backend_device *bd, const cv_texture_desc *desc
     t->texel_bytes = cv_format_bytes(desc->format);
     t->clear = m->fd < 0; /* new memory reads as zeros until written; an alias shows the exporter's texels */
     r = create_image(bd, desc, t, usage, m);
+    if (t->memory.zeroed)
+        t->clear = false; /* fresh pages (vk_memory.h) */
     if (r == CV_OK)
         r = vk_immediate_add_image(bd, t);
     if (r != CV_OK) {
@@ -381,6 +385,56 @@ void vk_texture_destroy(cv_backend_device *bd, vk_texture *t) {
     release_image(bd, t);
     atomic_fetch_sub(&bd->images, 1u);
     free(t);
+}
+
+/* ---- host import --------------------------------------------------------------- */
+
+/* Whether every buffer and every image this backend makes can be bound to
+ * imported host memory (vk_memory_enable_host_import): buffers with all their
+ * usages, images in every format with every usage the format supports. */
+bool vk_resources_host_import_ok(const cv_backend_device *bd) {
+    const VkExternalMemoryFeatureFlags importable = VK_EXTERNAL_MEMORY_FEATURE_IMPORTABLE_BIT;
+    VkPhysicalDeviceExternalBufferInfo buffer = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_BUFFER_INFO,
+        .usage = buffer_usage(~0u) | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT |
+                 (bd->ray_tracing ? VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR |
+                                        VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR |
+                                        VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR
+                                  : 0),
+        .handleType = VK_EXTERNAL_MEMORY_HANDLE_TYPE_HOST_ALLOCATION_BIT_EXT
+    };
+    VkExternalBufferProperties buffer_props = { .sType = VK_STRUCTURE_TYPE_EXTERNAL_BUFFER_PROPERTIES };
+    vkGetPhysicalDeviceExternalBufferProperties(bd->adapter.physical, &buffer, &buffer_props);
+    if (!(buffer_props.externalMemoryProperties.externalMemoryFeatures & importable))
+        return false;
+    for (int f = 0; f < CV_FORMAT_COUNT; f++) {
+        VkFormat format = vk_format_of((cv_format)f);
+        VkFormatProperties props;
+        if (format == VK_FORMAT_UNDEFINED)
+            continue;
+        vkGetPhysicalDeviceFormatProperties(bd->adapter.physical, format, &props);
+        VkImageUsageFlags usage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+        for (size_t i = 0; i < sizeof(usage_needs) / sizeof(usage_needs[0]); i++)
+            if (props.optimalTilingFeatures & usage_needs[i].feature)
+                usage |= usage_needs[i].vk_usage;
+        VkPhysicalDeviceExternalImageFormatInfo ext = {
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_IMAGE_FORMAT_INFO,
+            .handleType = VK_EXTERNAL_MEMORY_HANDLE_TYPE_HOST_ALLOCATION_BIT_EXT
+        };
+        VkPhysicalDeviceImageFormatInfo2 info = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_IMAGE_FORMAT_INFO_2,
+                                                  .pNext = &ext,
+                                                  .format = format,
+                                                  .type = VK_IMAGE_TYPE_2D,
+                                                  .tiling = VK_IMAGE_TILING_OPTIMAL,
+                                                  .usage = usage };
+        VkExternalImageFormatProperties ext_props = { .sType = VK_STRUCTURE_TYPE_EXTERNAL_IMAGE_FORMAT_PROPERTIES };
+        VkImageFormatProperties2 image_props = { .sType = VK_STRUCTURE_TYPE_IMAGE_FORMAT_PROPERTIES_2,
+                                                 .pNext = &ext_props };
+        if (vkGetPhysicalDeviceImageFormatProperties2(bd->adapter.physical, &info, &image_props) != VK_SUCCESS ||
+            !(ext_props.externalMemoryProperties.externalMemoryFeatures & importable))
+            return false;
+    }
+    return true;
 }
 
 /* ---- samplers ------------------------------------------------------------------ */

@@ -35,6 +35,9 @@ typedef struct vk_sampler {
     VkSampler sampler;
 } vk_sampler;
 
+/* Whether every buffer and image kind can live in imported host memory (vk_memory.h). */
+bool vk_resources_host_import_ok(const cv_backend_device *bd);
+
 /* The Vulkan format of a Corvid format (VK_FORMAT_UNDEFINED if none). */
 VkFormat vk_format_of(cv_format f);
 
