@@ -35,9 +35,6 @@ enum {
     STATUS_INTERNAL = 13,
 };
 
-/* What one unpack may allocate: every legitimate message fits well inside. */
-#define UNPACK_BUDGET(bytes) (2u * (size_t)(bytes) + 64u * 1024u)
-#define MAX_BLOB_QUERY 4096u
 #define MAX_PENDING_SUBMITS 1024u
 
 typedef struct pending_submit {
@@ -372,8 +369,9 @@ static void end_upload(session *s) {
 }
 
 static cv_result do_blob_query(session *s, uint64_t seq, const Corvid__BlobQuery *m) {
-    if (m->n_sha256 > MAX_BLOB_QUERY)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "blob_query: %zu hashes, at most %u", m->n_sha256, MAX_BLOB_QUERY);
+    if (m->n_sha256 > CV_NODE_MAX_BLOB_QUERY)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "blob_query: %zu hashes, at most %u", m->n_sha256,
+                        CV_NODE_MAX_BLOB_QUERY);
     for (size_t i = 0; i < m->n_sha256; i++) {
         cv_result r = cv_node_check_sha(m->sha256[i], "blob_query.sha256");
         if (r != CV_OK)
@@ -1005,7 +1003,7 @@ void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
             break; /* the client closed its side: a clean end */
         atomic_fetch_add(&node->messages_in, 1);
         atomic_fetch_add(&node->bytes_in, size);
-        proto_arena_reset(&s->arena, UNPACK_BUDGET(size));
+        proto_arena_reset(&s->arena, CV_NODE_UNPACK_BUDGET(size));
         Corvid__ClientMessage *m = corvid__client_message__unpack(&s->arena.allocator, size, data);
         free(data);
         if (!m) {
