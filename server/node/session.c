@@ -720,8 +720,10 @@ static cv_result do_push(session *s, const Corvid__PushTransfer *m) {
     if (m->session_key.len != CV_NODE_SESSION_KEY_BYTES)
         return cv_error(CV_ERROR_MALFORMED, "push_transfer.session_key: %zu bytes, a session key has %u",
                         m->session_key.len, CV_NODE_SESSION_KEY_BYTES);
-    if (!m->destination || !m->destination[0] || strlen(m->destination) >= 256)
-        return cv_error(CV_ERROR_MALFORMED, "push_transfer.destination: empty or longer than 255 characters");
+    char target[PEER_ADDRESS_MAX];
+    r = peer_check_destination(s->node, m->destination, target, sizeof(target));
+    if (r != CV_OK)
+        return r;
     uint8_t *raw = malloc((size_t)bytes);
     if (!raw)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "push_transfer: %" PRIu64 " bytes", bytes);
@@ -729,7 +731,7 @@ static cv_result do_push(session *s, const Corvid__PushTransfer *m) {
             ? cv_device_read_texture(s->dev, (cv_texture){ id }, (cv_rect){ m->x, m->y, m->width, m->height }, raw)
             : cv_device_read_buffer(s->dev, (cv_buffer){ id }, m->offset, m->size, raw);
     if (r == CV_OK)
-        r = peer_send(s->node, m->destination, m->session_key.data, m->transfer_id, raw, (size_t)bytes);
+        r = peer_send(s->node, target, m->session_key.data, m->transfer_id, raw, (size_t)bytes);
     free(raw);
     return r;
 }
