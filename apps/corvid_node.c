@@ -195,8 +195,8 @@ static int parse_args(int argc, char **argv, options *o) {
         } else if (!strcmp(name, "--peer-tls-ca")) {
             o->peer_tls_ca = value;
         } else if (!strcmp(name, "--peers")) {
-            if (cv_node_check_peers(value) != CV_OK) {
-                fprintf(stderr, "corvid-node: --peers: %s\n", cv_last_error());
+            if (cv_node_check_peers(value, "--peers") != CV_OK) {
+                fprintf(stderr, "corvid-node: %s\n", cv_last_error());
                 return 2;
             }
             o->peers = value;

@@ -74,9 +74,9 @@ static int on_call(const char *method, const char *peer, const cv_rpc_metadata *
     return STATUS_UNAUTHENTICATED;
 }
 
-cv_result cv_node_check_peers(const char *peers) {
+cv_result cv_node_check_peers(const char *peers, const char *what) {
     peer_members *m;
-    cv_result r = peer_members_create(peers, false, &m);
+    cv_result r = peer_members_create(peers, what, false, &m);
     peer_members_destroy(m);
     return r;
 }
@@ -245,9 +245,10 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         return cv_error(CV_ERROR_OUT_OF_RANGE, "node: quota of %u lists in flight (at most %u)", q->inflight,
                         CV_NODE_MAX_QUOTA_INFLIGHT);
     peer_members *members;
-    cv_result checked = peer_members_create(config->peers, cv_node_listen_is_local(config->listen), &members);
+    cv_result checked = peer_members_create(config->peers, "node: peers", cv_node_listen_is_local(config->listen),
+                                            &members);
     if (checked != CV_OK)
-        return cv_error(checked, "node: %s", cv_last_error());
+        return checked;
     cv_node *node = calloc(1, sizeof(*node));
     if (!node) {
         peer_members_destroy(members);

@@ -116,8 +116,9 @@ typedef struct cv_node_stats {
 } cv_node_stats;
 
 /* Checks a cv_node_config.peers list: each entry a "host:port" (an IPv4 dotted quad, a bracketed IPv6
- * address or a DNS name; no unix: or other URI targets), at most 256. CV_ERROR_MALFORMED names the entry. */
-cv_result cv_node_check_peers(const char *peers);
+ * address or a DNS name; no unix: or other URI targets), at most 256. CV_ERROR_MALFORMED names `what` (the
+ * option, "--peers") and the entry. */
+cv_result cv_node_check_peers(const char *peers, const char *what);
 
 /* True if `listen` ("host:port") is reachable from this machine only: 127.0.0.0/8, ::1, localhost, unix:. */
 bool cv_node_listen_is_local(const char *listen);

@@ -2,6 +2,8 @@
  * every PushTransfer destination passes before the node connects anywhere. */
 #include "peer_members.h"
 
+#include "corvid/endpoint.h"
+
 #include <arpa/inet.h>
 #include <ctype.h>
 #include <stdint.h>
@@ -16,21 +18,6 @@ struct peer_members {
     char list[512];                      /* for messages: the members, canonical, possibly cut short */
     bool list_cut;
 };
-
-/* 1..65535, decimal digits only. */
-static bool parse_port(const char *text, unsigned *port) {
-    size_t n = strlen(text);
-    if (n == 0 || n > 5)
-        return false;
-    unsigned v = 0;
-    for (size_t i = 0; i < n; i++) {
-        if (!isdigit((unsigned char)text[i]))
-            return false;
-        v = v * 10 + (unsigned)(text[i] - '0');
-    }
-    *port = v;
-    return v >= 1 && v <= 65535;
-}
 
 /* A DNS name: dot-separated labels of letters, digits, '-' (not first or last) and '_', 1..63 each. */
 static bool valid_name(const char *host) {
@@ -54,14 +41,15 @@ static bool valid_name(const char *host) {
     return true;
 }
 
-/* The canonical text of a host (no port): IPv4, [IPv6] or a lower-case name. */
-static cv_result normalize_host(const char *host, bool bracketed, char *out, size_t cap) {
+/* The canonical text of a host (no port; IPv6 without its brackets): IPv4, [IPv6] or a lower-case name. */
+static cv_result normalize_host(const char *host, bool bracketed, const char *what, const char *address, char *out,
+                                size_t cap) {
     struct in_addr v4;
     struct in6_addr v6;
     char text[INET6_ADDRSTRLEN];
     if (bracketed) {
         if (inet_pton(AF_INET6, host, &v6) != 1)
-            return cv_error(CV_ERROR_MALFORMED, "'[%s]' is not an IPv6 address", host);
+            return cv_error(CV_ERROR_MALFORMED, "%s: '%s': '[%s]' is not an IPv6 address", what, address, host);
         if (IN6_IS_ADDR_V4MAPPED(&v6)) {
             memcpy(&v4, &v6.s6_addr[12], 4);
             inet_ntop(AF_INET, &v4, text, sizeof(text));
@@ -72,8 +60,6 @@ static cv_result normalize_host(const char *host, bool bracketed, char *out, siz
         }
         return CV_OK;
     }
-    if (strchr(host, ':'))
-        return cv_error(CV_ERROR_MALFORMED, "an IPv6 address needs brackets ([::1]:7700)");
     if (inet_pton(AF_INET, host, &v4) == 1) {
         inet_ntop(AF_INET, &v4, text, sizeof(text));
         snprintf(out, cap, "%s", text);
@@ -82,73 +68,58 @@ static cv_result normalize_host(const char *host, bool bracketed, char *out, siz
     /* inet_aton takes "127.1", "0x7f.1" or "2130706433" as addresses, and so do resolvers: only a dotted quad
      * is an address here, so that two spellings of one address cannot differ by the comparison. */
     if (inet_aton(host, &v4) != 0)
-        return cv_error(CV_ERROR_MALFORMED, "'%s' is a numeric shorthand: write the address as a dotted quad", host);
+        return cv_error(CV_ERROR_MALFORMED,
+                        "%s: '%s': '%s' is a numeric shorthand: write the address as a dotted quad", what, address,
+                        host);
     if (!valid_name(host))
         return cv_error(CV_ERROR_MALFORMED,
-                        "'%.64s' is not a host name (labels of letters, digits, '-' and '_', 1..63 characters, "
-                        "separated by dots)",
-                        host);
+                        "%s: '%s': '%s' is not a host name (labels of letters, digits, '-' and '_', 1..63 "
+                        "characters, separated by dots)",
+                        what, address, host);
     size_t n = strlen(host);
-    if (n >= cap)
-        return cv_error(CV_ERROR_MALFORMED, "host name too long");
-    for (size_t i = 0; i <= n; i++)
+    for (size_t i = 0; i <= n && i < cap; i++)
         out[i] = (char)tolower((unsigned char)host[i]);
     return CV_OK;
 }
 
-cv_result peer_address_normalize(const char *address, char *out, size_t cap) {
+cv_result peer_address_normalize(const char *address, const char *what, char *out, size_t cap) {
     if (cap)
         out[0] = '\0';
-    if (!address || !address[0])
-        return cv_error(CV_ERROR_MALFORMED, "empty (a peer is host:port)");
-    size_t n = strlen(address);
-    if (n > 255)
-        return cv_error(CV_ERROR_MALFORMED, "longer than 255 characters");
+    if (!address)
+        address = "";
     static const char *const schemes[] = { "unix:", "unix-abstract:", "vsock:", "ipv4:", "ipv6:", "dns:" };
     for (size_t i = 0; i < sizeof(schemes) / sizeof(schemes[0]); i++)
         if (strncmp(address, schemes[i], strlen(schemes[i])) == 0)
             return cv_error(CV_ERROR_MALFORMED,
-                            "a '%.*s' target, not host:port (peers are reached over TCP at host:port only)",
-                            (int)strlen(schemes[i]) - 1, schemes[i]);
+                            "%s: '%.255s': a '%.*s' target, not HOST:PORT (peers are reached over TCP at "
+                            "HOST:PORT only)",
+                            what, address, (int)strlen(schemes[i]) - 1, schemes[i]);
     if (strchr(address, '/'))
-        return cv_error(CV_ERROR_MALFORMED, "a URI or path, not host:port");
-    char host[256];
-    const char *port_text;
-    bool bracketed = address[0] == '[';
-    if (bracketed) {
-        const char *end = strchr(address, ']');
-        if (!end || end[1] != ':')
-            return cv_error(CV_ERROR_MALFORMED, "not [IPv6]:port");
-        snprintf(host, sizeof(host), "%.*s", (int)(end - address - 1), address + 1);
-        port_text = end + 2;
-    } else {
-        const char *colon = strrchr(address, ':');
-        if (!colon)
-            return cv_error(CV_ERROR_MALFORMED, "no port (a peer is host:port)");
-        snprintf(host, sizeof(host), "%.*s", (int)(colon - address), address);
-        port_text = colon + 1;
-    }
-    unsigned port;
-    if (!parse_port(port_text, &port))
-        return cv_error(CV_ERROR_MALFORMED, "port '%.16s' is not a number in 1..65535", port_text);
-    char canonical[PEER_ADDRESS_MAX];
-    cv_result r = normalize_host(host, bracketed, canonical, sizeof(canonical) - 8);
+        return cv_error(CV_ERROR_MALFORMED, "%s: '%.255s': a URI or path, not HOST:PORT", what, address);
+    cv_endpoint e;
+    if (cv_endpoint_parse(address, what, &e) != CV_OK)
+        return cv_error(CV_ERROR_MALFORMED, "%s", cv_last_error());
+    bool bracketed = e.host[0] == '[';
+    char host[CV_ENDPOINT_HOST_MAX + 3], canonical[PEER_ADDRESS_MAX];
+    snprintf(host, sizeof(host), "%.*s", bracketed ? (int)strlen(e.host) - 2 : (int)strlen(e.host),
+             e.host + (bracketed ? 1 : 0));
+    cv_result r = normalize_host(host, bracketed, what, address, canonical, sizeof(canonical) - 8);
     if (r != CV_OK)
         return r;
-    if ((size_t)snprintf(out, cap, "%s:%u", canonical, port) >= cap)
-        return cv_error(CV_ERROR_MALFORMED, "too long");
+    snprintf(out, cap, "%s:%u", canonical, (unsigned)e.port);
     return CV_OK;
 }
 
-static cv_result add_member(peer_members *m, const char *entry) {
+static cv_result add_member(peer_members *m, const char *entry, const char *what) {
     char canonical[PEER_ADDRESS_MAX];
-    if (peer_address_normalize(entry, canonical, sizeof(canonical)) != CV_OK)
-        return cv_error(CV_ERROR_MALFORMED, "peer '%.255s': %s", entry, cv_last_error());
+    cv_result r = peer_address_normalize(entry, what, canonical, sizeof(canonical));
+    if (r != CV_OK)
+        return r;
     for (uint32_t i = 0; i < m->count; i++)
         if (strcmp(m->addresses[i], canonical) == 0)
             return CV_OK;
     if (m->count == PEER_MEMBERS_MAX)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "peers: more than %u", PEER_MEMBERS_MAX);
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: more than %u peers", what, PEER_MEMBERS_MAX);
     snprintf(m->addresses[m->count++], PEER_ADDRESS_MAX, "%s", canonical);
     size_t used = strlen(m->list);
     if (!m->list_cut && used + strlen(canonical) + 6 < sizeof(m->list))
@@ -160,7 +131,7 @@ static cv_result add_member(peer_members *m, const char *entry) {
     return CV_OK;
 }
 
-cv_result peer_members_create(const char *list, bool loopback_only, peer_members **out) {
+cv_result peer_members_create(const char *list, const char *what, bool loopback_only, peer_members **out) {
     *out = NULL;
     peer_members *m = calloc(1, sizeof(*m));
     if (!m)
@@ -186,9 +157,13 @@ cv_result peer_members_create(const char *list, bool loopback_only, peer_members
         }
         while (len && isspace((unsigned char)p[len - 1]))
             len--;
-        char entry[300];
-        snprintf(entry, sizeof(entry), "%.*s", len < 299 ? (int)len : 299, p);
-        r = add_member(m, entry);
+        char entry[CV_ENDPOINT_HOST_MAX + 16];
+        if (len >= sizeof(entry)) {
+            r = cv_error(CV_ERROR_MALFORMED, "%s: an entry of %zu characters ('%.40s...')", what, len, p);
+            break;
+        }
+        snprintf(entry, sizeof(entry), "%.*s", (int)len, p);
+        r = add_member(m, entry, what);
         if (r != CV_OK || !comma)
             break;
         p = comma + 1;
@@ -218,9 +193,8 @@ cv_result peer_members_check(const peer_members *m, const char *destination, cha
     if (cap)
         target[0] = '\0';
     char canonical[PEER_ADDRESS_MAX];
-    if (peer_address_normalize(destination, canonical, sizeof(canonical)) != CV_OK)
-        return cv_error(CV_ERROR_MALFORMED, "push_transfer.destination '%.255s': %s; refused, nothing sent",
-                        destination ? destination : "", cv_last_error());
+    if (peer_address_normalize(destination, "push_transfer.destination", canonical, sizeof(canonical)) != CV_OK)
+        return cv_error(CV_ERROR_MALFORMED, "%s; refused, nothing sent", cv_last_error());
     bool member = false;
     if (m->addresses)
         for (uint32_t i = 0; !member && i < m->count; i++)

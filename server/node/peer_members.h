@@ -16,7 +16,7 @@
  * start, working); a node listening on a network address sends to no one.
  *
  *     peer_members *m;
- *     if (peer_members_create("node0:7700,10.0.0.2:7700", false, &m) != CV_OK) ... // names the bad entry
+ *     if (peer_members_create("node0:7700,10.0.0.2:7700", "peers", false, &m) != CV_OK) ... // names the entry
  *     char target[PEER_ADDRESS_MAX];
  *     if (peer_members_check(m, destination, target, sizeof(target)) == CV_OK)
  *         connect to target ("dns:///node0:7700": canonical, never read as a unix: or other URI)
@@ -38,18 +38,18 @@
 
 typedef struct peer_members peer_members;
 
-/* "host:port" -> its canonical form in out: an IPv4 address as a dotted quad, an IPv6 address as inet_ntop
- * writes it in brackets (an IPv4-mapped one as IPv4), a name in lower case, the port in decimal without
- * leading zeros (1..65535). Refused (CV_ERROR_MALFORMED, the message says why, without the address): no
- * port, a unix:, unix-abstract:, vsock: or other URI target, an IPv6 address without brackets, a numeric
- * shorthand ("127.1") that a resolver would read as an address, a name that is not letters, digits, '-' and
- * '_' in dot-separated labels of 1..63 characters (253 at most). Nothing is resolved. */
-cv_result peer_address_normalize(const char *address, char *out, size_t cap);
+/* "host:port" (the syntax of corvid/endpoint.h) -> its canonical form in out: an IPv4 address as a dotted
+ * quad, an IPv6 address as inet_ntop writes it in brackets (an IPv4-mapped one as IPv4), a name in lower
+ * case, the port in decimal without leading zeros (1..65535). Refused with CV_ERROR_MALFORMED, the message
+ * "<what>: '<address>': why": no port, a unix:, unix-abstract:, vsock: or other URI target, an IPv6 address
+ * without brackets, a numeric shorthand ("127.1") that a resolver would read as an address, a name that is
+ * not letters, digits, '-' and '_' in dot-separated labels of 1..63 characters. Nothing is resolved. */
+cv_result peer_address_normalize(const char *address, const char *what, char *out, size_t cap);
 
 /* list: comma-separated "host:port" (spaces around entries ignored), or NULL for none (then loopback_only
- * decides: loopback destinations only, or none). CV_ERROR_MALFORMED names the entry and why;
- * CV_ERROR_LIMIT_EXCEEDED past PEER_MEMBERS_MAX entries. */
-cv_result peer_members_create(const char *list, bool loopback_only, peer_members **out);
+ * decides: loopback destinations only, or none). CV_ERROR_MALFORMED names `what` (the option), the entry
+ * and why; CV_ERROR_LIMIT_EXCEEDED past PEER_MEMBERS_MAX entries. */
+cv_result peer_members_create(const char *list, const char *what, bool loopback_only, peer_members **out);
 void peer_members_destroy(peer_members *m);
 
 /* CV_OK if this node may send to `destination`: target gets the channel target to dial ("dns:///" and the

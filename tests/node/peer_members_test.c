@@ -32,7 +32,7 @@
 
 static void normalize_is(const char *in, const char *want) {
     char out[PEER_ADDRESS_MAX];
-    cv_result r = peer_address_normalize(in, out, sizeof(out));
+    cv_result r = peer_address_normalize(in, "test", out, sizeof(out));
     if (r != CV_OK || strcmp(out, want) != 0)
         fprintf(stderr, "normalize '%s': got '%s' (%s), want '%s'\n", in, out, cv_last_error(), want);
     CHECK(r == CV_OK && strcmp(out, want) == 0);
@@ -40,7 +40,7 @@ static void normalize_is(const char *in, const char *want) {
 
 static void normalize_refuses(const char *in, const char *needle) {
     char out[PEER_ADDRESS_MAX];
-    cv_result r = peer_address_normalize(in, out, sizeof(out));
+    cv_result r = peer_address_normalize(in, "test", out, sizeof(out));
     if (r != CV_ERROR_MALFORMED || !strstr(cv_last_error(), needle))
         fprintf(stderr, "normalize '%s': %s '%s', want a refusal with '%s'\n", in, cv_result_name(r), cv_last_error(),
                 needle);
@@ -55,19 +55,19 @@ static void test_normalize(void) {
     normalize_is("[0:0:0:0:0:0:0:1]:80", "[::1]:80");
     normalize_is("[::ffff:10.0.0.7]:80", "10.0.0.7:80");
     normalize_is("corvid_node:7700", "corvid_node:7700");
-    normalize_refuses("unix:/tmp/corvid.sock", "'unix' target");
+    normalize_refuses("unix:/tmp/corvid.sock", "test: 'unix:/tmp/corvid.sock': a 'unix' target");
     normalize_refuses("unix-abstract:corvid", "'unix-abstract' target");
     normalize_refuses("dns:///node0:7700", "'dns' target");
-    normalize_refuses("node0", "no port");
+    normalize_refuses("node0", "test: 'node0' is not HOST:PORT");
     normalize_refuses("node0:0", "1..65535");
     normalize_refuses("node0:123456", "1..65535");
-    normalize_refuses("::1:7700", "needs brackets");
-    normalize_refuses("[::1x]:7700", "not an IPv6 address");
-    normalize_refuses("127.1:7700", "numeric shorthand");
+    normalize_refuses("::1:7700", "IPv6 goes in brackets");
+    normalize_refuses("[::1::2]:7700", "'[::1::2]' is not an IPv6 address");
+    normalize_refuses("127.1:7700", "'127.1' is a numeric shorthand");
     normalize_refuses("2130706433:7700", "numeric shorthand");
     normalize_refuses("-node:7700", "not a host name");
     normalize_refuses("a..b:7700", "not a host name");
-    normalize_refuses("", "empty");
+    normalize_refuses("", "test: '' is not HOST:PORT");
 }
 
 /* A listening socket that must never see a connection. */
@@ -224,10 +224,10 @@ static void test_bad_list(void) {
     scratch_node n;
     cv_node_config bad = { .peers = "node0:7700,unix:/tmp/x.sock" };
     CHECK_RESULT(scratch_node_start_secured(&n, cv_mock_backend(), 1, &bad), CV_ERROR_MALFORMED);
-    CHECK(strstr(cv_last_error(), "node: peer 'unix:/tmp/x.sock': a 'unix' target") != NULL);
-    CHECK_RESULT(cv_node_check_peers("node0:7700,,node1:7700"), CV_ERROR_MALFORMED);
-    CHECK(strstr(cv_last_error(), "peer '': empty") != NULL);
-    CHECK_OK(cv_node_check_peers(" node0:7700 , [::1]:7700 "));
+    CHECK(strstr(cv_last_error(), "node: peers: 'unix:/tmp/x.sock': a 'unix' target") != NULL);
+    CHECK_RESULT(cv_node_check_peers("node0:7700,,node1:7700", "--peers"), CV_ERROR_MALFORMED);
+    CHECK(strstr(cv_last_error(), "--peers: '' is not HOST:PORT") != NULL);
+    CHECK_OK(cv_node_check_peers(" node0:7700 , [::1]:7700 ", "--peers"));
 }
 
 int main(void) {
