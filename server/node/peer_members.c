@@ -77,7 +77,9 @@ static cv_result normalize_host(const char *host, bool bracketed, const char *wh
                         "characters, separated by dots)",
                         what, address, host);
     size_t n = strlen(host);
-    for (size_t i = 0; i <= n && i < cap; i++)
+    if (n >= cap)
+        return cv_error(CV_ERROR_MALFORMED, "%s: '%s': host name too long", what, address);
+    for (size_t i = 0; i <= n; i++)
         out[i] = (char)tolower((unsigned char)host[i]);
     return CV_OK;
 }
@@ -183,10 +185,15 @@ void peer_members_destroy(peer_members *m) {
     free(m);
 }
 
-/* Canonical forms only: 127.0.0.0/8, [::1], localhost. */
+/* Canonical forms only: 127.0.0.0/8, [::1], localhost (a name such as "127.example" is not an address). */
 static bool is_loopback(const char *canonical) {
-    return strncmp(canonical, "127.", 4) == 0 || strncmp(canonical, "[::1]:", 6) == 0 ||
-           strncmp(canonical, "localhost:", 10) == 0;
+    const char *colon = strrchr(canonical, ':');
+    char host[PEER_ADDRESS_MAX];
+    snprintf(host, sizeof(host), "%.*s", (int)(colon - canonical), canonical);
+    struct in_addr v4;
+    if (inet_pton(AF_INET, host, &v4) == 1)
+        return (ntohl(v4.s_addr) >> 24) == 127;
+    return strcmp(host, "[::1]") == 0 || strcmp(host, "localhost") == 0;
 }
 
 cv_result peer_members_check(const peer_members *m, const char *destination, char *target, size_t cap) {

@@ -206,6 +206,7 @@ static void test_without_peers(void) {
     EXPECT_REPLY(&c, push(&c, "corvid-bogus-peer.invalid:7700", key, 1), CV_ERROR_INVALID_ARGUMENT,
                  "sends transfers to loopback addresses only");
     EXPECT_REPLY(&c, push(&c, "10.1.2.3:7700", key, 2), CV_ERROR_INVALID_ARGUMENT, "loopback addresses only");
+    EXPECT_REPLY(&c, push(&c, "127.example:7700", key, 3), CV_ERROR_INVALID_ARGUMENT, "loopback addresses only");
     const cv_rpc_metadata md = { "authorization", "Bearer peer-members-token" };
     session(&o, open.endpoint, &md, 1, key_o);
     EXPECT_REPLY(&o, push(&o, local.endpoint, key, 1), CV_ERROR_INVALID_ARGUMENT,
