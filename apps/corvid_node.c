@@ -41,6 +41,7 @@ typedef struct options {
     uint32_t mock_devices;
     uint32_t peer_deadline_ms, peer_keepalive_ms;
     const char *peer_tls_ca;
+    const char *peers;
     const char *health_listen;
     bool validation;
     bool quiet;
@@ -67,6 +68,9 @@ static void usage(FILE *f) {
             "  --peer-keepalive-ms MS clusters: keepalive of the channels to other nodes [10000] (100..600000)\n"
             "  --peer-tls-ca FILE     clusters: reach other nodes over TLS, trusting this CA (they present\n"
             "                         this node's --token-file token, so a cluster shares one token)\n"
+            "  --peers HOST:PORT,...  clusters: the only nodes this node sends partitions to, as clients name\n"
+            "                         them (compared after normalisation, never resolved first) [none: a\n"
+            "                         loopback node sends to loopback addresses only, any other to none]\n"
             "  --health-listen HOST:PORT  a plaintext port serving only grpc.health.v1 Health/Check, for\n"
             "                         probes that speak no TLS (Kubernetes) next to a TLS --listen [off]\n"
             "  --name NAME            the name clients see [the host name]\n"
@@ -190,6 +194,12 @@ static int parse_args(int argc, char **argv, options *o) {
             bad = parse_u32(name, value, 100, 600000, &o->peer_keepalive_ms);
         } else if (!strcmp(name, "--peer-tls-ca")) {
             o->peer_tls_ca = value;
+        } else if (!strcmp(name, "--peers")) {
+            if (cv_node_check_peers(value, "--peers") != CV_OK) {
+                fprintf(stderr, "corvid-node: %s\n", cv_last_error());
+                return 2;
+            }
+            o->peers = value;
         } else if (!strcmp(name, "--health-listen")) {
             if (!strrchr(value, ':')) {
                 fprintf(stderr, "corvid-node: --health-listen: '%s' is not HOST:PORT\n", value);
@@ -365,6 +375,7 @@ int main(int argc, char **argv) {
         .peer_tls_ca_file = o.peer_tls_ca,
         .peer_deadline_ms = o.peer_deadline_ms,
         .peer_keepalive_ms = o.peer_keepalive_ms,
+        .peers = o.peers,
         .health_listen = o.health_listen,
     };
     cv_node *node;

@@ -4,7 +4,9 @@
 # has its own cache directory under a temporary directory and its own metrics
 # port, and runs with the options the containers use (deploy/Containerfile.*,
 # compose.yaml) except for what differs on one machine: 127.0.0.1 and free ports
-# instead of 0.0.0.0:7700/9400, and no token or TLS. Prints the --nodes list for
+# instead of 0.0.0.0:7700/9400, no token or TLS, and no --peers (ports are picked
+# at start: a loopback node without --peers sends partitions to loopback
+# addresses only, which are exactly this cluster's). Prints the --nodes list for
 # scripts/render.sh / corvid-render, then waits. Ctrl-C or SIGTERM drains every
 # node (each finishes its running sessions, up to --drain-timeout) and stops them.
 #

@@ -13,6 +13,7 @@ packages=(
   libopenexr-dev libpng-dev libjpeg-dev libzstd-dev libssl-dev openssl
   libassimp-dev assimp-testmodels libembree-dev libcjson-dev
   python3-yaml   # tests/apps/deploy_test.sh parses deploy/*.yaml
+  python3-grpcio python3-grpc-tools   # tests/apps/proto_python_test.sh: a Python client from proto/ alone
 )
 backports_packages=(mesa-vulkan-drivers)
 min_mesa_major=25

@@ -13,6 +13,7 @@
 #include "health.pb-c.h"
 #include "node_internal.h"
 #include "peer.h"
+#include "peer_members.h"
 
 enum {
     STATUS_OK = 0,
@@ -71,6 +72,13 @@ static int on_call(const char *method, const char *peer, const cv_rpc_metadata *
              "file named by CORVID_NODE_TOKEN_FILE)",
              why);
     return STATUS_UNAUTHENTICATED;
+}
+
+cv_result cv_node_check_peers(const char *peers, const char *what) {
+    peer_members *m;
+    cv_result r = peer_members_create(peers, what, false, &m);
+    peer_members_destroy(m);
+    return r;
 }
 
 bool cv_node_listen_is_local(const char *listen) {
@@ -191,6 +199,7 @@ static void free_node(cv_node *node) {
     OPENSSL_cleanse(node->token_sha, sizeof(node->token_sha));
     OPENSSL_cleanse(node->peer_token, sizeof(node->peer_token));
     peer_state_destroy(node->peer);
+    peer_members_destroy(node->members);
     if (node->store)
         cv_content_store_close(node->store);
     cv_node_metrics_destroy(node->metrics);
@@ -235,9 +244,17 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     if (q->inflight > CV_NODE_MAX_QUOTA_INFLIGHT)
         return cv_error(CV_ERROR_OUT_OF_RANGE, "node: quota of %u lists in flight (at most %u)", q->inflight,
                         CV_NODE_MAX_QUOTA_INFLIGHT);
+    peer_members *members;
+    cv_result checked = peer_members_create(config->peers, "node: peers", cv_node_listen_is_local(config->listen),
+                                            &members);
+    if (checked != CV_OK)
+        return checked;
     cv_node *node = calloc(1, sizeof(*node));
-    if (!node)
+    if (!node) {
+        peer_members_destroy(members);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
+    }
+    node->members = members;
     node->quota = (cv_node_quota){
         .memory_bytes = q->memory_bytes ? q->memory_bytes : CV_NODE_DEFAULT_QUOTA_MEMORY,
         .resources = q->resources ? q->resources : CV_NODE_DEFAULT_QUOTA_RESOURCES,
@@ -247,6 +264,7 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     if (config->token) {
         cv_result hashed = cv_sha256(config->token, strlen(config->token), node->token_sha);
         if (hashed != CV_OK) {
+            peer_members_destroy(node->members);
             free(node);
             return hashed;
         }
@@ -276,6 +294,7 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     node->config.listen = NULL;
     node->config.cache_dir = NULL; /* used only here, below */
     node->config.token = NULL;     /* only its hash is kept */
+    node->config.peers = NULL;     /* parsed into node->members */
     if (config->peer_token)
         snprintf(node->peer_token, sizeof(node->peer_token), "%s", config->peer_token);
     if (config->peer_tls_ca_file)

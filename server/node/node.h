@@ -85,6 +85,12 @@ typedef struct cv_node_config {
        the channels to peers (0 = the rpc layer's 10 s + 5 s). */
     const char *peer_token;
     const char *peer_tls_ca_file;
+    /* The cluster's members: the only nodes this node sends transfers to (PushTransfer.destination), as
+       comma-separated "host:port" (names are compared in lower case and never resolved before the check; see
+       cv_node_check_peers). NULL: a node listening on loopback or a unix socket sends to loopback addresses
+       only, any other node to none. A push elsewhere is answered CV_ERROR_INVALID_ARGUMENT before any
+       connection. */
+    const char *peers;
     uint32_t peer_deadline_ms;
     uint32_t peer_keepalive_ms;
 
@@ -108,6 +114,11 @@ typedef struct cv_node_stats {
        bytes it received from peers, transfers it could not deliver, and awaits that failed here. */
     uint64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;
 } cv_node_stats;
+
+/* Checks a cv_node_config.peers list: each entry a "host:port" (an IPv4 dotted quad, a bracketed IPv6
+ * address or a DNS name; no unix: or other URI targets), at most 256. CV_ERROR_MALFORMED names `what` (the
+ * option, "--peers") and the entry. */
+cv_result cv_node_check_peers(const char *peers, const char *what);
 
 /* True if `listen` ("host:port") is reachable from this machine only: 127.0.0.0/8, ::1, localhost, unix:. */
 bool cv_node_listen_is_local(const char *listen);

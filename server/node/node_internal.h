@@ -25,9 +25,10 @@ struct cv_node {
     atomic_uint_fast64_t messages_in, bytes_in, bytes_out, submissions, errors;
     atomic_uint_fast64_t unauthenticated, quota_refusals;
     atomic_uint_fast64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;
-    struct peer_state *peer; /* node-to-node transfers (peer.h) */
-    char peer_token[1040];   /* presented to peers; "" = none */
-    char peer_tls_ca[1024];  /* file name; "" = plaintext to peers */
+    struct peer_state *peer;      /* node-to-node transfers (peer.h) */
+    struct peer_members *members; /* where transfers may go (peer_members.h) */
+    char peer_token[1040];        /* presented to peers; "" = none */
+    char peer_tls_ca[1024];       /* file name; "" = plaintext to peers */
     bool has_token;
     uint8_t token_sha[32];    /* SHA-256 of the token; the token itself is not kept */
     cv_node_quota quota;      /* defaults filled in */

@@ -13,6 +13,7 @@
 #include <zstd.h>
 
 #include "node_internal.h"
+#include "peer_members.h"
 
 enum {
     STATUS_OK = 0,
@@ -44,7 +45,7 @@ struct peer_inbox {
 
 typedef struct send_job {
     struct send_job *next;
-    char destination[256];
+    char destination[PEER_ADDRESS_MAX];
     uint8_t key[CV_NODE_SESSION_KEY_BYTES];
     uint64_t transfer_id, raw_size;
     uint8_t *data;
@@ -52,7 +53,7 @@ typedef struct send_job {
 } send_job;
 
 typedef struct peer_channel {
-    char destination[256];
+    char destination[PEER_ADDRESS_MAX];
     cv_rpc_client *client;
 } peer_channel;
 
@@ -326,6 +327,10 @@ cv_result peer_decompress(const void *data, size_t size, void *out, size_t raw_s
         return cv_error(CV_ERROR_MALFORMED, "peer transfer: corrupt compressed data (%s)",
                         ZSTD_isError(n) ? ZSTD_getErrorName(n) : "short");
     return CV_OK;
+}
+
+cv_result peer_check_destination(cv_node *node, const char *destination, char *target, size_t cap) {
+    return peer_members_check(node->members, destination, target, cap);
 }
 
 cv_result peer_send(cv_node *node, const char *destination, const uint8_t key[CV_NODE_SESSION_KEY_BYTES],

@@ -34,6 +34,7 @@
 
 #include "corvid/node_protocol.h"
 #include "node.h"
+#include "peer_members.h"
 
 typedef struct peer_inbox peer_inbox;
 typedef struct peer_state peer_state;
@@ -63,7 +64,13 @@ cv_result peer_inbox_take(peer_inbox *in, uint64_t transfer_id, uint64_t raw_byt
 /* The unary handler of /corvid.Node/PeerPiece: 0, or a gRPC status with a message naming what is wrong. */
 int peer_on_piece(cv_node *node, const void *request, size_t size, char *message, size_t cap);
 
-/* Compresses `raw` and queues it for `destination`'s session `key`; returns once queued (the sender thread
+/* Whether this node may send a transfer to `destination` (a cluster member, peer_members.h): CV_OK with the
+ * channel target to pass to peer_send, or the refusal (CV_ERROR_MALFORMED / CV_ERROR_INVALID_ARGUMENT, the
+ * message naming push_transfer.destination). Resolves nothing and connects nowhere. */
+cv_result peer_check_destination(cv_node *node, const char *destination, char *target, size_t cap);
+
+/* Compresses `raw` and queues it for `destination`'s session `key` (destination: a target from
+ * peer_check_destination); returns once queued (the sender thread
  * delivers it; a failure there is logged and counted, and the destination's await fails at its deadline). */
 cv_result peer_send(cv_node *node, const char *destination, const uint8_t key[CV_NODE_SESSION_KEY_BYTES],
                     uint64_t transfer_id, const void *raw, size_t raw_size);

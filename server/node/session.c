@@ -35,9 +35,6 @@ enum {
     STATUS_INTERNAL = 13,
 };
 
-/* What one unpack may allocate: every legitimate message fits well inside. */
-#define UNPACK_BUDGET(bytes) (2u * (size_t)(bytes) + 64u * 1024u)
-#define MAX_BLOB_QUERY 4096u
 #define MAX_PENDING_SUBMITS 1024u
 
 typedef struct pending_submit {
@@ -372,8 +369,9 @@ static void end_upload(session *s) {
 }
 
 static cv_result do_blob_query(session *s, uint64_t seq, const Corvid__BlobQuery *m) {
-    if (m->n_sha256 > MAX_BLOB_QUERY)
-        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "blob_query: %zu hashes, at most %u", m->n_sha256, MAX_BLOB_QUERY);
+    if (m->n_sha256 > CV_NODE_MAX_BLOB_QUERY)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "blob_query: %zu hashes, at most %u", m->n_sha256,
+                        CV_NODE_MAX_BLOB_QUERY);
     for (size_t i = 0; i < m->n_sha256; i++) {
         cv_result r = cv_node_check_sha(m->sha256[i], "blob_query.sha256");
         if (r != CV_OK)
@@ -722,8 +720,10 @@ static cv_result do_push(session *s, const Corvid__PushTransfer *m) {
     if (m->session_key.len != CV_NODE_SESSION_KEY_BYTES)
         return cv_error(CV_ERROR_MALFORMED, "push_transfer.session_key: %zu bytes, a session key has %u",
                         m->session_key.len, CV_NODE_SESSION_KEY_BYTES);
-    if (!m->destination || !m->destination[0] || strlen(m->destination) >= 256)
-        return cv_error(CV_ERROR_MALFORMED, "push_transfer.destination: empty or longer than 255 characters");
+    char target[PEER_ADDRESS_MAX];
+    r = peer_check_destination(s->node, m->destination, target, sizeof(target));
+    if (r != CV_OK)
+        return r;
     uint8_t *raw = malloc((size_t)bytes);
     if (!raw)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "push_transfer: %" PRIu64 " bytes", bytes);
@@ -731,7 +731,7 @@ static cv_result do_push(session *s, const Corvid__PushTransfer *m) {
             ? cv_device_read_texture(s->dev, (cv_texture){ id }, (cv_rect){ m->x, m->y, m->width, m->height }, raw)
             : cv_device_read_buffer(s->dev, (cv_buffer){ id }, m->offset, m->size, raw);
     if (r == CV_OK)
-        r = peer_send(s->node, m->destination, m->session_key.data, m->transfer_id, raw, (size_t)bytes);
+        r = peer_send(s->node, target, m->session_key.data, m->transfer_id, raw, (size_t)bytes);
     free(raw);
     return r;
 }
@@ -1005,7 +1005,7 @@ void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
             break; /* the client closed its side: a clean end */
         atomic_fetch_add(&node->messages_in, 1);
         atomic_fetch_add(&node->bytes_in, size);
-        proto_arena_reset(&s->arena, UNPACK_BUDGET(size));
+        proto_arena_reset(&s->arena, CV_NODE_UNPACK_BUDGET(size));
         Corvid__ClientMessage *m = corvid__client_message__unpack(&s->arena.allocator, size, data);
         free(data);
         if (!m) {

@@ -67,10 +67,12 @@ d = sys.argv[1]
 compose = yaml.safe_load(open(d + "/compose.yaml"))
 s = compose["services"]
 assert set(s) == {"node0", "node1", "primary"}, s.keys()
+nodes = s["primary"]["command"][s["primary"]["command"].index("--nodes") + 1]
 for n in ("node0", "node1"):
     cmd = s[n]["command"]
     assert "--metrics-port" in cmd and "corvid_node_token" in s[n]["secrets"], n
-assert "--nodes" in s["primary"]["command"]
+    # Every node may send partitions to exactly the nodes the client renders on.
+    assert cmd[cmd.index("--peers") + 1] == nodes, n
 assert compose["secrets"]["corvid_node_token"]["file"]
 for name, gpu in (("corvid-node-lavapipe.yaml", False), ("corvid-node-nvidia.yaml", True)):
     docs = [x for x in yaml.safe_load_all(open(d + "/kubernetes/" + name)) if x]
@@ -85,6 +87,10 @@ for name, gpu in (("corvid-node-lavapipe.yaml", False), ("corvid-node-nvidia.yam
     assert "--health-listen" in c["args"] and "0.0.0.0:7701" in c["args"], name
     assert c["readinessProbe"]["grpc"]["port"] == 7701 and c["livenessProbe"]["grpc"]["port"] == 7701, name
     assert ("nvidia.com/gpu" in c["resources"]["limits"]) == gpu, name
+    # --peers: one stable pod name per replica (the names in the header's --nodes).
+    peers = c["args"][c["args"].index("--peers") + 1].split(",")
+    assert peers == ["corvid-node-%d.corvid-node.corvid.svc.cluster.local:7700" % i
+                     for i in range(sts["spec"]["replicas"])], name
     secrets = {v["secret"]["secretName"] for v in pod["spec"]["volumes"] if "secret" in v}
     assert secrets == {"corvid-node-token", "corvid-node-tls"}, name
     print(name, "ok:", ", ".join(x["kind"] for x in docs))

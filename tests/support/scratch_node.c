@@ -52,6 +52,7 @@ static cv_result start(scratch_node *n, const cv_backend *backend, uint32_t coun
         n->config.peer_deadline_ms = security->peer_deadline_ms;
         n->config.peer_keepalive_ms = security->peer_keepalive_ms;
         n->config.health_listen = security->health_listen;
+        n->config.peers = security->peers;
     }
     cv_result r = cv_node_start(&n->config, &n->node);
     if (r != CV_OK) {

@@ -3,7 +3,8 @@
  * proto/node.proto defines the messages of a session between a client (the
  * proxy backend, client/src/proxy/) and corvid-node (server/node/). This header
  * holds what both ends must agree on beyond the schema: the protocol version,
- * the method paths (protoc-c generates no gRPC stubs), the sizes of chunks and
+ * the method paths (proto/node.proto declares the service; protoc-c generates
+ * no gRPC stubs, so the C code calls these paths), the sizes of chunks and
  * messages, and the conversions between Corvid's C structs and their messages.
  * Conversions from messages never trust their input: every field is checked and
  * a bad one is named in the error (CV_ERROR_MALFORMED), so the node can answer a
@@ -45,6 +46,13 @@
 #define CV_NODE_SESSION_KEY_BYTES 16u
 /* The largest node-to-node transfer, before and after compression. */
 #define CV_NODE_PEER_MAX_BYTES (256ull << 20)
+/* What one ClientMessage of `bytes` bytes may decode to (protobuf-c structures) on the node: more ends the
+ * stream, so a small hostile message cannot make the node allocate gigabytes; every legitimate message fits
+ * well inside. An encoded CommandList has the same budget (command_codec.c). */
+#define CV_NODE_UNPACK_BUDGET_BASE_BYTES (64u << 10)
+#define CV_NODE_UNPACK_BUDGET(bytes) (2u * (size_t)(bytes) + CV_NODE_UNPACK_BUDGET_BASE_BYTES)
+/* Hashes in one BlobQuery, at most. */
+#define CV_NODE_MAX_BLOB_QUERY 4096u
 
 /* A PushTransfer / AwaitTransfer region checked against the resource it names
  * (desc): a texture rect (width, height not 0) or a buffer range (size not 0,
