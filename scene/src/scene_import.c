@@ -1,5 +1,7 @@
 /* Import through assimp's C API: materials, triangle meshes, the node tree
- * (one instance per mesh reference, transforms composed), cameras and lights. */
+ * (one instance per mesh reference, transforms composed), cameras and lights.
+ * assimp opens every file through model_files.h's aiFileIO, which keeps
+ * them inside the model's folder. */
 #include "corvid/scene_import.h"
 
 #include <assimp/cfileio.h>
@@ -384,12 +386,12 @@ cv_result cv_scene_import(const char *path, cv_scene **out) {
         r = gltf_check(path);
     if (r != CV_OK)
         return r;
-    /* FlipUVs: assimp stores v upward (OpenGL's convention; its glTF importer
-     * flips glTF's v); the scene's uvs follow glTF, (0, 0) at the image's
-     * top-left corner with v downward (scene.h), so v is flipped back. */
     model_files files;
     if ((r = model_files_init(&files, path)) != CV_OK)
         return r;
+    /* FlipUVs: assimp stores v upward (OpenGL's convention; its glTF importer
+     * flips glTF's v); the scene's uvs follow glTF, (0, 0) at the image's
+     * top-left corner with v downward (scene.h), so v is flipped back. */
     const struct aiScene *ai =
         aiImportFileEx(path, aiProcess_Triangulate | aiProcess_ValidateDataStructure | aiProcess_FlipUVs, &files.io);
     if (files.refused != CV_OK) {
