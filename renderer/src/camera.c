@@ -68,10 +68,11 @@ cv_result cv_render_settings_check(const cv_render_settings *s) {
                         "renderer: camera eye (%g, %g, %g), target (%g, %g, %g), fov %g: not finite numbers", e[0],
                         e[1], e[2], t[0], t[1], t[2], s->camera_fov_degrees);
     if (s->camera_fov_degrees != 0.0f) {
-        if (!(s->camera_fov_degrees > 0.0f && s->camera_fov_degrees < 180.0f))
+        if (!(s->camera_fov_degrees > 0.0f && s->camera_fov_degrees <= CV_RENDER_MAX_FOV_DEGREES))
             return cv_error(CV_ERROR_OUT_OF_RANGE,
-                            "renderer: camera fov %g degrees is outside (0, 180) (0 = the scene's camera)",
-                            s->camera_fov_degrees);
+                            "renderer: camera fov %g degrees is outside (0, %g] (0 = the scene's camera; wider, "
+                            "the near plane cuts what the image's edges see)",
+                            s->camera_fov_degrees, (double)CV_RENDER_MAX_FOV_DEGREES);
         if (e[0] == t[0] && e[1] == t[1] && e[2] == t[2])
             return cv_error(CV_ERROR_INVALID_ARGUMENT,
                             "renderer: camera eye (%g, %g, %g) equals its target: no view direction", e[0], e[1],
@@ -100,6 +101,20 @@ cv_result cv_render_settings_check(const cv_render_settings *s) {
     if (!isfinite(s->orbit_degrees))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: orbit %g degrees per frame: not a finite number",
                         s->orbit_degrees);
+    return CV_OK;
+}
+
+cv_result cv_render_camera_check(const cv_render_settings *s, const cv_scene *scene) {
+    if (s->camera_fov_degrees > 0.0f)
+        return CV_OK; /* cv_render_settings_check's */
+    cv_camera c = cv_render_camera(s, scene, s->first_frame);
+    double degrees = (double)c.vertical_fov * (180.0 / 3.14159265358979);
+    /* A file's camera of exactly the limit, rounded to radians in float, passes. */
+    if (degrees > CV_RENDER_MAX_FOV_DEGREES * (1.0 + 1e-6))
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "renderer: the scene's camera %u has a vertical fov of %g degrees, over the limit of %g (the "
+                        "near plane would cut what the image's edges see): set a camera with --camera",
+                        s->camera, degrees, (double)CV_RENDER_MAX_FOV_DEGREES);
     return CV_OK;
 }
 

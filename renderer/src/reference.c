@@ -439,6 +439,8 @@ cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv
                         "cv_render_reference: %ux%u, %u AO samples, reflections %d (limits %u, 32; 1 or -1)",
                         j.s.width, j.s.height, j.s.ao_samples, j.s.reflections, CV_MAX_TEXTURE_DIM);
     cv_result res = cv_render_settings_check(&j.s);
+    if (res == CV_OK)
+        res = cv_render_camera_check(&j.s, scene);
     if (res != CV_OK)
         return res;
     /* The view of the GPU render's image: its last frame (cv_render_camera). */

@@ -1640,6 +1640,8 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_render: NULL argument");
     cv_render_settings s = cv_render_settings_resolve(settings, r->scene);
     cv_result res = cv_render_settings_check(&s);
+    if (res == CV_OK)
+        res = cv_render_camera_check(&s, r->scene);
     if (res != CV_OK)
         return res;
     if (s.width > CV_MAX_TEXTURE_DIM || s.height > CV_MAX_TEXTURE_DIM || s.ao_samples > 32 || s.frames > 4096 ||

@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 /* Checks `count` numbers of `value` (an array when count > 1) against [lo, hi]. */
 static cv_result check_factor(const char *path, int index, const char *name, const cJSON *value, const char *key,
@@ -58,6 +59,21 @@ static cv_result check_texture_transforms(const char *path, int index, const cha
     return CV_OK;
 }
 
+/* alphaMode one of glTF's three names, alphaCutoff a number in [0, 1]:
+ * assimp drops a value of the wrong type (alphaCutoff "x") or keeps an
+ * unknown mode (alphaMode "BOGUS") silently, which renders the material
+ * opaque where its author asked for something else. */
+static cv_result check_alpha(const char *path, int index, const char *name, const cJSON *m) {
+    const cJSON *mode = cJSON_GetObjectItemCaseSensitive(m, "alphaMode");
+    if (mode && (!cJSON_IsString(mode) ||
+                 (strcmp(mode->valuestring, "OPAQUE") != 0 && strcmp(mode->valuestring, "MASK") != 0 &&
+                  strcmp(mode->valuestring, "BLEND") != 0)))
+        return cv_error(CV_ERROR_MALFORMED, "%s: material %d ('%s'): alphaMode %s is not OPAQUE, MASK or BLEND", path,
+                        index, name, cJSON_IsString(mode) ? mode->valuestring : "(not a string)");
+    return check_factor(path, index, name, cJSON_GetObjectItemCaseSensitive(m, "alphaCutoff"), "alphaCutoff", 1, 0.0,
+                        1.0);
+}
+
 cv_result gltf_check_materials(const char *path, const cJSON *root) {
     const cJSON *materials = cJSON_GetObjectItemCaseSensitive(root, "materials");
     if (!materials)
@@ -92,6 +108,8 @@ cv_result gltf_check_materials(const char *path, const cJSON *root) {
             cJSON_GetObjectItemCaseSensitive(ext, "KHR_materials_emissive_strength"), "emissiveStrength");
         if (r == CV_OK)
             r = check_factor(path, index, name, strength, "emissiveStrength", 1, 0.0, INFINITY);
+        if (r == CV_OK)
+            r = check_alpha(path, index, name, m);
         if (r == CV_OK)
             r = check_texture_transforms(path, index, name, m, pbr);
     }

@@ -3,7 +3,8 @@
  * out-of-range factor would reach the renderer's shading). The ranges are
  * glTF 2.0's: baseColorFactor 4 numbers in [0, 1], metallicFactor and
  * roughnessFactor in [0, 1], emissiveFactor 3 numbers in [0, 1], and
- * KHR_materials_emissive_strength's emissiveStrength >= 0; every one finite.
+ * KHR_materials_emissive_strength's emissiveStrength >= 0, alphaCutoff in
+ * [0, 1]; every one finite. alphaMode is OPAQUE, MASK or BLEND.
  * A file with a bad factor is refused (not clamped): it is not valid glTF,
  * and clamping would render something its author did not make.
  * A texture (base color, metallic-roughness, normal, emissive) with

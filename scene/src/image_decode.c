@@ -7,6 +7,8 @@
 #include <stdio.h> /* before jpeglib.h, which uses FILE */
 
 #include <jpeglib.h>
+
+#include <jerror.h>
 #include <png.h>
 #include <setjmp.h>
 #include <stdlib.h>
@@ -14,14 +16,27 @@
 
 #include "corvid/scene.h"
 
+/* libjpeg's own tables and buffers besides the coefficients of a
+ * progressive image: a few MB at the largest side. */
+#define JPEG_TABLE_BYTES (64ull * 1024 * 1024)
+
 static const uint8_t png_magic[8] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n' };
 
-static cv_result check_sides(const char *what, const char *kind, uint32_t w, uint32_t h) {
+/* The sides, and the bytes the image would take in the scene with its mip
+ * chain against what is left of the scene's budget: both known from the
+ * header, before any texel memory exists. */
+static cv_result check_sides(const char *what, const char *kind, uint32_t w, uint32_t h, uint64_t budget) {
     if (w == 0 || h == 0)
         return cv_error(CV_ERROR_MALFORMED, "%s: %s header says %ux%u texels", what, kind, w, h);
     if (w > CV_IMAGE_MAX_SIDE || h > CV_IMAGE_MAX_SIDE)
         return cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: %s is %ux%u texels, a side over the limit of %u", what, kind, w,
                         h, CV_IMAGE_MAX_SIDE);
+    uint64_t bytes = cv_image_stored_bytes(w, h);
+    if (bytes > budget)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "%s: %s is %ux%u texels, %llu bytes with its mip chain: over the %llu bytes left of the "
+                        "scene's image budget (refused before decoding)",
+                        what, kind, w, h, (unsigned long long)bytes, (unsigned long long)budget);
     return CV_OK;
 }
 
@@ -55,14 +70,14 @@ static void png_read_mem(png_structp png, png_bytep out, png_size_t n) {
     c->offset += n;
 }
 
-static cv_result decode_png(const uint8_t *data, size_t size, const char *what, uint8_t **out, uint32_t *ow,
-                            uint32_t *oh) {
+static cv_result decode_png(const uint8_t *data, size_t size, uint64_t budget, const char *what, uint8_t **out,
+                            uint32_t *ow, uint32_t *oh) {
     /* The sides first, from IHDR (always the first chunk), before libpng
      * reads on: a header alone is enough to refuse a huge image. */
     if (size >= 24 && memcmp(data + 12, "IHDR", 4) == 0) {
         uint32_t w = (uint32_t)data[16] << 24 | (uint32_t)data[17] << 16 | (uint32_t)data[18] << 8 | data[19];
         uint32_t h = (uint32_t)data[20] << 24 | (uint32_t)data[21] << 16 | (uint32_t)data[22] << 8 | data[23];
-        cv_result r = check_sides(what, "PNG", w, h);
+        cv_result r = check_sides(what, "PNG", w, h, budget);
         if (r != CV_OK)
             return r;
     }
@@ -88,7 +103,7 @@ static cv_result decode_png(const uint8_t *data, size_t size, const char *what, 
     png_uint_32 w, h;
     int depth, color, interlace;
     png_get_IHDR(png, info, &w, &h, &depth, &color, &interlace, NULL, NULL);
-    if ((r = check_sides(what, "PNG", w, h)) != CV_OK)
+    if ((r = check_sides(what, "PNG", w, h, budget)) != CV_OK)
         goto done;
     /* To RGBA8, bytes as stored: no gamma handling is requested. */
     png_set_expand(png); /* palette -> RGB, gray < 8 bits -> 8, tRNS -> alpha */
@@ -145,8 +160,8 @@ static void jpeg_message(j_common_ptr cinfo, int level) {
         jpeg_fail(cinfo);
 }
 
-static cv_result decode_jpeg(const uint8_t *data, size_t size, const char *what, uint8_t **out, uint32_t *ow,
-                             uint32_t *oh) {
+static cv_result decode_jpeg(const uint8_t *data, size_t size, uint64_t budget, const char *what, uint8_t **out,
+                             uint32_t *ow, uint32_t *oh) {
     jpeg_ctx *c = calloc(1, sizeof *c);
     struct jpeg_decompress_struct *d = calloc(1, sizeof *d);
     if (!c || !d) {
@@ -159,14 +174,21 @@ static cv_result decode_jpeg(const uint8_t *data, size_t size, const char *what,
     c->err.emit_message = jpeg_message;
     cv_result r = CV_OK;
     if (setjmp(c->jump)) {
-        r = cv_error(CV_ERROR_MALFORMED, "%s: corrupt JPEG: %s", what, c->message);
+        r = c->err.msg_code == JERR_NO_BACKING_STORE
+                ? cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: JPEG needs more decoder memory than its %ux%u texels allow",
+                           what, d->image_width, d->image_height)
+                : cv_error(CV_ERROR_MALFORMED, "%s: corrupt JPEG: %s", what, c->message);
         goto done;
     }
     jpeg_create_decompress(d);
     jpeg_mem_src(d, data, (unsigned long)size);
     jpeg_read_header(d, TRUE);
-    if ((r = check_sides(what, "JPEG", d->image_width, d->image_height)) != CV_OK)
+    if ((r = check_sides(what, "JPEG", d->image_width, d->image_height, budget)) != CV_OK)
         goto done;
+    /* A progressive JPEG keeps every coefficient (2 bytes per sample) until
+     * its last scan: bounded by twice the image's own bytes plus room for
+     * tables; past it libjpeg fails (it has no backing store), reported below. */
+    d->mem->max_memory_to_use = (long)(2 * cv_image_stored_bytes(d->image_width, d->image_height) + JPEG_TABLE_BYTES);
     if (d->jpeg_color_space == JCS_CMYK || d->jpeg_color_space == JCS_YCCK) {
         r = cv_error(CV_ERROR_MALFORMED, "%s: CMYK JPEG is not supported (only gray and RGB)", what);
         goto done;
@@ -196,11 +218,11 @@ done:
     return r;
 }
 
-cv_result image_decode(const uint8_t *data, size_t size, const char *what, uint8_t **rgba, uint32_t *width,
-                       uint32_t *height) {
+cv_result image_decode(const uint8_t *data, size_t size, uint64_t budget, const char *what, uint8_t **rgba,
+                       uint32_t *width, uint32_t *height) {
     if (size >= 8 && memcmp(data, png_magic, 8) == 0)
-        return decode_png(data, size, what, rgba, width, height);
+        return decode_png(data, size, budget, what, rgba, width, height);
     if (size >= 3 && data[0] == 0xff && data[1] == 0xd8 && data[2] == 0xff)
-        return decode_jpeg(data, size, what, rgba, width, height);
+        return decode_jpeg(data, size, budget, what, rgba, width, height);
     return cv_error(CV_ERROR_MALFORMED, "%s: neither PNG nor JPEG data (%zu bytes)", what, size);
 }

@@ -53,20 +53,22 @@ static const char *unsafe_reason(const char *p) {
     return NULL;
 }
 
-static cv_result read_whole_file(const char *file, const char *what, uint8_t **out, size_t *size) {
+static cv_result read_whole_file(const model_files *files, const char *file, const char *what, uint8_t **out,
+                                 size_t *size) {
+    FILE *f = NULL;
+    cv_result r = model_files_open(files, file, what, &f);
+    if (r != CV_OK)
+        return r;
     struct stat st;
-    if (stat(file, &st) != 0)
-        return errno == ENOENT || errno == ENOTDIR
-                   ? cv_error(CV_ERROR_NOT_FOUND, "%s: no such file (%s)", what, file)
-                   : cv_error(CV_ERROR_IO, "%s: cannot read %s: %s", what, file, strerror(errno));
-    if (!S_ISREG(st.st_mode))
-        return cv_error(CV_ERROR_IO, "%s: %s is not a regular file", what, file);
-    if ((unsigned long long)st.st_size > MAX_TEXTURE_FILE_BYTES)
+    if (fstat(fileno(f), &st) != 0) {
+        fclose(f);
+        return cv_error(CV_ERROR_IO, "%s: cannot read %s: %s", what, file, strerror(errno));
+    }
+    if ((unsigned long long)st.st_size > MAX_TEXTURE_FILE_BYTES) {
+        fclose(f);
         return cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: %s is %lld bytes, over the limit of %llu", what, file,
                         (long long)st.st_size, MAX_TEXTURE_FILE_BYTES);
-    FILE *f = fopen(file, "rb");
-    if (!f)
-        return cv_error(CV_ERROR_IO, "%s: cannot open %s: %s", what, file, strerror(errno));
+    }
     size_t n = (size_t)st.st_size;
     uint8_t *data = malloc(n ? n : 1);
     if (!data) {
@@ -150,6 +152,7 @@ static cv_result load_image(texture_importer *t, const char *source, const char 
 
     uint8_t *rgba = NULL, *file = NULL;
     uint32_t w = 0, h = 0;
+    const uint64_t budget = CV_SCENE_MAX_IMAGE_BYTES - cv_scene_image_bytes(t->scene);
     char name[CV_SCENE_NAME_MAX];
     cv_result r = CV_OK;
     if (embedded) {
@@ -162,10 +165,14 @@ static cv_result load_image(texture_importer *t, const char *source, const char 
         const struct aiTexture *tex = t->ai->mTextures[n];
         snprintf(name, sizeof name, "embedded image %lu", n);
         if (tex->mHeight == 0) {
-            r = image_decode((const uint8_t *)tex->pcData, tex->mWidth, what, &rgba, &w, &h);
+            r = image_decode((const uint8_t *)tex->pcData, tex->mWidth, budget, what, &rgba, &w, &h);
         } else if (tex->mWidth > CV_IMAGE_MAX_SIDE || tex->mHeight > CV_IMAGE_MAX_SIDE) {
             r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "%s: embedded image is %ux%u texels, a side over %u", what,
                          tex->mWidth, tex->mHeight, CV_IMAGE_MAX_SIDE);
+        } else if (cv_image_stored_bytes(tex->mWidth, tex->mHeight) > budget) {
+            r = cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                         "%s: embedded image is %ux%u texels, over the %llu bytes left of the scene's image budget",
+                         what, tex->mWidth, tex->mHeight, (unsigned long long)budget);
         } else {
             w = tex->mWidth;
             h = tex->mHeight;
@@ -184,9 +191,9 @@ static cv_result load_image(texture_importer *t, const char *source, const char 
         if (snprintf(name, sizeof name, "%s", source) >= (int)sizeof name)
             name[sizeof name - 1] = '\0'; /* the image's name is cut short, as cv_scene_add_image would */
         size_t size = 0;
-        r = read_whole_file(key, what, &file, &size);
+        r = read_whole_file(t->files, key, what, &file, &size);
         if (r == CV_OK)
-            r = image_decode(file, size, what, &rgba, &w, &h);
+            r = image_decode(file, size, budget, what, &rgba, &w, &h);
         free(file);
     }
     if (r != CV_OK)

@@ -16,14 +16,15 @@
  * Refused, naming the model file, the material and the texture: a texture
  * path that is absolute, has a ".." component (after decoding: "%2e%2e" too)
  * or a URI scheme ("file://"), a bad %-escape,
- * a file that is missing or not a regular file, an embedded index out of
+ * a file that is missing, not a regular file or resolves (symlinks
+ * followed) outside the model's folder (model_files.h), an embedded index out of
  * range, data image_decode refuses (corrupt, truncated, not PNG/JPEG, a side
  * over CV_IMAGE_MAX_SIDE), a texture on a uv channel other than 0 (only
  * TEXCOORD_0 is imported), a texture with KHR_texture_transform (it would
  * render wrong; gltf_materials.c also finds it in the JSON, as assimp drops
  * it silently when extensionsUsed does not list it), an alphaCutoff outside [0, 1].
  *
- *     texture_importer t = { .path = "scene.gltf", .ai = ai, .scene = scene };
+ *     texture_importer t = { .path = "scene.gltf", .files = &files, .ai = ai, .scene = scene };
  *     cv_material m = ...;                          // factors already converted
  *     cv_result r = import_material_textures(&t, index, ai->mMaterials[index], &m);
  *     texture_importer_free(&t);
@@ -34,6 +35,7 @@
 #include <assimp/scene.h>
 
 #include "corvid/scene.h"
+#include "model_files.h"
 
 typedef struct texture_source {
     char *key;      /* "*N" or the resolved file path */
@@ -41,7 +43,8 @@ typedef struct texture_source {
 } texture_source;
 
 typedef struct texture_importer {
-    const char *path; /* the model file */
+    const char *path;         /* the model file */
+    const model_files *files; /* texture files are opened through it */
     const struct aiScene *ai;
     cv_scene *scene;
     texture_source *sources; /* images already stored */

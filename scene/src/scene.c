@@ -266,6 +266,20 @@ static void build_mips(cv_image *im) {
     }
 }
 
+uint64_t cv_image_stored_bytes(uint32_t width, uint32_t height) {
+    if (width == 0 || height == 0 || width > CV_IMAGE_MAX_SIDE || height > CV_IMAGE_MAX_SIDE)
+        return 0;
+    uint64_t texels = 0;
+    for (uint32_t k = 0; k < CV_IMAGE_MAX_LEVELS; k++) {
+        texels += (uint64_t)cv_image_level_side(width, k) * cv_image_level_side(height, k);
+        if ((width >> (k + 1)) == 0 && (height >> (k + 1)) == 0)
+            break;
+    }
+    return texels * 4;
+}
+
+uint64_t cv_scene_image_bytes(const cv_scene *scene) { return scene ? scene->image_bytes : 0; }
+
 cv_result cv_scene_add_image(cv_scene *scene, const cv_image_desc *d, uint32_t *out_index) {
     if (!scene || !d)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_scene_add_image: scene or desc is NULL");

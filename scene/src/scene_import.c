@@ -1,7 +1,10 @@
 /* Import through assimp's C API: materials, triangle meshes, the node tree
- * (one instance per mesh reference, transforms composed), cameras and lights. */
+ * (one instance per mesh reference, transforms composed), cameras and lights.
+ * assimp opens every file through model_files.h's aiFileIO, which keeps
+ * them inside the model's folder. */
 #include "corvid/scene_import.h"
 
+#include <assimp/cfileio.h>
 #include <assimp/cimport.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -16,6 +19,8 @@
 
 #include "gltf_check.h"
 #include "import_textures.h"
+#include "import_weld.h"
+#include "model_files.h"
 #include "vec3.h"
 
 #define MAX_NODE_DEPTH IMPORT_MAX_NODE_DEPTH
@@ -25,6 +30,7 @@
 
 typedef struct importer {
     const char *path;
+    const model_files *files;
     const struct aiScene *ai;
     cv_scene *scene;
     uint32_t *mesh_map;         /* assimp mesh -> scene mesh, UINT32_MAX when it has no triangles */
@@ -150,6 +156,8 @@ static cv_result convert_mesh(importer *im, unsigned index, uint32_t *out) {
             idx[3 * t + k] = face->mIndices[k];
         t++;
     }
+    /* Exactly, not with assimp's absolute tolerance (import_weld.h). */
+    uint32_t welded = import_weld(pos, nrm, uv, am->mNumVertices, idx, (size_t)tris * 3);
     /* Files carry NaN normals for degenerate triangles; recompute those. */
     bool normals_ok = nrm && all_finite3(am->mNormals, am->mNumVertices);
     bool uvs_ok = uv && all_finite3(am->mTextureCoords[0], am->mNumVertices);
@@ -157,7 +165,7 @@ static cv_result convert_mesh(importer *im, unsigned index, uint32_t *out) {
         .positions = pos,
         .normals = normals_ok ? nrm : NULL,
         .uvs = uvs_ok ? uv : NULL,
-        .vertex_count = am->mNumVertices,
+        .vertex_count = welded,
         .indices = idx,
         .triangle_count = tris,
         .name = am->mName.data,
@@ -299,7 +307,7 @@ static void convert_cameras_and_lights(importer *im) {
 static cv_result convert_materials(importer *im) {
     const struct aiScene *ai = im->ai;
     const bool gltf = is_gltf(im->path);
-    texture_importer textures = { .path = im->path, .ai = ai, .scene = im->scene };
+    texture_importer textures = { .path = im->path, .files = im->files, .ai = ai, .scene = im->scene };
     cv_result r = CV_OK;
     for (unsigned i = 0; i < ai->mNumMaterials && r == CV_OK; i++) {
         cv_material m = convert_material(ai->mMaterials[i], gltf);
@@ -378,18 +386,25 @@ cv_result cv_scene_import(const char *path, cv_scene **out) {
         r = gltf_check(path);
     if (r != CV_OK)
         return r;
+    model_files files;
+    if ((r = model_files_init(&files, path)) != CV_OK)
+        return r;
     /* FlipUVs: assimp stores v upward (OpenGL's convention; its glTF importer
      * flips glTF's v); the scene's uvs follow glTF, (0, 0) at the image's
      * top-left corner with v downward (scene.h), so v is flipped back. */
-    const struct aiScene *ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                                                      aiProcess_ValidateDataStructure | aiProcess_FlipUVs);
+    const struct aiScene *ai =
+        aiImportFileEx(path, aiProcess_Triangulate | aiProcess_ValidateDataStructure | aiProcess_FlipUVs, &files.io);
+    if (files.refused != CV_OK) {
+        aiReleaseImport(ai);
+        return cv_error(files.refused, "%s", files.message);
+    }
     if (!ai)
         return cv_error(CV_ERROR_MALFORMED, "%s: assimp cannot import it: %s", path, aiGetErrorString());
     if (ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE) {
         aiReleaseImport(ai);
         return cv_error(CV_ERROR_MALFORMED, "%s: assimp imported an incomplete scene (no usable geometry)", path);
     }
-    importer im = { .path = path, .ai = ai };
+    importer im = { .path = path, .files = &files, .ai = ai };
     im.mesh_map = malloc(((size_t)ai->mNumMeshes + 1) * sizeof(uint32_t));
     if (!im.mesh_map) {
         aiReleaseImport(ai);

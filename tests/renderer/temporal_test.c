@@ -104,7 +104,13 @@ static void check_settings_refused(const cv_scene *scene, gpu *g) {
         { "fov 180",
           { .camera_eye = { 1, 1, 1 }, .camera_fov_degrees = 180 },
           CV_ERROR_OUT_OF_RANGE,
-          "fov 180 degrees is outside (0, 180)" },
+          "fov 180 degrees is outside (0, 170]" },
+        /* The GPU image was empty (the near plane cut everything) where the
+         * reference covered every pixel. */
+        { "fov 179.999",
+          { .camera_eye = { 1, 1, 1 }, .camera_fov_degrees = 179.999f },
+          CV_ERROR_OUT_OF_RANGE,
+          "fov 179.999 degrees is outside (0, 170]" },
         { "negative fov",
           { .camera_eye = { 1, 1, 1 }, .camera_fov_degrees = -5 },
           CV_ERROR_OUT_OF_RANGE,
@@ -310,6 +316,28 @@ static double frame_change(gpu *g, uint32_t n) {
     return sum > 0.0 ? diff / sum : 1.0;
 }
 
+/* A scene's own camera wider than CV_RENDER_MAX_FOV_DEGREES is refused by
+ * the renderer and the reference alike; one at the limit renders. */
+static void check_wide_scene_camera(cv_scene *scene, const cv_bvh *bvh, gpu *g) {
+    cv_camera wide = { .position = { 0, 1.5f, 0 }, .target = { 0, 1.5f, -1 }, .up = { 0, 1, 0 } };
+    uint32_t index = 0;
+    wide.vertical_fov = 179.999f * 3.14159265f / 180.0f;
+    CHECK_OK(cv_scene_add_camera(scene, &wide, &index));
+    cv_render_settings s = settings();
+    s.camera = index;
+    s.frames = 1;
+    CHECK_OK(cv_render_settings_check(&s));
+    cv_render_output out = { 0 };
+    CHECK_RESULT(cv_render_reference(scene, bvh, &s, 1, 1, &out), CV_ERROR_OUT_OF_RANGE);
+    CHECK(strstr(cv_last_error(), "vertical fov of 179.99") != NULL && strstr(cv_last_error(), "limit of 170"));
+    CHECK_RESULT(cv_renderer_render(g->renderer, &s, &out, NULL, NULL, NULL), CV_ERROR_OUT_OF_RANGE);
+    CHECK(out.radiance == NULL);
+    wide.vertical_fov = CV_RENDER_MAX_FOV_DEGREES * 3.14159265f / 180.0f;
+    CHECK_OK(cv_scene_add_camera(scene, &wide, &index));
+    s.camera = index;
+    CHECK_OK(cv_render_camera_check(&s, scene));
+}
+
 int main(void) {
     cv_scene *scene = NULL;
     cv_bvh *bvh = NULL;
@@ -320,6 +348,7 @@ int main(void) {
         CHECK_OK(gpu_open(scene, bvh, &g));
     if (g.renderer) {
         check_settings_refused(scene, &g);
+        check_wide_scene_camera(scene, bvh, &g);
         check_motion(scene, &g);
         check_orbit_accumulates(scene, bvh, &g);
         static const uint32_t counts[] = { 1, 4, 16, 64 };

@@ -1,7 +1,12 @@
 /* Scene files written by a hostile tester, none of which may hang, exhaust
  * memory or fail silently: non-regular files, glTF/GLB files whose lengths or
  * node graphs are lies, truncated ones, and scenes too small or too large to
- * frame. Each must fail fast with a message naming the file and the problem. */
+ * frame; files a model names outside its folder (buffer URIs, mtllib,
+ * textures, through symlinks too) or that are FIFOs; images whose header
+ * alone is over the scene's image budget; alphaMode and alphaCutoff of the
+ * wrong kind; and triangles small enough that assimp's vertex welding made
+ * them vanish. Each must fail fast with a message naming the file and the
+ * problem, or import correctly. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -184,6 +189,206 @@ static void test_extreme_scales(void) {
     unlink(path_of("cube.obj"));
 }
 
+/* A glTF of one triangle (0,0,0) (1,0,0) (0,1,0) with uvs, `name` under
+ * `folder` of the scratch dir: its buffer the file `buffer_uri` (NULL:
+ * embedded), material 0 the JSON `material`, and with `image_uri` an image
+ * that material 0 may name as texture 0. */
+static const char *write_triangle_gltf(const char *folder, const char *name, const char *buffer_uri,
+                                       const char *material, const char *image_uri) {
+    static const char embedded[] =
+        "data:application/octet-stream;base64,"
+        "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAIA/AAAAAAAAAAAAAIA/";
+    char json[4096], images[600] = "";
+    if (image_uri)
+        snprintf(images, sizeof images, ",\"images\":[{\"uri\":\"%s\"}],\"textures\":[{\"source\":0}]", image_uri);
+    int n = snprintf(json, sizeof json,
+                     "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+                     "\"nodes\":[{\"mesh\":0}],"
+                     "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1},\"material\":0}]"
+                     "}],"
+                     "\"materials\":[%s]%s,"
+                     "\"buffers\":[{\"byteLength\":60,\"uri\":\"%s\"}],"
+                     "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36},{\"buffer\":0,\"byteOffset\":36,"
+                     "\"byteLength\":24}],"
+                     "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","
+                     "\"min\":[0,0,0],\"max\":[1,1,0]},{\"bufferView\":1,\"componentType\":5126,\"count\":3,"
+                     "\"type\":\"VEC2\"}]}",
+                     material, images, buffer_uri ? buffer_uri : embedded);
+    char rel[256];
+    snprintf(rel, sizeof rel, "%s/%s", folder, name);
+    write_whole_file(path_of(rel), json, (size_t)n);
+    return path_of(rel);
+}
+
+static void write_triangle_bin(const char *rel) {
+    const float data[15] = { 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 1 };
+    write_whole_file(path_of(rel), data, sizeof data);
+}
+
+/* assimp dropped alphaCutoff "x" and kept alphaMode "BOGUS", silently: the
+ * material rendered opaque. */
+static void test_alpha_fields(void) {
+    const char *path = write_triangle_gltf(".", "alpha.gltf", NULL, "{\"name\":\"m\",\"alphaMode\":\"BOGUS\"}", NULL);
+    expect_rejected(path, CV_ERROR_MALFORMED, "material 0 ('m'): alphaMode BOGUS is not OPAQUE, MASK or BLEND");
+    write_triangle_gltf(".", "alpha.gltf", NULL, "{\"name\":\"m\",\"alphaMode\":7}", NULL);
+    expect_rejected(path, CV_ERROR_MALFORMED, "alphaMode (not a string)");
+    write_triangle_gltf(".", "alpha.gltf", NULL, "{\"name\":\"m\",\"alphaMode\":\"MASK\",\"alphaCutoff\":\"x\"}",
+                        NULL);
+    expect_rejected(path, CV_ERROR_MALFORMED, "material 0 ('m'): alphaCutoff is not a number");
+    write_triangle_gltf(".", "alpha.gltf", NULL, "{\"name\":\"m\",\"alphaMode\":\"MASK\",\"alphaCutoff\":0.25}",
+                        NULL);
+    cv_scene *s = NULL;
+    CHECK_OK(cv_scene_import(path, &s));
+    CHECK(s && cv_scene_material(s, 0)->alpha_mode == CV_ALPHA_MASK &&
+          cv_scene_material(s, 0)->alpha_cutoff == 0.25f);
+    cv_scene_destroy(s);
+    unlink(path);
+}
+
+/* Every file a model names must resolve inside the model's folder (here
+ * "model/"): a glTF buffer "../outside.bin" was read, symlinks were
+ * followed, an OBJ's mtllib could name any file, and a FIFO named as a
+ * buffer blocked the import forever. */
+static void test_confinement(void) {
+    CHECK(mkdir(path_of("model"), 0700) == 0);
+    write_triangle_bin("outside.bin");
+    write_triangle_bin("model/inside.bin");
+    const char *path = write_triangle_gltf("model", "in.gltf", "inside.bin", "{}", NULL);
+    cv_scene *s = NULL;
+    CHECK_OK(cv_scene_import(path, &s)); /* a buffer in the folder is read */
+    cv_scene_destroy(s);
+    unlink(path);
+
+    path = write_triangle_gltf("model", "up.gltf", "../outside.bin", "{}", NULL);
+    expect_rejected(path, CV_ERROR_MALFORMED, "outside.bin, outside the model's folder");
+    unlink(path);
+
+    CHECK(symlink(path_of("outside.bin"), path_of("model/link.bin")) == 0);
+    path = write_triangle_gltf("model", "link.gltf", "link.bin", "{}", NULL);
+    expect_rejected(path, CV_ERROR_MALFORMED, "link.bin resolves to");
+    unlink(path);
+
+    CHECK(mkfifo(path_of("model/fifo.bin"), 0600) == 0);
+    path = write_triangle_gltf("model", "fifo.gltf", "fifo.bin", "{}", NULL);
+    expect_rejected(path, CV_ERROR_IO, "fifo.bin is not a regular file");
+    unlink(path);
+
+    /* A texture that is a symlink out of the folder (to /etc/passwd, say). */
+    write_whole_file(path_of("secret.png"), "root:x:0:0", 10);
+    CHECK(symlink(path_of("secret.png"), path_of("model/tex.png")) == 0);
+    path = write_triangle_gltf("model", "tex.gltf", NULL,
+                               "{\"name\":\"m\",\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}",
+                               "tex.png");
+    expect_rejected(path, CV_ERROR_MALFORMED, "tex.png resolves to");
+    CHECK(strstr(cv_last_error(), "material 0 ('m')") != NULL);
+    unlink(path);
+
+    const char mtl[] = "newmtl red\nKd 1 0 0\n";
+    write_whole_file(path_of("outside.mtl"), mtl, sizeof mtl - 1);
+    const char obj[] = "mtllib ../outside.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
+    path = path_of("model/mtl.obj");
+    write_whole_file(path, obj, sizeof obj - 1);
+    expect_rejected(path, CV_ERROR_MALFORMED, "outside.mtl, outside the model's folder");
+    unlink(path);
+
+    const char *names[] = { "outside.bin", "model/inside.bin", "model/link.bin", "model/fifo.bin",
+                            "secret.png",  "model/tex.png",    "outside.mtl" };
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        CHECK(unlink(path_of(names[i])) == 0);
+    CHECK(rmdir(path_of("model")) == 0);
+}
+
+static uint32_t crc32_of(const uint8_t *p, size_t n) {
+    uint32_t c = 0xffffffffu;
+    for (size_t i = 0; i < n; i++) {
+        c ^= p[i];
+        for (int k = 0; k < 8; k++)
+            c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1)));
+    }
+    return c ^ 0xffffffffu;
+}
+
+static void put_be32(uint8_t *p, uint32_t v) {
+    for (int i = 0; i < 4; i++)
+        p[i] = (uint8_t)(v >> (24 - 8 * i));
+}
+
+/* Images of 16384^2 texels, a side within the limit but 1.43 GB with their
+ * mip chains, over the scene's 1 GiB: an 0.8 MB PNG was decoded whole
+ * (1.07 GB resident) and a progressive JPEG's coefficients allocated
+ * (1.85 GB) before the scene refused them. These carry only their headers:
+ * refused from those, before the decoders allocate or read on (a decoder
+ * that read on would call them corrupt instead). */
+static void test_image_budget(void) {
+    uint8_t png[8 + 25 + 12] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n' };
+    put_be32(png + 8, 13);
+    memcpy(png + 12, "IHDR", 4);
+    put_be32(png + 16, 16384);
+    put_be32(png + 20, 16384);
+    png[24] = 8; /* 8-bit RGBA */
+    png[25] = 6;
+    put_be32(png + 29, crc32_of(png + 12, 17));
+    memcpy(png + 37, "IEND", 4);
+    put_be32(png + 41, crc32_of(png + 37, 4));
+    write_whole_file(path_of("big.png"), png, sizeof png);
+    const char *material = "{\"name\":\"m\",\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}";
+    const char *path = write_triangle_gltf(".", "big_png.gltf", NULL, material, "big.png");
+    expect_rejected(path, CV_ERROR_LIMIT_EXCEEDED, "PNG is 16384x16384 texels, 1431655764 bytes with its mip chain");
+    CHECK(strstr(cv_last_error(), "refused before decoding") != NULL);
+    unlink(path);
+
+    /* SOI, a quantization table, a progressive frame of 16384^2 with 3
+     * components, the start of its first scan, EOI. */
+    uint8_t jpg[2 + 69 + 19 + 14 + 2] = { 0xff, 0xd8, 0xff, 0xdb, 0, 67, 0 };
+    memset(jpg + 7, 1, 64);
+    const uint8_t sof2[19] = { 0xff, 0xc2, 0, 17, 8, 0x40, 0, 0x40, 0, 3, 1, 0x11, 0, 2, 0x11, 0, 3, 0x11, 0 };
+    const uint8_t sos[14] = { 0xff, 0xda, 0, 12, 3, 1, 0, 2, 0, 3, 0, 0, 0, 0 };
+    memcpy(jpg + 71, sof2, sizeof sof2);
+    memcpy(jpg + 90, sos, sizeof sos);
+    jpg[104] = 0xff;
+    jpg[105] = 0xd9;
+    write_whole_file(path_of("big.jpg"), jpg, sizeof jpg);
+    path = write_triangle_gltf(".", "big_jpg.gltf", NULL, material, "big.jpg");
+    expect_rejected(path, CV_ERROR_LIMIT_EXCEEDED, "JPEG is 16384x16384 texels, 1431655764 bytes with its mip chain");
+    unlink(path);
+    unlink(path_of("big.png"));
+    unlink(path_of("big.jpg"));
+}
+
+/* assimp's JoinIdenticalVertices welds within 1e-5 (absolute): a triangle
+ * of side 1e-5 became a line (rendered as nothing, exit 0) and one of 1e-6
+ * a point (refused as "all its points are one point"). Both import as
+ * triangles with their three corners, and frame. */
+static void test_tiny_triangles(void) {
+    const double sides[] = { 1e-5, 1e-6 };
+    for (size_t i = 0; i < sizeof sides / sizeof sides[0]; i++) {
+        char obj[200];
+        int n = snprintf(obj, sizeof obj, "v 0 0 0\nv %g 0 0\nv 0 %g 0\nf 1 2 3\n", sides[i], sides[i]);
+        const char *path = path_of("tiny.obj");
+        write_whole_file(path, obj, (size_t)n);
+        cv_scene *s = NULL;
+        CHECK_OK(cv_scene_import(path, &s));
+        if (!s)
+            continue;
+        const cv_mesh *m = cv_scene_mesh(s, 0);
+        CHECK(m && m->vertex_count == 3 && m->triangle_count == 1);
+        if (m && m->vertex_count == 3)
+            CHECK(m->positions[3] == (float)sides[i] && m->positions[7] == (float)sides[i]);
+        CHECK_OK(cv_scene_check_framing(s));
+        cv_scene_destroy(s);
+        unlink(path);
+    }
+    /* Corners shared by faces are still one vertex (smooth normals need it). */
+    const char quad[] = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
+    const char *path = path_of("quad.obj");
+    write_whole_file(path, quad, sizeof quad - 1);
+    cv_scene *s = NULL;
+    CHECK_OK(cv_scene_import(path, &s));
+    CHECK(s && cv_scene_mesh(s, 0)->vertex_count == 4 && cv_scene_mesh(s, 0)->triangle_count == 2);
+    cv_scene_destroy(s);
+    unlink(path);
+}
+
 int main(void) {
     CHECK(mkdtemp(dir) != NULL);
     test_non_regular();
@@ -191,6 +396,10 @@ int main(void) {
     test_node_graph();
     test_truncated_json();
     test_extreme_scales();
+    test_alpha_fields();
+    test_confinement();
+    test_image_budget();
+    test_tiny_triangles();
     CHECK(rmdir(dir) == 0);
     return check_report("test_scene_hostile");
 }

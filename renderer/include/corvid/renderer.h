@@ -86,7 +86,8 @@ typedef struct cv_render_settings {
     /* View and light controls (corvid-render --camera, --sun, --orbit); zeros keep the scene's. */
     float camera_eye[3];         /* with camera_fov_degrees > 0, the camera at camera_eye looks at */
     float camera_target[3];      /* camera_target, up +y (+z when it looks straight up or down) */
-    float camera_fov_degrees;    /* [0 = the scene's camera, `camera`] vertical field of view, (0, 180) */
+    float camera_fov_degrees;    /* [0 = the scene's camera, `camera`] vertical field of view,
+                                  * (0, CV_RENDER_MAX_FOV_DEGREES] */
     float sun_toward[3];         /* [0,0,0 = the scene's sun] direction toward the sun, any length > 0;
                                * its cone is sun_cone_degrees */
     float orbit_degrees;         /* [0] the camera turns by this much per frame (sample index) about the
@@ -202,8 +203,17 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot);
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out);
 
+/* The widest vertical field of view rendered, the scene's cameras' too. The
+ * G-buffer's near plane (1e-4 of the scene's diagonal) cuts, at the image's
+ * edges, what lies within tan(fov / 2) near planes of the camera, which the
+ * CPU reference (no near plane) still sees: 0.11% of the diagonal at 170
+ * degrees, but 11% at 179.9 (the room from its default eye: 1040 of 1328
+ * pixels) and everything at 179.999 (an empty image). Wider is refused, by
+ * the renderer and the reference alike. */
+#define CV_RENDER_MAX_FOV_DEGREES 170.0f
+
 /* Checks the view and light controls of `s`: finite numbers, camera_fov_degrees
- * 0 or in (0, 180) with camera_eye != camera_target, sun_toward not 0,0,0 when
+ * 0 or in (0, CV_RENDER_MAX_FOV_DEGREES] with camera_eye != camera_target, sun_toward not 0,0,0 when
  * set (any finite value is "set"), sun_cone_degrees below 90, shadow_samples
  * 0 (the default) or a power of two up to 32, reflection_samples 0 (the
  * default) or a power of two up to 8 and, with reflections on, height times
@@ -218,6 +228,12 @@ cv_result cv_render_settings_check(const cv_render_settings *s);
  * vertical axis through its target. The CPU reference renders the camera of
  * first_frame + frames - 1, the frame cv_renderer_render's image shows. */
 cv_camera cv_render_camera(const cv_render_settings *s, const cv_scene *scene, uint32_t frame);
+
+/* CV_ERROR_OUT_OF_RANGE when the camera cv_render_camera picks for `s` has a
+ * vertical field of view over CV_RENDER_MAX_FOV_DEGREES (a scene's camera can:
+ * scene files allow up to 180); cv_renderer_render and cv_render_reference
+ * check it after cv_render_settings_check. */
+cv_result cv_render_camera_check(const cv_render_settings *s, const cv_scene *scene);
 
 /* Shadow and AO rays per pixel per frame of resolved settings. */
 static inline uint32_t cv_render_rays_per_pixel(const cv_render_settings *s) {

@@ -169,6 +169,12 @@ cv_result cv_scene_add_material(cv_scene *scene, const cv_material *material, ui
  * pixels, a side of 0 or over CV_IMAGE_MAX_SIDE, the scene's images over
  * CV_SCENE_MAX_IMAGE_BYTES (CV_ERROR_LIMIT_EXCEEDED). */
 cv_result cv_scene_add_image(cv_scene *scene, const cv_image_desc *image, uint32_t *out_index);
+/* Bytes an image of width x height takes in a scene, its mip chain included
+ * (what counts against CV_SCENE_MAX_IMAGE_BYTES); 0 for a side of 0 or over
+ * CV_IMAGE_MAX_SIDE. Importers compare it with what is left before decoding. */
+uint64_t cv_image_stored_bytes(uint32_t width, uint32_t height);
+/* Bytes the scene's images take, all levels. */
+uint64_t cv_scene_image_bytes(const cv_scene *scene);
 cv_result cv_scene_add_instance(cv_scene *scene, const cv_instance *instance, uint32_t *out_index);
 cv_result cv_scene_add_camera(cv_scene *scene, const cv_camera *camera, uint32_t *out_index);
 cv_result cv_scene_add_light(cv_scene *scene, const cv_light *light, uint32_t *out_index);

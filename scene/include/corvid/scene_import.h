@@ -23,22 +23,34 @@
  * references are ignored. Mesh uvs follow glTF's convention ((0, 0) the
  * image's top-left corner, v downward) whatever the format.
  *
+ * Files the model names (glTF buffers and images, an OBJ's mtllib) are read
+ * only inside the model's folder: the path, symlinks resolved, must lie under
+ * it and be a regular file (every file assimp opens goes through a checking
+ * aiFileIO). Duplicate vertices are merged only when bitwise equal, so a
+ * triangle however small keeps its three corners.
+ *
  * Failures name the file and the problem:
  *   CV_ERROR_NOT_FOUND  the file does not exist;
- *   CV_ERROR_IO         it cannot be opened or read (a directory, a FIFO or
- *                       other non-regular file, no permission);
+ *   CV_ERROR_IO         it, or a file it names, cannot be opened or read (a
+ *                       directory, a FIFO or other non-regular file, no
+ *                       permission);
  *   CV_ERROR_MALFORMED  assimp rejects it (its message is included), or it is
  *                       empty, has no triangles, or has non-finite positions;
  *                       a glTF/GLB is checked before assimp reads it: lengths
  *                       that do not match the file ("truncated GLB"), JSON
  *                       that ends early ("truncated glTF") or does not parse,
- *                       bad child indices, a cycle of nodes;
+ *                       bad child indices, a cycle of nodes, alphaMode not
+ *                       OPAQUE/MASK/BLEND, alphaCutoff not a number in [0, 1];
+ *                       a file the model names that resolves outside its
+ *                       folder ("x.gltf: a file it names: ../b.bin resolves
+ *                       to ..., outside the model's folder ...");
  *   CV_ERROR_LIMIT_EXCEEDED  the node graph expands to more than 1,000,000 node
  *                       instances (a node shared by several parents counts once
  *                       per path) or deeper than 1024 levels, or the instances
  *                       hold more than 2^31 triangles; an image side over
  *                       CV_IMAGE_MAX_SIDE, the images over
- *                       CV_SCENE_MAX_IMAGE_BYTES, a texture file over 512 MiB.
+ *                       CV_SCENE_MAX_IMAGE_BYTES (found from an image's
+ *                       header, before decoding it), a texture file over 512 MiB.
  * Texture refusals name the file, the material and the texture
  * ("x.gltf: material 0 ('floor'): normal texture '../n.png': the path has a
  * '..' component ..."): CV_ERROR_NOT_FOUND for a missing texture file,
