@@ -110,6 +110,7 @@ static cv_result whole_file(const char *path, FILE *f, uint64_t file_size, char 
 typedef struct graph {
     const char *path;
     const cJSON *nodes;
+    const cJSON **items; /* nodes[i], so that a lookup is not a walk of cJSON's list */
     int count;
     uint8_t *state;     /* 0 unseen, 1 on the current path, 2 expanded */
     uint64_t *expanded; /* instances of the subtree of each node, saturated past the limit */
@@ -131,7 +132,7 @@ static cv_result expand(graph *g, int n, int depth) {
         return cv_error(CV_ERROR_MALFORMED, "%s: the node graph has a cycle through node %d", g->path, n);
     g->state[n] = 1;
     uint64_t total = 1;
-    const cJSON *children = cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(g->nodes, n), "children");
+    const cJSON *children = cJSON_GetObjectItemCaseSensitive(g->items[n], "children");
     const cJSON *child;
     cJSON_ArrayForEach(child, children) {
         double v = cJSON_IsNumber(child) ? child->valuedouble : -1.0;
@@ -148,6 +149,35 @@ static cv_result expand(graph *g, int n, int depth) {
     return CV_OK;
 }
 
+/* glTF 2.0 node hierarchies are strict trees: "no node may be a direct
+ * descendant of more than one node". A node listed as a child twice, by one
+ * parent or two, would be copied once per path: 17 nodes that each list the
+ * next twice make 2^17 coincident copies of a mesh, and every ray then meets
+ * all of them. Refused before anything is expanded, naming both parents. */
+static cv_result check_single_parents(const char *path, const cJSON *nodes, int count, int *parent) {
+    for (int n = 0; n < count; n++)
+        parent[n] = -1;
+    int n = 0;
+    const cJSON *node, *child;
+    cJSON_ArrayForEach(node, nodes) {
+        cJSON_ArrayForEach(child, cJSON_GetObjectItemCaseSensitive(node, "children")) {
+            double v = cJSON_IsNumber(child) ? child->valuedouble : -1.0;
+            if (!(v >= 0.0 && v < count && v == (int)v))
+                return cv_error(CV_ERROR_MALFORMED, "%s: node %d has a child that is not a node index in 0..%d", path,
+                                n, count - 1);
+            int c = (int)v;
+            if (parent[c] >= 0)
+                return cv_error(CV_ERROR_MALFORMED,
+                                "%s: node %d is a child of node %d and again of node %d; glTF 2.0 node hierarchies "
+                                "are trees (a node has at most one parent)",
+                                path, c, parent[c], n);
+            parent[c] = n;
+        }
+        n++;
+    }
+    return CV_OK;
+}
+
 /* Roots are the nodes the scenes list, or without scenes every node that is
  * no node's child. */
 static cv_result check_nodes(const char *path, const cJSON *root) {
@@ -158,9 +188,20 @@ static cv_result check_nodes(const char *path, const cJSON *root) {
     g.state = calloc((size_t)g.count + 1, 1);
     g.expanded = calloc((size_t)g.count + 1, sizeof *g.expanded);
     uint8_t *is_child = calloc((size_t)g.count + 1, 1);
+    int *parent = calloc((size_t)g.count + 1, sizeof *parent);
+    g.items = calloc((size_t)g.count + 1, sizeof *g.items);
     cv_result r = CV_OK;
-    if (!g.state || !g.expanded || !is_child)
+    if (!g.state || !g.expanded || !is_child || !parent || !g.items)
         r = cv_error(CV_ERROR_OUT_OF_MEMORY, "%s: no memory for %d nodes", path, g.count);
+    int at = 0;
+    const cJSON *item;
+    cJSON_ArrayForEach(item, nodes) {
+        if (g.items)
+            g.items[at] = item;
+        at++;
+    }
+    if (r == CV_OK)
+        r = check_single_parents(path, nodes, g.count, parent);
     for (int n = 0; r == CV_OK && n < g.count; n++)
         r = expand(&g, n, 0);
     uint64_t total = 0;
@@ -179,7 +220,7 @@ static cv_result check_nodes(const char *path, const cJSON *root) {
         }
     } else if (r == CV_OK) {
         for (int n = 0; n < g.count; n++) {
-            cJSON_ArrayForEach(node, cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(nodes, n), "children"))
+            cJSON_ArrayForEach(node, cJSON_GetObjectItemCaseSensitive(g.items[n], "children"))
                 is_child[(int)node->valuedouble] = 1;
         }
         for (int n = 0; n < g.count; n++)
@@ -193,6 +234,8 @@ static cv_result check_nodes(const char *path, const cJSON *root) {
     free(g.state);
     free(g.expanded);
     free(is_child);
+    free(parent);
+    free(g.items);
     return r;
 }
 

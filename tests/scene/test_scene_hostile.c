@@ -91,16 +91,19 @@ static void test_glb_lengths(void) {
     unlink(path);
 }
 
-/* Writes a glTF of `levels` + 1 nodes, node i listing node i + 1 twice as
- * its child: 2^(levels + 1) - 1 instances once expanded. */
-static void write_dag(const char *path, int levels, bool cycle) {
+/* Writes a glTF of `levels` + 1 nodes, node i listing node i + 1 `copies`
+ * times as its child (2^(levels + 1) - 1 instances once expanded if twice);
+ * with `cycle` the last node lists node 0. */
+static void write_dag(const char *path, int levels, int copies, bool cycle) {
     char json[8192];
     int n = snprintf(json, sizeof json,
                      "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,"
                      "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[");
     for (int i = 0; i <= levels; i++) {
-        if (i < levels)
+        if (i < levels && copies == 2)
             n += snprintf(json + n, sizeof json - n, "{\"children\":[%d,%d]},", i + 1, i + 1);
+        else if (i < levels)
+            n += snprintf(json + n, sizeof json - n, "{\"children\":[%d]},", i + 1);
         else
             n += snprintf(json + n, sizeof json - n, cycle ? "{\"children\":[0]}" : "{}");
     }
@@ -108,17 +111,44 @@ static void write_dag(const char *path, int levels, bool cycle) {
     write_whole_file(path, json, (size_t)n);
 }
 
+/* `count` root nodes and no scene: as many node instances. */
+static void write_wide(const char *path, int count) {
+    size_t size = 64 + 3 * (size_t)count;
+    char *json = malloc(size);
+    CHECK(json != NULL);
+    if (!json)
+        return;
+    size_t n = (size_t)snprintf(json, size, "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[");
+    for (int i = 0; i < count; i++)
+        n += (size_t)snprintf(json + n, size - n, i ? ",{}" : "{}");
+    n += (size_t)snprintf(json + n, size - n, "]}");
+    write_whole_file(path, json, n);
+    free(json);
+}
+
 /* A 1.2 KB glTF of 30 levels, each node referencing the next twice, cost
- * assimp over 12 GB: its node graph expands to 2^31 - 1 instances. */
+ * assimp over 12 GB: its node graph expands to 2^31 - 1 instances; one of 17
+ * levels (131071 coincident copies of a mesh, under the instance cap) took
+ * 256 s to render, every ray meeting every copy. glTF 2.0 allows no node two
+ * parents, so both are refused before anything is expanded. */
 static void test_node_graph(void) {
     const char *path = path_of("dag.gltf");
-    write_dag(path, 30, false);
-    expect_rejected(path, CV_ERROR_LIMIT_EXCEEDED, "expands to more than 1000000 node instances");
-    write_dag(path, 3, true);
+    write_dag(path, 30, 2, false);
+    expect_rejected(path, CV_ERROR_MALFORMED, "node 1 is a child of node 0 and again of node 0");
+    write_dag(path, 17, 2, false);
+    expect_rejected(path, CV_ERROR_MALFORMED, "glTF 2.0 node hierarchies are trees");
+    const char two_parents[] =
+        "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"children\":[2]},"
+        "{\"children\":[2]},{}]}";
+    write_whole_file(path, two_parents, sizeof two_parents - 1);
+    expect_rejected(path, CV_ERROR_MALFORMED, "node 2 is a child of node 0 and again of node 1");
+    write_dag(path, 3, 1, true);
     expect_rejected(path, CV_ERROR_MALFORMED, "cycle through node 0");
     const char bad_child[] = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"children\":[7]}]}";
     write_whole_file(path, bad_child, sizeof bad_child - 1);
     expect_rejected(path, CV_ERROR_MALFORMED, "node 0 has a child that is not a node index in 0..0");
+    write_wide(path, 1000001);
+    expect_rejected(path, CV_ERROR_LIMIT_EXCEEDED, "expands to more than 1000000 node instances");
     unlink(path);
 }
 
