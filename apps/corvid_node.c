@@ -411,14 +411,14 @@ int main(int argc, char **argv) {
     cv_node_drain(node);
     /* Metrics stay up while the running sessions finish, so a scrape during the drain shows it
      * (corvid_node_draining 1, the sessions going down); then they go, before the node (they read it). */
-    uint32_t waited_ms = 0;
-    while (waited_ms < o.drain_timeout_s * 1000u && cv_node_get_stats(node).sessions_active) {
-        nanosleep(&(struct timespec){ 0, 50 * 1000 * 1000 }, NULL);
-        waited_ms += 50;
+    if (cv_node_wait_sessions(node, o.drain_timeout_s * 1000u) > 0) {
+        char reason[64];
+        snprintf(reason, sizeof(reason), "drain timeout (%u s) expired", o.drain_timeout_s);
+        cv_node_cancel_sessions(node, reason);
     }
     cv_node_stats stats = cv_node_get_stats(node);
     cv_metrics_server_stop(metrics);
-    cv_node_stop(node, o.drain_timeout_s * 1000u - (waited_ms < o.drain_timeout_s * 1000u ? waited_ms : 0));
+    cv_node_stop(node, 0);
     fprintf(stderr,
             "corvid-node: stopped after %" PRIu64 " sessions, %" PRIu64 " submissions, %" PRIu64 " bytes in, %" PRIu64
             " bytes out\n",

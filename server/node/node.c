@@ -19,6 +19,7 @@ enum {
     STATUS_INVALID_ARGUMENT = 3,
     STATUS_NOT_FOUND = 5,
     STATUS_INTERNAL = 13,
+    STATUS_UNAVAILABLE = 14,
     STATUS_UNAUTHENTICATED = 16
 };
 
@@ -64,8 +65,7 @@ static int on_call(const char *method, const char *peer, const cv_rpc_metadata *
     if (!why)
         return STATUS_OK;
     atomic_fetch_add(&node->unauthenticated, 1);
-    if (node->config.log_sessions)
-        fprintf(stderr, "corvid-node: refused %s from %s: %s\n", method, peer, why);
+    node_log(node, NODE_LOG_REFUSED_CALL, "refused %s from %s: %s", method, peer, why);
     snprintf(message, cap,
              "unauthenticated: %s (this node needs its bearer token: the client reads it from the "
              "file named by CORVID_NODE_TOKEN_FILE)",
@@ -188,6 +188,8 @@ static int on_unary(const char *method, const void *request, size_t size, void *
 }
 
 static void free_node(cv_node *node) {
+    node_log_flush(node);
+    node_log_finish(&node->log);
     OPENSSL_cleanse(node->token_sha, sizeof(node->token_sha));
     OPENSSL_cleanse(node->peer_token, sizeof(node->peer_token));
     peer_state_destroy(node->peer);
@@ -238,6 +240,7 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
     cv_node *node = calloc(1, sizeof(*node));
     if (!node)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
+    node_log_init(&node->log);
     node->quota = (cv_node_quota){
         .memory_bytes = q->memory_bytes ? q->memory_bytes : CV_NODE_DEFAULT_QUOTA_MEMORY,
         .resources = q->resources ? q->resources : CV_NODE_DEFAULT_QUOTA_RESOURCES,
@@ -347,11 +350,31 @@ void cv_node_drain(cv_node *node) {
     cv_rpc_server_drain(node->server);
 }
 
+uint32_t cv_node_wait_sessions(cv_node *node, uint32_t timeout_ms) {
+    return cv_rpc_server_wait_streams(node->server, timeout_ms);
+}
+
+void cv_node_cancel_sessions(cv_node *node, const char *reason) {
+    if (!node || atomic_load(&node->stopping_sessions))
+        return; /* the first reason stands */
+    snprintf(node->stop_reason, sizeof(node->stop_reason), "%s", reason && *reason ? reason : "node stopped");
+    atomic_store(&node->stopping_sessions, true);
+    char message[sizeof(node->stop_reason) + 32];
+    snprintf(message, sizeof(message), "node shutting down: %s", node->stop_reason);
+    cv_rpc_server_finish_streams(node->server, STATUS_UNAVAILABLE, message);
+}
+
 void cv_node_stop(cv_node *node, uint32_t timeout_ms) {
     if (!node)
         return;
-    atomic_store(&node->draining, true);
-    cv_rpc_server_destroy(node->server, timeout_ms);
+    cv_node_drain(node);
+    if (cv_rpc_server_wait_streams(node->server, timeout_ms) > 0) {
+        char reason[96];
+        snprintf(reason, sizeof(reason), "stop timeout (%u ms) expired", timeout_ms);
+        cv_node_cancel_sessions(node, reason);
+    }
+    /* Told to end, a session returns once its current request is done: a bounded wait, then the calls go. */
+    cv_rpc_server_destroy(node->server, CV_NODE_CANCEL_GRACE_MS);
     cv_rpc_server_destroy(node->health_server, 0); /* NOT_SERVING until here */
     free_node(node);
 }

@@ -95,5 +95,32 @@ check "SIGTERM: node exits 0" test "$status" -eq 0
 check "SIGTERM: node drained" grep -q "draining" "$tmp/node.err"
 check "SIGTERM: node summary (2 renders x 2 devices)" grep -q "stopped after 4 sessions" "$tmp/node.err"
 
+# A drain that runs out: a render still going when the node gets SIGTERM with --drain-timeout 1. The node
+# exits within the timeout and CV_NODE_CANCEL_GRACE_MS (1 s), plus 2 s for a loaded CI machine (it took the
+# timeout twice over, and more, when it counted naps instead of watching a deadline); both sides say why.
+"$node" --listen 127.0.0.1:0 --port-file "$tmp/port2" --adapters llvmpipe --gpus 1 --cache-dir "$tmp/cache" \
+  --drain-timeout 1 > /dev/null 2> "$tmp/drain.err" &
+node_pid=$!
+for _ in $(seq 100); do [ -s "$tmp/port2" ] && break; sleep 0.1; done
+timeout 120 "$render" --nodes "127.0.0.1:$(cat "$tmp/port2")" --size 32x18 --frames 4096 --ao-samples 1 \
+  --out "$tmp/drain/frame" > "$tmp/drain.out" 2> "$tmp/drain-render.err" &
+render_pid=$!
+for _ in $(seq 300); do grep -q "frame 2/" "$tmp/drain-render.err" 2>/dev/null && break; sleep 0.1; done
+start=$(date +%s%N)
+kill -TERM "$node_pid"
+wait "$node_pid"
+status=$?
+node_pid=
+elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
+wait "$render_pid"
+render_status=$?
+check "drain timeout: node exits 0" test "$status" -eq 0
+check "drain timeout: node exits within 1 s + 1 s grace (+2 s slack): took $elapsed_ms ms" test "$elapsed_ms" -lt 4000
+check "drain timeout: node log says why the session ended" \
+  grep -q "ended: drain timeout (1 s) expired" "$tmp/drain.err"
+check "drain timeout: render fails" test "$render_status" -eq 1
+check "drain timeout: render says the node is shutting down" \
+  grep -q "node shutting down: drain timeout (1 s) expired" "$tmp/drain-render.err"
+
 echo "node_cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
