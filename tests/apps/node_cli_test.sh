@@ -48,6 +48,29 @@ security_case "--tls-client-ca without TLS" "needs --tls-cert" --tls-client-ca "
 security_case "--quota-inflight over 1024" "1..1024" --quota-inflight 2000
 security_case "--quota-memory not a size" "not a size" --quota-memory lots
 
+security_case "--metrics-token-file without --metrics-port" "needs --metrics-port" --metrics-token-file "$tmp/none"
+security_case "--metrics-token-file of a missing file" "token file '$tmp/none': No such file" \
+  --metrics-port 0 --metrics-token-file "$tmp/none"
+
+# A unix socket: the node names its path (it printed "unix:1", gRPC's port for it); metrics with a token say
+# so; metrics on 0.0.0.0 without one are warned about.
+echo "metrics-secret" > "$tmp/metrics-token"
+chmod 600 "$tmp/metrics-token"
+"$node" --backend mock --listen "unix:$tmp/node.sock" --cache-dir "$tmp/cache" --port-file "$tmp/unix-port" \
+  --metrics-port 0 --metrics-token-file "$tmp/metrics-token" > "$tmp/unix.out" 2> "$tmp/unix.err" &
+node_pid=$!
+for _ in $(seq 100); do [ -s "$tmp/unix-port" ] && break; sleep 0.1; done
+check "unix socket: the node prints its path" grep -q "listening on unix:$tmp/node.sock with 1 device" "$tmp/unix.out"
+check "metrics token: the node says it is required" grep -q "/metrics (bearer token required)" "$tmp/unix.out"
+kill -TERM "$node_pid"; wait "$node_pid"; node_pid=
+rm -f "$tmp/unix-port"
+"$node" --backend mock --listen 127.0.0.1:0 --cache-dir "$tmp/cache" --port-file "$tmp/unix-port" \
+  --metrics-port 0 --metrics-listen 0.0.0.0 > /dev/null 2> "$tmp/open.err" &
+node_pid=$!
+for _ in $(seq 100); do [ -s "$tmp/unix-port" ] && break; sleep 0.1; done
+check "metrics on 0.0.0.0 without a token: warned" grep -q "without --metrics-token-file" "$tmp/open.err"
+kill -TERM "$node_pid"; wait "$node_pid"; node_pid=
+
 # A node on a free loopback port with 2 virtual GPUs on lavapipe.
 "$node" --listen 127.0.0.1:0 --port-file "$tmp/port" --adapters llvmpipe --gpus 2 --cache-dir "$tmp/cache" \
   > "$tmp/node.out" 2> "$tmp/node.err" &
