@@ -104,6 +104,26 @@ bool cv_node_listen_is_local(const char *listen) {
     return false; /* "", "0.0.0.0", "::", a host name: reachable from elsewhere */
 }
 
+/* InfoRequest has no fields in this protocol version: bytes that are not one, or fields a newer client may
+ * send, are refused by name rather than ignored (the client would otherwise believe they were honoured). */
+static int check_info_request(const void *request, size_t size, char *message, size_t cap) {
+    Corvid__InfoRequest *req = corvid__info_request__unpack(NULL, size, request);
+    if (!req) {
+        snprintf(message, cap, "Info: %zu bytes are not a corvid.InfoRequest", size);
+        return STATUS_INVALID_ARGUMENT;
+    }
+    int status = STATUS_OK;
+    if (req->base.n_unknown_fields) {
+        snprintf(message, cap,
+                 "Info: InfoRequest field %u is not served by this node (protocol version %u, whose InfoRequest has "
+                 "no fields)",
+                 req->base.unknown_fields[0].tag, CV_NODE_PROTOCOL_VERSION);
+        status = STATUS_INVALID_ARGUMENT;
+    }
+    corvid__info_request__free_unpacked(req, NULL);
+    return status;
+}
+
 static int answer_info(cv_node *node, void **response, size_t *size, char *message, size_t cap) {
     Corvid__DeviceInfo *items = calloc(node->config.device_count, sizeof(*items));
     Corvid__DeviceInfo **ptrs = calloc(node->config.device_count, sizeof(*ptrs));
@@ -184,7 +204,8 @@ static int on_unary(const char *method, const void *request, size_t size, void *
         *response_size = 0;
         return peer_on_piece(node, request, size, message, message_cap);
     }
-    return answer_info(node, response, response_size, message, message_cap);
+    int status = check_info_request(request, size, message, message_cap);
+    return status != STATUS_OK ? status : answer_info(node, response, response_size, message, message_cap);
 }
 
 static void free_node(cv_node *node) {
