@@ -109,6 +109,15 @@ timeout 60 "$render" --nodes "127.0.0.1:$closed" "${args[@]}" --out "$tmp/x/fram
 check "unreachable node exits 1" test $? -eq 1
 check "unreachable node named" grep -q "127.0.0.1:$closed" "$tmp/err.txt"
 check "nothing written for an unreachable node" test ! -e "$tmp/x/frame.png"
+# One node of two down at start: the render goes on with the one that answers and names the other (it failed
+# outright).
+timeout 120 "$render" --nodes "127.0.0.1:$closed,127.0.0.1:$port" "${args[@]}" --out "$tmp/half/frame" \
+  > "$tmp/half.txt" 2> "$tmp/half.err"
+check "one node down: render exits 0" test $? -eq 0
+check "one node down: it is named" grep -q "node '127.0.0.1:$closed' did not answer, rendering without it" \
+  "$tmp/half.err"
+check "one node down: the other's devices render (node1.gpu0 primary)" grep -q "node1.gpu0: .*primary" "$tmp/half.err"
+check "one node down: PNG equals the local one" cmp -s "$tmp/local/frame.png" "$tmp/half/frame.png"
 
 kill -TERM "$node_pid"
 wait "$node_pid"
@@ -116,7 +125,7 @@ status=$?
 node_pid=
 check "SIGTERM: node exits 0" test "$status" -eq 0
 check "SIGTERM: node drained" grep -q "draining" "$tmp/node.err"
-check "SIGTERM: node summary (2 renders x 2 devices)" grep -q "stopped after 4 sessions" "$tmp/node.err"
+check "SIGTERM: node summary (3 renders x 2 devices)" grep -q "stopped after 6 sessions" "$tmp/node.err"
 
 # A drain that runs out: a render still going when the node gets SIGTERM with --drain-timeout 1. The node
 # exits within the timeout and CV_NODE_CANCEL_GRACE_MS (1 s), plus 2 s for a loaded CI machine (it took the
