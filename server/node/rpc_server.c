@@ -601,7 +601,7 @@ void cv_rpc_server_finish_streams(cv_rpc_server *s, int status, const char *mess
     pthread_mutex_lock(&s->mu);
     for (handler *h = s->live; h; h = h->next)
         if (h->is_stream && h->stream)
-            cv_rpc_stream_finish(h->stream, status, message);
+            cv_rpc_stream_cancel_with_status(h->stream, status, message);
     pthread_mutex_unlock(&s->mu);
 }
 

@@ -178,8 +178,8 @@ uint32_t cv_rpc_server_active_streams(const cv_rpc_server *s);
 /* Waits up to timeout_ms for the running streams to end (a deadline, however often it wakes); returns how many
  * are left. Any thread. */
 uint32_t cv_rpc_server_wait_streams(cv_rpc_server *s, uint32_t timeout_ms);
-/* Ends every running stream with `status` and `message`, as cv_rpc_stream_finish would: each client sees that
- * status rather than a bare cancellation, and each handler's recv then sees its stream end. Any thread. */
+/* Ends every running stream now with `status` and `message` (ahead of replies still queued): each client sees
+ * that status rather than a bare cancellation, and each handler's recv and send then fail. Any thread. */
 void cv_rpc_server_finish_streams(cv_rpc_server *s, int status, const char *message);
 
 /* ---- streams, both sides ---- */
