@@ -154,7 +154,9 @@ static void send_completed(session *s, const pending_submit *p) {
     Corvid__Completed done = CORVID__COMPLETED__INIT;
     done.ticket = p->client_ticket;
     done.result = p->result;
-    done.message = (char *)p->message;
+    char message[4 * sizeof(p->message)]; /* client labels in it: escaped, as replies are */
+    cv_log_escape(message, sizeof(message), p->message);
+    done.message = message;
     done.transfer_failure = p->transfer_failure;
     cv_pass_timing timings[32];
     Corvid__PassTiming items[32];
