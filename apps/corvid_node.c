@@ -76,7 +76,10 @@ static void usage(FILE *f) {
             "  --name NAME            the name clients see [the host name]\n"
             "  --port-file FILE       write the bound port to FILE once listening\n"
             "  --metrics-port PORT    serve Prometheus metrics at /metrics on PORT (0 picks a free one) [off]\n"
-            "  --metrics-listen ADDR  numeric address for the metrics port [127.0.0.1]\n"
+            "  --metrics-listen ADDR  numeric address for the metrics port [127.0.0.1]; anything but loopback\n"
+            "                         wants --metrics-token-file (a warning says so)\n"
+            "  --metrics-token-file FILE  scrapes must send 'Authorization: Bearer <token>' (the file's first\n"
+            "                         line; may be the --token-file); others get 401\n"
             "  --validation           Vulkan validation layer on session devices\n"
             "  --quiet                no per-session log lines\n"
             "  --help                 this text\n"
@@ -294,6 +297,27 @@ static cv_result make_devices(const options *o, const cv_vulkan_gpu_config *gpus
     return CV_OK;
 }
 
+/* The /metrics endpoint, with its token (read before anything started; wiped here) if one is given; a warning
+ * when it is open beyond this machine without one. */
+static int start_metrics(cv_node *node, const node_metrics_options *mo, char *token, size_t token_cap,
+                         cv_metrics_server **out) {
+    char listen[80];
+    snprintf(listen, sizeof(listen), "%s:%d", mo->listen ? mo->listen : "127.0.0.1", mo->port);
+    if (!mo->token_file && !cv_node_listen_is_local(listen))
+        fprintf(stderr,
+                "corvid-node: warning: --metrics-listen %s without --metrics-token-file: anyone who reaches "
+                "that port reads the metrics\n",
+                mo->listen);
+    cv_metrics_server_config mc = { .address = mo->listen, .port = mo->port, .token = mo->token_file ? token : NULL };
+    cv_result r = cv_metrics_server_start(node, &mc, out);
+    memset(token, 0, token_cap);
+    if (r != CV_OK) {
+        fprintf(stderr, "corvid-node: --metrics-port: %s\n", cv_last_error());
+        return 1;
+    }
+    return 0;
+}
+
 int main(int argc, char **argv) {
     cv_vulkan_gpu_config gpus = { 0 };
     if (cv_vulkan_gpu_args(&argc, argv, &gpus) != CV_OK) {
@@ -318,6 +342,12 @@ int main(int argc, char **argv) {
         if (stat(o.token_file, &st) == 0 && (st.st_mode & (S_IRWXG | S_IRWXO)))
             fprintf(stderr, "corvid-node: warning: token file '%s' can be read by other users (chmod 600 it)\n",
                     o.token_file);
+    }
+    static char metrics_token[1040];
+    if (metrics_opts.token_file &&
+        cv_rpc_read_token_file(metrics_opts.token_file, metrics_token, sizeof(metrics_token)) != CV_OK) {
+        fprintf(stderr, "corvid-node: --metrics-token-file: %s\n", cv_last_error());
+        return 2;
     }
     if (!cv_node_listen_is_local(o.listen)) {
         if (!o.token_file) {
@@ -388,8 +418,7 @@ int main(int argc, char **argv) {
     int port = cv_node_port(node);
     cv_metrics_server *metrics = NULL;
     if (metrics_opts.enabled &&
-        cv_metrics_server_start(node, metrics_opts.listen, metrics_opts.port, &metrics) != CV_OK) {
-        fprintf(stderr, "corvid-node: --metrics-port: %s\n", cv_last_error());
+        start_metrics(node, &metrics_opts, metrics_token, sizeof(metrics_token), &metrics) != 0) {
         cv_node_stop(node, 0);
         return 1;
     }
@@ -401,16 +430,23 @@ int main(int argc, char **argv) {
             return 1;
         }
     }
+    /* A unix socket has no port (gRPC reports 1 for it): the address is the path. */
+    char where[PATH_MAX + 16];
     const char *colon = strrchr(o.listen, ':');
-    printf("corvid-node: listening on %.*s:%d with %u device%s (%s), cache %s, %s, %s\n", (int)(colon - o.listen),
-           o.listen, port, device_count, device_count == 1 ? "" : "s", o.backend, config.cache_dir,
+    if (!strncmp(o.listen, "unix:", 5) || !strncmp(o.listen, "unix-abstract:", 14))
+        snprintf(where, sizeof(where), "%s", o.listen);
+    else
+        snprintf(where, sizeof(where), "%.*s:%d", (int)(colon - o.listen), o.listen, port);
+    printf("corvid-node: listening on %s with %u device%s (%s), cache %s, %s, %s\n", where, device_count,
+           device_count == 1 ? "" : "s", o.backend, config.cache_dir,
            o.tls_client_ca ? "mutual TLS"
            : o.tls_cert    ? "TLS"
                            : "plaintext",
            o.token_file ? "token required" : "no token");
     if (metrics)
-        printf("corvid-node: metrics at http://%s:%d/metrics\n",
-               metrics_opts.listen ? metrics_opts.listen : "127.0.0.1", cv_metrics_server_port(metrics));
+        printf("corvid-node: metrics at http://%s:%d/metrics%s\n",
+               metrics_opts.listen ? metrics_opts.listen : "127.0.0.1", cv_metrics_server_port(metrics),
+               metrics_opts.token_file ? " (bearer token required)" : "");
     if (o.health_listen)
         printf("corvid-node: plaintext health (grpc.health.v1 only) on port %d\n", cv_node_health_port(node));
     fflush(stdout);
@@ -422,14 +458,14 @@ int main(int argc, char **argv) {
     cv_node_drain(node);
     /* Metrics stay up while the running sessions finish, so a scrape during the drain shows it
      * (corvid_node_draining 1, the sessions going down); then they go, before the node (they read it). */
-    uint32_t waited_ms = 0;
-    while (waited_ms < o.drain_timeout_s * 1000u && cv_node_get_stats(node).sessions_active) {
-        nanosleep(&(struct timespec){ 0, 50 * 1000 * 1000 }, NULL);
-        waited_ms += 50;
+    if (cv_node_wait_sessions(node, o.drain_timeout_s * 1000u) > 0) {
+        char reason[64];
+        snprintf(reason, sizeof(reason), "drain timeout (%u s) expired", o.drain_timeout_s);
+        cv_node_cancel_sessions(node, reason);
     }
     cv_node_stats stats = cv_node_get_stats(node);
     cv_metrics_server_stop(metrics);
-    cv_node_stop(node, o.drain_timeout_s * 1000u - (waited_ms < o.drain_timeout_s * 1000u ? waited_ms : 0));
+    cv_node_stop(node, 0);
     fprintf(stderr,
             "corvid-node: stopped after %" PRIu64 " sessions, %" PRIu64 " submissions, %" PRIu64 " bytes in, %" PRIu64
             " bytes out\n",

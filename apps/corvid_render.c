@@ -707,37 +707,57 @@ static int list_adapters(void) {
     return 0;
 }
 
-/* One proxy device per device of every node, labelled node<i>.gpu<j>. */
+/* The devices of one node that answered, labelled node<i>.gpu<j>, appended at devices[*n]. */
+static cv_result add_node_devices(cv_context *ctx, const cv_endpoint *node, uint32_t i,
+                                  const cv_proxy_node_info *info, cv_device **devices, uint32_t *n, bool quiet) {
+    cv_result r = CV_OK;
+    for (uint32_t d = 0; r == CV_OK && d < info->device_count; d++) {
+        if (*n == CV_MAX_DEVICES)
+            return cv_error(CV_ERROR_LIMIT_EXCEEDED, "the nodes serve more than %u devices, the renderer's limit",
+                            CV_MAX_DEVICES);
+        char adapter[16];
+        snprintf(adapter, sizeof(adapter), "%u", d);
+        cv_device_desc desc = { .endpoint = node->text, .adapter = adapter };
+        snprintf(desc.label, sizeof(desc.label), "node%u.gpu%u", i, d);
+        r = cv_device_create(ctx, cv_proxy_backend(), &desc, &devices[*n]);
+        if (r == CV_OK && !quiet)
+            fprintf(stderr, "%s: %s on node '%s' (%s, its %s)%s\n", desc.label, cv_device_get_info(devices[*n])->name,
+                    info->name, node->text, info->labels[d], *n == 0 ? ", primary" : "");
+        if (r == CV_OK)
+            (*n)++;
+    }
+    return r;
+}
+
+/* One proxy device per device of every node that answers. A node that cannot be reached at start is named
+ * and left out (a render on the others beats none); one that answers with an error (a wrong token, a
+ * protocol it does not speak) fails the render, as does no node answering at all. */
 static cv_result create_node_devices(cv_context *ctx, const char *list, cv_device **devices, uint32_t *count,
                                      bool quiet) {
     cv_endpoint nodes[CV_MAX_NODES];
-    uint32_t node_count, n = 0;
+    uint32_t node_count, n = 0, answered = 0;
     cv_result r = cv_endpoints_parse(list, "--nodes", nodes, CV_MAX_NODES, &node_count);
     cv_proxy_node_info *info = malloc(sizeof(*info));
     if (r == CV_OK && !info)
         r = cv_error(CV_ERROR_OUT_OF_MEMORY, "node info");
+    char down[1024] = "";
     for (uint32_t i = 0; r == CV_OK && i < node_count; i++) {
         r = cv_proxy_query_node(nodes[i].text, 10000, info);
-        for (uint32_t d = 0; r == CV_OK && d < info->device_count; d++) {
-            if (n == CV_MAX_DEVICES) {
-                r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "the nodes serve more than %u devices, the renderer's limit",
-                             CV_MAX_DEVICES);
-                break;
-            }
-            char adapter[16];
-            snprintf(adapter, sizeof(adapter), "%u", d);
-            cv_device_desc desc = { .endpoint = nodes[i].text, .adapter = adapter };
-            snprintf(desc.label, sizeof(desc.label), "node%u.gpu%u", i, d);
-            r = cv_device_create(ctx, cv_proxy_backend(), &desc, &devices[n]);
-            if (r == CV_OK && !quiet)
-                fprintf(stderr, "%s: %s on node '%s' (%s, its %s)%s\n", desc.label,
-                        cv_device_get_info(devices[n])->name, info->name, nodes[i].text, info->labels[d],
-                        n == 0 ? ", primary" : "");
-            if (r == CV_OK)
-                n++;
+        if (r == CV_ERROR_CONNECTION || r == CV_ERROR_TIMEOUT) {
+            fprintf(stderr, "corvid-render: node '%s' did not answer, rendering without it: %s\n", nodes[i].text,
+                    cv_last_error());
+            size_t at = strlen(down);
+            snprintf(down + at, sizeof(down) - at, "%s'%s'", at ? ", " : "", nodes[i].text);
+            r = CV_OK;
+            continue;
         }
+        answered++;
+        if (r == CV_OK)
+            r = add_node_devices(ctx, &nodes[i], i, info, devices, &n, quiet);
     }
     free(info);
+    if (r == CV_OK && answered == 0)
+        r = cv_error(CV_ERROR_CONNECTION, "no node of --nodes answered (%s)", down);
     *count = n;
     return r;
 }

@@ -1,4 +1,4 @@
-/* corvid-node's --metrics-port and --metrics-listen (node_metrics_args.h). */
+/* corvid-node's --metrics-port, --metrics-listen and --metrics-token-file (node_metrics_args.h). */
 #include "node_metrics_args.h"
 
 #include <errno.h>
@@ -34,6 +34,8 @@ int node_metrics_args(int *argc, char **argv, node_metrics_options *out) {
             name = "--metrics-port";
         else if (match(*argc, argv, i, "--metrics-listen", &value, &used))
             name = "--metrics-listen";
+        else if (match(*argc, argv, i, "--metrics-token-file", &value, &used))
+            name = "--metrics-token-file";
         if (!name) {
             argv[kept++] = argv[i++];
             continue;
@@ -53,6 +55,8 @@ int node_metrics_args(int *argc, char **argv, node_metrics_options *out) {
             }
             o.enabled = true;
             o.port = (int)v;
+        } else if (!strcmp(name, "--metrics-token-file")) {
+            o.token_file = value;
         } else {
             if (!*value) {
                 fprintf(stderr, "corvid-node: --metrics-listen: empty address\n");
@@ -62,8 +66,9 @@ int node_metrics_args(int *argc, char **argv, node_metrics_options *out) {
         }
         i += used;
     }
-    if (o.listen && !o.enabled) {
-        fprintf(stderr, "corvid-node: --metrics-listen needs --metrics-port\n");
+    if ((o.listen || o.token_file) && !o.enabled) {
+        fprintf(stderr, "corvid-node: %s needs --metrics-port\n",
+                o.listen ? "--metrics-listen" : "--metrics-token-file");
         return 2;
     }
     for (int i = kept; i < *argc; i++)

@@ -2,6 +2,7 @@
  * so they live in a file of their own:
  *   --metrics-port PORT     serve Prometheus metrics at http://ADDR:PORT/metrics (0 picks a free port)
  *   --metrics-listen ADDR   the address for it [127.0.0.1]
+ *   --metrics-token-file FILE  scrapes must send "Authorization: Bearer <token>", the file's first line
  * Without --metrics-port there is no metrics endpoint. */
 #ifndef CORVID_APPS_NODE_METRICS_ARGS_H
 #define CORVID_APPS_NODE_METRICS_ARGS_H
@@ -11,7 +12,8 @@
 typedef struct node_metrics_options {
     bool enabled; /* --metrics-port given */
     int port;
-    const char *listen; /* NULL = 127.0.0.1 */
+    const char *listen;     /* NULL = 127.0.0.1 */
+    const char *token_file; /* NULL = no token */
 } node_metrics_options;
 
 /* Takes the options above out of argv (argc shrinks); the rest is left in

@@ -1,5 +1,6 @@
 /* corvid-node's metrics registry and its Prometheus text (metrics.h). */
 #include "metrics.h"
+#include "node_log.h"
 
 #include <inttypes.h>
 #include <pthread.h>
@@ -98,8 +99,9 @@ void cv_node_metrics_passes(cv_node_metrics *m, const cv_pass_timing *timings, u
         return;
     pthread_mutex_lock(&m->lock);
     for (uint32_t i = 0; i < count; i++) {
-        char label[CV_LABEL_MAX];
-        snprintf(label, sizeof(label), "%s", timings[i].label); /* a device's label may lack its NUL */
+        char raw[CV_LABEL_MAX], label[CV_LABEL_MAX];
+        snprintf(raw, sizeof(raw), "%s", timings[i].label); /* a device's label may lack its NUL */
+        cv_log_escape(label, sizeof(label), raw);           /* a client's label: one line of valid UTF-8 */
         double seconds = timings[i].duration_ms > 0 ? timings[i].duration_ms / 1000.0 : 0.0;
         pass_histogram *h = histogram_for(m, label);
         uint32_t b = 0;

@@ -1,21 +1,55 @@
 /* The node's /metrics endpoint (metrics.h), served by libmicrohttpd on its own
  * polling thread: GET or HEAD /metrics answers the Prometheus text, other paths
- * 404, other methods 405. Each scrape renders the text afresh from the node. */
+ * 404, other methods 405, and 401 without the bearer token when one is configured.
+ * Each scrape renders the text afresh from the node.
+ *
+ * Idle or slow clients cannot hold the endpoint: it takes METRICS_MAX_CONNECTIONS
+ * connections, each answers one request (Connection: close), and a reaper thread
+ * shuts down every connection older than its deadline (5 s) however it trickles
+ * its bytes (libmicrohttpd's own timeout counts from the last byte read, so a
+ * client sending one byte a second would never reach it). */
 #include <microhttpd.h>
 #include <netdb.h>
+#include <openssl/crypto.h>
+#include <pthread.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/socket.h>
+#include <time.h>
 
+#include "corvid/sha256.h"
 #include "metrics.h"
 
 #define CONTENT_TYPE "text/plain; version=0.0.4; charset=utf-8"
+#define METRICS_MAX_CONNECTIONS 512u /* a scrape needs one; idle or slow ones are cut at the deadline */
+#define METRICS_DEADLINE_MS 5000u    /* a connection's whole life: a scrape takes milliseconds */
+
+/* A connection the reaper watches, from libmicrohttpd's STARTED notice to its CLOSED one (which comes before
+ * the socket is closed, so the reaper never shuts down a descriptor that was reused). */
+typedef struct watched {
+    struct watched *next, *prev;
+    MHD_socket fd;
+    struct timespec started;
+    bool cut;
+} watched;
 
 struct cv_metrics_server {
     cv_node *node;
     struct MHD_Daemon *daemon;
     int port;
+    uint32_t deadline_ms; /* a connection's whole life */
+    bool has_token;
+    uint8_t token_sha[CV_SHA256_SIZE];
+
+    pthread_mutex_t lock; /* the list below and `stopping` */
+    pthread_cond_t wake;
+    watched *live;
+    bool stopping;
+    bool reaper_started;
+    pthread_t reaper;
 };
 
 static enum MHD_Result answer_text(struct MHD_Connection *conn, unsigned status, const char *text) {
@@ -23,6 +57,7 @@ static enum MHD_Result answer_text(struct MHD_Connection *conn, unsigned status,
     if (!resp)
         return MHD_NO;
     MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "text/plain; charset=utf-8");
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close");
     enum MHD_Result ok = MHD_queue_response(conn, status, resp);
     MHD_destroy_response(resp);
     return ok;
@@ -46,6 +81,35 @@ static char *render(cv_node *node, size_t *size) {
     return NULL;
 }
 
+/* "Authorization: Bearer <token>" with the right token, compared as SHA-256 digests in constant time. */
+static bool authorized(const cv_metrics_server *server, struct MHD_Connection *conn) {
+    if (!server->has_token)
+        return true;
+    const char *auth = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION);
+    if (!auth || strncasecmp(auth, "Bearer ", 7) != 0)
+        return false;
+    uint8_t digest[CV_SHA256_SIZE];
+    bool ok = cv_sha256(auth + 7, strlen(auth + 7), digest) == CV_OK &&
+              CRYPTO_memcmp(digest, server->token_sha, sizeof(digest)) == 0;
+    OPENSSL_cleanse(digest, sizeof(digest));
+    return ok;
+}
+
+static enum MHD_Result answer_unauthorized(struct MHD_Connection *conn) {
+    static const char text[] =
+        "corvid-node metrics: unauthorized (send 'Authorization: Bearer <token>', the token "
+        "of the node's --metrics-token-file)\n";
+    struct MHD_Response *resp = MHD_create_response_from_buffer(strlen(text), (void *)text, MHD_RESPMEM_PERSISTENT);
+    if (!resp)
+        return MHD_NO;
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "text/plain; charset=utf-8");
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_WWW_AUTHENTICATE, "Bearer realm=\"corvid-node metrics\"");
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close");
+    enum MHD_Result ok = MHD_queue_response(conn, MHD_HTTP_UNAUTHORIZED, resp);
+    MHD_destroy_response(resp);
+    return ok;
+}
+
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const char *url, const char *method,
                                   const char *version, const char *upload_data, size_t *upload_data_size,
                                   void **req_cls) {
@@ -60,6 +124,8 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     if (strcmp(url, "/metrics") != 0)
         return answer_text(conn, MHD_HTTP_NOT_FOUND,
                            "corvid-node metrics: not found (the metrics are at /metrics)\n");
+    if (!authorized(server, conn))
+        return answer_unauthorized(conn);
     size_t size = 0;
     char *text = render(server->node, &size);
     if (!text)
@@ -70,22 +136,79 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         return MHD_NO;
     }
     MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, CONTENT_TYPE);
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close"); /* one request each: the deadline holds */
     enum MHD_Result ok = MHD_queue_response(conn, MHD_HTTP_OK, resp);
     MHD_destroy_response(resp);
     return ok;
 }
 
-cv_result cv_metrics_server_start(cv_node *node, const char *address, int port, cv_metrics_server **out) {
-    if (!node || !out)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_metrics_server_start: NULL node or out");
-    if (port < 0 || port > 65535)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "metrics: port %d (0..65535; 0 picks a free one)", port);
-    if (!address || !*address)
-        address = "127.0.0.1";
+/* ---- the deadline ---------------------------------------------------------- */
+
+static void on_connection(void *cls, struct MHD_Connection *conn, void **socket_context,
+                          enum MHD_ConnectionNotificationCode code) {
+    cv_metrics_server *server = cls;
+    if (code == MHD_CONNECTION_NOTIFY_STARTED) {
+        const union MHD_ConnectionInfo *info = MHD_get_connection_info(conn, MHD_CONNECTION_INFO_CONNECTION_FD);
+        watched *w = info ? calloc(1, sizeof(*w)) : NULL;
+        if (!w)
+            return; /* out of memory: this one goes unwatched (libmicrohttpd's idle timeout still applies) */
+        w->fd = info->connect_fd;
+        clock_gettime(CLOCK_MONOTONIC, &w->started);
+        pthread_mutex_lock(&server->lock);
+        w->next = server->live;
+        if (server->live)
+            server->live->prev = w;
+        server->live = w;
+        pthread_mutex_unlock(&server->lock);
+        *socket_context = w;
+    } else if (code == MHD_CONNECTION_NOTIFY_CLOSED && *socket_context) {
+        watched *w = *socket_context;
+        pthread_mutex_lock(&server->lock);
+        if (w->prev)
+            w->prev->next = w->next;
+        else
+            server->live = w->next;
+        if (w->next)
+            w->next->prev = w->prev;
+        pthread_mutex_unlock(&server->lock);
+        free(w);
+        *socket_context = NULL;
+    }
+}
+
+/* Every 100 ms: connections older than the deadline are shut down, and libmicrohttpd closes them (it reads
+ * the end of the stream). */
+static void *reaper_main(void *arg) {
+    cv_metrics_server *server = arg;
+    pthread_mutex_lock(&server->lock);
+    while (!server->stopping) {
+        struct timespec now;
+        clock_gettime(CLOCK_MONOTONIC, &now);
+        for (watched *w = server->live; w; w = w->next)
+            if (!w->cut && (now.tv_sec - w->started.tv_sec) * 1000 + (now.tv_nsec - w->started.tv_nsec) / 1000000 >=
+                               (long)server->deadline_ms) {
+                shutdown(w->fd, SHUT_RDWR);
+                w->cut = true;
+            }
+        struct timespec until = now;
+        until.tv_nsec += 100 * 1000 * 1000;
+        if (until.tv_nsec >= 1000000000L) {
+            until.tv_sec++;
+            until.tv_nsec -= 1000000000L;
+        }
+        pthread_cond_timedwait(&server->wake, &server->lock, &until);
+    }
+    pthread_mutex_unlock(&server->lock);
+    return NULL;
+}
+
+/* ---- the server ------------------------------------------------------------- */
+
+/* The listen address as a socket address (freeaddrinfo it). */
+static cv_result listen_address(const char *address, int port, struct addrinfo **ai) {
     char port_text[8];
     snprintf(port_text, sizeof(port_text), "%d", port);
-    struct addrinfo hints = { .ai_flags = AI_NUMERICHOST | AI_NUMERICSERV | AI_PASSIVE, .ai_socktype = SOCK_STREAM },
-                    *ai = NULL;
+    struct addrinfo hints = { .ai_flags = AI_NUMERICHOST | AI_NUMERICSERV | AI_PASSIVE, .ai_socktype = SOCK_STREAM };
     /* "[::1]" as well as "::1". */
     char host[64];
     size_t len = strlen(address);
@@ -93,34 +216,79 @@ cv_result cv_metrics_server_start(cv_node *node, const char *address, int port, 
         snprintf(host, sizeof(host), "%.*s", (int)(len - 2), address + 1);
     else
         snprintf(host, sizeof(host), "%s", address);
-    int gai = getaddrinfo(host, port_text, &hints, &ai);
+    int gai = getaddrinfo(host, port_text, &hints, ai);
     if (gai != 0)
         return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "metrics: listen address '%s' is not a numeric IPv4 or IPv6 "
-                        "address (%s)",
-                        address, gai_strerror(gai));
+                        "metrics: listen address '%s' is not a numeric IPv4 or IPv6 address (%s)", address,
+                        gai_strerror(gai));
+    return CV_OK;
+}
+
+static void free_server(cv_metrics_server *s) {
+    if (s->reaper_started) {
+        pthread_mutex_lock(&s->lock);
+        s->stopping = true;
+        pthread_cond_signal(&s->wake);
+        pthread_mutex_unlock(&s->lock);
+        pthread_join(s->reaper, NULL);
+    }
+    pthread_cond_destroy(&s->wake);
+    pthread_mutex_destroy(&s->lock);
+    OPENSSL_cleanse(s->token_sha, sizeof(s->token_sha));
+    free(s);
+}
+
+cv_result cv_metrics_server_start(cv_node *node, const cv_metrics_server_config *config, cv_metrics_server **out) {
+    if (!node || !config || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_metrics_server_start: NULL node, config or out");
+    if (config->port < 0 || config->port > 65535)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "metrics: port %d (0..65535; 0 picks a free one)", config->port);
+    if (config->token && !config->token[0])
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "metrics: the token is empty");
+    const char *address = config->address && *config->address ? config->address : "127.0.0.1";
+    struct addrinfo *ai = NULL;
+    cv_result r = listen_address(address, config->port, &ai);
+    if (r != CV_OK)
+        return r;
     cv_metrics_server *s = calloc(1, sizeof(*s));
     if (!s) {
         freeaddrinfo(ai);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_metrics_server_start");
     }
     s->node = node;
-    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ERROR_LOG;
+    s->deadline_ms = config->deadline_ms ? config->deadline_ms : METRICS_DEADLINE_MS;
+    pthread_mutex_init(&s->lock, NULL);
+    pthread_condattr_t attr;
+    pthread_condattr_init(&attr);
+    pthread_condattr_setclock(&attr, CLOCK_MONOTONIC);
+    pthread_cond_init(&s->wake, &attr);
+    pthread_condattr_destroy(&attr);
+    if (config->token) {
+        s->has_token = true;
+        r = cv_sha256(config->token, strlen(config->token), s->token_sha);
+    }
+    if (r == CV_OK && pthread_create(&s->reaper, NULL, reaper_main, s) != 0)
+        r = cv_error(CV_ERROR_OUT_OF_MEMORY, "metrics: cannot start the connection reaper thread");
+    s->reaper_started = r == CV_OK;
+    /* epoll (MHD_USE_AUTO): no FD_SETSIZE ceiling on the descriptors. */
+    unsigned flags = MHD_USE_AUTO_INTERNAL_THREAD | MHD_USE_ERROR_LOG;
     if (ai->ai_family == AF_INET6)
         flags |= MHD_USE_IPv6;
-    s->daemon = MHD_start_daemon(flags, (uint16_t)port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR, ai->ai_addr,
-                                 MHD_OPTION_CONNECTION_LIMIT, (unsigned)32, MHD_OPTION_CONNECTION_TIMEOUT,
-                                 (unsigned)10, MHD_OPTION_END);
+    if (r == CV_OK)
+        s->daemon = MHD_start_daemon(flags, (uint16_t)config->port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR,
+                                     ai->ai_addr, MHD_OPTION_CONNECTION_LIMIT, (unsigned)METRICS_MAX_CONNECTIONS,
+                                     MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)(s->deadline_ms + 999) / 1000,
+                                     MHD_OPTION_NOTIFY_CONNECTION, on_connection, s, MHD_OPTION_END);
     freeaddrinfo(ai);
-    if (!s->daemon) {
-        free(s);
-        return cv_error(CV_ERROR_IO,
-                        "metrics: cannot listen on %s port %d (in use, or not an address of this "
-                        "machine)",
-                        address, port);
+    if (r == CV_OK && !s->daemon)
+        r = cv_error(CV_ERROR_IO, "metrics: cannot listen on %s port %d (in use, or not an address of this machine)",
+                     address, config->port);
+    if (r != CV_OK) {
+        free_server(s);
+        return r;
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(s->daemon, MHD_DAEMON_INFO_BIND_PORT);
-    s->port = info ? info->port : port;
+    s->port = info ? info->port : config->port;
     *out = s;
     return CV_OK;
 }
@@ -130,6 +298,6 @@ int cv_metrics_server_port(const cv_metrics_server *server) { return server ? se
 void cv_metrics_server_stop(cv_metrics_server *server) {
     if (!server)
         return;
-    MHD_stop_daemon(server->daemon);
-    free(server);
+    MHD_stop_daemon(server->daemon); /* closes every connection: CLOSED notices empty the list */
+    free_server(server);
 }

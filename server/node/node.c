@@ -20,6 +20,7 @@ enum {
     STATUS_INVALID_ARGUMENT = 3,
     STATUS_NOT_FOUND = 5,
     STATUS_INTERNAL = 13,
+    STATUS_UNAVAILABLE = 14,
     STATUS_UNAUTHENTICATED = 16
 };
 
@@ -65,8 +66,7 @@ static int on_call(const char *method, const char *peer, const cv_rpc_metadata *
     if (!why)
         return STATUS_OK;
     atomic_fetch_add(&node->unauthenticated, 1);
-    if (node->config.log_sessions)
-        fprintf(stderr, "corvid-node: refused %s from %s: %s\n", method, peer, why);
+    node_log(node, NODE_LOG_REFUSED_CALL, "refused %s from %s: %s", method, peer, why);
     snprintf(message, cap,
              "unauthenticated: %s (this node needs its bearer token: the client reads it from the "
              "file named by CORVID_NODE_TOKEN_FILE)",
@@ -110,6 +110,26 @@ bool cv_node_listen_is_local(const char *listen) {
     if (inet_pton(AF_INET6, host, &v6) == 1)
         return IN6_IS_ADDR_LOOPBACK(&v6) || (IN6_IS_ADDR_V4MAPPED(&v6) && v6.s6_addr[12] == 127);
     return false; /* "", "0.0.0.0", "::", a host name: reachable from elsewhere */
+}
+
+/* InfoRequest has no fields in this protocol version: bytes that are not one, or fields a newer client may
+ * send, are refused by name rather than ignored (the client would otherwise believe they were honoured). */
+static int check_info_request(const void *request, size_t size, char *message, size_t cap) {
+    Corvid__InfoRequest *req = corvid__info_request__unpack(NULL, size, request);
+    if (!req) {
+        snprintf(message, cap, "Info: %zu bytes are not a corvid.InfoRequest", size);
+        return STATUS_INVALID_ARGUMENT;
+    }
+    int status = STATUS_OK;
+    if (req->base.n_unknown_fields) {
+        snprintf(message, cap,
+                 "Info: InfoRequest field %u is not served by this node (protocol version %u, whose InfoRequest has "
+                 "no fields)",
+                 req->base.unknown_fields[0].tag, CV_NODE_PROTOCOL_VERSION);
+        status = STATUS_INVALID_ARGUMENT;
+    }
+    corvid__info_request__free_unpacked(req, NULL);
+    return status;
 }
 
 static int answer_info(cv_node *node, void **response, size_t *size, char *message, size_t cap) {
@@ -192,10 +212,13 @@ static int on_unary(const char *method, const void *request, size_t size, void *
         *response_size = 0;
         return peer_on_piece(node, request, size, message, message_cap);
     }
-    return answer_info(node, response, response_size, message, message_cap);
+    int status = check_info_request(request, size, message, message_cap);
+    return status != STATUS_OK ? status : answer_info(node, response, response_size, message, message_cap);
 }
 
 static void free_node(cv_node *node) {
+    node_log_flush(node);
+    node_log_finish(&node->log);
     OPENSSL_cleanse(node->token_sha, sizeof(node->token_sha));
     OPENSSL_cleanse(node->peer_token, sizeof(node->peer_token));
     peer_state_destroy(node->peer);
@@ -255,6 +278,7 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
     }
     node->members = members;
+    node_log_init(&node->log);
     node->quota = (cv_node_quota){
         .memory_bytes = q->memory_bytes ? q->memory_bytes : CV_NODE_DEFAULT_QUOTA_MEMORY,
         .resources = q->resources ? q->resources : CV_NODE_DEFAULT_QUOTA_RESOURCES,
@@ -366,11 +390,31 @@ void cv_node_drain(cv_node *node) {
     cv_rpc_server_drain(node->server);
 }
 
+uint32_t cv_node_wait_sessions(cv_node *node, uint32_t timeout_ms) {
+    return cv_rpc_server_wait_streams(node->server, timeout_ms);
+}
+
+void cv_node_cancel_sessions(cv_node *node, const char *reason) {
+    if (!node || atomic_load(&node->stopping_sessions))
+        return; /* the first reason stands */
+    snprintf(node->stop_reason, sizeof(node->stop_reason), "%s", reason && *reason ? reason : "node stopped");
+    atomic_store(&node->stopping_sessions, true);
+    char message[sizeof(node->stop_reason) + 32];
+    snprintf(message, sizeof(message), "node shutting down: %s", node->stop_reason);
+    cv_rpc_server_finish_streams(node->server, STATUS_UNAVAILABLE, message);
+}
+
 void cv_node_stop(cv_node *node, uint32_t timeout_ms) {
     if (!node)
         return;
-    atomic_store(&node->draining, true);
-    cv_rpc_server_destroy(node->server, timeout_ms);
+    cv_node_drain(node);
+    if (cv_rpc_server_wait_streams(node->server, timeout_ms) > 0) {
+        char reason[96];
+        snprintf(reason, sizeof(reason), "stop timeout (%u ms) expired", timeout_ms);
+        cv_node_cancel_sessions(node, reason);
+    }
+    /* Told to end, a session returns once its current request is done: a bounded wait, then the calls go. */
+    cv_rpc_server_destroy(node->server, CV_NODE_CANCEL_GRACE_MS);
     cv_rpc_server_destroy(node->health_server, 0); /* NOT_SERVING until here */
     free_node(node);
 }

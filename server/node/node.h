@@ -66,6 +66,11 @@ typedef struct cv_node_config {
     uint32_t idle_timeout_ms; /* a session with no message for this long ends; 0 = 300 s */
     uint32_t max_sessions;    /* concurrent sessions; 0 = 256 */
     bool log_sessions;        /* one line per session start/end, per error and per refused call on stderr */
+    /* Where those lines go: each line without its newline, escaped (client-supplied text cannot forge a line or
+       send terminal escapes) and rate-limited per kind (node_log.h). Called from session threads, so it must be
+       thread-safe. NULL = stderr. */
+    void (*log_sink)(const char *line, void *user);
+    void *log_user;
 
     /* Security. token: NULL = none; else every Session stream and Info call must carry the initial metadata
        "authorization: Bearer <token>" (health checks stay open); others are refused with UNAUTHENTICATED and
@@ -129,8 +134,18 @@ int cv_node_port(const cv_node *node);
 int cv_node_health_port(const cv_node *node);
 /* Refuses new sessions (health answers NOT_SERVING); running ones go on. */
 void cv_node_drain(cv_node *node);
-/* Waits up to timeout_ms for sessions to end, cancels what is left, frees everything. */
+/* Waits up to timeout_ms (a deadline, not a count of naps) for running sessions to end; returns how many are
+ * left. */
+uint32_t cv_node_wait_sessions(cv_node *node, uint32_t timeout_ms);
+/* Ends every running session now: its client gets the stream status UNAVAILABLE "node shutting down:
+ * <reason>", and the node logs "session N ...: ended: <reason>" ("drain timeout (30 s) expired"). Sessions
+ * return once their current request is done. Only the first call's reason is kept. */
+void cv_node_cancel_sessions(cv_node *node, const char *reason);
+/* Drains, waits up to timeout_ms for sessions to end, ends the rest (cv_node_cancel_sessions, "stop timeout
+ * (N ms) expired"), gives them CV_NODE_CANCEL_GRACE_MS to return before their calls are cancelled, frees
+ * everything. */
 void cv_node_stop(cv_node *node, uint32_t timeout_ms);
+#define CV_NODE_CANCEL_GRACE_MS 1000u
 cv_node_stats cv_node_get_stats(cv_node *node);
 
 #endif

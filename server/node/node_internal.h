@@ -7,6 +7,7 @@
 
 #include "content_store.h"
 #include "metrics.h"
+#include "node_log.h"
 #include "corvid/node_protocol.h"
 #include "corvid/rpc.h"
 #include "node.h"
@@ -33,6 +34,11 @@ struct cv_node {
     uint8_t token_sha[32];    /* SHA-256 of the token; the token itself is not kept */
     cv_node_quota quota;      /* defaults filled in */
     cv_node_metrics *metrics; /* what the counters above do not hold (metrics.h) */
+    node_log_state log;       /* the log's rate limit (node_log.h) */
+    /* Set (stop_reason first) when cv_node_stop cancels the sessions still running: each one logs that as why
+       it ended, and its client is told the same in the stream's status. */
+    char stop_reason[128];
+    atomic_bool stopping_sessions;
 };
 
 /* Runs one session on the calling thread until its stream ends. */

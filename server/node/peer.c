@@ -308,8 +308,7 @@ int peer_on_piece(cv_node *node, const void *request, size_t size, char *message
         atomic_fetch_add(&node->peer_bytes_in, m->data.len);
     else {
         atomic_fetch_add(&node->errors, 1);
-        if (node->config.log_sessions)
-            fprintf(stderr, "corvid-node: refused a peer piece: %s\n", message);
+        node_log(node, NODE_LOG_PEER, "refused a peer piece: %s", message);
     }
     corvid__peer_piece__free_unpacked(m, NULL);
     return status;
@@ -435,9 +434,8 @@ static void deliver(peer_state *ps, const send_job *job) {
     if (r != CV_OK) {
         atomic_fetch_add(&node->peer_failures, 1);
         atomic_fetch_add(&node->errors, 1);
-        if (node->config.log_sessions)
-            fprintf(stderr, "corvid-node: transfer %" PRIu64 " to %s not delivered: %s\n", job->transfer_id,
-                    job->destination, why);
+        node_log(node, NODE_LOG_PEER, "transfer %" PRIu64 " to %s not delivered: %s", job->transfer_id,
+                 job->destination, why);
     }
 }
 

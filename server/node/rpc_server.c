@@ -245,8 +245,12 @@ static void *stream_main(void *arg) {
     } else {
         fprintf(stderr, "corvid rpc: stream '%s': %s\n", h->method, cv_last_error());
     }
-    cv_rpc_stream_teardown(h->stream);
+    /* Out of the handler under the lock first: cv_rpc_server_finish_streams may be looking at it. */
+    pthread_mutex_lock(&s->mu);
+    cv_rpc_stream *stream = h->stream;
     h->stream = NULL;
+    pthread_mutex_unlock(&s->mu);
+    cv_rpc_stream_teardown(stream);
     handler_done(h);
     return NULL;
 }
@@ -567,10 +571,8 @@ uint32_t cv_rpc_server_active_streams(const cv_rpc_server *s) {
     return n;
 }
 
-void cv_rpc_server_destroy(cv_rpc_server *s, uint32_t timeout_ms) {
-    if (!s)
-        return;
-    /* 1. Refuse new streams; give running ones their time. */
+/* Waits on s->cond (s->mu held) until no stream runs or the deadline timeout_ms from now passes. */
+static void wait_streams_locked(cv_rpc_server *s, uint32_t timeout_ms) {
     struct timespec deadline;
     clock_gettime(CLOCK_MONOTONIC, &deadline);
     deadline.tv_sec += timeout_ms / 1000;
@@ -579,10 +581,37 @@ void cv_rpc_server_destroy(cv_rpc_server *s, uint32_t timeout_ms) {
         deadline.tv_sec++;
         deadline.tv_nsec -= 1000000000L;
     }
-    pthread_mutex_lock(&s->mu);
-    s->draining = true;
     while (s->active_streams > 0 && timeout_ms > 0 && pthread_cond_timedwait(&s->cond, &s->mu, &deadline) == 0) {
     }
+}
+
+uint32_t cv_rpc_server_wait_streams(cv_rpc_server *s, uint32_t timeout_ms) {
+    if (!s)
+        return 0;
+    pthread_mutex_lock(&s->mu);
+    wait_streams_locked(s, timeout_ms);
+    uint32_t left = s->active_streams;
+    pthread_mutex_unlock(&s->mu);
+    return left;
+}
+
+void cv_rpc_server_finish_streams(cv_rpc_server *s, int status, const char *message) {
+    if (!s)
+        return;
+    pthread_mutex_lock(&s->mu);
+    for (handler *h = s->live; h; h = h->next)
+        if (h->is_stream && h->stream)
+            cv_rpc_stream_cancel_with_status(h->stream, status, message);
+    pthread_mutex_unlock(&s->mu);
+}
+
+void cv_rpc_server_destroy(cv_rpc_server *s, uint32_t timeout_ms) {
+    if (!s)
+        return;
+    /* 1. Refuse new streams; give running ones their time. */
+    pthread_mutex_lock(&s->mu);
+    s->draining = true;
+    wait_streams_locked(s, timeout_ms);
     s->shutting_down = true;
     pthread_mutex_unlock(&s->mu);
 

@@ -90,8 +90,9 @@ typedef struct session {
     pthread_t watcher;
 } session;
 
-static void log_line(session *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void log_line(session *s, const char *fmt, ...) {
+/* One line about this session, escaped and rate-limited by kind (node_log.h). */
+static void log_line(session *s, node_log_kind kind, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void log_line(session *s, node_log_kind kind, const char *fmt, ...) {
     if (!s->node->config.log_sessions)
         return;
     char text[768];
@@ -99,7 +100,7 @@ static void log_line(session *s, const char *fmt, ...) {
     va_start(ap, fmt);
     vsnprintf(text, sizeof(text), fmt, ap);
     va_end(ap);
-    fprintf(stderr, "corvid-node: session %" PRIu64 " (%s): %s\n", s->id, s->peer, text);
+    node_log(s->node, kind, "session %" PRIu64 " (%s): %s", s->id, s->peer, text);
 }
 
 /* ---- sending --------------------------------------------------------------- */
@@ -123,14 +124,16 @@ static void send_reply_failure(session *s, uint64_t seq, cv_result result, const
     Corvid__Reply reply = CORVID__REPLY__INIT;
     reply.transfer_failure = failure;
     reply.result = result;
-    reply.message = (char *)(message ? message : "");
+    char text[1024]; /* client labels in it, escaped: a proto3 string must be valid UTF-8 */
+    cv_log_escape(text, sizeof(text), message);
+    reply.message = text;
     Corvid__NodeMessage m = CORVID__NODE_MESSAGE__INIT;
     m.seq = seq;
     m.msg_case = CORVID__NODE_MESSAGE__MSG_REPLY;
     m.reply = &reply;
     if (result != CV_OK) {
         atomic_fetch_add(&s->node->errors, 1);
-        log_line(s, "request %" PRIu64 ": %s: %s", seq, cv_result_name(result), message);
+        log_line(s, NODE_LOG_REQUEST_ERROR, "request %" PRIu64 ": %s: %s", seq, cv_result_name(result), message);
     }
     send_node_message(s, &m);
 }
@@ -148,7 +151,9 @@ static void send_completed(session *s, const pending_submit *p) {
     Corvid__Completed done = CORVID__COMPLETED__INIT;
     done.ticket = p->client_ticket;
     done.result = p->result;
-    done.message = (char *)p->message;
+    char message[4 * sizeof(p->message)]; /* client labels in it: escaped, as replies are */
+    cv_log_escape(message, sizeof(message), p->message);
+    done.message = message;
     done.transfer_failure = p->transfer_failure;
     cv_pass_timing timings[32];
     Corvid__PassTiming items[32];
@@ -687,7 +692,7 @@ static cv_result do_submit(session *s, const Corvid__SubmitList *m) {
         p.result = r;
         snprintf(p.message, sizeof(p.message), "%s", cv_last_error());
         atomic_fetch_add(&s->node->errors, 1);
-        log_line(s, "submit of ticket %" PRIu64 ": %s", m->ticket, p.message);
+        log_line(s, NODE_LOG_REQUEST_ERROR, "submit of ticket %" PRIu64 ": %s", m->ticket, p.message);
     }
     atomic_fetch_add(&s->node->submissions, 1);
     queue_completion(s, &p);
@@ -743,7 +748,7 @@ static uint64_t fail_transfers(session *s, uint64_t transfer_id, cv_result r, co
     s->failure_result = r;
     snprintf(s->failure_message, sizeof(s->failure_message), "%s", why);
     atomic_fetch_add(&s->node->transfer_failures, 1);
-    log_line(s, "transfer failure %" PRIu64 ": %s", s->failure, why);
+    log_line(s, NODE_LOG_REQUEST_ERROR, "transfer failure %" PRIu64 ": %s", s->failure, why);
     return s->failure;
 }
 
@@ -831,7 +836,7 @@ static cv_result do_hello(session *s, uint64_t seq, const Corvid__Hello *m, int 
     }
     char client[64];
     snprintf(client, sizeof(client), "%.60s", m->client_name ? m->client_name : "");
-    log_line(s, "client '%s' on device %u (%s)", client, m->device, spec->label);
+    log_line(s, NODE_LOG_ALWAYS, "client '%s' on device %u (%s)", client, m->device, spec->label);
 
     Corvid__DeviceInfo info;
     cv_node_info_storage storage;
@@ -1019,13 +1024,19 @@ void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
             break;
         }
     }
+    if (status <= 0 && atomic_load(&node->stopping_sessions)) { /* the node ended it: its client was told why */
+        status = -1;
+        snprintf(why, sizeof(why), "%s", node->stop_reason);
+    }
     stop_watcher(s, status != STATUS_OK);
     if (status > 0) {
         atomic_fetch_add(&node->errors, 1);
-        log_line(s, "ended with status %d: %s", status, why);
-        cv_rpc_stream_finish(stream, status, why);
+        log_line(s, NODE_LOG_ALWAYS, "ended with status %d: %s", status, why);
+        char text[4 * sizeof(why)];
+        cv_log_escape(text, sizeof(text), why);
+        cv_rpc_stream_finish(stream, status, text);
     } else {
-        log_line(s, "ended: %s", status < 0 ? why : "client closed the session");
+        log_line(s, NODE_LOG_ALWAYS, "ended: %s", status < 0 ? why : "client closed the session");
         if (status == 0)
             cv_rpc_stream_finish(stream, STATUS_OK, "");
     }

@@ -73,6 +73,8 @@ for n in ("node0", "node1"):
     assert "--metrics-port" in cmd and "corvid_node_token" in s[n]["secrets"], n
     # Every node may send partitions to exactly the nodes the client renders on.
     assert cmd[cmd.index("--peers") + 1] == nodes, n
+    assert "--metrics-token-file" in cmd, n + ": metrics on 0.0.0.0 without a token"
+assert "--nodes" in s["primary"]["command"]
 assert compose["secrets"]["corvid_node_token"]["file"]
 for name, gpu in (("corvid-node-lavapipe.yaml", False), ("corvid-node-nvidia.yaml", True)):
     docs = [x for x in yaml.safe_load_all(open(d + "/kubernetes/" + name)) if x]
@@ -85,6 +87,7 @@ for name, gpu in (("corvid-node-lavapipe.yaml", False), ("corvid-node-nvidia.yam
     c = pod["spec"]["containers"][0]
     # The probes (plaintext) use the plaintext health port next to the TLS port.
     assert "--health-listen" in c["args"] and "0.0.0.0:7701" in c["args"], name
+    assert "--metrics-token-file" in c["args"], name + ": metrics on 0.0.0.0 without a token"
     assert c["readinessProbe"]["grpc"]["port"] == 7701 and c["livenessProbe"]["grpc"]["port"] == 7701, name
     assert ("nvidia.com/gpu" in c["resources"]["limits"]) == gpu, name
     # --peers: one stable pod name per replica (the names in the header's --nodes).
@@ -101,6 +104,13 @@ PY
 else
   echo "deploy_test: python3-yaml missing: YAML checks skipped (apt-get install python3-yaml)"
 fi
+
+# ---- checked: no file publishes metrics on 0.0.0.0 without a token -------------------
+for f in "$root"/deploy/Containerfile.*; do
+  if grep -q -- '"--metrics-listen", "0.0.0.0"' "$f"; then
+    check "$(basename "$f"): metrics on 0.0.0.0 need --metrics-token-file" grep -q -- '--metrics-token-file' "$f"
+  fi
+done
 
 # ---- checked: the systemd unit -------------------------------------------------------
 if command -v systemd-analyze > /dev/null; then

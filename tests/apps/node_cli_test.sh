@@ -51,6 +51,29 @@ security_case "--peers with a unix: socket" "--peers: 'unix:/tmp/x.sock': a 'uni
 security_case "--peers with an empty entry" "--peers: '' is not HOST:PORT" --peers node0:7700,
 check "--help lists --peers" grep -q -- "--peers HOST:PORT,..." "$tmp/help.txt"
 
+security_case "--metrics-token-file without --metrics-port" "needs --metrics-port" --metrics-token-file "$tmp/none"
+security_case "--metrics-token-file of a missing file" "token file '$tmp/none': No such file" \
+  --metrics-port 0 --metrics-token-file "$tmp/none"
+
+# A unix socket: the node names its path (it printed "unix:1", gRPC's port for it); metrics with a token say
+# so; metrics on 0.0.0.0 without one are warned about.
+echo "metrics-secret" > "$tmp/metrics-token"
+chmod 600 "$tmp/metrics-token"
+"$node" --backend mock --listen "unix:$tmp/node.sock" --cache-dir "$tmp/cache" --port-file "$tmp/unix-port" \
+  --metrics-port 0 --metrics-token-file "$tmp/metrics-token" > "$tmp/unix.out" 2> "$tmp/unix.err" &
+node_pid=$!
+for _ in $(seq 100); do [ -s "$tmp/unix-port" ] && break; sleep 0.1; done
+check "unix socket: the node prints its path" grep -q "listening on unix:$tmp/node.sock with 1 device" "$tmp/unix.out"
+check "metrics token: the node says it is required" grep -q "/metrics (bearer token required)" "$tmp/unix.out"
+kill -TERM "$node_pid"; wait "$node_pid"; node_pid=
+rm -f "$tmp/unix-port"
+"$node" --backend mock --listen 127.0.0.1:0 --cache-dir "$tmp/cache" --port-file "$tmp/unix-port" \
+  --metrics-port 0 --metrics-listen 0.0.0.0 > /dev/null 2> "$tmp/open.err" &
+node_pid=$!
+for _ in $(seq 100); do [ -s "$tmp/unix-port" ] && break; sleep 0.1; done
+check "metrics on 0.0.0.0 without a token: warned" grep -q "without --metrics-token-file" "$tmp/open.err"
+kill -TERM "$node_pid"; wait "$node_pid"; node_pid=
+
 # A node on a free loopback port with 2 virtual GPUs on lavapipe.
 "$node" --listen 127.0.0.1:0 --port-file "$tmp/port" --adapters llvmpipe --gpus 2 --cache-dir "$tmp/cache" \
   > "$tmp/node.out" 2> "$tmp/node.err" &
@@ -89,6 +112,15 @@ timeout 60 "$render" --nodes "127.0.0.1:$closed" "${args[@]}" --out "$tmp/x/fram
 check "unreachable node exits 1" test $? -eq 1
 check "unreachable node named" grep -q "127.0.0.1:$closed" "$tmp/err.txt"
 check "nothing written for an unreachable node" test ! -e "$tmp/x/frame.png"
+# One node of two down at start: the render goes on with the one that answers and names the other (it failed
+# outright).
+timeout 120 "$render" --nodes "127.0.0.1:$closed,127.0.0.1:$port" "${args[@]}" --out "$tmp/half/frame" \
+  > "$tmp/half.txt" 2> "$tmp/half.err"
+check "one node down: render exits 0" test $? -eq 0
+check "one node down: it is named" grep -q "node '127.0.0.1:$closed' did not answer, rendering without it" \
+  "$tmp/half.err"
+check "one node down: the other's devices render (node1.gpu0 primary)" grep -q "node1.gpu0: .*primary" "$tmp/half.err"
+check "one node down: PNG equals the local one" cmp -s "$tmp/local/frame.png" "$tmp/half/frame.png"
 
 kill -TERM "$node_pid"
 wait "$node_pid"
@@ -96,7 +128,34 @@ status=$?
 node_pid=
 check "SIGTERM: node exits 0" test "$status" -eq 0
 check "SIGTERM: node drained" grep -q "draining" "$tmp/node.err"
-check "SIGTERM: node summary (2 renders x 2 devices)" grep -q "stopped after 4 sessions" "$tmp/node.err"
+check "SIGTERM: node summary (3 renders x 2 devices)" grep -q "stopped after 6 sessions" "$tmp/node.err"
+
+# A drain that runs out: a render still going when the node gets SIGTERM with --drain-timeout 1. The node
+# exits within the timeout and CV_NODE_CANCEL_GRACE_MS (1 s), plus 2 s for a loaded CI machine (it took the
+# timeout twice over, and more, when it counted naps instead of watching a deadline); both sides say why.
+"$node" --listen 127.0.0.1:0 --port-file "$tmp/port2" --adapters llvmpipe --gpus 1 --cache-dir "$tmp/cache" \
+  --drain-timeout 1 > /dev/null 2> "$tmp/drain.err" &
+node_pid=$!
+for _ in $(seq 100); do [ -s "$tmp/port2" ] && break; sleep 0.1; done
+timeout 120 "$render" --nodes "127.0.0.1:$(cat "$tmp/port2")" --size 32x18 --frames 4096 --ao-samples 1 \
+  --out "$tmp/drain/frame" > "$tmp/drain.out" 2> "$tmp/drain-render.err" &
+render_pid=$!
+for _ in $(seq 300); do grep -q "frame 2/" "$tmp/drain-render.err" 2>/dev/null && break; sleep 0.1; done
+start=$(date +%s%N)
+kill -TERM "$node_pid"
+wait "$node_pid"
+status=$?
+node_pid=
+elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
+wait "$render_pid"
+render_status=$?
+check "drain timeout: node exits 0" test "$status" -eq 0
+check "drain timeout: node exits within 1 s + 1 s grace (+2 s slack): took $elapsed_ms ms" test "$elapsed_ms" -lt 4000
+check "drain timeout: node log says why the session ended" \
+  grep -q "ended: drain timeout (1 s) expired" "$tmp/drain.err"
+check "drain timeout: render fails" test "$render_status" -eq 1
+check "drain timeout: render says the node is shutting down" \
+  grep -q "node shutting down: drain timeout (1 s) expired" "$tmp/drain-render.err"
 
 echo "node_cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

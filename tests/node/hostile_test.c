@@ -323,6 +323,37 @@ static void health(void) {
     raw_close(&c);
 }
 
+/* 32: Info reads its request: bytes that are no InfoRequest, and fields this protocol version does not have,
+ * are refused by name (they were ignored: the client believed them honoured). */
+static void info_request(void) {
+    cv_rpc_client *client;
+    CHECK_OK(cv_rpc_client_create(node.endpoint, &(cv_rpc_client_config){ 0 }, &client));
+    void *resp = NULL;
+    size_t resp_size = 0;
+    int status = -1;
+    uint8_t empty[1];
+    CHECK_OK(cv_rpc_client_unary(client, CV_NODE_METHOD_INFO, empty, 0, RAW_TIMEOUT_MS, &resp, &resp_size, &status));
+    Corvid__NodeInfo *info = corvid__node_info__unpack(NULL, resp_size, resp);
+    CHECK(status == 0 && info && info->n_devices == 1);
+    if (info)
+        corvid__node_info__free_unpacked(info, NULL);
+    free(resp);
+    resp = NULL;
+    static const uint8_t junk[] = { 0xff, 0xff, 0xff };
+    CHECK_RESULT(cv_rpc_client_unary(client, CV_NODE_METHOD_INFO, junk, sizeof(junk), RAW_TIMEOUT_MS, &resp,
+                                     &resp_size, &status),
+                 CV_ERROR_CONNECTION);
+    CHECK_EQ_INT(status, CV_RPC_STATUS_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "Info: 3 bytes are not a corvid.InfoRequest") != NULL);
+    static const uint8_t unknown_field[] = { 0x08, 0x01 }; /* field 1 = 1 */
+    CHECK_RESULT(cv_rpc_client_unary(client, CV_NODE_METHOD_INFO, unknown_field, sizeof(unknown_field),
+                                     RAW_TIMEOUT_MS, &resp, &resp_size, &status),
+                 CV_ERROR_CONNECTION);
+    CHECK_EQ_INT(status, CV_RPC_STATUS_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "InfoRequest field 1 is not served by this node") != NULL);
+    cv_rpc_client_destroy(client);
+}
+
 /* 31: an idle session is closed by the node. */
 static void idle_timeout(void) {
     scratch_node quick;
@@ -348,6 +379,7 @@ int main(void) {
     isolation();
     churn();
     idle_timeout();
+    info_request();
     health(); /* drains the node: last */
     CHECK_EQ_INT(scratch_node_wait_sessions(&node, 5000), 0);
     scratch_node_stop(&node);

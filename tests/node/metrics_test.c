@@ -9,12 +9,16 @@
  * the proxy's own statistics say; checks the text with `promtool check metrics`
  * when promtool is installed; ends the sessions and checks the gauges fall back
  * to 0; and checks 404/405, the content type, and the snprintf-style
- * cv_node_metrics_text. */
+ * cv_node_metrics_text. Hostile scrapers: 64 idle connections do not keep a
+ * scrape out, a client trickling one byte at a time is cut off at the deadline,
+ * and a server with a token answers 401 without it. */
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include "check.h"
@@ -37,19 +41,35 @@ typedef struct http_answer {
     char *body; /* malloc'd, NUL-terminated */
 } http_answer;
 
-static bool http_request(const char *method, const char *path, http_answer *out) {
-    memset(out, 0, sizeof(*out));
+/* A socket connected to 127.0.0.1:port (-1 if not). */
+static int connect_to(int port) {
     int fd = socket(AF_INET, SOCK_STREAM, 0);
-    struct sockaddr_in addr = { .sin_family = AF_INET, .sin_port = htons((uint16_t)cv_metrics_server_port(metrics)) };
+    struct sockaddr_in addr = { .sin_family = AF_INET, .sin_port = htons((uint16_t)port) };
     inet_pton(AF_INET, "127.0.0.1", &addr.sin_addr);
     if (fd < 0 || connect(fd, (struct sockaddr *)&addr, sizeof(addr)) != 0) {
-        fprintf(stderr, "metrics: cannot connect to 127.0.0.1:%d\n", cv_metrics_server_port(metrics));
+        fprintf(stderr, "metrics: cannot connect to 127.0.0.1:%d\n", port);
         if (fd >= 0)
             close(fd);
-        return false;
+        return -1;
     }
-    char request[256];
-    int n = snprintf(request, sizeof(request), "%s %s HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n", method, path);
+    return fd;
+}
+
+/* How long a request may wait for its answer (0 = forever); the idle-connection case sets it. */
+static int answer_timeout_s;
+
+/* `header`: one more header line ("Name: value"), or NULL. */
+static bool http_request_to(cv_metrics_server *server, const char *method, const char *path, const char *header,
+                            http_answer *out) {
+    memset(out, 0, sizeof(*out));
+    int fd = connect_to(cv_metrics_server_port(server));
+    if (fd < 0)
+        return false;
+    struct timeval tv = { .tv_sec = answer_timeout_s };
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof(tv));
+    char request[512];
+    int n = snprintf(request, sizeof(request), "%s %s HTTP/1.0\r\nHost: 127.0.0.1\r\n%s%s\r\n", method, path,
+                     header ? header : "", header ? "\r\n" : "");
     if (write(fd, request, (size_t)n) != n) {
         close(fd);
         return false;
@@ -77,6 +97,10 @@ static bool http_request(const char *method, const char *path, http_answer *out)
     out->body = strdup(body + 4);
     free(all);
     return out->body != NULL;
+}
+
+static bool http_request(const char *method, const char *path, http_answer *out) {
+    return http_request_to(metrics, method, path, NULL, out);
 }
 
 /* GET /metrics; the body (malloc'd) or NULL. */
@@ -193,12 +217,83 @@ static void check_promtool(const char *text) {
     unlink(path);
 }
 
+/* ---- hostile scrapers ---------------------------------------------------------- */
+
+#define IDLE_CONNECTIONS 64
+
+/* Connections that send nothing do not keep a scrape out (the endpoint took 32 and waited 10 s on each):
+ * the scrape is answered while they are all still open (before the 5 s deadline that ends them). */
+static void idle_connections(void) {
+    int fds[IDLE_CONNECTIONS];
+    for (int i = 0; i < IDLE_CONNECTIONS; i++)
+        fds[i] = connect_to(cv_metrics_server_port(metrics));
+    answer_timeout_s = 4;
+    char *text = scrape();
+    answer_timeout_s = 0;
+    CHECK(text && sample(text, "corvid_node_sessions_total") >= 0);
+    free(text);
+    for (int i = 0; i < IDLE_CONNECTIONS; i++)
+        if (fds[i] >= 0)
+            close(fds[i]);
+}
+
+/* A client that sends a byte every 100 ms, never ending its headers, is cut off at the server's deadline (1 s
+ * here) though no read ever waited long: true if the server closed the connection within 40 bytes. */
+static bool slowloris_cut(cv_metrics_server *server) {
+    int fd = connect_to(cv_metrics_server_port(server));
+    if (fd < 0)
+        return false;
+    static const char trickle[] =
+        "GET /metrics HTTP/1.1\r\nX-Slow: aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa";
+    bool cut = false;
+    for (int i = 0; i < 40 && !cut; i++) {
+        if (send(fd, &trickle[i], 1, MSG_NOSIGNAL) != 1) {
+            cut = true;
+            break;
+        }
+        struct pollfd p = { .fd = fd, .events = POLLIN };
+        char byte;
+        if (poll(&p, 1, 100) > 0 && recv(fd, &byte, 1, 0) <= 0)
+            cut = true;
+    }
+    close(fd);
+    return cut;
+}
+
+/* A server with a token and a 1 s deadline: 401 without the token or with a wrong one, 200 with it; a
+ * slowloris is cut off. */
+static void guarded_server(void) {
+    cv_metrics_server *guarded = NULL;
+    CHECK_RESULT(cv_metrics_server_start(node.node, &(cv_metrics_server_config){ .token = "" }, &guarded),
+                 CV_ERROR_INVALID_ARGUMENT);
+    CHECK_OK(cv_metrics_server_start(node.node, &(cv_metrics_server_config){ .token = "s3cret", .deadline_ms = 1000 },
+                                     &guarded));
+    http_answer a;
+    CHECK(http_request_to(guarded, "GET", "/metrics", NULL, &a));
+    CHECK_EQ_INT(a.status, 401);
+    CHECK(strstr(a.body, "Authorization: Bearer") != NULL);
+    free(a.body);
+    CHECK(http_request_to(guarded, "GET", "/metrics", "Authorization: Bearer wrong", &a));
+    CHECK_EQ_INT(a.status, 401);
+    CHECK(strstr(a.body, "corvid_node_") == NULL);
+    free(a.body);
+    CHECK(http_request_to(guarded, "GET", "/metrics", "Authorization: Bearer s3cret", &a));
+    CHECK_EQ_INT(a.status, 200);
+    CHECK(strstr(a.body, "corvid_node_sessions_total") != NULL);
+    free(a.body);
+    CHECK(slowloris_cut(guarded));
+    cv_metrics_server_stop(guarded);
+}
+
 int main(void) {
     CHECK_OK(scratch_node_start(&node, cv_mock_backend(), 2, false));
-    CHECK_OK(cv_metrics_server_start(node.node, "127.0.0.1", 0, &metrics));
+    CHECK_OK(cv_metrics_server_start(node.node, &(cv_metrics_server_config){ .address = "127.0.0.1" }, &metrics));
     CHECK(cv_metrics_server_port(metrics) > 0);
-    CHECK_RESULT(cv_metrics_server_start(node.node, "localhost", 0, &(cv_metrics_server *){ 0 }),
+    CHECK_RESULT(cv_metrics_server_start(node.node, &(cv_metrics_server_config){ .address = "localhost" },
+                                         &(cv_metrics_server *){ 0 }),
                  CV_ERROR_INVALID_ARGUMENT); /* numeric addresses only */
+    idle_connections();
+    guarded_server();
 
     /* Before any session: everything 0, both devices listed. */
     char *text = scrape();

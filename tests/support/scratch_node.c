@@ -48,6 +48,8 @@ static cv_result start(scratch_node *n, const cv_backend *backend, uint32_t coun
         n->config.tls_client_ca_file = security->tls_client_ca_file;
         n->config.quota = security->quota;
         n->config.log_sessions |= security->log_sessions;
+        n->config.log_sink = security->log_sink;
+        n->config.log_user = security->log_user;
         n->config.peer_token = security->peer_token;
         n->config.peer_deadline_ms = security->peer_deadline_ms;
         n->config.peer_keepalive_ms = security->peer_keepalive_ms;

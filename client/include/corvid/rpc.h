@@ -175,6 +175,12 @@ void cv_rpc_server_drain(cv_rpc_server *s);
 void cv_rpc_server_destroy(cv_rpc_server *s, uint32_t timeout_ms);
 /* Streams whose handler has not yet returned (and been cleaned up). */
 uint32_t cv_rpc_server_active_streams(const cv_rpc_server *s);
+/* Waits up to timeout_ms for the running streams to end (a deadline, however often it wakes); returns how many
+ * are left. Any thread. */
+uint32_t cv_rpc_server_wait_streams(cv_rpc_server *s, uint32_t timeout_ms);
+/* Ends every running stream now with `status` and `message` (ahead of replies still queued): each client sees
+ * that status rather than a bare cancellation, and each handler's recv and send then fail. Any thread. */
+void cv_rpc_server_finish_streams(cv_rpc_server *s, int status, const char *message);
 
 /* ---- streams, both sides ---- */
 

@@ -85,6 +85,9 @@ cv_result cv_rpc_stream_begin(cv_rpc_stream *s, const cv_rpc_metadata *md, uint3
 cv_result cv_rpc_stream_set_request_metadata(cv_rpc_stream *s, const grpc_metadata_array *md);
 /* Server: waits until the call is over (status sent or cancelled). */
 void cv_rpc_stream_wait_ended(cv_rpc_stream *s);
+/* Server: ends the call now with `status` and `message` for the client, ahead of anything still queued to send
+ * (cv_rpc_stream_finish waits behind it); the handler's recv and send then fail. Any thread. */
+void cv_rpc_stream_cancel_with_status(cv_rpc_stream *s, int status, const char *message);
 /* Cancels the call if it is not over, drains the queue, joins the pump, frees everything. */
 void cv_rpc_stream_teardown(cv_rpc_stream *s);
 

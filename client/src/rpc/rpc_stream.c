@@ -537,6 +537,15 @@ void cv_rpc_stream_cancel(cv_rpc_stream *s) {
     pthread_mutex_unlock(&s->mu);
 }
 
+void cv_rpc_stream_cancel_with_status(cv_rpc_stream *s, int status, const char *message) {
+    if (!s || !s->is_server)
+        return;
+    pthread_mutex_lock(&s->mu);
+    if (!s->closing && !s->ended)
+        grpc_call_cancel_with_status(s->call, (grpc_status_code)status, message ? message : "", NULL);
+    pthread_mutex_unlock(&s->mu);
+}
+
 const char *cv_rpc_stream_peer(cv_rpc_stream *s) { return s ? s->peer : ""; }
 
 const char *cv_rpc_stream_metadata(cv_rpc_stream *s, const char *key) {
