@@ -1051,8 +1051,22 @@ void cv_content_upload_abort(cv_content_upload *u) {
  * if another upload of the blob stored it first, goes. */
 static cv_result store_upload(cv_content_upload *u, const struct stat *st, const char *key_hex) {
     cv_content_store *s = u->store;
-    entry *e = u->entry;
-    if (e->state != ENTRY_UPLOADING) {
+    /* Normally this upload's own entry. It may instead be stored by another
+     * upload already (this copy goes), or have been dropped since another
+     * stored it (then the hash's entry now, or a new one, takes this copy). */
+    entry *e = table_find(s, u->entry->sha);
+    if (e == NULL) {
+        e = calloc(1, sizeof *e);
+        if (e)
+            memcpy(e->sha, u->entry->sha, 32); /* ENTRY_UPLOADING, no uploader: stored below or removed */
+        if (e == NULL || !table_insert(s, e)) {
+            free(e);
+            unlinkat(s->tmp_fd, u->temp_name, 0);
+            s->stats.rejected++;
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: index entry for %s", key_hex);
+        }
+    }
+    if (e->state == ENTRY_STORED) {
         unlinkat(s->tmp_fd, u->temp_name, 0);
         s->stats.duplicates++;
         return CV_OK;
@@ -1064,6 +1078,10 @@ static cv_result store_upload(cv_content_upload *u, const struct stat *st, const
                                strerror(errno));
         unlinkat(s->tmp_fd, u->temp_name, 0);
         s->stats.rejected++;
+        if (e->uploaders == 0) { /* the entry made just above */
+            table_remove(s, e);
+            free(e);
+        }
         return r;
     }
     e->size = u->size;

@@ -786,7 +786,8 @@ static bool await_waits(cv_content_store *s, uint64_t waits) {
 
 /* A waiter whose first uploader aborts receives the blob itself; one whose
  * first uploader stalls past the upload wait receives it beside it, and
- * whichever finishes first stores it. */
+ * whichever finishes first stores it; a late copy replaces a stored copy
+ * found damaged meanwhile. */
 static void test_waiter_after_abort_and_stall(void) {
     char dir[64];
     make_dir(dir);
@@ -820,16 +821,33 @@ static void test_waiter_after_abort_and_stall(void) {
     CHECK_OK(cv_content_upload_finish(first)); /* stored already: its copy goes */
     CHECK(get_matches(s, &b));
 
+    /* A late copy of a blob that was stored and then found damaged takes its place. */
+    blob c = make_blob(62, 5000);
+    char path[512];
+    cv_content_store_set_upload_wait(s, 0);
+    cv_content_upload *late;
+    CHECK_OK(cv_content_upload_begin(s, c.sha, c.size, &first));
+    CHECK_OK(cv_content_upload_begin(s, c.sha, c.size, &late));
+    CHECK_OK(cv_content_upload_write(first, 0, c.data, c.size));
+    CHECK_OK(cv_content_upload_finish(first));
+    flip_byte(path_of(dir, &c, path), 100);
+    CHECK(!cv_content_store_has(s, c.sha));
+    CHECK_OK(cv_content_upload_write(late, 0, c.data, c.size));
+    CHECK_OK(cv_content_upload_finish(late));
+    CHECK(get_matches(s, &c));
+
     cv_content_stats st = cv_content_store_stats(s);
     CHECK_EQ_INT(st.waits, 2);
-    CHECK_EQ_INT(st.uploads, 2);
+    CHECK_EQ_INT(st.uploads, 4);
     CHECK_EQ_INT(st.duplicates, 1);
-    CHECK_EQ_INT(st.entries, 2);
-    CHECK_EQ_INT(st.bytes, a.size + b.size);
+    CHECK_EQ_INT(st.dropped, 1);
+    CHECK_EQ_INT(st.entries, 3);
+    CHECK_EQ_INT(st.bytes, a.size + b.size + c.size);
     CHECK_EQ_INT(entries_in(dir, "tmp"), 0);
     cv_content_store_close(s);
     free_blob(&a);
     free_blob(&b);
+    free_blob(&c);
     remove_dir(dir);
 }
 
