@@ -214,8 +214,8 @@ typedef struct file_id {
 } file_id;
 
 static file_id entry_file(const entry *e) {
-    return (
-        file_id){ .hashed = e->verified, .dev = e->dev, .ino = e->ino, .size = e->size, .mtime = e->used_on_disk };
+    file_id f = { .hashed = e->verified, .dev = e->dev, .ino = e->ino, .size = e->size, .mtime = e->used_on_disk };
+    return f;
 }
 
 static bool is_file(const file_id *f, const struct stat *st) {

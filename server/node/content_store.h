@@ -8,7 +8,7 @@
  *
  *     if (!cv_content_store_has(store, sha)) {
  *         cv_content_upload *u;
- *         cv_result r = cv_content_upload_begin(store, sha, size, &u);
+ *         cv_result r = cv_content_upload_begin(store, sha, size, &u);   (may wait, see Threads)
  *         if (r == CV_OK) {
  *             for (each chunk, in order)
  *                 r = cv_content_upload_write(u, offset, chunk, chunk_size);   (abort on error)
