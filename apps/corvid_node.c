@@ -59,7 +59,8 @@ static void usage(FILE *f) {
             "  --mock-devices N       devices of the mock backend [1] (1..64)\n"
             "  --cache-dir DIR        content-addressed upload cache [$XDG_CACHE_HOME/corvid-node, or\n"
             "                         ~/.cache/corvid-node]\n"
-            "  --cache-size BYTES     cache size limit, with an optional K, M or G suffix [4G]\n"
+            "  --cache-size BYTES     cache size limit, with an optional K, M or G suffix [4G] (at least\n"
+            "                         16M; a blob larger than the limit is refused with LIMIT_EXCEEDED)\n"
             "  --idle-timeout SEC     end sessions silent for this long [300] (1..86400)\n"
             "  --drain-timeout SEC    on SIGTERM, how long running sessions may go on [30] (0..3600)\n"
             "  --max-sessions N       concurrent sessions [256] (1..65536)\n"
@@ -187,6 +188,13 @@ static int parse_args(int argc, char **argv, options *o) {
             o->cache_dir = value;
         } else if (!strcmp(name, "--cache-size")) {
             bad = parse_size(name, value, &o->cache_bytes);
+            if (!bad && o->cache_bytes < CV_NODE_MIN_CACHE_BYTES) {
+                fprintf(stderr,
+                        "corvid-node: --cache-size: '%s' is too small: at least 16M (a smaller store could not "
+                        "hold a scene; a blob larger than the store is refused)\n",
+                        value);
+                bad = 2;
+            }
         } else if (!strcmp(name, "--idle-timeout")) {
             bad = parse_u32(name, value, 1, 86400, &o->idle_timeout_s);
         } else if (!strcmp(name, "--drain-timeout")) {

@@ -13,6 +13,10 @@
  *               same pass over the bytes;
  *   get, cold   the same gets after closing and reopening the store: the first
  *               use hashes each blob (the check for damage done while closed).
+ * Then one large blob (256 MiB by default) measures what the check against
+ * blob files changed on disk costs: has() and get() of a file unchanged since
+ * its hash (a stat), against get() of a file whose mtime changed (hashed
+ * again), which is what hashing on every read would cost.
  * The SHA-256 rate of one thread over memory is printed for reference. Files
  * are not fsync()ed by either side, so this measures the page cache and the
  * code, not the disk. Each round uses fresh folders; the contenders run
@@ -36,7 +40,7 @@ enum { UPLOAD, WRITE, GET, READ, GET_COLD, CONTENDERS };
 static const char *const names[CONTENDERS] = { "upload", "write()", "get", "read()", "get cold" };
 
 typedef struct options {
-    uint64_t total;
+    uint64_t total, large;
     uint32_t rounds;
     const char *dir;
 } options;
@@ -48,6 +52,7 @@ static void usage(FILE *f) {
             "the same bytes to plain files.\n"
             "  --total MIB    bytes per blob size (default 128)\n"
             "  --rounds N     rounds, the median is reported (default 5, at most %d)\n"
+            "  --large MIB    the large blob of the change-check figures (default 256)\n"
             "  --dir PATH     where the scratch folders go (default /tmp)\n"
             "  --quick        smoke run: 16 MiB, 1 round\n"
             "  --help         this text\n",
@@ -55,7 +60,7 @@ static void usage(FILE *f) {
 }
 
 static bool parse(int argc, char **argv, options *o) {
-    *o = (options){ .total = 128u << 20, .rounds = 5, .dir = "/tmp" };
+    *o = (options){ .total = 128u << 20, .large = 256u << 20, .rounds = 5, .dir = "/tmp" };
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0) {
@@ -63,12 +68,16 @@ static bool parse(int argc, char **argv, options *o) {
             exit(0);
         } else if (strcmp(a, "--quick") == 0) {
             o->total = 16u << 20;
+            o->large = 32u << 20;
             o->rounds = 1;
         } else if (strcmp(a, "--total") == 0 && v) {
             o->total = strtoull(v, NULL, 10) << 20;
             i++;
         } else if (strcmp(a, "--rounds") == 0 && v) {
             o->rounds = (uint32_t)strtoul(v, NULL, 10);
+            i++;
+        } else if (strcmp(a, "--large") == 0 && v) {
+            o->large = strtoull(v, NULL, 10) << 20;
             i++;
         } else if (strcmp(a, "--dir") == 0 && v) {
             o->dir = v;
@@ -77,7 +86,7 @@ static bool parse(int argc, char **argv, options *o) {
             return false;
         }
     }
-    return o->total > 0 && o->rounds > 0 && o->rounds <= MAX_ROUNDS;
+    return o->total > 0 && o->large > 0 && o->rounds > 0 && o->rounds <= MAX_ROUNDS;
 }
 
 static void fill(uint8_t *p, size_t n, uint64_t seed) {
@@ -203,6 +212,70 @@ static int by_value(const void *a, const void *b) {
     return x < y ? -1 : x > y;
 }
 
+static double get_seconds(cv_content_store *s, const uint8_t sha[32], uint64_t *checksum) {
+    double t = bench_now();
+    cv_content_blob *b;
+    if (cv_content_store_get(s, sha, &b) != CV_OK)
+        fail("get");
+    *checksum += consume(cv_content_blob_data(b), cv_content_blob_size(b));
+    cv_content_blob_release(b);
+    return bench_now() - t;
+}
+
+/* What the check for blob files changed on disk costs, on one large blob:
+ * has() and get() of an unchanged file (a stat), and get() after its mtime
+ * changed (the file is hashed again; what hashing on every read would cost). */
+static void change_check(const options *o, uint64_t *checksum) {
+    char dir[512], path[700], hex[CV_SHA256_HEX_SIZE];
+    snprintf(dir, sizeof dir, "%s/corvid-bench-large-XXXXXX", o->dir);
+    uint8_t *data = malloc(o->large), sha[32];
+    if (!mkdtemp(dir) || data == NULL)
+        fail("mkdtemp/malloc");
+    fill(data, o->large, 7);
+    cv_sha256(data, o->large, sha);
+    cv_content_store *s;
+    cv_content_upload *u;
+    if (cv_content_store_open(dir, o->large * 2, &s) != CV_OK ||
+        cv_content_upload_begin(s, sha, o->large, &u) != CV_OK)
+        fail("open/upload_begin");
+    for (uint64_t off = 0; off < o->large; off += CHUNK) {
+        size_t n = o->large - off < CHUNK ? (size_t)(o->large - off) : CHUNK;
+        if (cv_content_upload_write(u, off, data + off, n) != CV_OK)
+            fail("upload_write");
+    }
+    if (cv_content_upload_finish(u) != CV_OK)
+        fail("upload_finish");
+    cv_sha256_hex(sha, hex);
+    snprintf(path, sizeof path, "%s/objects/%.2s/%s", dir, hex, hex);
+
+    enum { HAS_CALLS = 10000 };
+    double t = bench_now();
+    for (int i = 0; i < HAS_CALLS; i++)
+        if (!cv_content_store_has(s, sha))
+            fail("has");
+    double has_us = (bench_now() - t) / HAS_CALLS * 1e6;
+    double same[MAX_ROUNDS], changed[MAX_ROUNDS];
+    for (uint32_t r = 0; r < o->rounds; r++) {
+        same[r] = get_seconds(s, sha, checksum);
+        struct timespec times[2] = { { 1000000000 + r, 0 }, { 1000000000 + r, 0 } };
+        if (utimensat(AT_FDCWD, path, times, 0) != 0) /* "changed": the content stays right */
+            fail("utimensat");
+        changed[r] = get_seconds(s, sha, checksum);
+    }
+    qsort(same, o->rounds, sizeof(double), by_value);
+    qsort(changed, o->rounds, sizeof(double), by_value);
+    cv_content_stats st = cv_content_store_stats(s);
+    if (st.dropped != 0)
+        fail("an intact blob was dropped");
+    printf(
+        "\nOne %llu MiB blob (mapped): has(), file unchanged since its hash: %.1f us;\n"
+        "get() + read + release, file unchanged: %.1f ms; file changed (hashed again): %.1f ms\n",
+        (unsigned long long)(o->large >> 20), has_us, same[o->rounds / 2] * 1e3, changed[o->rounds / 2] * 1e3);
+    cv_content_store_close(s);
+    nftw(dir, remove_one, 16, FTW_DEPTH | FTW_PHYS);
+    free(data);
+}
+
 int main(int argc, char **argv) {
     options o;
     if (!parse(argc, argv, &o)) {
@@ -254,6 +327,7 @@ int main(int argc, char **argv) {
         printf(" | %13.2f %10.2f\n", mbs[UPLOAD] / mbs[WRITE], mbs[GET] / mbs[READ]);
         free(sha);
     }
+    change_check(&o, &checksum);
     printf("\n(MB/s; checksum %llx)\n", (unsigned long long)checksum);
     free(data);
     return 0;

@@ -5,8 +5,9 @@
  * by a per-store random seed so that clients choosing hashes cannot pile them
  * onto one probe run). Stored entries are also on a doubly linked LRU list,
  * newest first. An entry leaves the table when its blob is evicted, dropped
- * or its upload ends without storing it; a dropped entry that is still pinned
- * lives on, outside the table, until its last pin is released. */
+ * or its uploads end without storing it; a dropped entry that is still pinned
+ * (or that a late second upload refers to) lives on, outside the table, until
+ * the last of those lets go. */
 #include "content_store.h"
 
 #include <dirent.h>
@@ -31,24 +32,31 @@
 #define TEMP_NAME_SIZE (CV_SHA256_HEX_SIZE + 24)  /* 64 digits + ".<n>" + NUL */
 
 typedef enum entry_state {
-    ENTRY_UPLOADING, /* in the table, not on the LRU list, its size reserved */
+    ENTRY_UPLOADING, /* in the table, not on the LRU list; each upload reserves its own size */
     ENTRY_STORED,    /* in the table and on the LRU list, its size in bytes */
-    ENTRY_DROPPED,   /* found damaged while pinned: in neither, freed at the last unpin */
+    ENTRY_DROPPED,   /* found damaged while held: in neither, freed when no pin or upload holds it */
 } entry_state;
 
 typedef struct entry {
     uint8_t sha[32];
-    uint64_t size;
+    uint64_t size;                /* once stored */
     struct timespec used;         /* last use */
     struct timespec used_on_disk; /* the blob file's mtime: `used`, or up to a second older */
     uint32_t pins;
+    uint32_t uploaders; /* uploads receiving this blob: one, or more after a waiter gave up waiting */
     entry_state state;
-    bool verified;               /* content hashed since the store was opened */
+    /* The content was hashed, and the file then was this inode with mtime
+     * used_on_disk: a file that still is needs no new hash. */
+    bool verified;
+    dev_t dev;
+    ino_t ino;
     struct entry *newer, *older; /* LRU list */
 } entry;
 
 struct cv_content_store {
     pthread_mutex_t lock;
+    pthread_cond_t upload_ended; /* broadcast whenever an upload ends: its waiters look again */
+    uint32_t upload_wait_ms;
     int dir_fd, objects_fd, tmp_fd, lock_fd;
     uint64_t max_bytes;
     uint64_t reserved; /* sizes of uploads in progress */
@@ -65,6 +73,7 @@ struct cv_content_store {
 struct cv_content_upload {
     cv_content_store *store;
     entry *entry;
+    uint64_t size; /* this upload's: a second upload of the entry may claim another */
     uint64_t received;
     int fd;
     cv_sha256_ctx sha;
@@ -191,7 +200,53 @@ static struct timespec next_stamp(cv_content_store *s) {
     return now;
 }
 
+/* ---- file identity ---- */
+
+/* What a blob's file was when its content was last hashed. A write changes
+ * the file's mtime and a replacement its inode, so a file that still matches
+ * needs no new hash; one that does not is hashed again before it is used. */
+typedef struct file_id {
+    bool hashed;
+    dev_t dev;
+    ino_t ino;
+    uint64_t size;
+    struct timespec mtime;
+} file_id;
+
+static file_id entry_file(const entry *e) {
+    file_id f = { .hashed = e->verified, .dev = e->dev, .ino = e->ino, .size = e->size, .mtime = e->used_on_disk };
+    return f;
+}
+
+static bool is_file(const file_id *f, const struct stat *st) {
+    return f->hashed && st->st_dev == f->dev && st->st_ino == f->ino && (uint64_t)st->st_size == f->size &&
+           st->st_mtim.tv_sec == f->mtime.tv_sec && st->st_mtim.tv_nsec == f->mtime.tv_nsec;
+}
+
+/* The entry's content was hashed from the file `st` describes. */
+static void record_hashed(entry *e, const struct stat *st) {
+    e->verified = true;
+    e->dev = st->st_dev;
+    e->ino = st->st_ino;
+    e->used_on_disk = st->st_mtim;
+}
+
+/* Whether the file is still the one last hashed (a stat, lock held). */
+static bool file_unchanged(cv_content_store *s, const entry *e) {
+    char name[OBJECT_NAME_SIZE];
+    object_name(e->sha, name);
+    file_id known = entry_file(e);
+    struct stat st;
+    return fstatat(s->objects_fd, name, &st, AT_SYMLINK_NOFOLLOW) == 0 && is_file(&known, &st);
+}
+
+/* Sets the file's mtime to the last use. A file changed since its hash is
+ * left alone and hashed on its next use: stamping it would hide the change. */
 static void stamp_file(cv_content_store *s, entry *e) {
+    if (e->verified && !file_unchanged(s, e)) {
+        e->verified = false;
+        return;
+    }
     char name[OBJECT_NAME_SIZE];
     object_name(e->sha, name);
     struct timespec times[2] = { e->used, e->used };
@@ -238,9 +293,15 @@ static void drop(cv_content_store *s, entry *e) {
     s->stats.dropped++;
 }
 
-static void unpin(entry *e) {
-    if (--e->pins == 0 && e->state == ENTRY_DROPPED)
+/* A dropped entry lives until no pin and no upload holds it. */
+static void free_if_unheld(entry *e) {
+    if (e->state == ENTRY_DROPPED && e->pins == 0 && e->uploaders == 0)
         free(e);
+}
+
+static void unpin(entry *e) {
+    e->pins--;
+    free_if_unheld(e);
 }
 
 /* Evicts least recently used unpinned blobs until `need` more bytes fit.
@@ -249,7 +310,7 @@ static void unpin(entry *e) {
 static bool make_room(cv_content_store *s, uint64_t need) {
     entry *e = s->oldest;
     while (s->stats.bytes + s->reserved + need > s->max_bytes) {
-        while (e && e->pins)
+        while (e && (e->pins || e->uploaders)) /* uploaders: a late second upload still points at it */
             e = e->newer;
         if (e == NULL)
             return false;
@@ -322,9 +383,12 @@ static read_outcome read_fd(int fd, uint64_t size, const char *hex, void **out) 
     return READ_OK;
 }
 
-/* Loads a pinned entry's file (outside the lock), checking its size and, if
- * `verify`, its hash. *data is NULL for an empty blob; unload_blob frees it. */
-static read_outcome load_blob(cv_content_store *s, const entry *e, bool verify, const void **data) {
+/* Loads a pinned entry's file (outside the lock), checking its size and,
+ * unless the file is still `known` (what it was at its last hash, read under
+ * the lock), its hash. *seen: the file's stat; *hashed: whether it was
+ * hashed (and matched). *data is NULL for an empty blob; unload_blob frees it. */
+static read_outcome load_blob(cv_content_store *s, const entry *e, const file_id *known, const void **data,
+                              struct stat *seen, bool *hashed) {
     char name[OBJECT_NAME_SIZE], hex[CV_SHA256_HEX_SIZE];
     object_name(e->sha, name);
     cv_sha256_hex(e->sha, hex);
@@ -339,6 +403,7 @@ static read_outcome load_blob(cv_content_store *s, const entry *e, bool verify, 
         return READ_FAILED;
     }
     struct stat st;
+    *hashed = false;
     if (fstat(fd, &st) != 0) {
         cv_error(CV_ERROR_IO, "content store: blob %s: fstat: %s", hex, strerror(errno));
         close(fd);
@@ -356,7 +421,8 @@ static read_outcome load_blob(cv_content_store *s, const entry *e, bool verify, 
     close(fd);
     if (m != READ_OK)
         return m;
-    if (verify) {
+    *seen = st;
+    if (!is_file(known, &st)) {
         uint8_t actual[32];
         m = cv_sha256(bytes, (size_t)e->size, actual) == CV_OK ? READ_OK : READ_FAILED;
         if (m == READ_OK && memcmp(actual, e->sha, 32) != 0) {
@@ -370,6 +436,7 @@ static read_outcome load_blob(cv_content_store *s, const entry *e, bool verify, 
             unload_blob(bytes, e->size);
             return m;
         }
+        *hashed = true;
     }
     *data = bytes;
     return READ_OK;
@@ -392,13 +459,27 @@ static int older_first(const void *a, const void *b) {
     return memcmp(x->sha, y->sha, 32);
 }
 
+/* The store's folders are 0700 and its files 0600, whatever the umask:
+ * uploaded scenes are the clients' data, not the machine's. Folders and blob
+ * files of an older store are brought to those modes at open. */
+static cv_result make_private(int fd, mode_t mode, const char *dir, const char *name) {
+    struct stat st;
+    if (fstat(fd, &st) != 0)
+        return cv_error(CV_ERROR_IO, "content store '%s': stat %s: %s", dir, name, strerror(errno));
+    if ((st.st_mode & 07777) != mode && fchmod(fd, mode) != 0)
+        return cv_error(CV_ERROR_IO, "content store '%s': chmod %04o %s: %s", dir, (unsigned)mode, name,
+                        strerror(errno));
+    return CV_OK;
+}
+
+/* Creates (0700) and opens a folder; *out < 0 is closed by the caller. */
 static cv_result open_subdir(int parent, const char *dir, const char *name, int *out) {
-    if (mkdirat(parent, name, 0755) != 0 && errno != EEXIST)
+    if (mkdirat(parent, name, 0700) != 0 && errno != EEXIST)
         return cv_error(CV_ERROR_IO, "content store '%s': mkdir %s: %s", dir, name, strerror(errno));
-    *out = openat(parent, name, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    *out = openat(parent, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
     if (*out < 0)
         return cv_error(CV_ERROR_IO, "content store '%s': open %s: %s", dir, name, strerror(errno));
-    return CV_OK;
+    return make_private(*out, 0700, dir, name);
 }
 
 /* Removes a file or an empty folder; a folder with something in it stays. */
@@ -472,6 +553,11 @@ static cv_result scan_objects(cv_content_store *s, const char *dir, found_blob *
                 remove_stray(sub_fd, name);
                 continue;
             }
+            if ((st.st_mode & 07777) != 0600 && fchmodat(sub_fd, name, 0600, 0) != 0) {
+                r = cv_error(CV_ERROR_IO, "content store '%s': chmod 0600 objects/%s/%s: %s", dir, prefix, name,
+                             strerror(errno));
+                break;
+            }
             b.size = (uint64_t)st.st_size;
             b.mtime = st.st_mtim;
             if (!push_found(list, count, &capacity, &b)) {
@@ -522,32 +608,58 @@ static void free_store(cv_content_store *s) {
         if (fds[i] >= 0)
             close(fds[i]);
     }
+    pthread_cond_destroy(&s->upload_ended);
     pthread_mutex_destroy(&s->lock);
     free(s);
 }
 
+/* objects/<xx>, 0700, in two system calls (a store opens 256 of them):
+ * anything there that is not a folder is scan_objects' to remove. */
+static cv_result make_prefix_dir(int objects_fd, const char *dir, const char *name) {
+    struct stat st;
+    bool made = mkdirat(objects_fd, name, 0700) == 0;
+    if (!made && errno != EEXIST)
+        return cv_error(CV_ERROR_IO, "content store '%s': mkdir objects/%s: %s", dir, name, strerror(errno));
+    if (!made && (fstatat(objects_fd, name, &st, AT_SYMLINK_NOFOLLOW) != 0 || !S_ISDIR(st.st_mode) ||
+                  (st.st_mode & 07777) == 0700))
+        return CV_OK;
+    if (fchmodat(objects_fd, name, 0700, 0) != 0) /* made: the umask may have taken bits off */
+        return cv_error(CV_ERROR_IO, "content store '%s': chmod 0700 objects/%s: %s", dir, name, strerror(errno));
+    return CV_OK;
+}
+
 static cv_result open_dirs(cv_content_store *s, const char *dir) {
-    if (mkdir(dir, 0755) != 0 && errno != EEXIST)
+    if (mkdir(dir, 0700) != 0 && errno != EEXIST)
         return cv_error(CV_ERROR_IO, "content store '%s': mkdir: %s", dir, strerror(errno));
     s->dir_fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (s->dir_fd < 0)
         return cv_error(CV_ERROR_IO, "content store '%s': open: %s", dir, strerror(errno));
-    s->lock_fd = openat(s->dir_fd, "lock", O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (s->lock_fd < 0)
+    /* The top folder may be one the operator made (a volume, owned by
+     * someone else): it is made 0700 only if this user owns it; objects/ and
+     * tmp/, always the store's own, are 0700 in any case. */
+    struct stat st;
+    cv_result r = CV_OK;
+    if (fstat(s->dir_fd, &st) == 0 && st.st_uid == geteuid())
+        r = make_private(s->dir_fd, 0700, dir, ".");
+    s->lock_fd = r == CV_OK ? openat(s->dir_fd, "lock", O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0600) : -1;
+    if (r == CV_OK && s->lock_fd < 0)
         return cv_error(CV_ERROR_IO, "content store '%s': open lock: %s", dir, strerror(errno));
+    if (r == CV_OK)
+        r = make_private(s->lock_fd, 0600, dir, "lock");
+    if (r != CV_OK)
+        return r;
     if (flock(s->lock_fd, LOCK_EX | LOCK_NB) != 0) {
         if (errno == EWOULDBLOCK)
             return cv_error(CV_ERROR_BAD_STATE, "content store '%s': already open (by this or another process)", dir);
         return cv_error(CV_ERROR_IO, "content store '%s': flock: %s", dir, strerror(errno));
     }
-    cv_result r = open_subdir(s->dir_fd, dir, "objects", &s->objects_fd);
+    r = open_subdir(s->dir_fd, dir, "objects", &s->objects_fd);
     if (r == CV_OK)
         r = open_subdir(s->dir_fd, dir, "tmp", &s->tmp_fd);
     for (unsigned i = 0; i < 256 && r == CV_OK; i++) {
         char name[3];
         snprintf(name, sizeof name, "%02x", i);
-        if (mkdirat(s->objects_fd, name, 0755) != 0 && errno != EEXIST)
-            r = cv_error(CV_ERROR_IO, "content store '%s': mkdir objects/%s: %s", dir, name, strerror(errno));
+        r = make_prefix_dir(s->objects_fd, dir, name);
     }
     return r;
 }
@@ -563,6 +675,12 @@ cv_result cv_content_store_open(const char *dir, uint64_t max_bytes, cv_content_
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "content store '%s'", dir);
     }
     pthread_mutex_init(&s->lock, NULL);
+    pthread_condattr_t attr;
+    pthread_condattr_init(&attr);
+    pthread_condattr_setclock(&attr, CLOCK_MONOTONIC); /* waits must not jump with the wall clock */
+    pthread_cond_init(&s->upload_ended, &attr);
+    pthread_condattr_destroy(&attr);
+    s->upload_wait_ms = CV_CONTENT_STORE_DEFAULT_UPLOAD_WAIT_MS;
     s->table = table;
     s->table_capacity = 64;
     s->dir_fd = s->objects_fd = s->tmp_fd = s->lock_fd = -1;
@@ -614,7 +732,7 @@ bool cv_content_store_has(cv_content_store *s, const uint8_t sha[32]) {
         pthread_mutex_unlock(&s->lock);
         return false;
     }
-    if (e->verified) {
+    if (e->verified && file_unchanged(s, e)) {
         touch(s, e);
         s->stats.hits++;
         pthread_mutex_unlock(&s->lock);
@@ -623,8 +741,13 @@ bool cv_content_store_has(cv_content_store *s, const uint8_t sha[32]) {
     e->pins++;
     pthread_mutex_unlock(&s->lock);
 
+    /* Not hashed since the open, or changed on disk since: hash it now, so
+     * that a damaged blob is answered absent and the client uploads it. */
     const void *data;
-    read_outcome m = load_blob(s, e, true, &data);
+    struct stat seen;
+    bool hashed;
+    file_id unknown = { .hashed = false };
+    read_outcome m = load_blob(s, e, &unknown, &data, &seen, &hashed);
     if (m == READ_OK)
         unload_blob(data, e->size);
 
@@ -632,8 +755,8 @@ bool cv_content_store_has(cv_content_store *s, const uint8_t sha[32]) {
     /* A check that could not run (no memory, no descriptors) proves nothing
      * either way: the blob counts as present and get() checks it again. */
     bool present = m != READ_DAMAGED && e->state == ENTRY_STORED;
-    if (m == READ_OK)
-        e->verified = true;
+    if (m == READ_OK && e->state == ENTRY_STORED)
+        record_hashed(e, &seen);
     else if (m == READ_DAMAGED)
         drop(s, e);
     if (present) {
@@ -666,15 +789,18 @@ cv_result cv_content_store_get(cv_content_store *s, const uint8_t sha[32], cv_co
     }
     e->pins++;
     touch(s, e);
-    bool verify = !e->verified;
+    file_id known = entry_file(e);
     pthread_mutex_unlock(&s->lock);
 
     const void *data;
-    read_outcome m = load_blob(s, e, verify, &data);
+    struct stat seen;
+    bool hashed;
+    read_outcome m = load_blob(s, e, &known, &data, &seen, &hashed);
 
     pthread_mutex_lock(&s->lock);
     if (m == READ_OK) {
-        e->verified = true;
+        if (hashed && e->state == ENTRY_STORED)
+            record_hashed(e, &seen);
         s->live_blobs++;
     } else {
         if (m == READ_DAMAGED)
@@ -717,6 +843,102 @@ cv_content_stats cv_content_store_stats(cv_content_store *s) {
 
 /* ---- uploads ---- */
 
+void cv_content_store_set_upload_wait(cv_content_store *s, uint32_t wait_ms) {
+    pthread_mutex_lock(&s->lock);
+    s->upload_wait_ms = wait_ms;
+    pthread_mutex_unlock(&s->lock);
+}
+
+static struct timespec monotonic_after(uint32_t ms) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    t.tv_sec += ms / 1000;
+    t.tv_nsec += (long)(ms % 1000) * 1000000L;
+    if (t.tv_nsec >= 1000000000L) {
+        t.tv_sec++;
+        t.tv_nsec -= 1000000000L;
+    }
+    return t;
+}
+
+/* Lock held: makes an upload of `size` bytes of fresh->sha an uploader of
+ * the blob's entry (`fresh`, put in the table, if it has none). While another
+ * upload receives the blob this waits, up to upload_wait_ms in all: for it to
+ * store the blob (then CV_ERROR_ALREADY_EXISTS) or end without storing it
+ * (then this one takes its place). A waiter that runs out of time receives the
+ * blob beside it, and the first of the two to finish stores it: a stalled
+ * first upload delays the others, it never fails them. */
+static cv_result claim_blob(cv_content_store *s, entry *fresh, uint64_t size, const char *hex, entry **out) {
+    bool waiting = false, gave_up = false;
+    struct timespec deadline;
+    for (;;) {
+        entry *e = table_find(s, fresh->sha);
+        if (e && e->state == ENTRY_STORED) {
+            touch(s, e);
+            return cv_error(CV_ERROR_ALREADY_EXISTS, "content store: blob %s is already stored", hex);
+        }
+        if (e && !gave_up && s->upload_wait_ms > 0) {
+            if (!waiting) {
+                waiting = true;
+                s->stats.waits++;
+                deadline = monotonic_after(s->upload_wait_ms);
+            }
+            gave_up = pthread_cond_timedwait(&s->upload_ended, &s->lock, &deadline) == ETIMEDOUT;
+            continue; /* look again: stored, ended, or still going */
+        }
+        if (!make_room(s, size)) {
+            s->stats.rejected++;
+            return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                            "content store: no room for blob %s of %" PRIu64 " bytes: %" PRIu64
+                            " of the limit of %" PRIu64 " bytes are pinned or reserved by other uploads",
+                            hex, size, s->stats.bytes + s->reserved, s->max_bytes);
+        }
+        if (e == NULL) {
+            if (!table_insert(s, fresh))
+                return cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: index entry for %s", hex);
+            e = fresh;
+        }
+        e->uploaders++;
+        s->reserved += size;
+        s->live_uploads++;
+        *out = e;
+        return CV_OK;
+    }
+}
+
+/* Lock held: an upload of `size` bytes lets go of its entry (stored by it or
+ * not); an entry that nobody stored and nobody receives leaves the index. */
+static void release_claim(cv_content_store *s, entry *e, uint64_t size) {
+    e->uploaders--;
+    s->reserved -= size;
+    s->live_uploads--;
+    if (e->state == ENTRY_UPLOADING && e->uploaders == 0) {
+        table_remove(s, e);
+        free(e);
+    } else {
+        free_if_unheld(e);
+    }
+    pthread_cond_broadcast(&s->upload_ended);
+}
+
+/* A temporary only this user can read (0600 whatever the umask). */
+static cv_result open_temporary(cv_content_upload *u) {
+    cv_content_store *s = u->store;
+    u->fd = openat(s->tmp_fd, u->temp_name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (u->fd < 0)
+        return cv_error(CV_ERROR_IO, "content store: creating tmp/%s: %s", u->temp_name, strerror(errno));
+    cv_result r = CV_OK;
+    if (fchmod(u->fd, 0600) != 0)
+        r = cv_error(CV_ERROR_IO, "content store: chmod 0600 tmp/%s: %s", u->temp_name, strerror(errno));
+    else
+        r = cv_sha256_init(&u->sha);
+    if (r != CV_OK) {
+        close(u->fd);
+        unlinkat(s->tmp_fd, u->temp_name, 0);
+    }
+    return r;
+}
+
 cv_result cv_content_upload_begin(cv_content_store *s, const uint8_t sha[32], uint64_t size,
                                   cv_content_upload **out) {
     if (s == NULL || sha == NULL || out == NULL)
@@ -734,63 +956,38 @@ cv_result cv_content_upload_begin(cv_content_store *s, const uint8_t sha[32], ui
                         hex, size, s->max_bytes);
     }
     cv_content_upload *u = calloc(1, sizeof *u);
-    entry *e = calloc(1, sizeof *e);
-    if (u == NULL || e == NULL) {
+    entry *fresh = calloc(1, sizeof *fresh);
+    if (u == NULL || fresh == NULL) {
         free(u);
-        free(e);
+        free(fresh);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: upload of %s", hex);
     }
-    memcpy(e->sha, sha, 32);
-    e->size = size;
-    e->state = ENTRY_UPLOADING;
+    memcpy(fresh->sha, sha, 32);
+    fresh->size = size;
+    fresh->state = ENTRY_UPLOADING;
 
     pthread_mutex_lock(&s->lock);
-    entry *existing = table_find(s, sha);
-    cv_result r = CV_OK;
-    if (existing && existing->state == ENTRY_STORED) {
-        touch(s, existing);
-        r = cv_error(CV_ERROR_ALREADY_EXISTS, "content store: blob %s is already stored", hex);
-    } else if (existing) {
-        r = cv_error(CV_ERROR_BAD_STATE, "content store: blob %s is being uploaded by another session", hex);
-    } else if (!make_room(s, size)) {
-        s->stats.rejected++;
-        r = cv_error(CV_ERROR_LIMIT_EXCEEDED,
-                     "content store: no room for blob %s of %" PRIu64 " bytes: %" PRIu64 " of the limit of %" PRIu64
-                     " bytes are pinned or reserved by other uploads",
-                     hex, size, s->stats.bytes + s->reserved, s->max_bytes);
-    } else if (!table_insert(s, e)) {
-        r = cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: index entry for %s", hex);
-    } else {
-        s->reserved += size;
-        s->live_uploads++;
+    entry *e = NULL;
+    cv_result r = claim_blob(s, fresh, size, hex, &e);
+    if (r == CV_OK)
         snprintf(u->temp_name, sizeof u->temp_name, "%s.%" PRIu64, hex, ++s->temp_counter);
-    }
     pthread_mutex_unlock(&s->lock);
+    if (e != fresh)
+        free(fresh); /* already there, another upload's, or refused */
     if (r != CV_OK) {
         free(u);
-        free(e);
         return r;
     }
 
     u->store = s;
     u->entry = e;
-    u->fd = openat(s->tmp_fd, u->temp_name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-    if (u->fd < 0)
-        r = cv_error(CV_ERROR_IO, "content store: creating tmp/%s: %s", u->temp_name, strerror(errno));
-    else
-        r = cv_sha256_init(&u->sha);
+    u->size = size;
+    r = open_temporary(u);
     if (r != CV_OK) {
-        if (u->fd >= 0) {
-            close(u->fd);
-            unlinkat(s->tmp_fd, u->temp_name, 0);
-        }
         pthread_mutex_lock(&s->lock);
-        table_remove(s, e);
-        s->reserved -= size;
-        s->live_uploads--;
+        release_claim(s, e, size);
         pthread_mutex_unlock(&s->lock);
         free(u);
-        free(e);
         return r;
     }
     *out = u;
@@ -806,11 +1003,11 @@ cv_result cv_content_upload_write(cv_content_upload *u, uint64_t offset, const v
                         "content store: upload of %.64s: chunk at offset %" PRIu64 ", expected the next at %" PRIu64
                         " (chunks go in order)",
                         name, offset, u->received);
-    if (len > u->entry->size - u->received)
+    if (len > u->size - u->received)
         return cv_error(CV_ERROR_OUT_OF_RANGE,
                         "content store: upload of %.64s: chunk of %zu bytes at %" PRIu64
                         " runs past the blob's %" PRIu64 " bytes",
-                        name, len, offset, u->entry->size);
+                        name, len, offset, u->size);
     /* pwrite at the chunk's own offset: if it fails part way, a retry of the
      * same chunk overwrites whatever got written. */
     const uint8_t *p = data;
@@ -838,13 +1035,10 @@ static void discard_upload(cv_content_upload *u, bool rejected) {
     unlinkat(s->tmp_fd, u->temp_name, 0);
     cv_sha256_discard(&u->sha);
     pthread_mutex_lock(&s->lock);
-    table_remove(s, u->entry);
-    s->reserved -= u->entry->size;
-    s->live_uploads--;
     if (rejected)
         s->stats.rejected++;
+    release_claim(s, u->entry, u->size);
     pthread_mutex_unlock(&s->lock);
-    free(u->entry);
     free(u);
 }
 
@@ -853,56 +1047,94 @@ void cv_content_upload_abort(cv_content_upload *u) {
         discard_upload(u, false);
 }
 
+/* Lock held: a complete, hash-checked temporary becomes the blob's file, or,
+ * if another upload of the blob stored it first, goes. */
+static cv_result store_upload(cv_content_upload *u, const struct stat *st, const char *key_hex) {
+    cv_content_store *s = u->store;
+    /* Normally this upload's own entry. It may instead be stored by another
+     * upload already (this copy goes), or have been dropped since another
+     * stored it (then the hash's entry now, or a new one, takes this copy). */
+    entry *e = table_find(s, u->entry->sha);
+    if (e == NULL) {
+        e = calloc(1, sizeof *e);
+        if (e)
+            memcpy(e->sha, u->entry->sha, 32); /* ENTRY_UPLOADING, no uploader: stored below or removed */
+        if (e == NULL || !table_insert(s, e)) {
+            free(e);
+            unlinkat(s->tmp_fd, u->temp_name, 0);
+            s->stats.rejected++;
+            return cv_error(CV_ERROR_OUT_OF_MEMORY, "content store: index entry for %s", key_hex);
+        }
+    }
+    if (e->state == ENTRY_STORED) {
+        unlinkat(s->tmp_fd, u->temp_name, 0);
+        s->stats.duplicates++;
+        return CV_OK;
+    }
+    char name[OBJECT_NAME_SIZE];
+    object_name(e->sha, name);
+    if (renameat(s->tmp_fd, u->temp_name, s->objects_fd, name) != 0) {
+        cv_result r = cv_error(CV_ERROR_IO, "content store: upload of %s: rename into objects/: %s", key_hex,
+                               strerror(errno));
+        unlinkat(s->tmp_fd, u->temp_name, 0);
+        s->stats.rejected++;
+        if (e->uploaders == 0) { /* the entry made just above */
+            table_remove(s, e);
+            free(e);
+        }
+        return r;
+    }
+    e->size = u->size;
+    e->state = ENTRY_STORED;
+    record_hashed(e, st);
+    e->used = next_stamp(s);
+    stamp_file(s, e);
+    lru_push_newest(s, e);
+    s->stats.bytes += e->size;
+    s->stats.entries++;
+    s->stats.uploads++;
+    return CV_OK;
+}
+
 cv_result cv_content_upload_finish(cv_content_upload *u) {
     if (u == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: upload_finish needs an upload");
     cv_content_store *s = u->store;
-    entry *e = u->entry;
     char key_hex[CV_SHA256_HEX_SIZE];
-    cv_sha256_hex(e->sha, key_hex);
-    if (u->received != e->size) {
+    cv_sha256_hex(u->entry->sha, key_hex);
+    if (u->received != u->size) {
         cv_result r = cv_error(CV_ERROR_BAD_STATE,
                                "content store: upload of %s finished after %" PRIu64 " of its %" PRIu64
                                " bytes; nothing stored",
-                               key_hex, u->received, e->size);
+                               key_hex, u->received, u->size);
         discard_upload(u, true);
         return r;
     }
     uint8_t actual[32];
     cv_result r = cv_sha256_final(&u->sha, actual);
-    if (r == CV_OK && memcmp(actual, e->sha, 32) != 0) {
+    if (r == CV_OK && memcmp(actual, u->entry->sha, 32) != 0) {
         char actual_hex[CV_SHA256_HEX_SIZE];
         cv_sha256_hex(actual, actual_hex);
         r = cv_error(CV_ERROR_HASH_MISMATCH,
                      "content store: upload keyed %s has content hashing to %s; nothing stored", key_hex, actual_hex);
     }
-    if (r == CV_OK && close(u->fd) != 0)
+    struct stat st; /* the file's identity, for the checks on use (file_id) */
+    if (r == CV_OK && fstat(u->fd, &st) != 0)
+        r = cv_error(CV_ERROR_IO, "content store: upload of %s: fstat: %s", key_hex, strerror(errno));
+    if (r == CV_OK && close(u->fd) != 0) {
+        u->fd = -1;
         r = cv_error(CV_ERROR_IO, "content store: upload of %s: close: %s", key_hex, strerror(errno));
+    }
     if (r != CV_OK) {
         discard_upload(u, true);
         return r;
     }
     u->fd = -1;
-    char name[OBJECT_NAME_SIZE];
-    object_name(e->sha, name);
-    if (renameat(s->tmp_fd, u->temp_name, s->objects_fd, name) != 0) {
-        r = cv_error(CV_ERROR_IO, "content store: upload of %s: rename into objects/: %s", key_hex, strerror(errno));
-        discard_upload(u, true);
-        return r;
-    }
 
     pthread_mutex_lock(&s->lock);
-    e->state = ENTRY_STORED;
-    e->verified = true;
-    e->used = next_stamp(s);
-    stamp_file(s, e);
-    lru_push_newest(s, e);
-    s->reserved -= e->size;
-    s->stats.bytes += e->size;
-    s->stats.entries++;
-    s->stats.uploads++;
-    s->live_uploads--;
+    r = store_upload(u, &st, key_hex);
+    release_claim(s, u->entry, u->size);
     pthread_mutex_unlock(&s->lock);
     free(u);
-    return CV_OK;
+    return r;
 }

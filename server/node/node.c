@@ -1,5 +1,6 @@
 /* corvid-node's server (node.h): devices probed at start, the content store,
  * the gRPC service (sessions, Info, grpc.health.v1), drain and stop. */
+#include <inttypes.h>
 #include <arpa/inet.h>
 #include <openssl/crypto.h>
 #include <stdio.h>
@@ -263,6 +264,12 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
                         "(corvid-node: --token-file FILE or CORVID_NODE_TOKEN_FILE, a file whose first line is the "
                         "token; clients read theirs from CORVID_NODE_TOKEN_FILE), or listen on 127.0.0.1",
                         config->listen);
+    if (config->cache_bytes && config->cache_bytes < CV_NODE_MIN_CACHE_BYTES)
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "node: a content store of %" PRIu64
+                        " bytes (cache_bytes, corvid-node --cache-size) is too "
+                        "small: at least %llu bytes (16M); a blob larger than the store is refused",
+                        config->cache_bytes, CV_NODE_MIN_CACHE_BYTES);
     const cv_node_quota *q = &config->quota;
     if (q->inflight > CV_NODE_MAX_QUOTA_INFLIGHT)
         return cv_error(CV_ERROR_OUT_OF_RANGE, "node: quota of %u lists in flight (at most %u)", q->inflight,

@@ -62,7 +62,8 @@ typedef struct cv_node_config {
     uint32_t device_count;    /* 1..CV_MAX_DEVICES */
     bool validation;          /* API validation on session devices */
     const char *cache_dir;    /* content store directory (created) */
-    uint64_t cache_bytes;     /* content store size limit; 0 = 4 GiB */
+    uint64_t cache_bytes;     /* content store size limit; 0 = 4 GiB; less than CV_NODE_MIN_CACHE_BYTES is
+                                 refused at start (a blob larger than the limit is refused per blob) */
     uint32_t idle_timeout_ms; /* a session with no message for this long ends; 0 = 300 s */
     uint32_t max_sessions;    /* concurrent sessions; 0 = 256 */
     bool log_sessions;        /* one line per session start/end, per error and per refused call on stderr */
@@ -107,6 +108,9 @@ typedef struct cv_node_config {
 } cv_node_config;
 
 #define CV_NODE_DEFAULT_PEER_DEADLINE_MS 10000u
+/* The smallest content store a node starts with: less could not hold one scene's geometry, and every
+   render would fail on its first large upload (docs/node.md, "Content store"). */
+#define CV_NODE_MIN_CACHE_BYTES (16ull << 20)
 
 typedef struct cv_node_stats {
     uint64_t sessions_started, sessions_active;

@@ -59,9 +59,15 @@ typedef struct session {
     /* The blob being received, if any. */
     cv_content_upload *upload;
     uint8_t upload_sha[CV_SHA256_BYTES];
-    bool upload_skipping; /* the store had it already, or the quota refused it: chunks are dropped */
+    bool upload_skipping; /* the store had it already or refused it, or the quota refused it: chunks are dropped */
     bool upload_refused;  /* ... the quota refused it */
     uint64_t upload_size;
+    /* The last blob the content store refused (too large for it, or no room):
+     * a write naming it gets the same answer as its upload, not "not found". */
+    bool store_refused;
+    uint8_t store_refused_sha[CV_SHA256_BYTES];
+    cv_result store_refused_result;
+    char store_refused_message[512];
 
     /* What the session holds, against the node's quotas (node->quota). */
     uint64_t memory_bytes;   /* device memory of its live resources */
@@ -399,6 +405,19 @@ static cv_result do_blob_query(session *s, uint64_t seq, const Corvid__BlobQuery
     return CV_OK;
 }
 
+/* The store refused a blob's first chunk (cv_last_error says why): its later
+ * chunks are dropped without a word each, and writes naming it get this answer. */
+static cv_result refuse_blob(session *s, const Corvid__BlobChunk *m, cv_result r) {
+    s->store_refused = true;
+    memcpy(s->store_refused_sha, m->sha256.data, CV_SHA256_BYTES);
+    s->store_refused_result = r;
+    snprintf(s->store_refused_message, sizeof(s->store_refused_message), "%s", cv_last_error());
+    memcpy(s->upload_sha, m->sha256.data, CV_SHA256_BYTES);
+    s->upload_size = m->size;
+    s->upload_skipping = m->offset + m->data.len < m->size;
+    return cv_error(r, "blob_chunk: %s", s->store_refused_message);
+}
+
 static cv_result do_blob_chunk(session *s, const Corvid__BlobChunk *m) {
     cv_result r = cv_node_check_sha(m->sha256, "blob_chunk.sha256");
     if (r != CV_OK)
@@ -412,13 +431,16 @@ static cv_result do_blob_chunk(session *s, const Corvid__BlobChunk *m) {
             return cv_error(CV_ERROR_OUT_OF_RANGE,
                             "blob_chunk: first chunk of a blob at offset %" PRIu64 " (must be 0)%s", m->offset,
                             abandoned ? "; the previous upload was abandoned" : "");
+        /* Waits while another session uploads the same blob (content_store.h). */
         r = cv_content_upload_begin(s->node->store, m->sha256.data, m->size, &s->upload);
+        if (s->store_refused && memcmp(s->store_refused_sha, m->sha256.data, CV_SHA256_BYTES) == 0)
+            s->store_refused = false; /* asked again: the new answer counts */
         if (r == CV_ERROR_ALREADY_EXISTS) {
             s->upload = NULL;
             s->upload_skipping = true;
         } else if (r != CV_OK) {
             s->upload = NULL;
-            return r;
+            return refuse_blob(s, m, r);
         }
         memcpy(s->upload_sha, m->sha256.data, CV_SHA256_BYTES);
         s->upload_size = m->size;
@@ -465,6 +487,8 @@ static cv_result get_blob(session *s, ProtobufCBinaryData sha, const char *field
     cv_result r = cv_node_check_sha(sha, field);
     if (r != CV_OK)
         return r;
+    if (s->store_refused && memcmp(s->store_refused_sha, sha.data, CV_SHA256_BYTES) == 0)
+        return cv_error(s->store_refused_result, "%s: %s", field, s->store_refused_message);
     r = cv_content_store_get(s->node->store, sha.data, out);
     if (r != CV_OK) {
         char hex[65];
@@ -853,6 +877,7 @@ static cv_result do_hello(session *s, uint64_t seq, const Corvid__Hello *m, int 
     quotas.resources = node->quota.resources;
     quotas.inflight = node->quota.inflight;
     quotas.upload_bytes = node->quota.upload_bytes;
+    quotas.max_blob_bytes = cv_content_store_stats(node->store).max_bytes;
     reply.quotas = &quotas;
     Corvid__NodeMessage out = CORVID__NODE_MESSAGE__INIT;
     out.seq = seq;

@@ -21,7 +21,7 @@ check() {  # check "what" command...
 check "--help exits 0" test $? -eq 0
 check "--help lists --listen" grep -q -- "--listen HOST:PORT" "$tmp/help.txt"
 for bad in "--idle-timeout 0" "--idle-timeout=-5" "--max-sessions 99999999999" "--backend opengl" "--listen nocolon" \
-           "--cache-size 12Q" "--bogus" "--mock-devices 65"; do
+           "--cache-size 12Q" "--cache-size 1M" "--bogus" "--mock-devices 65"; do
   # shellcheck disable=SC2086
   "$node" $bad > /dev/null 2> "$tmp/err.txt"
   check "'$bad' exits 2" test $? -eq 2

@@ -1,7 +1,9 @@
 /* The content store: uploads in chunks and reads back, rejected chunks and
  * hashes, aborts, LRU eviction around pinned blobs, the size limit, restarts
- * (blobs and their order kept), damaged and stray files on disk, eight
- * threads on overlapping hashes, and the counters after each of those. Every
+ * (blobs and their order kept), damaged and stray files on disk, file modes,
+ * blobs changed on disk while open, eight threads on overlapping hashes and
+ * on one hash, a waiter whose first uploader aborts or stalls, and the
+ * counters after each of those. Every
  * test works in its own mkdtemp directory and removes it. */
 #include <dirent.h>
 #include <ftw.h>
@@ -233,9 +235,13 @@ static void test_rejected_uploads(void) {
     CHECK_RESULT(cv_content_upload_write(u, 1000, a.data + 1000, a.size - 1000 + 1), CV_ERROR_OUT_OF_RANGE);
     CHECK_RESULT(cv_content_upload_write(u, 1000, NULL, 10), CV_ERROR_INVALID_ARGUMENT);
     CHECK_EQ_INT(cv_content_upload_received(u), 1000);
-    /* A second upload of the same hash meanwhile is refused; the blob is not readable yet. */
+    /* A second upload of the same hash meanwhile (not waiting: upload wait 0)
+     * receives it beside the first; the blob is not readable yet. The first
+     * to finish stores it, the second's copy is discarded and it succeeds. */
+    cv_content_store_set_upload_wait(s, 0);
     cv_content_upload *second;
-    CHECK_RESULT(cv_content_upload_begin(s, a.sha, a.size, &second), CV_ERROR_BAD_STATE);
+    CHECK_OK(cv_content_upload_begin(s, a.sha, a.size, &second));
+    CHECK_EQ_INT(entries_in(dir, "tmp"), 2);
     cv_content_blob *cb;
     CHECK_RESULT(cv_content_store_get(s, a.sha, &cb), CV_ERROR_NOT_FOUND);
     CHECK_OK(cv_content_upload_write(u, 1000, a.data + 1000, 0));
@@ -243,6 +249,11 @@ static void test_rejected_uploads(void) {
     CHECK_RESULT(cv_content_upload_write(u, a.size, a.data, 1), CV_ERROR_OUT_OF_RANGE);
     CHECK_OK(cv_content_upload_finish(u));
     CHECK(get_matches(s, &a));
+    CHECK_OK(cv_content_upload_write(second, 0, a.data, a.size));
+    CHECK_OK(cv_content_upload_finish(second));
+    CHECK_EQ_INT(entries_in(dir, "tmp"), 0);
+    CHECK(get_matches(s, &a));
+    CHECK_EQ_INT(cv_content_store_stats(s).duplicates, 1);
 
     /* Abort leaves nothing, and the hash can be uploaded afterwards. */
     CHECK_OK(cv_content_upload_begin(s, b.sha, b.size, &u));
@@ -434,6 +445,129 @@ static void test_damage_and_strays(void) {
     remove_dir(dir);
 }
 
+static mode_t mode_of(const char *dir, const char *sub) { /* sub "" names dir itself */
+    char path[700];
+    snprintf(path, sizeof path, "%s/%s", dir, sub);
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return (mode_t)-1;
+    return st.st_mode & 07777;
+}
+
+/* Folders 0700 and files 0600 whatever the umask, and an older store's
+ * modes tightened at open. */
+static void test_permissions(void) {
+    char dir[64], path[512], sub[600];
+    make_dir(dir);
+    CHECK_EQ_INT(chmod(dir, 0755), 0);
+    mode_t old_umask = umask(0); /* the widest: modes come from the store alone */
+    cv_content_store *s;
+    CHECK_OK(cv_content_store_open(dir, 0, &s));
+    blob a = make_blob(30, 3000);
+    cv_content_upload *u;
+    CHECK_OK(cv_content_upload_begin(s, a.sha, a.size, &u));
+    DIR *d = NULL;
+    snprintf(sub, sizeof sub, "%s/tmp", dir);
+    d = opendir(sub);
+    for (struct dirent *e = d ? readdir(d) : NULL; e; e = readdir(d)) {
+        if (e->d_name[0] != '.') {
+            snprintf(sub, sizeof sub, "tmp/%s", e->d_name);
+            CHECK_EQ_INT(mode_of(dir, sub), 0600); /* an upload being received */
+        }
+    }
+    if (d)
+        closedir(d);
+    CHECK_OK(cv_content_upload_write(u, 0, a.data, a.size));
+    CHECK_OK(cv_content_upload_finish(u));
+    CHECK_EQ_INT(mode_of(dir, ""), 0700);
+    CHECK_EQ_INT(mode_of(dir, "objects"), 0700);
+    CHECK_EQ_INT(mode_of(dir, "tmp"), 0700);
+    CHECK_EQ_INT(mode_of(dir, "objects/00"), 0700);
+    CHECK_EQ_INT(mode_of(dir, "objects/ff"), 0700);
+    CHECK_EQ_INT(mode_of(dir, "lock"), 0600);
+    struct stat st;
+    CHECK_EQ_INT(stat(path_of(dir, &a, path), &st), 0);
+    CHECK_EQ_INT(st.st_mode & 07777, 0600);
+    cv_content_store_close(s);
+
+    /* A store left with open modes (an older version's) is closed up at open. */
+    CHECK_EQ_INT(chmod(path, 0644), 0);
+    snprintf(sub, sizeof sub, "%s/objects/7f", dir);
+    CHECK_EQ_INT(chmod(sub, 0755), 0);
+    snprintf(sub, sizeof sub, "%s/objects", dir);
+    CHECK_EQ_INT(chmod(sub, 0755), 0);
+    snprintf(sub, sizeof sub, "%s/lock", dir);
+    CHECK_EQ_INT(chmod(sub, 0644), 0);
+    CHECK_EQ_INT(chmod(dir, 0755), 0);
+    CHECK_OK(cv_content_store_open(dir, 0, &s));
+    CHECK_EQ_INT(mode_of(dir, ""), 0700);
+    CHECK_EQ_INT(mode_of(dir, "objects"), 0700);
+    CHECK_EQ_INT(mode_of(dir, "objects/7f"), 0700);
+    CHECK_EQ_INT(mode_of(dir, "lock"), 0600);
+    CHECK_EQ_INT(stat(path, &st), 0);
+    CHECK_EQ_INT(st.st_mode & 07777, 0600);
+    CHECK(get_matches(s, &a));
+    cv_content_store_close(s);
+    umask(old_umask);
+    free_blob(&a);
+    remove_dir(dir);
+}
+
+static void flip_byte(const char *path, long at) {
+    FILE *f = fopen(path, "r+b");
+    CHECK(f != NULL);
+    if (f) {
+        fseek(f, at, SEEK_SET);
+        int c = fgetc(f);
+        fseek(f, at, SEEK_SET);
+        fputc(c ^ 0x01, f);
+        fclose(f);
+    }
+}
+
+/* A blob changed on disk while the store is open (after its hash) is never
+ * used: the next has() or get() sees the file changed, hashes it again and
+ * drops it; it can be uploaded again. A file replaced by one with the same
+ * content passes the new hash and stays. */
+static void test_changed_while_open(void) {
+    char dir[64], path[512], other[600];
+    make_dir(dir);
+    cv_content_store *s;
+    CHECK_OK(cv_content_store_open(dir, 0, &s));
+    blob a = make_blob(40, 70000), big = make_blob(41, (5u << 20) + 11), c = make_blob(42, 3000);
+    CHECK_OK(upload(s, &a, 8192));
+    CHECK_OK(upload(s, &big, 1u << 20));
+    CHECK_OK(upload(s, &c, 3000));
+    CHECK(get_matches(s, &a) && get_matches(s, &big) && cv_content_store_has(s, c.sha));
+
+    flip_byte(path_of(dir, &a, path), 12345); /* same size, other bytes */
+    CHECK(!cv_content_store_has(s, a.sha));
+    CHECK(!on_disk(dir, &a));
+    CHECK_EQ_INT(cv_content_store_stats(s).dropped, 1);
+    CHECK_OK(upload(s, &a, 8192));
+    CHECK(get_matches(s, &a));
+
+    flip_byte(path_of(dir, &big, path), 4000000); /* a mapped one, found by get() */
+    cv_content_blob *cb;
+    CHECK_RESULT(cv_content_store_get(s, big.sha, &cb), CV_ERROR_NOT_FOUND);
+    CHECK(strstr(cv_last_error(), "dropped") != NULL);
+    CHECK(!on_disk(dir, &big));
+    CHECK_EQ_INT(cv_content_store_stats(s).dropped, 2);
+
+    /* Replaced by a copy of the same bytes (another inode): hashed again, kept. */
+    snprintf(other, sizeof other, "%s/tmp/copy", dir);
+    write_file(other, c.data, c.size);
+    CHECK_EQ_INT(rename(other, path_of(dir, &c, path)), 0);
+    CHECK(cv_content_store_has(s, c.sha));
+    CHECK(get_matches(s, &c));
+    CHECK_EQ_INT(cv_content_store_stats(s).dropped, 2);
+    cv_content_store_close(s);
+    free_blob(&a);
+    free_blob(&big);
+    free_blob(&c);
+    remove_dir(dir);
+}
+
 /* ---- threads ---- */
 
 enum { THREADS = 8, HASHES = 24, ITERATIONS = 150 };
@@ -572,11 +706,160 @@ static void test_threads(void) {
     remove_dir(dir);
 }
 
+/* ---- one blob, several uploaders ---- */
+
+typedef struct same_blob {
+    cv_content_store *store;
+    const blob *b;
+    pthread_barrier_t *start; /* NULL: go at once */
+    cv_result begin, finish;
+} same_blob;
+
+static void *upload_same(void *p) {
+    same_blob *w = p;
+    if (w->start)
+        pthread_barrier_wait(w->start);
+    cv_content_upload *u;
+    w->begin = cv_content_upload_begin(w->store, w->b->sha, w->b->size, &u);
+    w->finish = CV_OK;
+    if (w->begin != CV_OK)
+        return NULL;
+    for (size_t off = 0; off < w->b->size && w->finish == CV_OK; off += 65536) {
+        size_t n = w->b->size - off < 65536 ? w->b->size - off : 65536;
+        w->finish = cv_content_upload_write(u, off, w->b->data + off, n);
+    }
+    if (w->finish == CV_OK)
+        w->finish = cv_content_upload_finish(u);
+    else
+        cv_content_upload_abort(u);
+    return NULL;
+}
+
+/* Eight threads upload one blob at the same moment: every one succeeds
+ * (stored, or told it already is), and the blob is stored once. */
+static void test_same_blob_threads(void) {
+    char dir[64];
+    make_dir(dir);
+    cv_content_store *s;
+    CHECK_OK(cv_content_store_open(dir, 0, &s));
+    blob b = make_blob(50, (2u << 20) + 5);
+    pthread_barrier_t start;
+    pthread_barrier_init(&start, NULL, THREADS);
+    same_blob w[THREADS];
+    pthread_t tid[THREADS];
+    for (int i = 0; i < THREADS; i++) {
+        w[i] = (same_blob){ .store = s, .b = &b, .start = &start };
+        CHECK_EQ_INT(pthread_create(&tid[i], NULL, upload_same, &w[i]), 0);
+    }
+    int stored = 0;
+    for (int i = 0; i < THREADS; i++) {
+        pthread_join(tid[i], NULL);
+        CHECK(w[i].begin == CV_OK || w[i].begin == CV_ERROR_ALREADY_EXISTS);
+        CHECK_OK(w[i].finish);
+        stored += w[i].begin == CV_OK;
+    }
+    pthread_barrier_destroy(&start);
+    cv_content_stats st = cv_content_store_stats(s);
+    CHECK(stored >= 1);
+    CHECK_EQ_INT(st.uploads, 1);
+    CHECK_EQ_INT(st.uploads + st.duplicates, stored);
+    CHECK_EQ_INT(st.entries, 1);
+    CHECK_EQ_INT(st.bytes, b.size);
+    CHECK_EQ_INT(st.rejected, 0);
+    CHECK(get_matches(s, &b));
+    CHECK_EQ_INT(entries_in(dir, "tmp"), 0);
+    printf("same blob: %d threads, %llu waited, %d received it\n", THREADS, (unsigned long long)st.waits, stored);
+    cv_content_store_close(s);
+    free_blob(&b);
+    remove_dir(dir);
+}
+
+/* Polls (bounded) until `waits` begins have started waiting. */
+static bool await_waits(cv_content_store *s, uint64_t waits) {
+    for (int i = 0; i < 2000; i++) {
+        if (cv_content_store_stats(s).waits >= waits)
+            return true;
+        usleep(5000);
+    }
+    return false;
+}
+
+/* A waiter whose first uploader aborts receives the blob itself; one whose
+ * first uploader stalls past the upload wait receives it beside it, and
+ * whichever finishes first stores it; a late copy replaces a stored copy
+ * found damaged meanwhile. */
+static void test_waiter_after_abort_and_stall(void) {
+    char dir[64];
+    make_dir(dir);
+    cv_content_store *s;
+    CHECK_OK(cv_content_store_open(dir, 0, &s));
+    blob a = make_blob(60, 300000), b = make_blob(61, 300000);
+
+    cv_content_upload *first;
+    CHECK_OK(cv_content_upload_begin(s, a.sha, a.size, &first));
+    CHECK_OK(cv_content_upload_write(first, 0, a.data, 1000));
+    same_blob w = { .store = s, .b = &a };
+    pthread_t tid;
+    CHECK_EQ_INT(pthread_create(&tid, NULL, upload_same, &w), 0);
+    CHECK(await_waits(s, 1));
+    cv_content_upload_abort(first); /* the first uploader's session ended */
+    pthread_join(tid, NULL);
+    CHECK_OK(w.begin);
+    CHECK_OK(w.finish);
+    CHECK(get_matches(s, &a));
+
+    cv_content_store_set_upload_wait(s, 100);
+    CHECK_OK(cv_content_upload_begin(s, b.sha, b.size, &first));
+    CHECK_OK(cv_content_upload_write(first, 0, b.data, 1000)); /* ... and nothing more for a while */
+    w = (same_blob){ .store = s, .b = &b };
+    CHECK_EQ_INT(pthread_create(&tid, NULL, upload_same, &w), 0);
+    pthread_join(tid, NULL);
+    CHECK_OK(w.begin);
+    CHECK_OK(w.finish);
+    CHECK(get_matches(s, &b));
+    CHECK_OK(cv_content_upload_write(first, 1000, b.data + 1000, b.size - 1000));
+    CHECK_OK(cv_content_upload_finish(first)); /* stored already: its copy goes */
+    CHECK(get_matches(s, &b));
+
+    /* A late copy of a blob that was stored and then found damaged takes its place. */
+    blob c = make_blob(62, 5000);
+    char path[512];
+    cv_content_store_set_upload_wait(s, 0);
+    cv_content_upload *late;
+    CHECK_OK(cv_content_upload_begin(s, c.sha, c.size, &first));
+    CHECK_OK(cv_content_upload_begin(s, c.sha, c.size, &late));
+    CHECK_OK(cv_content_upload_write(first, 0, c.data, c.size));
+    CHECK_OK(cv_content_upload_finish(first));
+    flip_byte(path_of(dir, &c, path), 100);
+    CHECK(!cv_content_store_has(s, c.sha));
+    CHECK_OK(cv_content_upload_write(late, 0, c.data, c.size));
+    CHECK_OK(cv_content_upload_finish(late));
+    CHECK(get_matches(s, &c));
+
+    cv_content_stats st = cv_content_store_stats(s);
+    CHECK_EQ_INT(st.waits, 2);
+    CHECK_EQ_INT(st.uploads, 4);
+    CHECK_EQ_INT(st.duplicates, 1);
+    CHECK_EQ_INT(st.dropped, 1);
+    CHECK_EQ_INT(st.entries, 3);
+    CHECK_EQ_INT(st.bytes, a.size + b.size + c.size);
+    CHECK_EQ_INT(entries_in(dir, "tmp"), 0);
+    cv_content_store_close(s);
+    free_blob(&a);
+    free_blob(&b);
+    free_blob(&c);
+    remove_dir(dir);
+}
+
 int main(void) {
     test_upload_and_get();
     test_rejected_uploads();
     test_lru_and_restart();
     test_damage_and_strays();
+    test_permissions();
+    test_changed_while_open();
     test_threads();
+    test_same_blob_threads();
+    test_waiter_after_abort_and_stall();
     return check_report("content_store");
 }

@@ -185,6 +185,11 @@ static void remember_blob(proxy_device *p, const uint8_t sha[CV_SHA256_BYTES]) {
 
 /* Makes sure the node's cache holds these bytes; *sha gets their hash. */
 static cv_result ensure_blob(proxy_device *p, const void *data, uint64_t size, uint8_t sha[CV_SHA256_BYTES]) {
+    if (p->max_blob && size > p->max_blob)
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                        "node '%s': a blob of %" PRIu64 " bytes is larger than the node's content store (%" PRIu64
+                        " bytes, corvid-node --cache-size); refused here, the device goes on",
+                        p->endpoint, size, p->max_blob);
     cv_sha256(data, (size_t)size, sha);
     bool present = known_blob(p, sha);
     if (!present) {

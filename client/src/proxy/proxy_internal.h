@@ -48,6 +48,7 @@ typedef struct proxy_pending {
     bool has_session_key;
     uint32_t quota_inflight; /* hello: the node's quotas (0 = not told) */
     uint64_t quota_upload;
+    uint64_t max_blob;
     uint64_t transfer_failure; /* refused because of this transfer failure (the caller learns of it) */
 } proxy_pending;
 
@@ -93,9 +94,12 @@ struct cv_backend_device {
     uint8_t session_key[CV_NODE_SESSION_KEY_BYTES];
     bool has_session_key;
     /* The node's quotas for this session (HelloReply.quotas; 0 = not told): submissions past the in-flight
-       quota wait here, uploads past the upload quota are refused here, so neither poisons the device. */
+       quota wait here, uploads past the upload quota are refused here, so neither poisons the device.
+       max_blob: the node's content store limit; a larger blob is refused here, with the same error every
+       time (sent, the node's refusal would race the write that names the blob). */
     uint32_t quota_inflight;
     uint64_t quota_upload;
+    uint64_t max_blob;
     uint32_t peer_deadline_ms; /* asked of the node for each await; 0 = the node's */
     /* A failed await the node reported (Reply or Completed.transfer_failure) and no caller has learned of yet:
        the next wait for a ticket >= soft_ticket returns it, once, and sends ResumeAfterFailure. Failures up to

@@ -246,6 +246,7 @@ static void on_message(proxy_device *p, const Corvid__NodeMessage *m) {
             if (m->hello->quotas) {
                 p->pending.quota_inflight = m->hello->quotas->inflight;
                 p->pending.quota_upload = m->hello->quotas->upload_bytes;
+                p->pending.max_blob = m->hello->quotas->max_blob_bytes;
             }
             if (m->hello->session_key.len == CV_NODE_SESSION_KEY_BYTES) {
                 memcpy(p->pending.session_key, m->hello->session_key.data, CV_NODE_SESSION_KEY_BYTES);
@@ -380,6 +381,7 @@ cv_result proxy_session_open(proxy_device *p, cv_device_info *info) {
     p->has_session_key = pending.has_session_key;
     p->quota_inflight = pending.quota_inflight;
     p->quota_upload = pending.quota_upload;
+    p->max_blob = pending.max_blob;
     snprintf(info->backend, sizeof(info->backend), "proxy");
     info->adapter_index = p->remote_device;
     return CV_OK;
