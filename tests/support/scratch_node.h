@@ -18,7 +18,7 @@ typedef struct scratch_node {
 cv_result scratch_node_start_with(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation,
                                   uint32_t idle_timeout_ms, const char *cache_dir);
 cv_result scratch_node_start(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation);
-/* As scratch_node_start (no validation), with the security fields of `security` (token, TLS files, quota,
+/* As scratch_node_start (no validation), with the security fields of `security` (token, TLS files, quota, memory_bytes,
  * log_sessions) and its listen address if set (then `endpoint` names 127.0.0.1 with the bound port). */
 cv_result scratch_node_start_secured(scratch_node *n, const cv_backend *backend, uint32_t count,
                                      const cv_node_config *security);
