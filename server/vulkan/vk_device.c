@@ -169,7 +169,9 @@ static cv_result create_vk_device(cv_backend_device *bd) {
         bd->shared_slot = slot;
         bd->device = shared->device;
     } else {
+        vk_layer_exclusive_begin(bd->instance);
         vr = vkCreateDevice(a->physical, &info, NULL, &bd->device);
+        vk_layer_exclusive_end(bd->instance);
         if (vr != VK_SUCCESS)
             return vk_fail(vr, "vkCreateDevice on adapter %u '%s'", a->info.index, a->info.name);
     }
@@ -293,6 +295,7 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         free(bd);
         return r;
     }
+    vk_layer_enter(bd->instance); /* every call below on the layer; left at the end */
     r = pick_adapter(bd->instance, desc->adapter, &bd->adapter);
     if (r == CV_OK) {
         bd->vgpu_shared = vgpu_mode == VK_VGPU_SHARED ||
@@ -334,11 +337,14 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         r = vk_bridge_init(bd);
     if (r == CV_OK)
         r = vk_trace_init(bd);
+    vk_instance *inst = bd->instance;
     if (r != CV_OK) {
         vk_device_destroy(bd);
+        vk_layer_leave(inst);
         return r;
     }
     fill_info(bd, info);
+    vk_layer_leave(inst);
     *out = bd;
     return CV_OK;
 }
@@ -376,6 +382,8 @@ bool vk_device_same(const cv_backend_device *a, const cv_backend_device *b) {
 }
 
 void vk_device_destroy(cv_backend_device *bd) {
+    vk_instance *inst = bd->instance;
+    vk_layer_enter(inst);
     if (bd->device) {
         vk_bridge_finish(bd); /* before the idle wait: it signals what is still queued */
         if (bd->shared)
@@ -398,10 +406,13 @@ void vk_device_destroy(cv_backend_device *bd) {
             vk_shared_release(bd->shared, bd->shared_slot);
         } else {
             vkDestroySemaphore(bd->device, bd->ticket, NULL);
+            vk_layer_exclusive_begin(inst);
             vkDestroyDevice(bd->device, NULL);
+            vk_layer_exclusive_end(inst);
         }
     }
-    vk_instance_release(bd->instance);
+    vk_layer_leave(inst);
+    vk_instance_release(inst);
     free(bd);
 }
 

@@ -1,0 +1,106 @@
+/* Validated devices created and destroyed on one thread while other threads
+ * work on devices of their own, as node sessions start and end while others
+ * render (node_remote_render). The validation layer (1.3.239) keeps its
+ * per-device state in one map for the whole process, which it changes in
+ * vkCreateDevice and vkDestroyDevice without a lock (vk_instance.h,
+ * vk_layer_enter). Before the backend kept those two calls apart from every
+ * other call on the validated instance, this test crashed inside the layer
+ * (SIGSEGV, 4 runs of 4). It also shows that threads calling the backend in a
+ * tight loop do not keep devices from being created. */
+#include <pthread.h>
+#include <stdatomic.h>
+
+#include "corvid/backend.h"
+#include "vk_test.h"
+
+#define POLLERS 3
+
+static atomic_bool stop;
+
+typedef struct worker {
+    cv_context *ctx;
+    cv_device *dev;
+    cv_buffer buffer;
+    uint32_t compiles;
+    cv_result result;
+} worker;
+
+/* Records the list again (a new version) and compiles it: the previous compiled
+ * form, never submitted, is freed at once (vkFreeCommandBuffers). */
+static void *compile_loop(void *arg) {
+    worker *w = arg;
+    cv_cmdlist list;
+    w->result = cv_cmdlist_create(w->ctx, &list);
+    while (w->result == CV_OK && !atomic_load(&stop)) {
+        cv_command_list *l;
+        w->result = cv_cmdlist_begin(w->ctx, list, &l);
+        if (w->result != CV_OK)
+            break;
+        cv_cmd_clear_buffer(l, CV_QUEUE_COMPUTE,
+                            &(cv_clear_buffer_args){ .buffer = w->buffer, .size = 256, .value = w->compiles });
+        w->result = cv_command_list_end(l);
+        if (w->result == CV_OK)
+            w->result = cv_device_compile(w->dev, list);
+        w->compiles++;
+    }
+    return NULL;
+}
+
+typedef struct poller {
+    cv_device *dev;
+    uint64_t polls;
+} poller;
+
+/* The backend's completed() (one vkGetSemaphoreCounterValue) as fast as it goes. */
+static void *poll_loop(void *arg) {
+    poller *p = arg;
+    const cv_backend *backend = cv_vulkan_backend();
+    cv_backend_device *bd = cv_device_backend_data(p->dev);
+    while (!atomic_load(&stop)) {
+        backend->completed(bd);
+        p->polls++;
+    }
+    return NULL;
+}
+
+int main(void) {
+    const uint32_t cycles = CV_TEST_REPEATS(80, 20);
+    cv_context *ctx, *churn_ctx;
+    cv_device *filler = NULL;
+    worker w = { 0 };
+    poller pollers[POLLERS] = { 0 };
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    CHECK_OK(cv_context_create(NULL, &churn_ctx));
+    /* The layer keeps two entries inline (the instance's and the first device's) and the rest in a hash
+     * map: the filler puts the workers' and the churned devices' state in the map. */
+    CHECK_OK(vkt_device(ctx, NULL, "filler", &filler));
+    CHECK_OK(vkt_device(ctx, NULL, "worker", &w.dev));
+    for (int i = 0; i < POLLERS; i++)
+        CHECK_OK(vkt_device(ctx, NULL, "poller", &pollers[i].dev));
+    if (!filler || !w.dev || !pollers[POLLERS - 1].dev)
+        return vkt_report("vk_device_churn");
+    w.ctx = ctx;
+    w.buffer = vkt_buffer(ctx, w.dev, 256, 0, "cleared");
+    pthread_t threads[1 + POLLERS];
+    CHECK_EQ_INT(pthread_create(&threads[0], NULL, compile_loop, &w), 0);
+    for (int i = 0; i < POLLERS; i++)
+        CHECK_EQ_INT(pthread_create(&threads[1 + i], NULL, poll_loop, &pollers[i]), 0);
+    for (uint32_t i = 0; i < cycles; i++) {
+        cv_device *dev = NULL;
+        CHECK_OK(vkt_device(churn_ctx, NULL, "churned", &dev));
+        cv_device_destroy(dev);
+    }
+    atomic_store(&stop, true);
+    for (int i = 0; i < 1 + POLLERS; i++)
+        pthread_join(threads[i], NULL);
+    CHECK_OK(w.result);
+    CHECK(w.compiles > 0);
+    for (int i = 0; i < POLLERS; i++)
+        CHECK(pollers[i].polls > 0);
+    printf("%u devices created and destroyed meanwhile: %u lists compiled, %llu polls\n", cycles, w.compiles,
+           (unsigned long long)(pollers[0].polls + pollers[1].polls + pollers[2].polls));
+    cv_context_destroy(churn_ctx);
+    cv_context_destroy(ctx);
+    CHECK_NOTHING_LIVE();
+    return vkt_report("vk_device_churn");
+}
