@@ -47,6 +47,8 @@ security_case "--tls-cert without --tls-key" "needs --tls-key" --tls-cert "$tmp/
 security_case "--tls-client-ca without TLS" "needs --tls-cert" --tls-client-ca "$tmp/ca.pem"
 security_case "--quota-inflight over 1024" "1..1024" --quota-inflight 2000
 security_case "--quota-memory not a size" "not a size" --quota-memory lots
+security_case "--memory-limit not a size" "memory-limit: '0' is not a size" --memory-limit 0
+check "--help lists the node-wide memory limit" grep -q -- "--memory-limit BYTES" "$tmp/help.txt"
 
 # A node on a free loopback port with 2 virtual GPUs on lavapipe.
 "$node" --listen 127.0.0.1:0 --port-file "$tmp/port" --adapters llvmpipe --gpus 2 --cache-dir "$tmp/cache" \
