@@ -16,7 +16,7 @@
 #include "scratch_node.h"
 
 /* Sanitizer builds: fewer sessions of the same kind, fewer at once (each Hello creates a VkDevice, about
- * ten times slower under ASan, and a Hello's answer must come within RAW_TIMEOUT_MS). */
+ * ten times slower under ASan). */
 #define SESSIONS CV_TEST_REPEATS(256u, 64u)
 #define BATCH CV_TEST_REPEATS(32u, 8u)
 #define RSS_SLACK (64ull << 20)
