@@ -377,6 +377,19 @@ static void wait_own_work(cv_backend_device *bd) {
         pthread_mutex_unlock(&bd->shared->host_lock);
 }
 
+void vk_device_free_command_buffers(cv_backend_device *bd, VkCommandPool pool, uint32_t count,
+                                    const VkCommandBuffer *buffers) {
+    vk_layer_exclusive_begin(bd->instance);
+    vkFreeCommandBuffers(bd->device, pool, count, buffers);
+    vk_layer_exclusive_end(bd->instance);
+}
+
+void vk_device_destroy_command_pool(cv_backend_device *bd, VkCommandPool pool) {
+    vk_layer_exclusive_begin(bd->instance);
+    vkDestroyCommandPool(bd->device, pool, NULL);
+    vk_layer_exclusive_end(bd->instance);
+}
+
 bool vk_device_same(const cv_backend_device *a, const cv_backend_device *b) {
     return a->shared && a->shared == b->shared;
 }
@@ -400,7 +413,7 @@ void vk_device_destroy(cv_backend_device *bd) {
         vkDestroySemaphore(bd->device, bd->chain, NULL);
         for (int s = 0; s < VK_SLOT_COUNT; s++)
             if (bd->queues[s].pool)
-                vkDestroyCommandPool(bd->device, bd->queues[s].pool, NULL);
+                vk_device_destroy_command_pool(bd, bd->queues[s].pool);
         if (bd->shared) {
             vk_shared_retire(bd->shared, bd->ticket); /* other instances may still wait on it */
             vk_shared_release(bd->shared, bd->shared_slot);

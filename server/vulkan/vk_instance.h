@@ -23,13 +23,17 @@ void vk_instance_release(vk_instance *inst);
  * whole process (the chassis' layer_data_map, keyed by dispatch table), which
  * it reads on every call and changes without a lock in vkCreateDevice and
  * vkDestroyDevice. A VkDevice created or destroyed on one thread while another
- * thread calls into any other VkDevice therefore races inside the layer: a
- * node session ending while another session frees a command list crashed in
- * vkFreeCommandBuffers (node_remote_render under ASan, about 1 run in 6 in CI).
- * So, on the validated instance only, every Vulkan call runs inside
- * vk_layer_enter/leave (shared: the backend's table entries, the host waits
- * slice by slice, the bridge thread's signal) and vkCreateDevice and
- * vkDestroyDevice inside vk_layer_exclusive_begin/end (alone). enter/leave
+ * thread calls into any other VkDevice therefore races inside the layer. So
+ * does vkFreeCommandBuffers (and vkDestroyCommandPool): it erases the buffers'
+ * debug labels from a map of the instance, shared by all its devices, without
+ * the lock vkCmdBeginDebugUtilsLabelEXT takes to add to it; a node session
+ * freeing a command list while another recorded one crashed there
+ * (node_remote_render under ASan, about 1 run in 6 in CI). So, on the
+ * validated instance only, every Vulkan call runs inside vk_layer_enter/leave
+ * (shared: the backend's table entries, the host waits slice by slice, the
+ * bridge thread's signal), and vkCreateDevice, vkDestroyDevice,
+ * vkFreeCommandBuffers and vkDestroyCommandPool inside
+ * vk_layer_exclusive_begin/end (alone). enter/leave
  * nest on one thread; exclusive_begin may be called inside them (it gives the
  * thread's share up meanwhile). Lock order: a cv_device's lock, then this,
  * then every lock of this folder (the shared-device registry's, a device's

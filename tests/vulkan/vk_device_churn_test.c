@@ -15,6 +15,7 @@
 #include "corvid/backend.h"
 #include "vk_test.h"
 
+#define WORKERS 2
 #define POLLERS 3
 
 static atomic_bool stop;
@@ -38,8 +39,10 @@ static void *compile_loop(void *arg) {
         w->result = cv_cmdlist_begin(w->ctx, list, &l);
         if (w->result != CV_OK)
             break;
+        cv_cmd_begin_marker(l, CV_QUEUE_COMPUTE, &(cv_begin_marker_args){ .label = "churn" });
         cv_cmd_clear_buffer(l, CV_QUEUE_COMPUTE,
                             &(cv_clear_buffer_args){ .buffer = w->buffer, .size = 256, .value = w->compiles });
+        cv_cmd_end_marker(l, CV_QUEUE_COMPUTE, &(cv_end_marker_args){ 0 });
         w->result = cv_command_list_end(l);
         if (w->result == CV_OK)
             w->result = cv_device_compile(w->dev, list);
@@ -69,38 +72,47 @@ int main(void) {
     const uint32_t cycles = CV_TEST_REPEATS(80, 20);
     cv_context *ctx, *churn_ctx;
     cv_device *filler = NULL;
-    worker w = { 0 };
+    worker workers[WORKERS] = { 0 };
     poller pollers[POLLERS] = { 0 };
     CHECK_OK(cv_context_create(NULL, &ctx));
     CHECK_OK(cv_context_create(NULL, &churn_ctx));
     /* The layer keeps two entries inline (the instance's and the first device's) and the rest in a hash
      * map: the filler puts the workers' and the churned devices' state in the map. */
     CHECK_OK(vkt_device(ctx, NULL, "filler", &filler));
-    CHECK_OK(vkt_device(ctx, NULL, "worker", &w.dev));
+    for (int i = 0; i < WORKERS; i++)
+        CHECK_OK(vkt_device(ctx, NULL, "worker", &workers[i].dev));
     for (int i = 0; i < POLLERS; i++)
         CHECK_OK(vkt_device(ctx, NULL, "poller", &pollers[i].dev));
-    if (!filler || !w.dev || !pollers[POLLERS - 1].dev)
+    if (!filler || !workers[WORKERS - 1].dev || !pollers[POLLERS - 1].dev)
         return vkt_report("vk_device_churn");
-    w.ctx = ctx;
-    w.buffer = vkt_buffer(ctx, w.dev, 256, 0, "cleared");
-    pthread_t threads[1 + POLLERS];
-    CHECK_EQ_INT(pthread_create(&threads[0], NULL, compile_loop, &w), 0);
+    pthread_t threads[WORKERS + POLLERS];
+    for (int i = 0; i < WORKERS; i++) {
+        workers[i].ctx = ctx;
+        workers[i].buffer = vkt_buffer(ctx, workers[i].dev, 256, 0, "cleared");
+        CHECK_EQ_INT(pthread_create(&threads[i], NULL, compile_loop, &workers[i]), 0);
+    }
     for (int i = 0; i < POLLERS; i++)
-        CHECK_EQ_INT(pthread_create(&threads[1 + i], NULL, poll_loop, &pollers[i]), 0);
+        CHECK_EQ_INT(pthread_create(&threads[WORKERS + i], NULL, poll_loop, &pollers[i]), 0);
     for (uint32_t i = 0; i < cycles; i++) {
         cv_device *dev = NULL;
         CHECK_OK(vkt_device(churn_ctx, NULL, "churned", &dev));
         cv_device_destroy(dev);
     }
     atomic_store(&stop, true);
-    for (int i = 0; i < 1 + POLLERS; i++)
+    uint64_t compiles = 0, polls = 0;
+    for (int i = 0; i < WORKERS + POLLERS; i++)
         pthread_join(threads[i], NULL);
-    CHECK_OK(w.result);
-    CHECK(w.compiles > 0);
-    for (int i = 0; i < POLLERS; i++)
+    for (int i = 0; i < WORKERS; i++) {
+        CHECK_OK(workers[i].result);
+        CHECK(workers[i].compiles > 0);
+        compiles += workers[i].compiles;
+    }
+    for (int i = 0; i < POLLERS; i++) {
         CHECK(pollers[i].polls > 0);
-    printf("%u devices created and destroyed meanwhile: %u lists compiled, %llu polls\n", cycles, w.compiles,
-           (unsigned long long)(pollers[0].polls + pollers[1].polls + pollers[2].polls));
+        polls += pollers[i].polls;
+    }
+    printf("%u devices created and destroyed meanwhile: %llu lists compiled, %llu polls\n", cycles,
+           (unsigned long long)compiles, (unsigned long long)polls);
     cv_context_destroy(churn_ctx);
     cv_context_destroy(ctx);
     CHECK_NOTHING_LIVE();
