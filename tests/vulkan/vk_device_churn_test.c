@@ -1,14 +1,17 @@
 /* Validated devices created and destroyed on one thread while other threads
  * work on devices of their own, as node sessions start and end while others
- * render (node_remote_render). The validation layer (1.3.239) keeps its
- * per-device state in one map for the whole process, which it changes in
- * vkCreateDevice and vkDestroyDevice without a lock (vk_instance.h,
- * vk_layer_enter). Before the backend kept those two calls apart from every
- * other call on the validated instance, this test failed in 3 runs of 4 (two
- * SIGSEGV inside the layer; one run where the layer, its state mixed up,
- * reported a semaphore "not created from the correct device"); since, 0 of 10.
- * It also shows that threads calling the backend in a tight loop do not keep
- * devices from being created. */
+ * render (node_remote_render): two workers record lists with markers (debug
+ * labels) and free them, three poll their device's ticket. The validation
+ * layer (1.3.239) keeps its per-device state in one map for the whole
+ * process, which it changes in vkCreateDevice and vkDestroyDevice without a
+ * lock (vk_instance.h, vk_layer_enter). Before the backend kept those two calls
+ * apart from every other call on the validated instance, this test failed in 3
+ * runs of 4 (two SIGSEGV inside the layer; one run where the layer, its state
+ * mixed up, reported a semaphore "not created from the correct device"); since,
+ * 0 of 13. The layer's other race, an unlocked erase of a freed buffer's labels
+ * (vk_device_free_command_buffers), it does not reproduce (0 of 4 runs failed
+ * with only that part of the fix taken out). It also shows that threads calling
+ * the backend in a tight loop do not keep devices from being created. */
 #include <pthread.h>
 #include <stdatomic.h>
 
