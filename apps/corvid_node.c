@@ -34,6 +34,7 @@ typedef struct options {
     const char *token_file;
     const char *tls_cert, *tls_key, *tls_client_ca;
     cv_node_quota quota;
+    uint64_t memory_limit;
     uint64_t cache_bytes;
     uint32_t idle_timeout_s;
     uint32_t drain_timeout_s;
@@ -97,7 +98,10 @@ static void usage(FILE *f) {
             "  --quota-resources N    live resources of every type [65536] (1..16777216)\n"
             "  --quota-inflight N     lists submitted and not completed [256] (1..1024)\n"
             "  --quota-upload BYTES   bytes one session may add to the upload cache [8G]\n"
-            "  (message size: 4 MiB per message, fixed by the protocol)\n");
+            "  (message size: 4 MiB per message, fixed by the protocol)\n"
+            "\nNode-wide:\n"
+            "  --memory-limit BYTES   device memory all sessions together may hold (counted as\n"
+            "                         --quota-memory counts it) [the machine's physical memory]\n");
 }
 
 static int parse_u32(const char *opt, const char *text, uint32_t lo, uint32_t hi, uint32_t *out) {
@@ -239,6 +243,8 @@ static int parse_args(int argc, char **argv, options *o) {
             bad = parse_u32(name, value, 1, CV_NODE_MAX_QUOTA_INFLIGHT, &o->quota.inflight);
         } else if (!strcmp(name, "--quota-upload")) {
             bad = parse_size(name, value, &o->quota.upload_bytes);
+        } else if (!strcmp(name, "--memory-limit")) {
+            bad = parse_size(name, value, &o->memory_limit);
         } else if (!strcmp(name, "--token")) {
             fprintf(stderr,
                     "corvid-node: --token: a token on the command line is visible to every user (ps); put "
@@ -409,6 +415,7 @@ int main(int argc, char **argv) {
         .tls_key_file = o.tls_key,
         .tls_client_ca_file = o.tls_client_ca,
         .quota = o.quota,
+        .memory_bytes = o.memory_limit,
         .peer_token = o.token_file ? token : NULL,
         .peer_tls_ca_file = o.peer_tls_ca,
         .peer_deadline_ms = o.peer_deadline_ms,

@@ -21,7 +21,15 @@
  *     }
  *
  * Thread-safe: sessions run on their own threads; the calls above may come from
- * any thread. */
+ * any thread.
+ *
+ * Memory: every session has its own device instance (on lavapipe, a VkDevice
+ * with its own threads and several MiB of heap), so a burst of sessions grows
+ * the heap by that much per session. glibc keeps what they free in its
+ * per-thread arenas, so after each session ends the node hands the heap's free
+ * pages back to the system (malloc_trim(0); one trim at a time, and one more if
+ * sessions ended meanwhile): 256 sessions leave the resident set where it was
+ * (docs/node.md, "Memory"). */
 #ifndef CORVID_NODE_H
 #define CORVID_NODE_H
 
@@ -82,6 +90,11 @@ typedef struct cv_node_config {
     const char *tls_cert_file, *tls_key_file; /* TLS (PEM files): both or neither */
     const char *tls_client_ca_file;           /* mutual TLS: clients need a certificate signed by this CA */
     cv_node_quota quota;
+    /* Device memory all sessions together may hold (buffer sizes + texture texels + acceleration structures,
+       as the per-session quota counts them): a create that would take the node past it is refused with
+       CV_ERROR_LIMIT_EXCEEDED naming this limit, whatever the session's own quota says. 0 = the machine's
+       physical memory (CV_NODE_FALLBACK_MEMORY_LIMIT where it cannot be read). */
+    uint64_t memory_bytes;
 
     /* Clusters (docs/node.md, "Clusters"): node-to-node transfers. peer_token: the bearer token this node
        presents to the nodes it sends partitions to (NULL = none; corvid-node uses its own --token-file, so a
@@ -111,14 +124,16 @@ typedef struct cv_node_config {
 /* The smallest content store a node starts with: less could not hold one scene's geometry, and every
    render would fail on its first large upload (docs/node.md, "Content store"). */
 #define CV_NODE_MIN_CACHE_BYTES (16ull << 20)
+#define CV_NODE_FALLBACK_MEMORY_LIMIT (32ull << 30)
 
 typedef struct cv_node_stats {
     uint64_t sessions_started, sessions_active;
     uint64_t messages_in, bytes_in, bytes_out;
     uint64_t submissions, errors;
     uint64_t cache_hits, cache_misses, cache_bytes;
-    uint64_t unauthenticated; /* calls refused for a missing or wrong token */
-    uint64_t quota_refusals;  /* requests refused by a session quota */
+    uint64_t unauthenticated;            /* calls refused for a missing or wrong token */
+    uint64_t quota_refusals;             /* requests refused by a session quota or the node's memory limit */
+    uint64_t memory_bytes, memory_limit; /* device memory the sessions hold now, and config.memory_bytes */
     /* Clusters: partitions this node sent to peers (raw bytes read, compressed bytes on the wire), compressed
        bytes it received from peers, transfers it could not deliver, and awaits that failed here. */
     uint64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;

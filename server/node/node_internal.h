@@ -39,7 +39,17 @@ struct cv_node {
        it ended, and its client is told the same in the stream's status. */
     char stop_reason[128];
     atomic_bool stopping_sessions;
+    uint64_t memory_limit;              /* config.memory_bytes, default filled in */
+    atomic_uint_fast64_t memory_used;   /* device memory all sessions hold (cv_node_memory_reserve) */
+    atomic_uint_fast64_t trim_requests; /* sessions ended since the last trim began */
+    atomic_bool trimming;               /* a session's thread is trimming */
 };
+
+/* Takes `bytes` of the node-wide device memory limit for a create; CV_ERROR_LIMIT_EXCEEDED naming the limit
+ * (and nothing taken) when the sessions together would pass it. */
+cv_result cv_node_memory_reserve(cv_node *node, uint64_t bytes);
+/* Gives back what cv_node_memory_reserve took, once the memory is freed. */
+void cv_node_memory_release(cv_node *node, uint64_t bytes);
 
 /* Runs one session on the calling thread until its stream ends. */
 void cv_node_session_run(cv_node *node, cv_rpc_stream *stream);

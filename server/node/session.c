@@ -304,6 +304,7 @@ static void track_bytes(session *s, const cv_resource_desc *desc, int sign) {
     } else {
         s->resources--;
         s->memory_bytes -= bytes;
+        cv_node_memory_release(s->node, bytes);
     }
     cv_node_metrics_device_bytes(s->node->metrics, s->device_index, sign * (int64_t)bytes);
 }
@@ -329,6 +330,9 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
                             " bytes of device memory "
                             "of its limit of %" PRIu64 " (corvid-node --quota-memory %" PRIu64 ")",
                             bytes, s->memory_bytes, q->memory_bytes, q->memory_bytes);
+    r = cv_node_memory_reserve(s->node, bytes); /* the node-wide limit, over every session */
+    if (r != CV_OK)
+        return r;
     cv_handle h = { 0 };
     switch (desc.type) {
     case CV_HANDLE_BUFFER: r = cv_buffer_create(s->ctx, &desc.buffer, (cv_buffer *)&h); break;
@@ -339,8 +343,10 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
     case CV_HANDLE_CMDLIST: r = cv_cmdlist_create(s->ctx, (cv_cmdlist *)&h); break;
     default: r = cv_error(CV_ERROR_MALFORMED, "create: unknown resource type"); break;
     }
-    if (r != CV_OK)
+    if (r != CV_OK) {
+        cv_node_memory_release(s->node, bytes);
         return r;
+    }
     if (desc.type != CV_HANDLE_CMDLIST)
         r = cv_device_load(s->dev, h);
     if (r == CV_OK)
@@ -349,6 +355,7 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
         char why[512];
         snprintf(why, sizeof(why), "%s", cv_last_error());
         cv_destroy(s->ctx, h);
+        cv_node_memory_release(s->node, bytes);
         return cv_error(r, "%s", why);
     }
     track_bytes(s, &desc, 1);
@@ -986,6 +993,7 @@ static void session_finish(session *s) {
     cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -(int64_t)s->memory_bytes);
     if (s->ctx)
         cv_context_destroy(s->ctx); /* waits for the device, frees every resource */
+    cv_node_memory_release(s->node, s->memory_bytes);
     cv_handle_map_finish(&s->map);
     proto_arena_finish(&s->arena);
     free(s->pending);

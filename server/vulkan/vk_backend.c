@@ -9,9 +9,19 @@
 #include "vk_submit.h"
 #include "vk_trace.h"
 
-static cv_result resource_create(cv_backend_device *bd, uint64_t id, const cv_resource_desc *desc,
-                                 const cv_pipeline_info *pipeline, void **out) {
-    (void)id;
+/* Every entry runs inside vk_layer_enter/leave (vk_instance.h: the validation
+ * layer's map, which a device created or destroyed on another thread may be
+ * changing); wait and completed do it in vk_host_wait and vk_host_counter,
+ * device_create and device_destroy in vk_device.c. */
+#define IN_LAYER(bd, call) \
+    do { \
+        vk_layer_enter((bd)->instance); \
+        call; \
+        vk_layer_leave((bd)->instance); \
+    } while (0)
+
+static cv_result create_object(cv_backend_device *bd, const cv_resource_desc *desc, const cv_pipeline_info *pipeline,
+                               void **out) {
     switch (desc->type) {
     case CV_HANDLE_BUFFER: return vk_buffer_create(bd, &desc->buffer, (vk_buffer **)out);
     case CV_HANDLE_TEXTURE: return vk_texture_create(bd, &desc->texture, (vk_texture **)out);
@@ -24,7 +34,15 @@ static cv_result resource_create(cv_backend_device *bd, uint64_t id, const cv_re
     }
 }
 
-static void resource_destroy(cv_backend_device *bd, cv_handle_type type, void *obj) {
+static cv_result resource_create(cv_backend_device *bd, uint64_t id, const cv_resource_desc *desc,
+                                 const cv_pipeline_info *pipeline, void **out) {
+    (void)id;
+    cv_result r;
+    IN_LAYER(bd, r = create_object(bd, desc, pipeline, out));
+    return r;
+}
+
+static void destroy_object(cv_backend_device *bd, cv_handle_type type, void *obj) {
     switch (type) {
     case CV_HANDLE_BUFFER: vk_buffer_destroy(bd, obj); break;
     case CV_HANDLE_TEXTURE: vk_texture_destroy(bd, obj); break;
@@ -35,51 +53,113 @@ static void resource_destroy(cv_backend_device *bd, cv_handle_type type, void *o
     }
 }
 
+static void resource_destroy(cv_backend_device *bd, cv_handle_type type, void *obj) {
+    IN_LAYER(bd, destroy_object(bd, type, obj));
+}
+
 static cv_result buffer_write(cv_backend_device *bd, void *buf, uint64_t offset, uint64_t size, const void *data) {
-    return vk_host_buffer_write(bd, buf, offset, size, data);
+    cv_result r;
+    IN_LAYER(bd, r = vk_host_buffer_write(bd, buf, offset, size, data));
+    return r;
 }
 
 static cv_result buffer_read(cv_backend_device *bd, void *buf, uint64_t offset, uint64_t size, void *out) {
-    return vk_host_buffer_read(bd, buf, offset, size, out);
+    cv_result r;
+    IN_LAYER(bd, r = vk_host_buffer_read(bd, buf, offset, size, out));
+    return r;
 }
 
 static cv_result texture_write(cv_backend_device *bd, void *tex, const cv_texture_desc *desc, cv_rect rect,
                                const void *data) {
     (void)desc;
-    return vk_host_texture_write(bd, tex, rect, data);
+    cv_result r;
+    IN_LAYER(bd, r = vk_host_texture_write(bd, tex, rect, data));
+    return r;
 }
 
 static cv_result texture_read(cv_backend_device *bd, void *tex, const cv_texture_desc *desc, cv_rect rect,
                               void *out) {
     (void)desc;
-    return vk_host_texture_read(bd, tex, rect, out);
+    cv_result r;
+    IN_LAYER(bd, r = vk_host_texture_read(bd, tex, rect, out));
+    return r;
 }
 
 static cv_result accel_write(cv_backend_device *bd, void *accel, const cv_accel_desc *desc, const void *nodes,
                              const void *triangles) {
     (void)desc;
-    return vk_accel_write(bd, accel, nodes, triangles);
+    cv_result r;
+    IN_LAYER(bd, r = vk_accel_write(bd, accel, nodes, triangles));
+    return r;
 }
 
 static cv_result list_compile(cv_backend_device *bd, cv_device *dev, const cv_command_list *list, void **out) {
-    return vk_compile_list(bd, dev, list, (vk_compiled **)out);
+    cv_result r;
+    IN_LAYER(bd, r = vk_compile_list(bd, dev, list, (vk_compiled **)out));
+    return r;
 }
 
-static void list_release(cv_backend_device *bd, void *compiled) { vk_compiled_release(bd, compiled); }
+static void list_release(cv_backend_device *bd, void *compiled) { IN_LAYER(bd, vk_compiled_release(bd, compiled)); }
 
 static cv_result submit(cv_backend_device *bd, void *compiled, uint64_t ticket) {
-    return vk_submit(bd, compiled, ticket);
+    cv_result r;
+    IN_LAYER(bd, r = vk_submit(bd, compiled, ticket));
+    return r;
 }
 
 static cv_result timings(cv_backend_device *bd, void *compiled, cv_pass_timing *out, uint32_t capacity,
                          uint32_t *count) {
-    return vk_timestamps_read(bd, &((vk_compiled *)compiled)->timestamps, out, capacity, count);
+    cv_result r;
+    IN_LAYER(bd, r = vk_timestamps_read(bd, &((vk_compiled *)compiled)->timestamps, out, capacity, count));
+    return r;
 }
 
 static cv_result resource_alias(cv_backend_device *bd, uint64_t id, const cv_resource_desc *desc,
                                 cv_backend_device *src_bd, void *src_obj, void **out) {
     (void)id;
-    return vk_texture_alias(bd, &desc->texture, src_bd, src_obj, (vk_texture **)out);
+    cv_result r;
+    IN_LAYER(bd, r = vk_texture_alias(bd, &desc->texture, src_bd, src_obj, (vk_texture **)out));
+    return r;
+}
+
+static void link_caps(cv_backend_device *bd, cv_link_caps *out) { IN_LAYER(bd, vk_link_caps(bd, out)); }
+
+static cv_result link_staging(cv_backend_device *bd, cv_staging_desc *desc, void **out) {
+    cv_result r;
+    IN_LAYER(bd, r = vk_link_staging(bd, desc, out));
+    return r;
+}
+
+static cv_result link_copy(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
+                           void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging) {
+    cv_result r;
+    IN_LAYER(bd, r = vk_link_copy(bd, staging, staging_offset, type, obj, offset, size, rect, to_staging));
+    return r;
+}
+
+static cv_result link_copy_async(cv_backend_device *bd, void *staging, uint64_t staging_offset, cv_handle_type type,
+                                 void *obj, uint64_t offset, uint64_t size, cv_rect rect, bool to_staging,
+                                 const cv_link_wait *wait, uint64_t ticket) {
+    cv_result r;
+    IN_LAYER(bd, r = vk_link_copy_async(bd, staging, staging_offset, type, obj, offset, size, rect, to_staging, wait,
+                                        ticket));
+    return r;
+}
+
+static void link_release(cv_backend_device *bd, void *staging) { IN_LAYER(bd, vk_link_release(bd, staging)); }
+
+static cv_result link_copy_device(cv_backend_device *bd, cv_backend_device *dst_bd, cv_handle_type type,
+                                  void *src_obj, void *dst_obj, const cv_link_region *region, uint64_t dst_wait,
+                                  uint64_t ticket, uint64_t dst_ticket) {
+    cv_result r;
+    IN_LAYER(bd, r = vk_link_copy_device(bd, dst_bd, type, src_obj, dst_obj, region, dst_wait, ticket, dst_ticket));
+    return r;
+}
+
+static cv_result link_wait(cv_backend_device *bd, const cv_link_wait *wait, uint64_t ticket) {
+    cv_result r;
+    IN_LAYER(bd, r = vk_link_wait(bd, wait, ticket));
+    return r;
 }
 
 static const cv_backend vulkan_backend = {
@@ -99,14 +179,14 @@ static const cv_backend vulkan_backend = {
     .wait = vk_wait,
     .completed = vk_completed,
     .timings = timings,
-    .link_caps = vk_link_caps,
-    .link_staging = vk_link_staging,
-    .link_copy = vk_link_copy,
-    .link_copy_async = vk_link_copy_async,
-    .link_release = vk_link_release,
-    .link_copy_device = vk_link_copy_device,
+    .link_caps = link_caps,
+    .link_staging = link_staging,
+    .link_copy = link_copy,
+    .link_copy_async = link_copy_async,
+    .link_release = link_release,
+    .link_copy_device = link_copy_device,
     .resource_alias = resource_alias,
-    .link_wait = vk_link_wait,
+    .link_wait = link_wait,
 };
 
 const cv_backend *cv_vulkan_backend(void) { return &vulkan_backend; }

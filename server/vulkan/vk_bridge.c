@@ -27,9 +27,11 @@ VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, ui
     for (;;) {
         uint64_t spent = vk_now_ns() - start;
         uint64_t left = spent >= timeout_ns ? 0 : timeout_ns - spent;
+        vk_layer_enter(bd->instance); /* slice by slice, so a device's creation can come between */
         pthread_mutex_lock(bd->bridge.host);
         VkResult vr = vkWaitSemaphores(bd->device, info, left < HOST_SLICE_NS ? left : HOST_SLICE_NS);
         pthread_mutex_unlock(bd->bridge.host);
+        vk_layer_leave(bd->instance);
         if (vr != VK_TIMEOUT || left <= HOST_SLICE_NS)
             return vr;
         sched_yield(); /* let a bridge thread take the lock */
@@ -38,11 +40,13 @@ VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, ui
 
 uint64_t vk_host_counter(cv_backend_device *bd, VkSemaphore semaphore) {
     uint64_t value = 0;
+    vk_layer_enter(bd->instance);
     if (bd->bridge.serialize)
         pthread_mutex_lock(bd->bridge.host);
     vkGetSemaphoreCounterValue(bd->device, semaphore, &value);
     if (bd->bridge.serialize)
         pthread_mutex_unlock(bd->bridge.host);
+    vk_layer_leave(bd->instance);
     return value;
 }
 
@@ -108,6 +112,7 @@ static void watch_wait(vk_watch *w, uint64_t ticket, const bool *stop, pthread_m
 static void *bridge_thread(void *arg) {
     cv_backend_device *bd = arg;
     vk_bridge *b = &bd->bridge;
+    vk_layer_urgent_thread();
     for (;;) {
         pthread_mutex_lock(&b->lock);
         while (!b->count && !b->stop)
@@ -125,11 +130,13 @@ static void *bridge_thread(void *arg) {
         VkSemaphoreSignalInfo signal = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SIGNAL_INFO,
                                          .semaphore = b->semaphore,
                                          .value = it.value };
+        vk_layer_enter(bd->instance);
         if (b->serialize)
             pthread_mutex_lock(b->host);
         vkSignalSemaphore(bd->device, &signal); /* fails only with a lost device: nothing waits then */
         if (b->serialize)
             pthread_mutex_unlock(b->host);
+        vk_layer_leave(bd->instance);
         pthread_mutex_lock(&b->lock);
         b->head = (b->head + 1) % b->capacity;
         b->count--;

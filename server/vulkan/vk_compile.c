@@ -496,7 +496,7 @@ static cv_result begin_buffer(compiler *c, vk_queue_slot slot, VkCommandBuffer *
                                        .flags = VK_COMMAND_BUFFER_USAGE_SIMULTANEOUS_USE_BIT };
     vr = vkBeginCommandBuffer(*out, &begin);
     if (vr != VK_SUCCESS) {
-        vkFreeCommandBuffers(c->bd->device, alloc.commandPool, 1, out);
+        vk_device_free_command_buffers(c->bd, alloc.commandPool, 1, out);
         *out = VK_NULL_HANDLE;
         return vk_fail(vr, "vkBeginCommandBuffer");
     }
@@ -624,7 +624,7 @@ void vk_compiled_release(cv_backend_device *bd, vk_compiled *c) {
     for (uint32_t i = 0; i < c->segment_count; i++) {
         vk_segment *s = &c->segments[i];
         VkCommandBuffer buffers[2] = { s->body, s->prologue };
-        vkFreeCommandBuffers(bd->device, bd->queues[s->slot].pool, 2, buffers);
+        vk_device_free_command_buffers(bd, bd->queues[s->slot].pool, 2, buffers);
     }
     free(c->segments);
     vk_timestamps_finish(bd, &c->timestamps);

@@ -170,7 +170,9 @@ static cv_result create_vk_device(cv_backend_device *bd) {
         bd->shared_slot = slot;
         bd->device = shared->device;
     } else {
+        vk_layer_exclusive_begin(bd->instance);
         vr = vkCreateDevice(a->physical, &info, NULL, &bd->device);
+        vk_layer_exclusive_end(bd->instance);
         if (vr != VK_SUCCESS)
             return vk_fail(vr, "vkCreateDevice on adapter %u '%s'", a->info.index, a->info.name);
     }
@@ -294,6 +296,7 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         free(bd);
         return r;
     }
+    vk_layer_enter(bd->instance); /* every call below on the layer; left at the end */
     r = pick_adapter(bd->instance, desc->adapter, &bd->adapter);
     if (r == CV_OK) {
         bd->vgpu_shared = vgpu_mode == VK_VGPU_SHARED ||
@@ -337,11 +340,14 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         r = vk_bridge_init(bd);
     if (r == CV_OK)
         r = vk_trace_init(bd);
+    vk_instance *inst = bd->instance;
     if (r != CV_OK) {
         vk_device_destroy(bd);
+        vk_layer_leave(inst);
         return r;
     }
     fill_info(bd, info);
+    vk_layer_leave(inst);
     *out = bd;
     return CV_OK;
 }
@@ -374,11 +380,26 @@ static void wait_own_work(cv_backend_device *bd) {
         pthread_mutex_unlock(&bd->shared->host_lock);
 }
 
+void vk_device_free_command_buffers(cv_backend_device *bd, VkCommandPool pool, uint32_t count,
+                                    const VkCommandBuffer *buffers) {
+    vk_layer_exclusive_begin(bd->instance);
+    vkFreeCommandBuffers(bd->device, pool, count, buffers);
+    vk_layer_exclusive_end(bd->instance);
+}
+
+void vk_device_destroy_command_pool(cv_backend_device *bd, VkCommandPool pool) {
+    vk_layer_exclusive_begin(bd->instance);
+    vkDestroyCommandPool(bd->device, pool, NULL);
+    vk_layer_exclusive_end(bd->instance);
+}
+
 bool vk_device_same(const cv_backend_device *a, const cv_backend_device *b) {
     return a->shared && a->shared == b->shared;
 }
 
 void vk_device_destroy(cv_backend_device *bd) {
+    vk_instance *inst = bd->instance;
+    vk_layer_enter(inst);
     if (bd->device) {
         vk_bridge_finish(bd); /* before the idle wait: it signals what is still queued */
         if (bd->shared)
@@ -395,16 +416,19 @@ void vk_device_destroy(cv_backend_device *bd) {
         vkDestroySemaphore(bd->device, bd->chain, NULL);
         for (int s = 0; s < VK_SLOT_COUNT; s++)
             if (bd->queues[s].pool)
-                vkDestroyCommandPool(bd->device, bd->queues[s].pool, NULL);
+                vk_device_destroy_command_pool(bd, bd->queues[s].pool);
         if (bd->shared) {
             vk_shared_retire(bd->shared, bd->ticket); /* other instances may still wait on it */
             vk_shared_release(bd->shared, bd->shared_slot);
         } else {
             vkDestroySemaphore(bd->device, bd->ticket, NULL);
+            vk_layer_exclusive_begin(inst);
             vkDestroyDevice(bd->device, NULL);
+            vk_layer_exclusive_end(inst);
         }
     }
-    vk_instance_release(bd->instance);
+    vk_layer_leave(inst);
+    vk_instance_release(inst);
     free(bd);
 }
 

@@ -149,6 +149,15 @@ bool vk_device_same(const cv_backend_device *a, const cv_backend_device *b);
 bool vk_device_offers(VkPhysicalDevice physical, const char *name);
 void vk_device_destroy(cv_backend_device *bd);
 
+/* vkFreeCommandBuffers and vkDestroyCommandPool, alone on the validation layer
+ * (vk_layer_exclusive_begin): the layer (1.3.239) erases a freed buffer's
+ * debug labels from a map shared by every device of the instance without the
+ * lock it takes to add them (vkCmdBeginDebugUtilsLabelEXT), so a free racing
+ * another device's recording crashed in vkFreeCommandBuffers. */
+void vk_device_free_command_buffers(cv_backend_device *bd, VkCommandPool pool, uint32_t count,
+                                    const VkCommandBuffer *buffers);
+void vk_device_destroy_command_pool(cv_backend_device *bd, VkCommandPool pool);
+
 cv_result vk_device_create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what);
 
 /* Sharing mode for new buffers and images: CONCURRENT across every family in

@@ -29,7 +29,7 @@ cv_result vk_immediate_init(cv_backend_device *bd) {
 
 void vk_immediate_finish(cv_backend_device *bd) {
     vkDestroySemaphore(bd->device, bd->immediate, NULL);
-    vkDestroyCommandPool(bd->device, bd->immediate_pool, NULL);
+    vk_device_destroy_command_pool(bd, bd->immediate_pool);
     free(bd->pending);
     bd->pending = NULL;
     bd->pending_count = bd->pending_capacity = 0;

@@ -31,6 +31,77 @@ static const char VALIDATION_LAYER[] = "VK_LAYER_KHRONOS_validation";
 static pthread_mutex_t instances_lock = PTHREAD_MUTEX_INITIALIZER;
 static vk_instance instances[2]; /* [validation] */
 
+/* The lock around the validation layer's process-wide map (vk_instance.h):
+ * process-wide because that map is. Readers share it; a writer (a device being
+ * created or destroyed) waits for them to leave, and readers that arrive while
+ * a writer waits wait behind it, so threads polling a device cannot keep
+ * devices from being created. Only a thread marked urgent (a bridge thread,
+ * vk_layer_urgent_thread) and a thread getting its share back after its own
+ * exclusive section pass a waiting writer: another device's pending work may
+ * need a bridge thread's signal before a reader holding the lock (in a host
+ * wait) can leave, and a device being destroyed joins its bridge thread while
+ * holding its share. */
+static pthread_mutex_t layer_mutex = PTHREAD_MUTEX_INITIALIZER;
+static pthread_cond_t layer_changed = PTHREAD_COND_INITIALIZER;
+static uint32_t layer_readers, layer_writers_waiting;
+static bool layer_writer;
+/* This thread's depth in vk_layer_enter (only the outermost takes a share, and
+ * exclusive_begin gives it up meanwhile), and whether it is urgent (above). */
+static _Thread_local uint32_t layer_depth;
+static _Thread_local bool layer_urgent;
+
+static void take_share(bool urgent) {
+    pthread_mutex_lock(&layer_mutex);
+    while (layer_writer || (!urgent && layer_writers_waiting))
+        pthread_cond_wait(&layer_changed, &layer_mutex);
+    layer_readers++;
+    pthread_mutex_unlock(&layer_mutex);
+}
+
+static void give_share(void) {
+    pthread_mutex_lock(&layer_mutex);
+    if (--layer_readers == 0)
+        pthread_cond_broadcast(&layer_changed);
+    pthread_mutex_unlock(&layer_mutex);
+}
+
+void vk_layer_urgent_thread(void) { layer_urgent = true; }
+
+void vk_layer_enter(const vk_instance *inst) {
+    if (inst->validation && layer_depth++ == 0)
+        take_share(layer_urgent);
+}
+
+void vk_layer_leave(const vk_instance *inst) {
+    if (inst->validation && --layer_depth == 0)
+        give_share();
+}
+
+void vk_layer_exclusive_begin(const vk_instance *inst) {
+    if (!inst->validation)
+        return;
+    if (layer_depth)
+        give_share();
+    pthread_mutex_lock(&layer_mutex);
+    layer_writers_waiting++;
+    while (layer_writer || layer_readers)
+        pthread_cond_wait(&layer_changed, &layer_mutex);
+    layer_writers_waiting--;
+    layer_writer = true;
+    pthread_mutex_unlock(&layer_mutex);
+}
+
+void vk_layer_exclusive_end(const vk_instance *inst) {
+    if (!inst->validation)
+        return;
+    pthread_mutex_lock(&layer_mutex);
+    layer_writer = false;
+    pthread_cond_broadcast(&layer_changed);
+    pthread_mutex_unlock(&layer_mutex);
+    if (layer_depth)
+        take_share(true);
+}
+
 static atomic_uint message_errors;
 static atomic_uint message_warnings;
 

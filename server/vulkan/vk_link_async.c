@@ -17,7 +17,7 @@ typedef struct vk_async_cmd {
 
 void vk_link_async_finish(cv_backend_device *bd) {
     if (bd->async_pool)
-        vkDestroyCommandPool(bd->device, bd->async_pool, NULL);
+        vk_device_destroy_command_pool(bd, bd->async_pool);
     free(bd->async_cmds);
     bd->async_pool = VK_NULL_HANDLE;
     bd->async_cmds = NULL;

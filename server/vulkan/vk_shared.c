@@ -66,6 +66,7 @@ cv_result vk_shared_acquire(cv_backend_device *bd, const VkDeviceCreateInfo *inf
                             uint32_t *slot) {
     uint32_t key = extension_key(info);
     cv_result r = CV_OK;
+    vk_layer_exclusive_begin(bd->instance); /* for vkCreateDevice; before registry_lock (vk_instance.h) */
     pthread_mutex_lock(&registry_lock);
     vk_shared_device *s = registry;
     while (s && !(s->instance == bd->instance && s->physical == bd->adapter.physical && s->extensions == key))
@@ -97,6 +98,7 @@ cv_result vk_shared_acquire(cv_backend_device *bd, const VkDeviceCreateInfo *inf
         *out = s;
     }
     pthread_mutex_unlock(&registry_lock);
+    vk_layer_exclusive_end(bd->instance);
     return r;
 }
 
@@ -131,7 +133,9 @@ void vk_shared_release(vk_shared_device *s, uint32_t slot) {
     vkDeviceWaitIdle(s->device); /* the last instance: nothing else uses it */
     for (uint32_t i = 0; i < s->retired_count; i++)
         vkDestroySemaphore(s->device, s->retired[i], NULL);
+    vk_layer_exclusive_begin(s->instance);
     vkDestroyDevice(s->device, NULL);
+    vk_layer_exclusive_end(s->instance);
     entry_free(s);
 }
 

@@ -47,6 +47,9 @@ security_case "--tls-cert without --tls-key" "needs --tls-key" --tls-cert "$tmp/
 security_case "--tls-client-ca without TLS" "needs --tls-cert" --tls-client-ca "$tmp/ca.pem"
 security_case "--quota-inflight over 1024" "1..1024" --quota-inflight 2000
 security_case "--quota-memory not a size" "not a size" --quota-memory lots
+security_case "--memory-limit not a size" "memory-limit: '0' is not a size" --memory-limit 0
+check "--help lists the node-wide memory limit" grep -q -- "--memory-limit BYTES" "$tmp/help.txt"
+
 security_case "--peers with a unix: socket" "--peers: 'unix:/tmp/x.sock': a 'unix' target" --peers node0:7700,unix:/tmp/x.sock
 security_case "--peers with an empty entry" "--peers: '' is not HOST:PORT" --peers node0:7700,
 check "--help lists --peers" grep -q -- "--peers HOST:PORT,..." "$tmp/help.txt"

@@ -47,6 +47,7 @@ static cv_result start(scratch_node *n, const cv_backend *backend, uint32_t coun
         n->config.tls_key_file = security->tls_key_file;
         n->config.tls_client_ca_file = security->tls_client_ca_file;
         n->config.quota = security->quota;
+        n->config.memory_bytes = security->memory_bytes;
         n->config.log_sessions |= security->log_sessions;
         n->config.log_sink = security->log_sink;
         n->config.log_user = security->log_user;

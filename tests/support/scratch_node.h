@@ -19,7 +19,8 @@ cv_result scratch_node_start_with(scratch_node *n, const cv_backend *backend, ui
                                   uint32_t idle_timeout_ms, const char *cache_dir);
 cv_result scratch_node_start(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation);
 /* As scratch_node_start (no validation), with the security fields of `security` (token, TLS files, quota,
- * log_sessions, log_sink) and its listen address if set (then `endpoint` names 127.0.0.1 with the bound port). */
+ * memory_bytes, log_sessions, log_sink) and its listen address if set (then `endpoint` names 127.0.0.1 with the
+ * bound port). */
 cv_result scratch_node_start_secured(scratch_node *n, const cv_backend *backend, uint32_t count,
                                      const cv_node_config *security);
 /* Waits up to timeout_ms for the node's sessions to end; returns how many are left. */
