@@ -746,6 +746,8 @@ cv_result cv_device_wait(cv_device *dev, uint64_t ticket, uint64_t timeout_ns) {
         return r;
     /* Waiting does not hold the device lock, so other threads can submit meanwhile. */
     r = dev->backend->wait(dev->bd, ticket, timeout_ns);
+    if (r == CV_OK && dev->backend->refused)
+        r = dev->backend->refused(dev->bd, ticket);
     pthread_mutex_lock(&dev->lock);
     collect_finished(dev);
     pthread_mutex_unlock(&dev->lock);

@@ -46,6 +46,7 @@ typedef struct pending_submit {
     cv_result result;
     char message[256];
     uint64_t transfer_failure; /* skipped because of this unacknowledged transfer failure */
+    bool refused;              /* ran, with a command the device refused (cv_device_wait: OUT_OF_RANGE) */
 } pending_submit;
 
 typedef struct session {
@@ -153,6 +154,7 @@ static void send_completed(session *s, const pending_submit *p) {
     done.result = p->result;
     done.message = (char *)p->message;
     done.transfer_failure = p->transfer_failure;
+    done.refused = p->refused;
     cv_pass_timing timings[32];
     Corvid__PassTiming items[32];
     Corvid__PassTiming *ptrs[32];
@@ -195,6 +197,7 @@ static void *watcher_main(void *arg) {
                 return NULL; /* abandoned (the lock is not held here) */
             if (r != CV_OK) {
                 p.result = r;
+                p.refused = r == CV_ERROR_OUT_OF_RANGE;
                 snprintf(p.message, sizeof(p.message), "%s", cv_last_error());
             }
         }

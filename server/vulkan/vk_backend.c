@@ -6,6 +6,7 @@
 #include "vk_host_transfer.h"
 #include "vk_link.h"
 #include "vk_pipelines.h"
+#include "vk_indirect.h"
 #include "vk_submit.h"
 #include "vk_trace.h"
 
@@ -99,6 +100,7 @@ static const cv_backend vulkan_backend = {
     .wait = vk_wait,
     .completed = vk_completed,
     .timings = timings,
+    .refused = vk_indirect_report,
     .link_caps = vk_link_caps,
     .link_staging = vk_link_staging,
     .link_copy = vk_link_copy,

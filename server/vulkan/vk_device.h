@@ -48,6 +48,7 @@ typedef struct vk_bridge {
 } vk_bridge;
 typedef struct vk_pipeline vk_pipeline;
 typedef struct vk_tracer vk_tracer;
+typedef struct vk_indirect vk_indirect;
 typedef struct vk_shared_device vk_shared_device;
 
 /* Hardware queues a device may use; command queue types map onto these. */
@@ -96,8 +97,9 @@ struct cv_backend_device {
     uint32_t pending_count, pending_capacity;
 
     vk_memory memory;
-    bool ray_tracing;  /* VK_KHR_ray_tracing_pipeline and acceleration structures enabled */
-    vk_tracer *tracer; /* the trace paths and the choice between them (vk_trace.h) */
+    bool ray_tracing;      /* VK_KHR_ray_tracing_pipeline and acceleration structures enabled */
+    vk_tracer *tracer;     /* the trace paths and the choice between them (vk_trace.h) */
+    vk_indirect *indirect; /* the bound on dispatch_indirect's group counts (vk_indirect.h) */
     PFN_vkCmdPushDescriptorSetKHR cmd_push_descriptor_set;
     double timestamp_period_ns;
     /* VK_EXT_calibrated_timestamps with the device and CLOCK_MONOTONIC domains

@@ -117,7 +117,11 @@ cv_result cv_device_write_accel(cv_device *dev, cv_accel accel, const void *node
 cv_result cv_device_compile(cv_device *dev, cv_cmdlist list);
 /* Submits a compiled (or compilable) list; *ticket identifies this submission. */
 cv_result cv_device_submit(cv_device *dev, cv_cmdlist list, uint64_t *ticket);
-/* Waits for a submission; timeout_ns = UINT64_MAX waits forever. */
+/* Waits for a submission; timeout_ns = UINT64_MAX waits forever. A submission
+ * up to `ticket` that ran but had a command refused by the device (a
+ * dispatch_indirect whose group counts, read from its buffer when it ran,
+ * exceed max_dispatch: it dispatches nothing) makes the first wait covering it
+ * return CV_ERROR_OUT_OF_RANGE naming the command; the rest of it ran. */
 cv_result cv_device_wait(cv_device *dev, uint64_t ticket, uint64_t timeout_ns);
 cv_result cv_device_wait_idle(cv_device *dev);
 /* Pass timings of a finished submission (the latest submission of its list). */
