@@ -64,8 +64,13 @@ typedef struct cv_node_config {
     const char *cache_dir;    /* content store directory (created) */
     uint64_t cache_bytes;     /* content store size limit; 0 = 4 GiB */
     uint32_t idle_timeout_ms; /* a session with no message for this long ends; 0 = 300 s */
-    uint32_t max_sessions;    /* concurrent sessions; 0 = 256 */
-    bool log_sessions;        /* one line per session start/end, per error and per refused call on stderr */
+    /* The watchdog: a submission that has not completed this long after the one before it did ends its
+       session with DEADLINE_EXCEEDED, and the session's device is abandoned (leaked: its GPU may still run
+       that work; counted in devices_abandoned). Other sessions and the drain go on. 0 =
+       CV_NODE_DEFAULT_SUBMIT_TIMEOUT_MS. */
+    uint32_t submit_timeout_ms;
+    uint32_t max_sessions; /* concurrent sessions; 0 = 256 */
+    bool log_sessions;     /* one line per session start/end, per error and per refused call on stderr */
 
     /* Security. token: NULL = none; else every Session stream and Info call must carry the initial metadata
        "authorization: Bearer <token>" (health checks stay open); others are refused with UNAUTHENTICATED and
@@ -96,6 +101,7 @@ typedef struct cv_node_config {
 } cv_node_config;
 
 #define CV_NODE_DEFAULT_PEER_DEADLINE_MS 10000u
+#define CV_NODE_DEFAULT_SUBMIT_TIMEOUT_MS 60000u
 
 typedef struct cv_node_stats {
     uint64_t sessions_started, sessions_active;
@@ -107,6 +113,10 @@ typedef struct cv_node_stats {
     /* Clusters: partitions this node sent to peers (raw bytes read, compressed bytes on the wire), compressed
        bytes it received from peers, transfers it could not deliver, and awaits that failed here. */
     uint64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;
+    /* Session devices leaked because their GPU work did not finish (the submit watchdog, or a session that
+       ended with work still running past its bounded wait): each holds its device memory until the node
+       exits. */
+    uint64_t devices_abandoned;
 } cv_node_stats;
 
 /* True if `listen` ("host:port") is reachable from this machine only: 127.0.0.0/8, ::1, localhost, unix:. */

@@ -131,6 +131,13 @@ cv_result cv_device_timings(cv_device *dev, uint64_t ticket, cv_pass_timing *out
  * was lost), so that a multi-device frame can go on without it. */
 bool cv_device_is_lost(cv_device *dev);
 
+/* For a watchdog that gave up on the device's GPU work (corvid-node's
+ * --submit-timeout): host waits that hold the device (a read or write waiting
+ * for the work that uses it) return CV_ERROR_DEVICE_LOST from then on instead
+ * of waiting on. Any thread, takes no lock. The work may still be running: do
+ * not destroy the device or its context (both wait for the GPU); leak them. */
+void cv_device_abandon(cv_device *dev);
+
 /* Built-in backends. */
 const cv_backend *cv_mock_backend(void);
 
