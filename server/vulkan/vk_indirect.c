@@ -79,7 +79,7 @@ cv_result vk_indirect_prepare(cv_backend_device *bd, uint32_t count, vk_indirect
         slots->commands = NULL;
         return r;
     }
-    /* A list whose submission failed part-way is checked with the next ticket: it reads zeros. */
+    /* Until the bound first runs, a slot reads as not refused. */
     memset(slots->buffer->memory.mapped, 0, (size_t)count * VK_INDIRECT_SLOT_BYTES);
     vk_memory_flush(&bd->memory, &slots->buffer->memory, 0, (VkDeviceSize)count * VK_INDIRECT_SLOT_BYTES);
     return CV_OK;
@@ -136,7 +136,7 @@ void vk_indirect_release(cv_backend_device *bd, vk_indirect_slots *slots) {
     *slots = (vk_indirect_slots){ 0 };
 }
 
-cv_result vk_indirect_submitted(cv_backend_device *bd, const vk_indirect_slots *slots, uint64_t ticket) {
+cv_result vk_indirect_reserve(cv_backend_device *bd, uint64_t ticket) {
     vk_indirect *in = bd->indirect;
     cv_result r = CV_OK;
     pthread_mutex_lock(&in->lock);
@@ -151,10 +151,15 @@ cv_result vk_indirect_submitted(cv_backend_device *bd, const vk_indirect_slots *
                          (unsigned long long)ticket);
         }
     }
-    if (r == CV_OK)
-        in->checks[in->check_count++] = (check){ ticket, slots };
     pthread_mutex_unlock(&in->lock);
     return r;
+}
+
+void vk_indirect_submitted(cv_backend_device *bd, const vk_indirect_slots *slots, uint64_t ticket) {
+    vk_indirect *in = bd->indirect;
+    pthread_mutex_lock(&in->lock);
+    in->checks[in->check_count++] = (check){ ticket, slots };
+    pthread_mutex_unlock(&in->lock);
 }
 
 /* The first refused slot of one finished submission, as an error. */

@@ -47,8 +47,12 @@ VkDeviceSize vk_indirect_record(cv_backend_device *bd, vk_indirect_slots *slots,
 /* Frees the slots (after removing them from the checks). */
 void vk_indirect_release(cv_backend_device *bd, vk_indirect_slots *slots);
 
-/* A submission of a list with slots was given `ticket` (before it is queued). */
-cv_result vk_indirect_submitted(cv_backend_device *bd, const vk_indirect_slots *slots, uint64_t ticket);
+/* Before queueing a submission of a list with slots: room for its check. */
+cv_result vk_indirect_reserve(cv_backend_device *bd, uint64_t ticket);
+/* After it was queued (under the device lock, before the core hands out its
+ * ticket, so no wait can look for it earlier): the check of `ticket`. A
+ * submission that failed leaves none, as its ticket is given again. */
+void vk_indirect_submitted(cv_backend_device *bd, const vk_indirect_slots *slots, uint64_t ticket);
 /* After `ticket` finished: CV_ERROR_OUT_OF_RANGE naming the first refused
  * dispatch of a submission up to `ticket` not reported before, else CV_OK.
  * Each submission is checked once. A list submitted again before the earlier
