@@ -3,7 +3,7 @@
  * has such families), the timeline semaphore that carries the core's tickets,
  * the memory allocator and the immediate command buffer for host transfers.
  *
- * Every backend call except wait() runs under the core's device lock, so the
+ * Every backend call except wait() and refused() runs under the core's device lock, so the
  * members below need no lock of their own (the memory allocator has one for
  * cv_vulkan_get_memory_stats, which runs outside it). With
  * CORVID_VGPU_DEVICE=shared (auto's choice where the graphics family has
