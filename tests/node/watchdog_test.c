@@ -166,6 +166,7 @@ int main(int argc, char **argv) {
     CHECK(log_has(&node, "its device abandoned"));
     CHECK(!log_has(&node, "corvid vulkan error")); /* the validation layer (--validation) stayed quiet */
     CHECK(!log_has(&node, "corvid vulkan warning"));
+    CHECK(!log_has(&node, "WARNING: ThreadSanitizer")); /* the node process, in the TSan build */
 
     cv_device_destroy(a);
     cv_device_destroy(b);
