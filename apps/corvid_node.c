@@ -37,6 +37,7 @@ typedef struct options {
     uint64_t memory_limit;
     uint64_t cache_bytes;
     uint32_t idle_timeout_s;
+    uint32_t submit_timeout_s;
     uint32_t drain_timeout_s;
     uint32_t max_sessions;
     uint32_t mock_devices;
@@ -63,6 +64,8 @@ static void usage(FILE *f) {
             "  --cache-size BYTES     cache size limit, with an optional K, M or G suffix [4G] (at least\n"
             "                         16M; a blob larger than the limit is refused with LIMIT_EXCEEDED)\n"
             "  --idle-timeout SEC     end sessions silent for this long [300] (1..86400)\n"
+            "  --submit-timeout SEC   a submission not done this long after the one before it ends its session;\n"
+            "                         the device is abandoned (its GPU may still run it) [60] (1..86400)\n"
             "  --drain-timeout SEC    on SIGTERM, how long running sessions may go on [30] (0..3600)\n"
             "  --max-sessions N       concurrent sessions [256] (1..65536)\n"
             "  --peer-deadline-ms MS  clusters: how long a session waits for a partition another node sends\n"
@@ -149,6 +152,7 @@ static int parse_args(int argc, char **argv, options *o) {
                     .backend = "vulkan",
                     .cache_bytes = 4ull << 30,
                     .idle_timeout_s = 300,
+                    .submit_timeout_s = 60,
                     .drain_timeout_s = 30,
                     .max_sessions = 256,
                     .mock_devices = 1 };
@@ -201,6 +205,8 @@ static int parse_args(int argc, char **argv, options *o) {
             }
         } else if (!strcmp(name, "--idle-timeout")) {
             bad = parse_u32(name, value, 1, 86400, &o->idle_timeout_s);
+        } else if (!strcmp(name, "--submit-timeout")) {
+            bad = parse_u32(name, value, 1, 86400, &o->submit_timeout_s);
         } else if (!strcmp(name, "--drain-timeout")) {
             bad = parse_u32(name, value, 0, 3600, &o->drain_timeout_s);
         } else if (!strcmp(name, "--peer-deadline-ms")) {
@@ -408,6 +414,7 @@ int main(int argc, char **argv) {
         .cache_dir = o.cache_dir ? o.cache_dir : cache_dir,
         .cache_bytes = o.cache_bytes,
         .idle_timeout_ms = o.idle_timeout_s * 1000u,
+        .submit_timeout_ms = o.submit_timeout_s * 1000u,
         .max_sessions = o.max_sessions,
         .log_sessions = !o.quiet,
         .token = o.token_file ? token : NULL,

@@ -302,13 +302,24 @@ uint32_t cv_device_loaded_count(cv_device *dev) {
 
 /* ---- host data ------------------------------------------------------------ */
 
-/* Waits until no submitted work uses the resource (lock held). */
+/* Waits until no submitted work uses the resource (lock held), in slices so
+ * that cv_device_abandon can end it. */
 static cv_result wait_for_resource(cv_device *dev, cv_device_resource *s) {
-    if (dev->backend->orders_host_access)
+    if (dev->backend->orders_host_access || s->last_use <= dev->backend->completed(dev->bd))
         return CV_OK;
-    if (s->last_use > dev->backend->completed(dev->bd))
-        return dev->backend->wait(dev->bd, s->last_use, UINT64_MAX);
-    return CV_OK;
+    for (;;) {
+        if (atomic_load(&dev->abandoned))
+            return cv_error(CV_ERROR_DEVICE_LOST, "device '%s': abandoned while waiting for ticket %llu", dev->label,
+                            (unsigned long long)s->last_use);
+        cv_result r = dev->backend->wait(dev->bd, s->last_use, 100ull * 1000 * 1000);
+        if (r != CV_ERROR_TIMEOUT)
+            return r;
+    }
+}
+
+void cv_device_abandon(cv_device *dev) {
+    if (dev)
+        atomic_store(&dev->abandoned, true);
 }
 
 static cv_result buffer_access(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, const void *src,
@@ -736,19 +747,21 @@ cv_result cv_device_submit(cv_device *dev, cv_cmdlist list, uint64_t *ticket) {
 cv_result cv_device_wait(cv_device *dev, uint64_t ticket, uint64_t timeout_ns) {
     if (!dev)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_wait: NULL device");
-    pthread_mutex_lock(&dev->lock);
-    cv_result r = CV_OK;
-    if (ticket > dev->last_ticket)
-        r = cv_error(CV_ERROR_INVALID_ARGUMENT, "device '%s': ticket %llu was never submitted (last is %llu)",
-                     dev->label, (unsigned long long)ticket, (unsigned long long)dev->last_ticket);
-    pthread_mutex_unlock(&dev->lock);
-    if (r != CV_OK)
-        return r;
+    uint64_t last = atomic_load(&dev->last_ticket);
+    if (ticket > last)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "device '%s': ticket %llu was never submitted (last is %llu)",
+                        dev->label, (unsigned long long)ticket, (unsigned long long)last);
     /* Waiting does not hold the device lock, so other threads can submit meanwhile. */
-    r = dev->backend->wait(dev->bd, ticket, timeout_ns);
-    pthread_mutex_lock(&dev->lock);
-    collect_finished(dev);
-    pthread_mutex_unlock(&dev->lock);
+    cv_result r = dev->backend->wait(dev->bd, ticket, timeout_ns);
+    if (r == CV_OK && dev->backend->refused)
+        r = dev->backend->refused(dev->bd, ticket);
+    /* Releasing what finished is opportunistic here: a thread may hold the lock
+     * in a host wait for work that never ends (wait_for_resource), and this
+     * wait must still return (a watchdog calls it). Submits collect too. */
+    if (pthread_mutex_trylock(&dev->lock) == 0) {
+        collect_finished(dev);
+        pthread_mutex_unlock(&dev->lock);
+    }
     return r;
 }
 

@@ -3,6 +3,7 @@
 #define CORVID_DEVICE_INTERNAL_H
 
 #include <pthread.h>
+#include <stdatomic.h>
 
 #include "corvid/backend.h"
 
@@ -40,9 +41,13 @@ struct cv_device {
     uint32_t compiled_capacity;
     deferred_release *deferred;
     uint32_t deferred_count, deferred_capacity;
-    uint64_t last_ticket; /* highest ticket submitted */
-    uint64_t epoch;       /* bumps whenever a representation goes away */
-    uint32_t loaded;      /* representations loaded (resources + compiled lists) */
+    /* Highest ticket submitted: written under the lock, read atomically by
+     * cv_device_wait, which must not queue behind a host wait holding the lock
+     * (a watchdog waits that way: cv_device_abandon). */
+    _Atomic uint64_t last_ticket;
+    atomic_bool abandoned; /* cv_device_abandon: host waits give up */
+    uint64_t epoch;        /* bumps whenever a representation goes away */
+    uint32_t loaded;       /* representations loaded (resources + compiled lists) */
 };
 
 /* Validates a list against this device's resources (lock held). validate.c */

@@ -5,9 +5,13 @@
  * resources in host memory and emulates the data-movement commands (copies,
  * clears, updates) so tests can check what a list moves. Dispatches and draws
  * and ray traces are validated but not executed (an acceleration structure
- * keeps a copy of its BVH). Submissions finish immediately; pass timings
+ * keeps a copy of its BVH); a dispatch_indirect's group counts are read when
+ * the list runs and held to the device's limits like on a GPU (backend.h,
+ * cv_indirect_counts_fit), the first refusal reported by the next wait. Submissions finish immediately; pass timings
  * are the host time spent emulating each marker region. */
+#include <pthread.h>
 #include <stdatomic.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -30,8 +34,17 @@ typedef struct mock_compiled {
     uint32_t timing_count;
 } mock_compiled;
 
+#define MOCK_MAX_DISPATCH 65535u
+
 struct cv_backend_device {
     _Atomic uint64_t completed; /* written by submit (device lock), read by wait/completed (no lock) */
+    char label[CV_LABEL_MAX];
+    /* The first refused dispatch_indirect not yet reported: set by submit (device
+     * lock), taken by refused() (after a wait, outside it), hence a lock. */
+    pthread_mutex_t lock;
+    uint64_t refused_ticket; /* 0: none */
+    uint32_t refused_command;
+    uint32_t refused_counts[3];
 };
 
 static cv_result mock_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out) {
@@ -46,12 +59,17 @@ static cv_result mock_device_create(const cv_device_desc *desc, cv_device_info *
     strcpy(info->backend, "mock");
     strcpy(info->driver, "none (validates, runs nothing)");
     info->max_storage_buffer_range = 128u << 20;
-    info->max_dispatch[0] = info->max_dispatch[1] = info->max_dispatch[2] = 65535;
+    info->max_dispatch[0] = info->max_dispatch[1] = info->max_dispatch[2] = MOCK_MAX_DISPATCH;
+    snprintf(bd->label, sizeof(bd->label), "%s", desc->label);
+    pthread_mutex_init(&bd->lock, NULL);
     *out = bd;
     return CV_OK;
 }
 
-static void mock_device_destroy(cv_backend_device *bd) { free(bd); }
+static void mock_device_destroy(cv_backend_device *bd) {
+    pthread_mutex_destroy(&bd->lock);
+    free(bd);
+}
 
 static cv_result mock_resource_create(cv_backend_device *bd, uint64_t id, const cv_resource_desc *desc,
                                       const cv_pipeline_info *pipeline, void **out) {
@@ -245,6 +263,23 @@ static void emulate(cv_device *dev, const cv_command_list *l, const cv_command *
     }
 }
 
+/* Reads a dispatch_indirect's counts as the list runs; keeps the first refusal. */
+static void check_indirect(cv_backend_device *bd, const mock_compiled *mc, uint32_t index, uint64_t ticket) {
+    const cv_dispatch_indirect_cmd *x = &mc->list.commands[index].u.dispatch_indirect;
+    uint32_t counts[3];
+    memcpy(counts, obj_of(mc->dev, x->args.id)->bytes + x->args_offset, sizeof(counts));
+    const uint32_t max[3] = { MOCK_MAX_DISPATCH, MOCK_MAX_DISPATCH, MOCK_MAX_DISPATCH };
+    if (cv_indirect_counts_fit(counts, max))
+        return;
+    pthread_mutex_lock(&bd->lock);
+    if (!bd->refused_ticket) {
+        bd->refused_ticket = ticket;
+        bd->refused_command = index;
+        memcpy(bd->refused_counts, counts, sizeof(counts));
+    }
+    pthread_mutex_unlock(&bd->lock);
+}
+
 static cv_result mock_submit(cv_backend_device *bd, void *compiled, uint64_t ticket) {
     mock_compiled *mc = compiled;
     const cv_command_list *l = &mc->list;
@@ -273,6 +308,8 @@ static cv_result mock_submit(cv_backend_device *bd, void *compiled, uint64_t tic
         } else if (c->type == CV_CMD_END_MARKER && depth) {
             cv_pass_timing *t = &mc->timings[stack[--depth]];
             t->duration_ms = now_ms() - start - t->start_ms;
+        } else if (c->type == CV_CMD_DISPATCH_INDIRECT) {
+            check_indirect(bd, mc, i, ticket);
         } else {
             emulate(mc->dev, l, c);
         }
@@ -289,6 +326,18 @@ static cv_result mock_wait(cv_backend_device *bd, uint64_t ticket, uint64_t time
 }
 
 static uint64_t mock_completed(cv_backend_device *bd) { return atomic_load(&bd->completed); }
+
+static cv_result mock_refused(cv_backend_device *bd, uint64_t ticket) {
+    cv_result r = CV_OK;
+    pthread_mutex_lock(&bd->lock);
+    if (bd->refused_ticket && bd->refused_ticket <= ticket) {
+        const uint32_t max[3] = { MOCK_MAX_DISPATCH, MOCK_MAX_DISPATCH, MOCK_MAX_DISPATCH };
+        r = cv_indirect_refusal(bd->label, bd->refused_ticket, bd->refused_command, bd->refused_counts, max);
+        bd->refused_ticket = 0;
+    }
+    pthread_mutex_unlock(&bd->lock);
+    return r;
+}
 
 static cv_result mock_timings(cv_backend_device *bd, void *compiled, cv_pass_timing *out, uint32_t capacity,
                               uint32_t *count) {
@@ -317,6 +366,7 @@ static const cv_backend mock_backend = {
     .submit = mock_submit,
     .wait = mock_wait,
     .completed = mock_completed,
+    .refused = mock_refused,
     .timings = mock_timings,
 };
 

@@ -457,3 +457,16 @@ cv_result cv_validate_list(cv_device *dev, const cv_command_list *list) {
     }
     return CV_OK;
 }
+
+bool cv_indirect_counts_fit(const uint32_t counts[3], const uint32_t max[3]) {
+    return counts[0] <= max[0] && counts[1] <= max[1] && counts[2] <= max[2];
+}
+
+cv_result cv_indirect_refusal(const char *device, uint64_t ticket, uint32_t command, const uint32_t counts[3],
+                              const uint32_t max[3]) {
+    return cv_error(CV_ERROR_OUT_OF_RANGE,
+                    "device '%s': ticket %llu: command %u (dispatch_indirect): group counts (%u, %u, %u) in the "
+                    "argument buffer exceed the device's limits (%u, %u, %u): the dispatch was skipped",
+                    device, (unsigned long long)ticket, command, counts[0], counts[1], counts[2], max[0], max[1],
+                    max[2]);
+}

@@ -184,6 +184,10 @@ size_t cv_node_metrics_text(cv_node *node, char *buf, size_t cap) {
     scalar(&w, "corvid_node_cache_bytes", "gauge", "Bytes held by the content store.", st.cache_bytes);
     scalar(&w, "corvid_node_errors_total", "counter",
            "Requests answered with an error, failed submissions and sessions ended with an error status.", st.errors);
+    scalar(&w, "corvid_node_devices_abandoned_total", "counter",
+           "Session devices leaked because their GPU work did not finish (--submit-timeout, or still running "
+           "at the session's end).",
+           st.devices_abandoned);
 
     header(&w, "corvid_node_device_memory_bytes", "gauge",
            "Bytes of live resources (buffers, textures, acceleration structures) sessions hold on each node device.");

@@ -495,5 +495,6 @@ cv_node_stats cv_node_get_stats(cv_node *node) {
         .peer_bytes_in = atomic_load(&node->peer_bytes_in),
         .peer_failures = atomic_load(&node->peer_failures),
         .transfer_failures = atomic_load(&node->transfer_failures),
+        .devices_abandoned = atomic_load(&node->devices_abandoned),
     };
 }

@@ -73,8 +73,13 @@ typedef struct cv_node_config {
     uint64_t cache_bytes;     /* content store size limit; 0 = 4 GiB; less than CV_NODE_MIN_CACHE_BYTES is
                                  refused at start (a blob larger than the limit is refused per blob) */
     uint32_t idle_timeout_ms; /* a session with no message for this long ends; 0 = 300 s */
-    uint32_t max_sessions;    /* concurrent sessions; 0 = 256 */
-    bool log_sessions;        /* one line per session start/end, per error and per refused call on stderr */
+    /* The watchdog: a submission that has not completed this long after the one before it did ends its
+       session with DEADLINE_EXCEEDED, and the session's device is abandoned (leaked: its GPU may still run
+       that work; counted in devices_abandoned). Other sessions and the drain go on. 0 =
+       CV_NODE_DEFAULT_SUBMIT_TIMEOUT_MS. */
+    uint32_t submit_timeout_ms;
+    uint32_t max_sessions; /* concurrent sessions; 0 = 256 */
+    bool log_sessions;     /* one line per session start/end, per error and per refused call on stderr */
     /* Where those lines go: each line without its newline, escaped (client-supplied text cannot forge a line or
        send terminal escapes) and rate-limited per kind (node_log.h). Called from session threads, so it must be
        thread-safe. NULL = stderr. */
@@ -125,6 +130,7 @@ typedef struct cv_node_config {
    render would fail on its first large upload (docs/node.md, "Content store"). */
 #define CV_NODE_MIN_CACHE_BYTES (16ull << 20)
 #define CV_NODE_FALLBACK_MEMORY_LIMIT (32ull << 30)
+#define CV_NODE_DEFAULT_SUBMIT_TIMEOUT_MS 60000u
 
 typedef struct cv_node_stats {
     uint64_t sessions_started, sessions_active;
@@ -137,6 +143,10 @@ typedef struct cv_node_stats {
     /* Clusters: partitions this node sent to peers (raw bytes read, compressed bytes on the wire), compressed
        bytes it received from peers, transfers it could not deliver, and awaits that failed here. */
     uint64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;
+    /* Session devices leaked because their GPU work did not finish (the submit watchdog, or a session that
+       ended with work still running past its bounded wait): each holds its device memory until the node
+       exits. */
+    uint64_t devices_abandoned;
 } cv_node_stats;
 
 /* Checks a cv_node_config.peers list: each entry a "host:port" (an IPv4 dotted quad, a bracketed IPv6

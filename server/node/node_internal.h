@@ -24,7 +24,7 @@ struct cv_node {
     atomic_uint_fast64_t next_session_id;
     atomic_uint_fast64_t sessions_started, sessions_active;
     atomic_uint_fast64_t messages_in, bytes_in, bytes_out, submissions, errors;
-    atomic_uint_fast64_t unauthenticated, quota_refusals;
+    atomic_uint_fast64_t unauthenticated, quota_refusals, devices_abandoned;
     atomic_uint_fast64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;
     struct peer_state *peer;      /* node-to-node transfers (peer.h) */
     struct peer_members *members; /* where transfers may go (peer_members.h) */

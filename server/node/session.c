@@ -10,13 +10,21 @@
  *
  * A second thread, the completion watcher, waits for the device to finish each
  * submission in ticket order and sends Completed (with pass timings) to the
- * client, so the client learns of finished work without asking. */
+ * client, so the client learns of finished work without asking. It is also
+ * the watchdog: a submission not finished within the node's budget
+ * (cv_node_config.submit_timeout_ms) ends the session with DEADLINE_EXCEEDED,
+ * and its device, whose GPU may still be running that work, is abandoned:
+ * leaked rather than destroyed (destroying waits for the GPU, and freeing what
+ * the GPU still uses is not safe), counted in cv_node_stats.devices_abandoned.
+ * A session's teardown likewise waits a bounded time for its work, so a
+ * drain (SIGTERM) never hangs on a GPU that does not finish. */
 #include <inttypes.h>
 #include <stdatomic.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "corvid/command_codec.h"
 #include "corvid/sha256.h"
@@ -43,6 +51,7 @@ typedef struct pending_submit {
     cv_result result;
     char message[256];
     uint64_t transfer_failure; /* skipped because of this unacknowledged transfer failure */
+    bool refused;              /* ran, with a command the device refused (cv_device_wait: OUT_OF_RANGE) */
 } pending_submit;
 
 typedef struct session {
@@ -76,6 +85,8 @@ typedef struct session {
     uint32_t inflight;       /* real submissions not yet reported (under lock) */
 
     uint64_t last_client_ticket;
+    uint64_t last_node_ticket; /* the latest real submission, 0: none */
+    atomic_bool hung;          /* the watchdog gave up on the device (session thread reads it at the end) */
 
     /* Node-to-node transfers (peer.h): the inbox peers deliver into, and the
      * failed await the client has not yet acknowledged (0: none). */
@@ -161,6 +172,7 @@ static void send_completed(session *s, const pending_submit *p) {
     cv_log_escape(message, sizeof(message), p->message);
     done.message = message;
     done.transfer_failure = p->transfer_failure;
+    done.refused = p->refused;
     cv_pass_timing timings[32];
     Corvid__PassTiming items[32];
     Corvid__PassTiming *ptrs[32];
@@ -183,6 +195,62 @@ static void send_completed(session *s, const pending_submit *p) {
     send_node_message(s, &m);
 }
 
+static uint64_t now_ns(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+static uint32_t submit_budget_ms(const cv_node *node) {
+    return node->config.submit_timeout_ms ? node->config.submit_timeout_ms : CV_NODE_DEFAULT_SUBMIT_TIMEOUT_MS;
+}
+
+/* The watchdog fired on p: the client hears why (in p's Completed and as the
+ * stream's status), the device is abandoned, and the watcher stops. */
+static void give_up(session *s, pending_submit *p) {
+    uint32_t budget = submit_budget_ms(s->node);
+    p->result = CV_ERROR_DEVICE_LOST;
+    snprintf(p->message, sizeof(p->message),
+             "submission of ticket %" PRIu64
+             " did not complete in %u.%03u s (corvid-node --submit-timeout): "
+             "session ended, its device abandoned",
+             p->client_ticket, budget / 1000, budget % 1000);
+    atomic_store(&s->hung, true);
+    cv_device_abandon(s->dev); /* the session thread's host waits on it give up */
+    atomic_fetch_add(&s->node->devices_abandoned, 1);
+    atomic_fetch_add(&s->node->errors, 1);
+    log_line(s, NODE_LOG_ALWAYS, "%s", p->message);
+    pthread_mutex_lock(&s->lock);
+    s->abandon = true; /* nothing more is reported: a submit waiting for room goes on */
+    pthread_cond_broadcast(&s->cond);
+    pthread_mutex_unlock(&s->lock);
+    send_completed(s, p);
+    cv_rpc_stream_finish(s->stream, STATUS_DEADLINE_EXCEEDED, p->message);
+}
+
+/* Waits for p's ticket in bounded slices, so an ending session is not held by
+ * a long frame. Returns false when the watcher must stop: the session is
+ * abandoned, or the watchdog fired. */
+static bool wait_submission(session *s, pending_submit *p) {
+    uint64_t started = now_ns(), budget_ns = submit_budget_ms(s->node) * 1000000ull;
+    cv_result r;
+    do {
+        r = cv_device_wait(s->dev, p->node_ticket, 100ull * 1000 * 1000);
+        if (r == CV_ERROR_TIMEOUT && now_ns() - started >= budget_ns) {
+            give_up(s, p);
+            return false;
+        }
+    } while (r == CV_ERROR_TIMEOUT && !s->abandon);
+    if (r == CV_ERROR_TIMEOUT)
+        return false;
+    if (r != CV_OK) {
+        p->result = r;
+        p->refused = r == CV_ERROR_OUT_OF_RANGE;
+        snprintf(p->message, sizeof(p->message), "%s", cv_last_error());
+    }
+    return true;
+}
+
 static void *watcher_main(void *arg) {
     session *s = arg;
     pthread_mutex_lock(&s->lock);
@@ -193,19 +261,8 @@ static void *watcher_main(void *arg) {
             break; /* stopping with nothing left to report, or nobody to report to */
         pending_submit p = s->pending[s->pending_head];
         pthread_mutex_unlock(&s->lock);
-        if (p.node_ticket) {
-            /* Bounded waits so a session that ends is not held by a long frame forever. */
-            cv_result r;
-            do {
-                r = cv_device_wait(s->dev, p.node_ticket, 100ull * 1000 * 1000);
-            } while (r == CV_ERROR_TIMEOUT && !s->abandon);
-            if (r == CV_ERROR_TIMEOUT)
-                return NULL; /* abandoned (the lock is not held here) */
-            if (r != CV_OK) {
-                p.result = r;
-                snprintf(p.message, sizeof(p.message), "%s", cv_last_error());
-            }
-        }
+        if (p.node_ticket && !wait_submission(s, &p))
+            return NULL; /* the lock is not held here */
         /* Out of the in-flight count before the client hears of it: a client that keeps within the
          * quota it was told (HelloReply.quotas) is never refused. */
         pthread_mutex_lock(&s->lock);
@@ -717,6 +774,8 @@ static cv_result do_submit(session *s, const Corvid__SubmitList *m) {
                          m->ticket, inflight, limit);
     if (r == CV_OK)
         r = cv_device_submit(s->dev, (cv_cmdlist){ id }, &p.node_ticket);
+    if (r == CV_OK)
+        s->last_node_ticket = p.node_ticket;
     if (r != CV_OK) {
         /* Completed in order with its error, so the client's wait ends. */
         p.node_ticket = 0;
@@ -986,12 +1045,32 @@ static void stop_watcher(session *s, bool abandon) {
     s->watcher_started = false;
 }
 
+/* Whether the session's device may be destroyed: the watchdog did not give up
+ * on it, and its work finishes within a bounded wait (the submission budget; 1
+ * s once the node drains, whose clients are gone). Else it is abandoned. */
+static bool work_finished(session *s) {
+    if (atomic_load(&s->hung))
+        return false;
+    if (!s->last_node_ticket)
+        return true;
+    uint64_t budget_ns = atomic_load(&s->node->draining) ? 1000000000ull : submit_budget_ms(s->node) * 1000000ull;
+    if (cv_device_wait(s->dev, s->last_node_ticket, budget_ns) != CV_ERROR_TIMEOUT)
+        return true;
+    cv_device_abandon(s->dev);
+    atomic_fetch_add(&s->node->devices_abandoned, 1);
+    log_line(s, NODE_LOG_ALWAYS, "ticket %" PRIu64 " still running at the session's end: its device abandoned",
+             s->last_client_ticket);
+    return false;
+}
+
 static void session_finish(session *s) {
     end_upload(s);
     stop_watcher(s, true);
     peer_inbox_close(s->node, s->inbox);
     cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -(int64_t)s->memory_bytes);
-    if (s->ctx)
+    /* An abandoned device's GPU may still use its memory: the context and device are
+     * deliberately leaked (see the top of this file). */
+    if (s->ctx && (!s->dev || work_finished(s)))
         cv_context_destroy(s->ctx); /* waits for the device, frees every resource */
     cv_node_memory_release(s->node, s->memory_bytes);
     cv_handle_map_finish(&s->map);

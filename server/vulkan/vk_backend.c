@@ -6,6 +6,7 @@
 #include "vk_host_transfer.h"
 #include "vk_link.h"
 #include "vk_pipelines.h"
+#include "vk_indirect.h"
 #include "vk_submit.h"
 #include "vk_trace.h"
 
@@ -122,6 +123,13 @@ static cv_result resource_alias(cv_backend_device *bd, uint64_t id, const cv_res
     return r;
 }
 
+/* vk_indirect_report runs outside the device lock, after a wait (vk_indirect.h). */
+static cv_result refused(cv_backend_device *bd, uint64_t ticket) {
+    cv_result r;
+    IN_LAYER(bd, r = vk_indirect_report(bd, ticket));
+    return r;
+}
+
 static void link_caps(cv_backend_device *bd, cv_link_caps *out) { IN_LAYER(bd, vk_link_caps(bd, out)); }
 
 static cv_result link_staging(cv_backend_device *bd, cv_staging_desc *desc, void **out) {
@@ -179,6 +187,7 @@ static const cv_backend vulkan_backend = {
     .wait = vk_wait,
     .completed = vk_completed,
     .timings = timings,
+    .refused = refused,
     .link_caps = link_caps,
     .link_staging = link_staging,
     .link_copy = link_copy,

@@ -143,15 +143,21 @@ static void record_dispatch(compiler *c, const cv_dispatch_cmd *d) {
     vkCmdDispatch(c->cmd, d->groups_x, d->groups_y, d->groups_z);
 }
 
-static void record_dispatch_indirect(compiler *c, const cv_dispatch_indirect_cmd *d) {
+/* The client's counts are bounded on the GPU first (vk_indirect.h): the
+ * dispatch reads the list's own slot, never the client's buffer. */
+static void record_dispatch_indirect(compiler *c, uint32_t index, const cv_dispatch_indirect_cmd *d) {
     const vk_pipeline *p = object_of(c, d->pipeline.id);
     const cv_binding *b = cv_list_bindings(c->list, d->bindings);
     use_bindings(c, p, b);
-    use_buffer(c, d->args.id, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT, 0);
+    use_buffer(c, d->args.id, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT, 0);
     vk_tracker_apply(&c->tracker, c->cmd);
-    bind_and_push(c, p, b, d->push);
     const vk_buffer *args = object_of(c, d->args.id);
-    vkCmdDispatchIndirect(c->cmd, args->buffer, d->args_offset);
+    vk_indirect_slots *slots = &c->out->indirect;
+    VkDeviceSize slot = vk_indirect_record(c->bd, slots, c->cmd, args->address + d->args_offset, index);
+    c->bound[0] = NULL; /* the bound's pipeline and push constants replaced ours */
+    c->pushed_for[0] = NULL;
+    bind_and_push(c, p, b, d->push);
+    vkCmdDispatchIndirect(c->cmd, slots->buffer->buffer, slot);
 }
 
 static void record_trace_rays(compiler *c, const cv_trace_rays_cmd *d) {
@@ -403,7 +409,7 @@ static void record_command(compiler *c, uint32_t index) {
     const cv_command *cmd = &c->list->commands[index];
     switch (cmd->type) {
     case CV_CMD_DISPATCH: record_dispatch(c, &cmd->u.dispatch); break;
-    case CV_CMD_DISPATCH_INDIRECT: record_dispatch_indirect(c, &cmd->u.dispatch_indirect); break;
+    case CV_CMD_DISPATCH_INDIRECT: record_dispatch_indirect(c, index, &cmd->u.dispatch_indirect); break;
     case CV_CMD_BEGIN_RENDER_PASS: record_begin_render_pass(c, index, &cmd->u.begin_render_pass); break;
     case CV_CMD_END_RENDER_PASS:
         vkCmdEndRendering(c->cmd);
@@ -605,6 +611,11 @@ cv_result vk_compile_list(cv_backend_device *bd, cv_device *dev, const cv_comman
     vk_tracker_init(&c.tracker);
     uint8_t *slots = NULL;
     cv_result r = prepare_traces(&c);
+    uint32_t indirect = 0;
+    for (uint32_t i = 0; i < list->count; i++)
+        indirect += list->commands[i].type == CV_CMD_DISPATCH_INDIRECT;
+    if (r == CV_OK && indirect)
+        r = vk_indirect_prepare(bd, indirect, &compiled->indirect);
     if (r == CV_OK)
         r = plan_slots(&c, &slots);
     if (r == CV_OK)
@@ -628,5 +639,6 @@ void vk_compiled_release(cv_backend_device *bd, vk_compiled *c) {
     }
     free(c->segments);
     vk_timestamps_finish(bd, &c->timestamps);
+    vk_indirect_release(bd, &c->indirect);
     free(c);
 }

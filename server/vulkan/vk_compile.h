@@ -11,6 +11,7 @@
 #define CORVID_VK_COMPILE_H
 
 #include "vk_device.h"
+#include "vk_indirect.h"
 #include "vk_timestamps.h"
 
 typedef struct vk_segment {
@@ -23,7 +24,8 @@ typedef struct vk_compiled {
     vk_segment *segments;
     uint32_t segment_count;
     vk_timestamps timestamps;
-    uint32_t barrier_count; /* pipeline barriers recorded, for stats */
+    uint32_t barrier_count;     /* pipeline barriers recorded, for stats */
+    vk_indirect_slots indirect; /* one per dispatch_indirect (vk_indirect.h) */
 } vk_compiled;
 
 cv_result vk_compile_list(cv_backend_device *bd, cv_device *dev, const cv_command_list *list, vk_compiled **out);

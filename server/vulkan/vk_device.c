@@ -9,6 +9,7 @@
 #include "vk_bridge.h"
 #include "vk_cross_wait.h"
 #include "vk_immediate.h"
+#include "vk_indirect.h"
 #include "vk_link.h"
 #include "vk_resources.h"
 #include "vk_shared.h"
@@ -341,6 +342,8 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     if (r == CV_OK)
         r = vk_trace_init(bd);
     vk_instance *inst = bd->instance;
+    if (r == CV_OK)
+        r = vk_indirect_init(bd);
     if (r != CV_OK) {
         vk_device_destroy(bd);
         vk_layer_leave(inst);
@@ -407,6 +410,7 @@ void vk_device_destroy(cv_backend_device *bd) {
         else
             vkDeviceWaitIdle(bd->device);
         vk_trace_finish(bd);
+        vk_indirect_finish(bd);
         vk_link_async_finish(bd);
         vk_cross_wait_finish(bd); /* after the idle wait: no submission waits on an import */
         vk_link_finish(bd);

@@ -3,7 +3,7 @@
  * has such families), the timeline semaphore that carries the core's tickets,
  * the memory allocator and the immediate command buffer for host transfers.
  *
- * Every backend call except wait() runs under the core's device lock, so the
+ * Every backend call except wait() and refused() runs under the core's device lock, so the
  * members below need no lock of their own (the memory allocator has one for
  * cv_vulkan_get_memory_stats, which runs outside it). With
  * CORVID_VGPU_DEVICE=shared (auto's choice where the graphics family has
@@ -49,6 +49,7 @@ typedef struct vk_bridge {
 } vk_bridge;
 typedef struct vk_pipeline vk_pipeline;
 typedef struct vk_tracer vk_tracer;
+typedef struct vk_indirect vk_indirect;
 typedef struct vk_shared_device vk_shared_device;
 
 /* Hardware queues a device may use; command queue types map onto these. */
@@ -99,8 +100,9 @@ struct cv_backend_device {
     uint32_t pending_count, pending_capacity;
 
     vk_memory memory;
-    bool ray_tracing;  /* VK_KHR_ray_tracing_pipeline and acceleration structures enabled */
-    vk_tracer *tracer; /* the trace paths and the choice between them (vk_trace.h) */
+    bool ray_tracing;      /* VK_KHR_ray_tracing_pipeline and acceleration structures enabled */
+    vk_tracer *tracer;     /* the trace paths and the choice between them (vk_trace.h) */
+    vk_indirect *indirect; /* the bound on dispatch_indirect's group counts (vk_indirect.h) */
     PFN_vkCmdPushDescriptorSetKHR cmd_push_descriptor_set;
     double timestamp_period_ns;
     /* VK_EXT_calibrated_timestamps with the device and CLOCK_MONOTONIC domains

@@ -32,13 +32,15 @@ static VkBufferUsageFlags buffer_usage(uint32_t usage) {
         u |= VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT;
     if (usage & CV_BUFFER_USAGE_INDEX)
         u |= VK_BUFFER_USAGE_INDEX_BUFFER_BIT;
+    /* The bound on dispatch_indirect reads the counts by address (vk_indirect.h). */
     if (usage & CV_BUFFER_USAGE_INDIRECT)
-        u |= VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
+        u |= VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
     return u;
 }
 
-cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBufferUsageFlags usage,
-                               VkDeviceSize alignment, const char *label, vk_buffer **out) {
+static cv_result create_buffer(cv_backend_device *bd, VkDeviceSize size, VkBufferUsageFlags usage,
+                               VkDeviceSize alignment, VkMemoryPropertyFlags required,
+                               VkMemoryPropertyFlags preferred, const char *label, vk_buffer **out) {
     vk_buffer *b = calloc(1, sizeof(*b));
     if (!b)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: buffer '%s'", label);
@@ -64,7 +66,7 @@ cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBuffe
     vkGetBufferMemoryRequirements(bd->device, b->buffer, &req);
     if (req.alignment < alignment)
         req.alignment = alignment;
-    cv_result r = vk_memory_alloc(&bd->memory, &req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, VK_MEMORY_LINEAR,
+    cv_result r = vk_memory_alloc(&bd->memory, &req, required, preferred, VK_MEMORY_LINEAR,
                                   label[0] ? label : "buffer", &b->memory);
     if (r == CV_OK) {
         vr = vkBindBufferMemory(bd->device, b->buffer, b->memory.memory, b->memory.offset);
@@ -88,6 +90,17 @@ cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBuffe
     atomic_fetch_add(&bd->buffers, 1u);
     *out = b;
     return CV_OK;
+}
+
+cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBufferUsageFlags usage,
+                               VkDeviceSize alignment, const char *label, vk_buffer **out) {
+    return create_buffer(bd, size, usage, alignment, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, label, out);
+}
+
+cv_result vk_buffer_create_host(cv_backend_device *bd, VkDeviceSize size, VkBufferUsageFlags usage, const char *label,
+                                vk_buffer **out) {
+    return create_buffer(bd, size, usage, 0, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
+                         VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, label, out);
 }
 
 /* A buffer the core asked for reads as zeros until written: its memory may

@@ -47,6 +47,9 @@ cv_result vk_buffer_create(cv_backend_device *bd, const cv_buffer_desc *desc, vk
  * usage asks for one. For the backend's internal buffers. */
 cv_result vk_buffer_create_raw(cv_backend_device *bd, VkDeviceSize size, VkBufferUsageFlags usage,
                                VkDeviceSize alignment, const char *label, vk_buffer **out);
+/* The same in host-visible memory (memory.mapped is set), for results the host reads. */
+cv_result vk_buffer_create_host(cv_backend_device *bd, VkDeviceSize size, VkBufferUsageFlags usage, const char *label,
+                                vk_buffer **out);
 void vk_buffer_destroy(cv_backend_device *bd, vk_buffer *b);
 /* CV_ERROR_UNSUPPORTED if the adapter's format lacks a feature a usage needs. */
 cv_result vk_texture_create(cv_backend_device *bd, const cv_texture_desc *desc, vk_texture **out);

@@ -14,6 +14,8 @@ static VkSemaphoreSubmitInfo semaphore_info(VkSemaphore s, uint64_t value) {
 cv_result vk_submit(cv_backend_device *bd, vk_compiled *c, uint64_t ticket) {
     /* Images created since the last submission get their first layout now. */
     cv_result r = vk_immediate_flush(bd);
+    if (r == CV_OK && c->indirect.used)
+        r = vk_indirect_reserve(bd, ticket);
     if (r != CV_OK)
         return r;
     for (uint32_t i = 0; i < c->segment_count; i++) {
@@ -57,6 +59,8 @@ cv_result vk_submit(cv_backend_device *bd, vk_compiled *c, uint64_t ticket) {
     }
     if (ticket > bd->last_ticket)
         bd->last_ticket = ticket;
+    if (c->indirect.used)
+        vk_indirect_submitted(bd, &c->indirect, ticket);
     return CV_OK;
 }
 

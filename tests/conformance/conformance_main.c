@@ -23,6 +23,7 @@ int main(int argc, char **argv) {
         conformance_resubmit(&w);
         conformance_lifetimes(&w);
         conformance_timings(&w);
+        conformance_indirect(&w);
     }
     world_finish(&w);
     conformance_transfers(fx);

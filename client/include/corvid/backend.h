@@ -144,6 +144,12 @@ struct cv_backend {
     cv_result (*submit)(cv_backend_device *bd, void *compiled, uint64_t ticket);
     cv_result (*wait)(cv_backend_device *bd, uint64_t ticket, uint64_t timeout_ns);
     uint64_t (*completed)(cv_backend_device *bd);
+    /* Optional (NULL: nothing to report). Called by cv_device_wait once wait()
+     * found `ticket` finished: the first command of a submission up to `ticket`
+     * that the device refused while running it (a dispatch_indirect whose group
+     * counts, read on the device, exceed its limits), as an error naming the
+     * device, ticket and command. Each submission is reported at most once. */
+    cv_result (*refused)(cv_backend_device *bd, uint64_t ticket);
     /* Whether the device is gone for good (a remote node died, the GPU was
      * lost): every later call on it fails. NULL: never lost. */
     bool (*lost)(cv_backend_device *bd);
@@ -188,5 +194,15 @@ typedef struct cv_device_resource {
  * Valid while the device lock is held (i.e. inside backend callbacks). */
 const cv_device_resource *cv_device_lookup(const cv_device *dev, uint64_t id);
 cv_backend_device *cv_device_backend_data(const cv_device *dev);
+
+/* The rule for dispatch_indirect's group counts, which only the running list
+ * knows (validation checks the argument buffer's usage, alignment and range):
+ * they run if none exceeds max (the limits a direct dispatch is held to; zero
+ * dispatches nothing), else the dispatch is skipped and the backend's refused()
+ * reports this error: CV_ERROR_OUT_OF_RANGE naming the device, submission
+ * ticket and command. One rule and one message for every backend. */
+bool cv_indirect_counts_fit(const uint32_t counts[3], const uint32_t max[3]);
+cv_result cv_indirect_refusal(const char *device, uint64_t ticket, uint32_t command, const uint32_t counts[3],
+                              const uint32_t max[3]);
 
 #endif

@@ -117,7 +117,11 @@ cv_result cv_device_write_accel(cv_device *dev, cv_accel accel, const void *node
 cv_result cv_device_compile(cv_device *dev, cv_cmdlist list);
 /* Submits a compiled (or compilable) list; *ticket identifies this submission. */
 cv_result cv_device_submit(cv_device *dev, cv_cmdlist list, uint64_t *ticket);
-/* Waits for a submission; timeout_ns = UINT64_MAX waits forever. */
+/* Waits for a submission; timeout_ns = UINT64_MAX waits forever. A submission
+ * up to `ticket` that ran but had a command refused by the device (a
+ * dispatch_indirect whose group counts, read from its buffer when it ran,
+ * exceed max_dispatch: it dispatches nothing) makes the first wait covering it
+ * return CV_ERROR_OUT_OF_RANGE naming the command; the rest of it ran. */
 cv_result cv_device_wait(cv_device *dev, uint64_t ticket, uint64_t timeout_ns);
 cv_result cv_device_wait_idle(cv_device *dev);
 /* Pass timings of a finished submission (the latest submission of its list). */
@@ -126,6 +130,13 @@ cv_result cv_device_timings(cv_device *dev, uint64_t ticket, cv_pass_timing *out
 /* Whether the device is gone for good (its node died or disconnected, its GPU
  * was lost), so that a multi-device frame can go on without it. */
 bool cv_device_is_lost(cv_device *dev);
+
+/* For a watchdog that gave up on the device's GPU work (corvid-node's
+ * --submit-timeout): host waits that hold the device (a read or write waiting
+ * for the work that uses it) return CV_ERROR_DEVICE_LOST from then on instead
+ * of waiting on. Any thread, takes no lock. The work may still be running: do
+ * not destroy the device or its context (both wait for the GPU); leak them. */
+void cv_device_abandon(cv_device *dev);
 
 /* Built-in backends. */
 const cv_backend *cv_mock_backend(void);

@@ -524,6 +524,17 @@ static cv_result proxy_wait(cv_backend_device *p, uint64_t ticket, uint64_t time
     return r == CV_OK ? proxy_report_failure(p, ticket) : r;
 }
 
+static cv_result proxy_refused(cv_backend_device *p, uint64_t ticket) {
+    cv_result r = CV_OK;
+    pthread_mutex_lock(&p->lock);
+    if (p->refused_ticket && p->refused_ticket <= ticket) {
+        r = cv_error(p->refused_result, "node '%s': %s", p->endpoint, p->refused_message);
+        p->refused_ticket = 0;
+    }
+    pthread_mutex_unlock(&p->lock);
+    return r;
+}
+
 static uint64_t proxy_completed(cv_backend_device *p) {
     pthread_mutex_lock(&p->lock);
     /* A dead session finishes nothing more: report everything finished so the
@@ -569,6 +580,7 @@ static const cv_backend proxy_backend = {
     .submit = proxy_submit,
     .wait = proxy_wait,
     .completed = proxy_completed,
+    .refused = proxy_refused,
     .lost = proxy_lost,
     .timings = proxy_timings,
 };

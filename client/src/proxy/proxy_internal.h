@@ -81,6 +81,12 @@ struct cv_backend_device {
     char dead_message[512];
     cv_result async_error; /* first refused fire-and-forget request */
     char async_message[512];
+    /* The first submission not yet reported that ran with a command the node's
+       device refused (Completed.refused): the next wait covering it returns it,
+       once (backend.h, refused). Not an async_error: the device goes on. */
+    uint64_t refused_ticket; /* 0: none */
+    cv_result refused_result;
+    char refused_message[512];
 
     /* Blobs the node is known to have (answered present, or uploaded). */
     uint8_t (*known)[CV_SHA256_BYTES];

@@ -222,9 +222,15 @@ static void on_completed(proxy_device *p, const Corvid__Completed *c) {
     }
     slot->ticket = 0;
     slot->list = NULL;
-    if (c->transfer_failure)
+    if (c->transfer_failure) {
         proxy_note_failure(p, c->transfer_failure, 0, c->ticket, (cv_result)c->result, c->message);
-    else if (c->result != CV_OK && p->async_error == CV_OK) {
+    } else if (c->refused && c->result != CV_OK) {
+        if (!p->refused_ticket) {
+            p->refused_ticket = c->ticket;
+            p->refused_result = (cv_result)c->result;
+            snprintf(p->refused_message, sizeof(p->refused_message), "%s", c->message ? c->message : "");
+        }
+    } else if (c->result != CV_OK && p->async_error == CV_OK) {
         p->async_error = (cv_result)c->result;
         snprintf(p->async_message, sizeof(p->async_message), "submission %" PRIu64 ": %s", c->ticket,
                  c->message ? c->message : "");
