@@ -246,11 +246,16 @@ int main(int argc, char **argv) {
                           &(cv_exr_desc){ .width = BIG, .height = BIG, .layer_count = 1, .layers = &big }));
     free(zeros);
     limit = "ulimit -v 40000;";
-    snprintf(args, sizeof args, "'%s' '%s'", scratch_path(2, "big.exr"), scratch_path(2, "big.exr"));
-    CHECK_EQ_INT(run(args), 2);
+    if (run("--help") == 0) { /* a sanitizer's shadow memory cannot start under such a limit */
+        snprintf(args, sizeof args, "'%s' '%s'", scratch_path(2, "big.exr"), scratch_path(2, "big.exr"));
+        CHECK_EQ_INT(run(args), 2);
+        CHECK(strstr(err_text, "CV_ERROR_OUT_OF_MEMORY: ") != NULL);
+        CHECK(strstr(err_text, "big.exr: out of memory for channel 'ao.Y' (4096x4096 floats, 67108864 bytes)") !=
+              NULL);
+    } else {
+        printf("corvid-compare cannot start under ulimit -v here: out of memory not checked\n");
+    }
     limit = "";
-    CHECK(strstr(err_text, "CV_ERROR_OUT_OF_MEMORY: ") != NULL);
-    CHECK(strstr(err_text, "big.exr: out of memory for channel 'ao.Y' (4096x4096 floats, 67108864 bytes)") != NULL);
 
     scratch_dir_remove();
     return check_report("corvid-compare");
