@@ -104,7 +104,8 @@ static int compare_row(const cv_exr_image *a, const cv_exr_image *b, const uint8
     float *pa = scalar_plane(a, d, channel), *pb = scalar_plane(b, d, channel);
     int rc = 0;
     if (!pa || !pb) {
-        fprintf(stderr, "corvid-compare: out of memory\n");
+        fprintf(stderr, "corvid-compare: out of memory for layer '%s' (2 planes of %ux%u floats)\n", d->name,
+                a->width, a->height);
         rc = 2;
     }
     size_t n = (size_t)a->width * a->height;
@@ -199,9 +200,11 @@ int main(int argc, char **argv) {
         }
     }
     cv_exr_image img[2] = { { 0 }, { 0 } };
+    cv_result read;
     for (int f = 0; f < 2; f++)
-        if (cv_exr_read(paths[f], &img[f]) != CV_OK) {
-            fprintf(stderr, "corvid-compare: %s\n", cv_last_error());
+        if ((read = cv_exr_read(paths[f], &img[f])) != CV_OK) {
+            /* the result's name too: "a.exr: out of memory for channel 'R' ..." is not a channel's name */
+            fprintf(stderr, "corvid-compare: %s: %s\n", cv_result_name(read), cv_last_error());
             cv_exr_image_free(&img[0]);
             return 2;
         }
@@ -243,7 +246,7 @@ int main(int argc, char **argv) {
         cov[1] = malloc(n);
         mask = malloc(n);
         if (!cov[0] || !cov[1] || !mask) {
-            fprintf(stderr, "corvid-compare: out of memory\n");
+            fprintf(stderr, "corvid-compare: out of memory for the coverage masks (%zu pixels)\n", n);
             rc = 2;
         }
     }

@@ -19,6 +19,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "corvid/file_util.h"
+#include "corvid/parse.h"
 #include "corvid/rpc.h"
 #include "corvid/vulkan.h"
 #include "metrics.h"
@@ -107,25 +109,26 @@ static void usage(FILE *f) {
             "                         --quota-memory counts it) [the machine's physical memory]\n");
 }
 
+/* Numbers: plain decimal digits, as every Corvid program reads them (corvid/parse.h). */
 static int parse_u32(const char *opt, const char *text, uint32_t lo, uint32_t hi, uint32_t *out) {
-    char *end = NULL;
-    errno = 0;
-    unsigned long long v = text && *text && *text != '-' ? strtoull(text, &end, 10) : 0;
-    if (!text || !*text || *text == '-' || *end || errno || v < lo || v > hi) {
-        fprintf(stderr, "corvid-node: %s: '%s' is not a number in %u..%u\n", opt, text ? text : "", lo, hi);
+    uint64_t v;
+    if (!cv_parse_uint(text, lo, hi, &v)) {
+        fprintf(stderr, "corvid-node: %s: '%s' is not a whole number in %u..%u\n", opt, text ? text : "", lo, hi);
         return 2;
     }
     *out = (uint32_t)v;
     return 0;
 }
 
+/* Digits, then at most one of K, M, G (binary multiples). */
 static int parse_size(const char *opt, const char *text, uint64_t *out) {
-    char *end = NULL;
-    errno = 0;
-    unsigned long long v = text && *text && *text != '-' ? strtoull(text, &end, 10) : 0;
-    uint64_t scale = 1;
-    if (end && *end) {
-        switch (*end) {
+    size_t digits = strspn(text, "0123456789");
+    char number[24] = "";
+    uint64_t v = 0, scale = 1;
+    if (digits < sizeof number)
+        snprintf(number, sizeof number, "%.*s", (int)digits, text);
+    if (text[digits]) {
+        switch (text[digits]) {
         case 'K':
         case 'k': scale = 1ull << 10; break;
         case 'M':
@@ -134,10 +137,10 @@ static int parse_size(const char *opt, const char *text, uint64_t *out) {
         case 'g': scale = 1ull << 30; break;
         default: scale = 0; break;
         }
-        if (end[1])
+        if (text[digits + 1])
             scale = 0;
     }
-    if (!text || !*text || *text == '-' || errno || scale == 0 || v == 0 || v > UINT64_MAX / scale) {
+    if (scale == 0 || !cv_parse_uint(number, 1, UINT64_MAX / scale, &v)) {
         fprintf(stderr, "corvid-node: %s: '%s' is not a size (bytes, or a number with K, M or G)\n", opt,
                 text ? text : "");
         return 2;
@@ -445,9 +448,15 @@ int main(int argc, char **argv) {
         return 1;
     }
     if (o.port_file) {
-        FILE *f = fopen(o.port_file, "w");
-        if (!f || fprintf(f, "%d\n", port) < 0 || fclose(f) != 0) {
-            fprintf(stderr, "corvid-node: --port-file %s: %s\n", o.port_file, strerror(errno));
+        FILE *f = NULL;
+        cv_result pr = cv_file_fopen_regular(o.port_file, "w", &f);
+        if (pr == CV_OK) {
+            bool written = fprintf(f, "%d\n", port) >= 0;
+            if (fclose(f) != 0 || !written)
+                pr = cv_error(CV_ERROR_IO, "%s: %s", o.port_file, strerror(errno));
+        }
+        if (pr != CV_OK) {
+            fprintf(stderr, "corvid-node: --port-file: %s\n", cv_last_error());
             cv_node_stop(node, 0);
             return 1;
         }

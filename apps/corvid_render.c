@@ -6,7 +6,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -14,6 +13,7 @@
 #include "corvid/image_exr.h"
 #include "corvid/image_files.h"
 #include "corvid/image_png.h"
+#include "corvid/parse.h"
 #include "corvid/proxy.h"
 #include "corvid/render_log.h"
 #include "corvid/renderer.h"
@@ -22,6 +22,7 @@
 #include "corvid/tonemap.h"
 #include "corvid/vulkan.h"
 #include "render_exr.h"
+#include "render_outputs.h"
 
 /* The renderer's limits (cv_renderer_render refuses more). */
 #define MAX_FRAMES 4096
@@ -61,7 +62,8 @@ static void usage(FILE *f) {
             "  --exposure EV      exposure of the PNG in stops (default 0)\n"
             "  --reference N      render the CPU reference instead (ground truth for the renderer's\n"
             "                     image model): N samples per pixel, 1..65536, unfiltered, float32\n"
-            "                     accumulation, on 2 threads; writes the same layers; no devices\n"
+            "                     accumulation, on 2 threads; writes the same layers; no devices (so not with\n"
+            "                     --gpus, --nodes, --dump-graph, --stats, --trace and the like)\n"
             "  --out PREFIX       output path without extension, ending in a file name (default out/frame)\n"
             "  --gpus N           total devices (virtual GPUs are added to reach N); overrides\n"
             "                     --virtual-gpus and CORVID_VIRTUAL_GPUS\n"
@@ -70,7 +72,9 @@ static void usage(FILE *f) {
             "  --nodes LIST       render on the devices of remote corvid-nodes instead, HOST:PORT,...\n"
             "                     (or CORVID_NODES=LIST); the first node's first device is the primary\n"
             "  --dump-graph FILE  write the frame's render graph (passes, devices, cross-device copies)\n"
-            "                     as text to FILE and as Graphviz dot to FILE.dot\n"
+            "                     as text to FILE and as Graphviz dot to FILE.dot (not with --reference)\n"
+            "  (--out, --stats, --trace and --dump-graph name distinct regular files, checked before\n"
+            "  rendering and written together at the end; SIGINT/SIGTERM leave none of them half-made)\n"
             "  --stats FILE       write per-frame stats as JSON: wall time, per device its columns, rays,\n"
             "                     pass times and transfers; then a summary (not with --reference)\n"
             "  --trace FILE       write a Chrome/Perfetto trace (open in ui.perfetto.dev): a track per\n"
@@ -86,7 +90,7 @@ static void usage(FILE *f) {
             "  CORVID_VGPU_DEVICE=auto|shared|separate  virtual GPUs on one VkDevice or one each\n"
             "  CORVID_LINK_QUEUE=compute|graphics|copy  the queue of GPU-side copies (default compute)\n"
             "  CORVID_CROSS_WAIT=auto|import|bridge     how a GPU waits for another device\n"
-            "  CORVID_TRANSFER_ASYNC=0              every transfer synchronous (for comparisons)\n",
+            "  CORVID_TRANSFER_ASYNC=0|1            0: every transfer synchronous (for comparisons); 1 default\n",
             CV_MAX_TEXTURE_DIM, MAX_FRAMES, MAX_AO_SAMPLES);
 }
 
@@ -103,25 +107,14 @@ typedef struct options {
     bool validation, quiet, list_adapters, help;
 } options;
 
-/* A whole number in min..max written as plain decimal digits: strtoull alone
- * would take "-5" as 2^64 - 5 and skip leading blanks. */
-static bool parse_uint(const char *s, uint64_t min, uint64_t max, uint64_t *out) {
-    if (s[0] < '0' || s[0] > '9')
-        return false;
-    char *end;
-    errno = 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (errno || *end || v < min || v > max)
-        return false;
-    *out = v;
-    return true;
-}
-
+/* A finite float. strtof's ERANGE also means underflow (1e-45, a denormal,
+ * or 1e-50, rounded to 0): a finite number, accepted; only overflow (inf) is
+ * refused. */
 static bool parse_float(const char *s, float *out) {
     char *end;
     errno = 0;
     float v = strtof(s, &end);
-    if (errno || end == s || *end || !isfinite(v))
+    if ((errno && errno != ERANGE) || end == s || *end || !isfinite(v))
         return false;
     *out = v;
     return true;
@@ -138,7 +131,7 @@ static bool refuse(const char *name, const char *value, const char *expected) {
 
 static bool set_u32(const char *name, const char *value, uint32_t min, uint32_t max, uint32_t *out) {
     uint64_t v;
-    if (!parse_uint(value, min, max, &v)) {
+    if (!cv_parse_uint(value, min, max, &v)) {
         char expected[64];
         snprintf(expected, sizeof expected, "a whole number in %u..%u", min, max);
         return refuse(name, value, expected);
@@ -150,7 +143,7 @@ static bool set_u32(const char *name, const char *value, uint32_t min, uint32_t 
 static bool opt_scene(options *o, const char *name, const char *value) {
     if (!value[0])
         return refuse(name, value, "a scene (room, stress:N or a file)");
-    if (!strncmp(value, "stress:", 7) && !parse_uint(value + 7, 1, UINT64_MAX, &o->stress_triangles))
+    if (!strncmp(value, "stress:", 7) && !cv_parse_uint(value + 7, 1, UINT64_MAX, &o->stress_triangles))
         return refuse(name, value, "stress:N with N a whole number of triangles, at least 1");
     o->scene = value;
     return true;
@@ -169,7 +162,7 @@ static bool opt_size(options *o, const char *name, const char *value) {
     if (!x || (size_t)(x - value) >= sizeof width)
         return refuse(name, value, expected);
     snprintf(width, sizeof width, "%.*s", (int)(x - value), value);
-    if (!parse_uint(width, 1, CV_MAX_TEXTURE_DIM, &w) || !parse_uint(x + 1, 1, CV_MAX_TEXTURE_DIM, &h))
+    if (!cv_parse_uint(width, 1, CV_MAX_TEXTURE_DIM, &w) || !cv_parse_uint(x + 1, 1, CV_MAX_TEXTURE_DIM, &h))
         return refuse(name, value, expected);
     o->settings.width = (uint32_t)w;
     o->settings.height = (uint32_t)h;
@@ -215,7 +208,7 @@ static bool opt_reflection_scale(options *o, const char *name, const char *value
 /* A power of two in 1..max, refused with the list of them ("one of 1, 2, 4, 8"). */
 static bool set_power_of_two(const char *name, const char *value, uint32_t max, uint32_t *out) {
     uint64_t n;
-    if (!parse_uint(value, 1, max, &n) || (n & (n - 1)) != 0) {
+    if (!cv_parse_uint(value, 1, max, &n) || (n & (n - 1)) != 0) {
         char list[64] = "one of 1";
         for (uint32_t p = 2; p <= max && strlen(list) + 8 < sizeof list; p *= 2)
             snprintf(list + strlen(list), sizeof list - strlen(list), ", %u", p);
@@ -440,24 +433,18 @@ static int parse_args(int argc, char **argv, options *o) {
     return 0;
 }
 
-/* --dump-graph: the renderer's frame graph as text to `path`, as dot to path.dot. */
-static cv_result dump_graph(cv_renderer *renderer, const char *path) {
-    size_t len = strlen(path);
-    char *dot_path = malloc(len + 5);
-    if (!dot_path)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "--dump-graph");
-    memcpy(dot_path, path, len);
-    memcpy(dot_path + len, ".dot", 5);
-    FILE *text = fopen(path, "w"), *dot = fopen(dot_path, "w");
+/* --dump-graph: the renderer's frame graph as text and as dot, to the
+ * temporaries of FILE and FILE.dot (renamed into place with the images). */
+static cv_result dump_graph(cv_renderer *renderer, const outputs *out) {
+    FILE *text = fopen(out->graph_temp, "w"), *dot = fopen(out->dot_temp, "w");
     cv_result r = text && dot
                       ? cv_renderer_dump_graph(renderer, text, dot)
-                      : cv_error(CV_ERROR_IO, "--dump-graph: %s: %s", text ? dot_path : path, strerror(errno));
+                      : cv_error(CV_ERROR_IO, "%s: %s", text ? out->dot_temp : out->graph_temp, strerror(errno));
     if (text && fclose(text) != 0 && r == CV_OK)
-        r = cv_error(CV_ERROR_IO, "--dump-graph: %s: %s", path, strerror(errno));
+        r = cv_error(CV_ERROR_IO, "%s: %s", out->graph_temp, strerror(errno));
     if (dot && fclose(dot) != 0 && r == CV_OK)
-        r = cv_error(CV_ERROR_IO, "--dump-graph: %s: %s", dot_path, strerror(errno));
-    free(dot_path);
-    return r;
+        r = cv_error(CV_ERROR_IO, "%s: %s", out->dot_temp, strerror(errno));
+    return r == CV_OK ? r : cv_file_set_name_error(out->set, cv_error(r, "--dump-graph: %s", cv_last_error()));
 }
 
 static cv_result load_scene(const options *o, cv_scene **out) {
@@ -532,138 +519,6 @@ static void progress(uint32_t frame, uint32_t frames, void *user) {
         fputc('\n', stderr);
     if (frame < frames)
         rejoin_lost(rp, frame);
-}
-
-/* Where the frame goes: PREFIX.exr and PREFIX.png, reserved as temporaries
- * in their directory before anything is rendered, so that a destination that
- * cannot take them fails at once rather than after the whole render. */
-typedef struct outputs {
-    char *exr, *png; /* final names */
-    const char *exr_temp, *png_temp;
-    const char *stats_temp, *trace_temp; /* --stats, --trace; NULL when not asked for */
-    cv_file_set *set;
-    char *made;      /* the folders this run created, to remove on failure; NULL if none */
-    size_t made_top; /* length of the top-most folder created */
-} outputs;
-
-/* A copy of `a` followed by `b`, or NULL without memory. */
-static char *concat(const char *a, const char *b) {
-    size_t na = strlen(a), nb = strlen(b);
-    char *s = malloc(na + nb + 1);
-    if (s) {
-        memcpy(s, a, na);
-        memcpy(s + na, b, nb + 1);
-    }
-    return s;
-}
-
-/* Creates the missing folders of PREFIX (like mkdir -p), remembering the
- * ones it made. */
-static cv_result make_parent(const char *prefix, outputs *out) {
-    char *dir = strdup(prefix);
-    if (!dir)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "--out: no memory");
-    char *slash = strrchr(dir, '/');
-    if (!slash || slash == dir) {
-        free(dir);
-        return CV_OK;
-    }
-    *slash = '\0';
-    size_t len = strlen(dir);
-    for (char *p = dir + 1; p <= dir + len; p++) {
-        if (*p != '/' && *p != '\0')
-            continue;
-        char c = *p;
-        *p = '\0';
-        if (mkdir(dir, 0777) == 0) {
-            if (!out->made)
-                out->made_top = strlen(dir);
-            out->made = dir;
-        } else if (errno != EEXIST) {
-            cv_result r = cv_error(CV_ERROR_IO, "cannot create folder '%s': %s", dir, strerror(errno));
-            *p = c;
-            if (out->made != dir)
-                free(dir);
-            return r;
-        }
-        *p = c;
-    }
-    if (out->made != dir)
-        free(dir);
-    return CV_OK;
-}
-
-/* Removes what outputs_reserve made: temporaries, then created folders. */
-static void outputs_discard(outputs *out) {
-    cv_file_set_destroy(out->set);
-    out->set = NULL;
-    for (char *dir = out->made; dir && strlen(dir) >= out->made_top;) {
-        rmdir(dir);
-        char *slash = strrchr(dir, '/');
-        if (!slash)
-            break;
-        *slash = '\0';
-    }
-}
-
-static void outputs_free(outputs *out) {
-    cv_file_set_destroy(out->set);
-    free(out->made);
-    free(out->exr);
-    free(out->png);
-}
-
-static cv_result outputs_reserve(const char *prefix, outputs *out) {
-    out->exr = concat(prefix, ".exr");
-    out->png = concat(prefix, ".png");
-    if (!out->exr || !out->png)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "--out: no memory");
-    cv_result r = make_parent(prefix, out);
-    if (r == CV_OK)
-        r = cv_file_set_create(&out->set);
-    if (r == CV_OK)
-        r = cv_file_set_add(out->set, out->exr, &out->exr_temp);
-    if (r == CV_OK)
-        r = cv_file_set_add(out->set, out->png, &out->png_temp);
-    if (r != CV_OK)
-        return cv_error(r, "--out: %s", cv_last_error());
-    return CV_OK;
-}
-
-/* Whether paths a and b name the same file: the same file name in the same
- * folder, however the folder is written ("out/x.json", "./out/x.json"). */
-static bool same_destination(const char *a, const char *b) {
-    const char *sa = strrchr(a, '/'), *sb = strrchr(b, '/');
-    if (strcmp(sa ? sa + 1 : a, sb ? sb + 1 : b) != 0)
-        return false;
-    char *da = sa ? strndup(a, sa == a ? 1 : (size_t)(sa - a)) : strdup(".");
-    char *db = sb ? strndup(b, sb == b ? 1 : (size_t)(sb - b)) : strdup(".");
-    char *ra = da ? realpath(da, NULL) : NULL, *rb = db ? realpath(db, NULL) : NULL;
-    bool same = ra && rb ? strcmp(ra, rb) == 0 : da && db && strcmp(da, db) == 0;
-    free(da), free(db), free(ra), free(rb);
-    return same;
-}
-
-/* --stats and --trace join the set of files written together: a bad
- * destination is found before rendering, and nothing is written on failure.
- * They must differ from each other and from PREFIX.exr / .png. */
-static cv_result outputs_reserve_logs(const options *o, outputs *out) {
-    const char *paths[2] = { o->stats, o->trace }, *names[2] = { "--stats", "--trace" };
-    const char **temps[2] = { &out->stats_temp, &out->trace_temp };
-    for (int i = 0; i < 2; i++) {
-        if (!paths[i])
-            continue;
-        const char *clash = same_destination(paths[i], out->exr)                         ? "the EXR"
-                            : same_destination(paths[i], out->png)                       ? "the PNG"
-                            : i == 1 && o->stats && same_destination(paths[1], o->stats) ? "the --stats file"
-                                                                                         : NULL;
-        if (clash)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%s' is also %s", names[i], paths[i], clash);
-        cv_result r = cv_file_set_add(out->set, paths[i], temps[i]);
-        if (r != CV_OK)
-            return cv_error(r, "%s: %s", names[i], cv_last_error());
-    }
-    return CV_OK;
 }
 
 /* The recorded frames to the --stats and --trace temporaries. */
@@ -797,14 +652,22 @@ int main(int argc, char **argv) {
     if (o.list_adapters)
         return list_adapters();
     bool local_choice = gpu_config.adapters || gpu_config.total || gpu_config.virtual_per_adapter;
-    if (!o.nodes && !local_choice && getenv("CORVID_NODES") && getenv("CORVID_NODES")[0]) {
+    if (!o.nodes && !local_choice && !o.reference && getenv("CORVID_NODES") && getenv("CORVID_NODES")[0]) {
         if (!opt_nodes(&o, "CORVID_NODES", getenv("CORVID_NODES")))
             return 2;
     }
-    if ((o.stats || o.trace) && o.reference) {
+    /* --reference renders on the CPU, without devices or a render graph: an
+     * option about those would be ignored, so it is refused instead. */
+    if ((o.stats || o.trace || o.dump_graph) && o.reference) {
         fprintf(stderr,
-                "corvid-render: --stats and --trace record the GPU renderer's frames; --reference renders "
-                "on the CPU: give one or the other\n");
+                "corvid-render: --stats, --trace and --dump-graph record the GPU renderer's frames and graph; "
+                "--reference renders on the CPU: give one or the other\n");
+        return 2;
+    }
+    if ((o.nodes || local_choice || o.validation) && o.reference) {
+        fprintf(stderr,
+                "corvid-render: --reference renders on the CPU, on no device: --gpus, --virtual-gpus, --adapters, "
+                "--nodes and --validation choose devices; give one or the other\n");
         return 2;
     }
     if (o.nodes && local_choice) {
@@ -826,9 +689,9 @@ int main(int argc, char **argv) {
     outputs out = { 0 };
     cv_render_log *log = NULL;
     cv_render_observer observer = { 0 };
-    cv_result r = outputs_reserve(o.out, &out);
+    cv_result r = outputs_reserve(&out, o.out, o.stats, o.trace, o.dump_graph);
     if (r == CV_OK)
-        r = outputs_reserve_logs(&o, &out);
+        outputs_catch_signals(&out);
     if (r == CV_OK && (o.stats || o.trace))
         r = cv_render_log_create(&log);
     if (r == CV_OK && log) {
@@ -891,8 +754,8 @@ int main(int argc, char **argv) {
                                                    .devices = devices,
                                                    .count = device_count,
                                                    .nodes = o.nodes });
-    if (r == CV_OK && o.dump_graph && !o.reference)
-        r = dump_graph(renderer, o.dump_graph);
+    if (r == CV_OK && o.dump_graph)
+        r = dump_graph(renderer, &out);
     cv_render_settings s = { 0 };
     if (r == CV_OK)
         s = cv_render_settings_resolve(&o.settings, scene);
@@ -900,6 +763,8 @@ int main(int argc, char **argv) {
         r = write_images(&o, &out, &image);
     if (r == CV_OK)
         r = write_logs(&out, log, &stats);
+    if (r != CV_OK)
+        r = cv_file_set_name_error(out.set, r); /* the files' names, not their temporaries' */
     if (r == CV_OK)
         r = cv_file_set_commit(out.set);
     if (r == CV_OK && !o.quiet && o.reference)
@@ -948,6 +813,7 @@ int main(int argc, char **argv) {
                      cv_vulkan_validation_message_count());
     if (r != CV_OK)
         outputs_discard(&out);
+    outputs_release_signals();
     outputs_free(&out);
     cv_render_log_destroy(log);
     cv_render_output_free(&image);

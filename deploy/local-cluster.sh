@@ -52,6 +52,7 @@ fi
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
 dir=$(mktemp -d "${TMPDIR:-/tmp}/corvid-local-cluster.XXXXXX")
 pids=()
+ended=()   # ended[i]: the status of node i when the wait loop saw it end by itself
 stopping=0
 
 stop_all() {   # drain every node, wait for each, report; exit status: 0 if all stopped cleanly
@@ -61,7 +62,9 @@ stop_all() {   # drain every node, wait for each, report; exit status: 0 if all 
   for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null; done
   local status=0 i=0
   for pid in "${pids[@]}"; do
-    wait "$pid"; local rc=$?
+    local rc=${ended[$i]:-}
+    [ -z "$rc" ] && { wait "$pid"; rc=$?; }
+    [ -n "${ended[$i]:-}" ] && status=1   # ended by itself, even with status 0: not a clean stop
     if [ "$rc" -ne 0 ]; then
       echo "local-cluster: node$i exited $rc (log: $dir/node$i/node.err)" >&2; status=1
     else
@@ -101,7 +104,7 @@ for ((i = 0; i < count; i++)); do
   fi
   port=$(cat "$dir/node$i/port")
   metrics=$(grep -o "http://[^ ]*/metrics" "$dir/node$i/node.out")
-  echo "local-cluster: node$i on 127.0.0.1:$port, $gpus lavapipe device(s), metrics $metrics, cache $dir/node$i/cache"
+  echo "local-cluster: node$i on 127.0.0.1:$port (pid ${pids[$i]}), $gpus lavapipe device(s), metrics $metrics, cache $dir/node$i/cache"
   list+=("127.0.0.1:$port")
 done
 nodes=$(IFS=,; echo "${list[*]}")
@@ -109,14 +112,23 @@ nodes=$(IFS=,; echo "${list[*]}")
 echo "local-cluster: ready: --nodes $nodes"
 echo "local-cluster: e.g. scripts/render.sh --nodes $nodes    (Ctrl-C here stops the cluster)"
 
-# Wait; a node that exits on its own (crash, killed) stops the cluster with an error.
+# Wait; a node that exits on its own (crash, killed by any signal, SIGKILL included)
+# stops the cluster with an error. `wait -n` returns either because a node ended
+# (its status, 128+N when a signal killed it) or because a trapped signal came:
+# then the trap's stop_all runs and exits, so this loop never sees that return.
+# Which node ended is read from the pids themselves, not guessed from the status.
 while [ "$stopping" -eq 0 ]; do
   wait -n "${pids[@]}" 2>/dev/null
   rc=$?
   [ "$stopping" -eq 1 ] && break
-  if [ "$rc" -lt 128 ]; then   # >= 128: interrupted by a signal; the trap runs
-    echo "local-cluster: a node exited by itself (status $rc); stopping the others" >&2
-    keep=1
-    stop_all
-  fi
+  for i in "${!pids[@]}"; do
+    if ! kill -0 "${pids[$i]}" 2>/dev/null; then
+      how="status $rc"
+      [ "$rc" -gt 128 ] && how="killed by signal $((rc - 128)) ($(kill -l $((rc - 128)) 2>/dev/null))"
+      echo "local-cluster: node$i (pid ${pids[$i]}) exited by itself ($how); stopping the others" >&2
+      ended[$i]=$rc
+      keep=1
+      stop_all
+    fi
+  done
 done

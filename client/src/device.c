@@ -322,70 +322,72 @@ void cv_device_abandon(cv_device *dev) {
         atomic_store(&dev->abandoned, true);
 }
 
-static cv_result buffer_access(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, const void *src,
-                               void *dst) {
-    if (!dev || (!src && !dst))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer %s: NULL argument", src ? "write" : "read");
+/* A write (src) or a read (dst): `write` says which, so that a NULL pointer
+ * is reported as what the caller did. */
+static cv_result buffer_access(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, bool write,
+                               const void *src, void *dst) {
+    if (!dev || (write ? !src : !dst))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer %s: NULL argument", write ? "write" : "read");
     pthread_mutex_lock(&dev->lock);
     cv_device_resource *s;
-    cv_result r = cv_device_require(dev, b.id, CV_HANDLE_BUFFER, src ? "buffer write" : "buffer read", &s);
+    cv_result r = cv_device_require(dev, b.id, CV_HANDLE_BUFFER, write ? "buffer write" : "buffer read", &s);
     if (r == CV_OK && size == 0)
         r = cv_error(CV_ERROR_INVALID_ARGUMENT, "buffer '%s': %s of 0 bytes at offset %llu: size is 0",
-                     s->desc.buffer.label, src ? "write" : "read", (unsigned long long)offset);
+                     s->desc.buffer.label, write ? "write" : "read", (unsigned long long)offset);
     if (r == CV_OK && (offset > s->desc.buffer.size || size > s->desc.buffer.size - offset))
         r = cv_error(CV_ERROR_OUT_OF_RANGE,
                      "buffer '%s' (%llu bytes): %s of %llu bytes at offset %llu is out of range",
-                     s->desc.buffer.label, (unsigned long long)s->desc.buffer.size, src ? "write" : "read",
+                     s->desc.buffer.label, (unsigned long long)s->desc.buffer.size, write ? "write" : "read",
                      (unsigned long long)size, (unsigned long long)offset);
     if (r == CV_OK)
         r = wait_for_resource(dev, s);
     if (r == CV_OK)
-        r = src ? dev->backend->buffer_write(dev->bd, s->obj, offset, size, src)
-                : dev->backend->buffer_read(dev->bd, s->obj, offset, size, dst);
+        r = write ? dev->backend->buffer_write(dev->bd, s->obj, offset, size, src)
+                  : dev->backend->buffer_read(dev->bd, s->obj, offset, size, dst);
     pthread_mutex_unlock(&dev->lock);
     return r;
 }
 
 cv_result cv_device_write_buffer(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, const void *data) {
-    return buffer_access(dev, b, offset, size, data, NULL);
+    return buffer_access(dev, b, offset, size, true, data, NULL);
 }
 
 cv_result cv_device_read_buffer(cv_device *dev, cv_buffer b, uint64_t offset, uint64_t size, void *out) {
-    return buffer_access(dev, b, offset, size, NULL, out);
+    return buffer_access(dev, b, offset, size, false, NULL, out);
 }
 
-static cv_result texture_access(cv_device *dev, cv_texture t, cv_rect rect, const void *src, void *dst) {
-    if (!dev || (!src && !dst))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture %s: NULL argument", src ? "write" : "read");
+static cv_result texture_access(cv_device *dev, cv_texture t, cv_rect rect, bool write, const void *src, void *dst) {
+    if (!dev || (write ? !src : !dst))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "texture %s: NULL argument", write ? "write" : "read");
     pthread_mutex_lock(&dev->lock);
     cv_device_resource *s;
-    cv_result r = cv_device_require(dev, t.id, CV_HANDLE_TEXTURE, src ? "texture write" : "texture read", &s);
+    cv_result r = cv_device_require(dev, t.id, CV_HANDLE_TEXTURE, write ? "texture write" : "texture read", &s);
     if (r == CV_OK) {
         const cv_texture_desc *d = &s->desc.texture;
         if (rect.width == 0 || rect.height == 0)
             r = cv_error(CV_ERROR_INVALID_ARGUMENT, "texture '%s': %s of an empty %ux%u region at (%u,%u)", d->label,
-                         src ? "write" : "read", rect.width, rect.height, rect.x, rect.y);
+                         write ? "write" : "read", rect.width, rect.height, rect.x, rect.y);
         else if (rect.x > d->width || rect.width > d->width - rect.x || rect.y > d->height ||
                  rect.height > d->height - rect.y)
             r = cv_error(CV_ERROR_OUT_OF_RANGE, "texture '%s' (%ux%u): %s of %ux%u at (%u,%u) is out of range",
-                         d->label, d->width, d->height, src ? "write" : "read", rect.width, rect.height, rect.x,
+                         d->label, d->width, d->height, write ? "write" : "read", rect.width, rect.height, rect.x,
                          rect.y);
     }
     if (r == CV_OK)
         r = wait_for_resource(dev, s);
     if (r == CV_OK)
-        r = src ? dev->backend->texture_write(dev->bd, s->obj, &s->desc.texture, rect, src)
-                : dev->backend->texture_read(dev->bd, s->obj, &s->desc.texture, rect, dst);
+        r = write ? dev->backend->texture_write(dev->bd, s->obj, &s->desc.texture, rect, src)
+                  : dev->backend->texture_read(dev->bd, s->obj, &s->desc.texture, rect, dst);
     pthread_mutex_unlock(&dev->lock);
     return r;
 }
 
 cv_result cv_device_write_texture(cv_device *dev, cv_texture t, cv_rect rect, const void *data) {
-    return texture_access(dev, t, rect, data, NULL);
+    return texture_access(dev, t, rect, true, data, NULL);
 }
 
 cv_result cv_device_read_texture(cv_device *dev, cv_texture t, cv_rect rect, void *out) {
-    return texture_access(dev, t, rect, NULL, out);
+    return texture_access(dev, t, rect, false, NULL, out);
 }
 
 /* ---- cross-device links (transfer.c) ----------------------------------------- */

@@ -31,10 +31,35 @@ const char *cv_last_error(void) { return last_error; }
 
 void cv_clear_error(void) { last_error[0] = '\0'; }
 
+/* A message longer than last_error keeps its start and its end, cut in the
+ * middle: a long path is most of such a message, and the reason comes after
+ * it ("<4000-character path>: File name too long" must still say why). The
+ * cut does not split a UTF-8 character. */
+static void keep_ends(const char *full, size_t len) {
+    const char cut[] = " [...] ";
+    size_t head = sizeof(last_error) / 4, tail = sizeof(last_error) - 1 - head - (sizeof cut - 1);
+    while (head > 0 && ((unsigned char)full[head] & 0xC0) == 0x80)
+        head--;
+    size_t from = len - tail;
+    while (from < len && ((unsigned char)full[from] & 0xC0) == 0x80)
+        from++;
+    snprintf(last_error, sizeof(last_error), "%.*s%s%s", (int)head, full, cut, full + from);
+}
+
 cv_result cv_verror(cv_result code, const char *fmt, va_list ap) {
     char message[sizeof(last_error)]; /* the arguments may quote last_error itself */
-    vsnprintf(message, sizeof(message), fmt, ap);
-    snprintf(last_error, sizeof(last_error), "%s", message);
+    va_list again;
+    va_copy(again, ap);
+    int len = vsnprintf(message, sizeof(message), fmt, ap);
+    char *full = len >= (int)sizeof(message) ? malloc((size_t)len + 1) : NULL;
+    if (full) {
+        vsnprintf(full, (size_t)len + 1, fmt, again);
+        keep_ends(full, (size_t)len);
+        free(full);
+    } else {
+        snprintf(last_error, sizeof(last_error), "%s", message);
+    }
+    va_end(again);
     /* Process-wide on purpose: the environment is the process's. Read once,
      * lazily; an atomic because errors are reported from many threads. */
     static atomic_int log_errors = -1;

@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "corvid/file_util.h"
 #include "corvid/image_exr.h"
 #include "exr_errors.h"
 
@@ -109,7 +110,8 @@ static cv_result prepare_image(const char *path, exr_context_t ctx, const exr_fi
     img->compression = compression_of(compression);
     img->channels = calloc((size_t)channels->num_channels, sizeof *img->channels);
     if (img->channels == NULL)
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s: %d channel records", path, channels->num_channels);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s: out of memory for %d channel records", path,
+                        channels->num_channels);
     img->channel_count = (uint32_t)channels->num_channels;
     for (int i = 0; i < channels->num_channels; i++) {
         const exr_attr_chlist_entry_t *e = &channels->entries[i];
@@ -118,8 +120,9 @@ static cv_result prepare_image(const char *path, exr_context_t ctx, const exr_fi
         ch->name = strdup(e->name.str);
         ch->pixels = malloc(pixels * sizeof(float));
         if (ch->name == NULL || ch->pixels == NULL)
-            return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s: channel '%s' of %lldx%lld floats", path, e->name.str,
-                            (long long)width, (long long)height);
+            return cv_error(CV_ERROR_OUT_OF_MEMORY,
+                            "%s: out of memory for channel '%s' (%lldx%lld floats, %zu bytes)", path, e->name.str,
+                            (long long)width, (long long)height, pixels * sizeof(float));
     }
     return CV_OK;
 }
@@ -181,9 +184,9 @@ cv_result cv_exr_read(const char *path, cv_exr_image *out) {
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "exr: no path given");
     if (out == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: out is NULL", path);
-    exr_file file = { .fd = open(path, O_RDONLY | O_CLOEXEC) };
-    if (file.fd < 0)
-        return cv_error(CV_ERROR_IO, "%s: cannot open: %s", path, strerror(errno));
+    exr_file file = { .fd = -1 };
+    if (cv_file_open_regular(path, O_RDONLY, 0, &file.fd) != CV_OK) /* a FIFO would block in open */
+        return CV_ERROR_IO;
     struct stat st;
     if (fstat(file.fd, &st) != 0) {
         cv_result r = cv_error(CV_ERROR_IO, "%s: cannot stat: %s", path, strerror(errno));

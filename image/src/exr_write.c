@@ -213,7 +213,7 @@ cv_result cv_exr_write(const char *path, const cv_exr_desc *desc) {
     if (r == CV_OK)
         r = image_temp_commit(temp, path);
     else
-        unlink(temp);
+        image_temp_remove(temp);
     free(temp);
     return r;
 }

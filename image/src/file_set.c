@@ -86,10 +86,26 @@ cv_result cv_file_set_commit(cv_file_set *set) {
             return cv_error(CV_ERROR_IO, "%s: cannot replace: %s (%u earlier file(s) of the set already replaced)",
                             set->files[i].path, strerror(errno), i);
         }
+        image_temp_forget(set->files[i].temp);
         free(set->files[i].temp);
         set->files[i].temp = NULL;
     }
     return CV_OK;
+}
+
+cv_result cv_file_set_name_error(const cv_file_set *set, cv_result r) {
+    char message[CV_ERROR_MESSAGE_MAX];
+    snprintf(message, sizeof message, "%s", cv_last_error());
+    for (uint32_t i = 0; set != NULL && i < set->count; i++) {
+        const char *temp = set->files[i].temp;
+        char *at = temp != NULL ? strstr(message, temp) : NULL;
+        if (at == NULL)
+            continue;
+        char rest[CV_ERROR_MESSAGE_MAX];
+        snprintf(rest, sizeof rest, "%s", at + strlen(temp));
+        snprintf(at, sizeof message - (size_t)(at - message), "%s%s", set->files[i].path, rest);
+    }
+    return cv_error(r, "%s", message);
 }
 
 void cv_file_set_destroy(cv_file_set *set) {
@@ -97,7 +113,7 @@ void cv_file_set_destroy(cv_file_set *set) {
         return;
     for (uint32_t i = 0; i < set->count; i++) {
         if (set->files[i].temp != NULL)
-            unlink(set->files[i].temp);
+            image_temp_remove(set->files[i].temp);
         free(set->files[i].temp);
         free(set->files[i].path);
     }

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "corvid/file_util.h"
 #include "corvid/image_png.h"
 #include "corvid/types.h"
 #include "temp_file.h"
@@ -33,7 +34,7 @@ cv_result cv_png_write(const char *path, uint32_t width, uint32_t height, uint32
     if (f == NULL) {
         r = cv_error(CV_ERROR_IO, "%s: cannot write: %s", path, strerror(errno));
         close(fd);
-        unlink(temp);
+        image_temp_remove(temp);
         free(temp);
         return r;
     }
@@ -54,7 +55,7 @@ cv_result cv_png_write(const char *path, uint32_t width, uint32_t height, uint32
     if (r == CV_OK)
         r = image_temp_commit(temp, path);
     else
-        unlink(temp);
+        image_temp_remove(temp);
     free(temp);
     return r;
 }
@@ -71,9 +72,9 @@ cv_result cv_png_read(const char *path, cv_png_image *out) {
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "png: no path given");
     if (out == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: out is NULL", path);
-    FILE *f = fopen(path, "rb");
-    if (f == NULL)
-        return cv_error(CV_ERROR_IO, "%s: cannot open: %s", path, strerror(errno));
+    FILE *f;
+    if (cv_file_fopen_regular(path, "rb", &f) != CV_OK) /* a FIFO would block in open */
+        return CV_ERROR_IO;
 
     png_image image = { .version = PNG_IMAGE_VERSION };
     uint8_t *pixels = NULL;

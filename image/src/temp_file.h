@@ -17,4 +17,11 @@ cv_result image_temp_create(const char *path, char **temp, int *fd);
  * CV_ERROR_IO naming `path` and the system's reason. */
 cv_result image_temp_commit(const char *temp, const char *path);
 
+/* Removes `temp` (a failed write) and forgets it. */
+void image_temp_remove(const char *temp);
+
+/* Forgets `temp` once it is gone by other means (renamed into place): live
+ * temporaries are what cv_image_temps_remove_all removes. */
+void image_temp_forget(const char *temp);
+
 #endif

@@ -11,17 +11,18 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "corvid/parse.h"
 #include "vk_adapters.h"
 
 #define ENV_VIRTUAL_GPUS "CORVID_VIRTUAL_GPUS"
 
+/* A device count in 1..CV_MAX_DEVICES, plain digits ("+2" and " 2" refused, as
+ * every count of every program: corvid/parse.h). */
 static cv_result parse_count(const char *text, const char *what, uint32_t *out) {
-    char *end = NULL;
-    errno = 0;
-    unsigned long v = text ? strtoul(text, &end, 10) : 0;
-    if (!text || !*text || *end || errno || v == 0 || v > CV_MAX_DEVICES)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%s' is not a count in 1..%u", what, text ? text : "",
-                        CV_MAX_DEVICES);
+    uint64_t v;
+    if (!cv_parse_uint(text, 1, CV_MAX_DEVICES, &v))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%.64s' is not a count in 1..%u (the device limit)", what,
+                        text ? text : "", CV_MAX_DEVICES);
     *out = (uint32_t)v;
     return CV_OK;
 }

@@ -296,6 +296,10 @@ static cv_result create_image(cv_backend_device *bd, const cv_texture_desc *desc
             vr = vkBindImageMemory(bd->device, t->image, t->memory.memory, t->memory.offset);
             r = vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkBindImageMemory '%s'", desc->label);
         }
+        if (r == CV_ERROR_OUT_OF_MEMORY) /* say how large: "out of memory" alone does not say what to shrink */
+            r = cv_error(r, "texture '%s' (%ux%u %s, %llu bytes) on device '%s': %s", desc->label, desc->width,
+                         desc->height, cv_format_name(desc->format), (unsigned long long)req.size, bd->label,
+                         cv_last_error());
     }
     if (r != CV_OK)
         return r;

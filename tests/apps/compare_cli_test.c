@@ -3,12 +3,14 @@
  * a known offset of the shadow layer gives that bias; Gaussian noise of known
  * sigma on AO gives that RMSE within sampling error; only covered pixels
  * (finite depth) count; bad inputs (missing file, different sizes, no common
- * layer, unknown or absent --layer) exit 2 with a message naming the problem.
+ * layer, unknown or absent --layer, a FIFO, out of memory) exit 2 with a message
+ * naming the problem.
  * argv[1]: the corvid-compare executable. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include "check.h"
@@ -82,12 +84,15 @@ static void write_frame(const char *path, uint32_t w, uint32_t h, float shadow_o
     free(rgba), free(depth), free(shadow), free(ao), free(nx), free(ny), free(nz), free(direct), free(mx), free(my);
 }
 
-/* Runs corvid-compare with `args`; its stdout and stderr in static buffers. */
+/* Runs corvid-compare with `args` (under `limit`, shell commands before it;
+ * at most 30 s: a hang fails the check, not the whole test); its stdout and
+ * stderr in static buffers. */
 static char out_text[65536], err_text[8192];
+static const char *limit = "";
 static int run(const char *args) {
     char cmd[4096];
     const char *err_path = scratch_path(3, "stderr.txt");
-    snprintf(cmd, sizeof cmd, "'%s' %s 2> '%s'", tool, args, err_path);
+    snprintf(cmd, sizeof cmd, "%s timeout 30 '%s' %s 2> '%s'", limit, tool, args, err_path);
     FILE *p = popen(cmd, "r");
     size_t got = p ? fread(out_text, 1, sizeof out_text - 1, p) : 0;
     out_text[got] = 0;
@@ -224,6 +229,33 @@ int main(int argc, char **argv) {
     snprintf(args, sizeof args, "'%s' '%s'", a, scratch_path(2, "text.exr"));
     CHECK_EQ_INT(run(args), 2);
     CHECK(strstr(err_text, "text.exr") != NULL);
+    /* Not a regular file: a FIFO is refused at once (it blocked in open). */
+    CHECK(mkfifo(scratch_path(2, "fifo.exr"), 0600) == 0);
+    snprintf(args, sizeof args, "'%s' '%s'", a, scratch_path(2, "fifo.exr"));
+    CHECK_EQ_INT(run(args), 2);
+    CHECK(strstr(err_text, "fifo.exr: is not a regular file (a FIFO)") != NULL);
+    /* Out of memory says so, with the size (it read "big.exr: channel 'Y' of 4096x4096 floats",
+     * like a description of the channel): a 64 MB plane under a 40 MB address-space limit. */
+    enum { BIG = 4096 };
+    float *zeros = calloc((size_t)BIG * BIG, sizeof(float));
+    CHECK(zeros != NULL);
+    cv_exr_layer big = {
+        .name = "ao", .channel_count = 1, .channels = { "Y" }, .type = CV_EXR_HALF, .planes = { zeros }
+    };
+    CHECK_OK(cv_exr_write(scratch_path(2, "big.exr"),
+                          &(cv_exr_desc){ .width = BIG, .height = BIG, .layer_count = 1, .layers = &big }));
+    free(zeros);
+    limit = "ulimit -v 40000;";
+    if (run("--help") == 0) { /* a sanitizer's shadow memory cannot start under such a limit */
+        snprintf(args, sizeof args, "'%s' '%s'", scratch_path(2, "big.exr"), scratch_path(2, "big.exr"));
+        CHECK_EQ_INT(run(args), 2);
+        CHECK(strstr(err_text, "CV_ERROR_OUT_OF_MEMORY: ") != NULL);
+        CHECK(strstr(err_text, "big.exr: out of memory for channel 'ao.Y' (4096x4096 floats, 67108864 bytes)") !=
+              NULL);
+    } else {
+        printf("corvid-compare cannot start under ulimit -v here: out of memory not checked\n");
+    }
+    limit = "";
 
     scratch_dir_remove();
     return check_report("corvid-compare");

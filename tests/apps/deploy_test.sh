@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # deploy/ as far as this machine can take it: deploy/local-cluster.sh 2 starts two
 # lavapipe nodes, corvid-render renders through the --nodes list it prints, each
-# node's /metrics counts the work, and SIGTERM drains and stops the cluster. The
+# node's /metrics counts the work, and SIGTERM drains and stops the cluster; a node
+# killed with SIGKILL stops the others and the script exits 1. The
 # files for machines we cannot run here are checked, not run: compose.yaml and the
 # Kubernetes manifests must parse as YAML and have the parts deploy/README.md
 # promises, and the systemd unit must pass `systemd-analyze verify` without a
@@ -54,6 +55,24 @@ check "SIGTERM: cluster exits 0" test "$status" -eq 0
 check "SIGTERM: node0 drained and stopped" grep -q "node0: corvid-node: stopped after 2 sessions" "$tmp/cluster.out"
 check "SIGTERM: node1 drained and stopped" grep -q "node1: corvid-node: stopped after 2 sessions" "$tmp/cluster.out"
 check "SIGTERM: temp dir removed" test ! -e "$cluster_dir"
+# A node killed by a signal (SIGKILL: no drain, no status of its own) stops the others: the
+# script must not read the 128+9 of `wait -n` as its own interruption and go on waiting.
+CORVID_NODE=$node LOCAL_CLUSTER_NODES_FILE=$tmp/nodes2 TMPDIR=$tmp \
+  bash "$root/deploy/local-cluster.sh" 2 > "$tmp/cluster2.out" 2>&1 &
+cluster_pid=$!
+for _ in $(seq 300); do [ -s "$tmp/nodes2" ] && break; sleep 0.1; done
+node0_pid=$(sed -n 's/.*node0 on [^ ]* (pid \([0-9]*\)).*/\1/p' "$tmp/cluster2.out")
+check "second cluster: node0's pid printed" test -n "$node0_pid"
+[ -n "$node0_pid" ] && kill -KILL "$node0_pid"
+for _ in $(seq 200); do kill -0 "$cluster_pid" 2> /dev/null || break; sleep 0.1; done
+check "SIGKILL of a node: the script stopped (within 20 s)" test "$(kill -0 "$cluster_pid" 2> /dev/null && echo up)" = ""
+kill -TERM "$cluster_pid" 2> /dev/null
+wait "$cluster_pid"
+status=$?
+cluster_pid=
+check "SIGKILL of a node: the script exits 1" test "$status" -eq 1
+check "SIGKILL of a node: it says which node and how" grep -q "node0 (pid $node0_pid) exited by itself (killed by signal 9 (KILL))" "$tmp/cluster2.out"
+check "SIGKILL of a node: node1 drained and stopped" grep -q "node1: corvid-node: stopped after 0 sessions" "$tmp/cluster2.out"
 bash "$root/deploy/local-cluster.sh" 0 > /dev/null 2> "$tmp/err.txt"
 check "0 nodes refused (exit 2)" test $? -eq 2
 bash "$root/deploy/local-cluster.sh" 2 --gpus 3 > /dev/null 2> "$tmp/err.txt"

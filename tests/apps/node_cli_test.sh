@@ -77,6 +77,25 @@ for _ in $(seq 100); do [ -s "$tmp/unix-port" ] && break; sleep 0.1; done
 check "metrics on 0.0.0.0 without a token: warned" grep -q "without --metrics-token-file" "$tmp/open.err"
 kill -TERM "$node_pid"; wait "$node_pid"; node_pid=
 
+# Numbers read one strict way (corvid/parse.h): a sign or a blank is refused.
+for bad in "--idle-timeout=+5" "--max-sessions= 3" "--cache-size=+1G" "--cache-size= 12M" "--gpus=+2"; do
+  timeout -k 5 20 "$node" --backend mock --cache-dir "$tmp/cache" "$bad" > /dev/null 2> "$tmp/err.txt"
+  check "'$bad' exits 2" test $? -eq 2
+  check "'$bad' explained" grep -qF -- "'${bad#*=}' is not" "$tmp/err.txt"
+done
+# FIFOs (and other files that are not regular) are refused at once: reading a token from a
+# FIFO, or writing the port to one, blocked the node (with SIGTERM blocked for sigwait).
+mkfifo "$tmp/fifo"
+timeout -k 5 20 "$node" --backend mock --cache-dir "$tmp/cache" --token-file "$tmp/fifo" > /dev/null 2> "$tmp/err.txt"
+check "--token-file FIFO exits 2 (no hang)" test $? -eq 2
+check "--token-file FIFO explained" grep -qF "token file '$tmp/fifo': is not a regular file (a FIFO)" "$tmp/err.txt"
+CORVID_NODE_TOKEN_FILE=$tmp/fifo timeout -k 5 20 "$node" --backend mock --cache-dir "$tmp/cache" > /dev/null 2> "$tmp/err.txt"
+check "CORVID_NODE_TOKEN_FILE FIFO exits 2 (no hang)" test $? -eq 2
+check "CORVID_NODE_TOKEN_FILE FIFO explained" grep -qF "is not a regular file (a FIFO)" "$tmp/err.txt"
+timeout -k 5 20 "$node" --backend mock --listen 127.0.0.1:0 --cache-dir "$tmp/cache" --port-file "$tmp/fifo" > /dev/null 2> "$tmp/err.txt"
+check "--port-file FIFO exits 1 (no hang)" test $? -eq 1
+check "--port-file FIFO explained" grep -qF -- "--port-file: $tmp/fifo: is not a regular file (a FIFO)" "$tmp/err.txt"
+
 # A node on a free loopback port with 2 virtual GPUs on lavapipe.
 "$node" --listen 127.0.0.1:0 --port-file "$tmp/port" --adapters llvmpipe --gpus 2 --cache-dir "$tmp/cache" \
   > "$tmp/node.out" 2> "$tmp/node.err" &
@@ -124,6 +143,16 @@ check "one node down: it is named" grep -q "node '127.0.0.1:$closed' did not ans
   "$tmp/half.err"
 check "one node down: the other's devices render (node1.gpu0 primary)" grep -q "node1.gpu0: .*primary" "$tmp/half.err"
 check "one node down: PNG equals the local one" cmp -s "$tmp/local/frame.png" "$tmp/half/frame.png"
+
+# The client's environment, read strictly too: a FIFO token file and a timeout that is not a number.
+CORVID_NODE_TOKEN_FILE=$tmp/fifo timeout -k 5 30 "$render" --nodes "127.0.0.1:$port" "${args[@]}" --out "$tmp/x/frame" \
+  > /dev/null 2> "$tmp/err.txt"
+check "client CORVID_NODE_TOKEN_FILE FIFO exits 1 (no hang)" test $? -eq 1
+check "client CORVID_NODE_TOKEN_FILE FIFO explained" grep -qF "CORVID_NODE_TOKEN_FILE: token file '$tmp/fifo': is not a regular file (a FIFO)" "$tmp/err.txt"
+CORVID_NODE_TIMEOUT_MS=abc "$render" --nodes "127.0.0.1:$port" "${args[@]}" --out "$tmp/x/frame" > /dev/null 2> "$tmp/err.txt"
+check "CORVID_NODE_TIMEOUT_MS=abc exits 1" test $? -eq 1
+check "CORVID_NODE_TIMEOUT_MS=abc explained" grep -qF "CORVID_NODE_TIMEOUT_MS: 'abc' is not a whole number in 1..86400000 (milliseconds)" "$tmp/err.txt"
+check "nothing written for a bad client environment" test ! -e "$tmp/x/frame.png"
 
 kill -TERM "$node_pid"
 wait "$node_pid"

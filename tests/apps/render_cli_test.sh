@@ -249,6 +249,102 @@ CORVID_VIRTUAL_GPUS=bogus "$render" --size 8x8 --frames 1 --quiet --out "$tmp/e/
 check "a used, bad CORVID_VIRTUAL_GPUS exits 1" test $? -eq 1
 check "a used, bad CORVID_VIRTUAL_GPUS is named" grep -qF "CORVID_VIRTUAL_GPUS: 'bogus' is not a count in 1..64" "$tmp/err.txt"
 
+# ---- hostile inputs --------------------------------------------------------------
+# --dump-graph is an output like --out, --stats and --trace: checked and reserved before the
+# render (a bad path threw the images away after it), distinct from the others (it overwrote
+# the EXR), never a FIFO (it hung), and written atomically (a failed dump left empty files).
+"$render" --size 8x8 --frames 1 --out "$tmp/dg/frame" --dump-graph "$tmp/nodir/graph.txt" > /dev/null 2> "$tmp/err.txt"
+check "--dump-graph in a missing folder exits 1" test $? -eq 1
+check "--dump-graph in a missing folder explained" grep -qF -- "--dump-graph: $tmp/nodir/graph.txt: cannot create a temporary file beside it: No such file or directory" "$tmp/err.txt"
+check "--dump-graph in a missing folder: found before rendering" not grep -q "scene 'room'" "$tmp/err.txt"
+check "--dump-graph in a missing folder: nothing written" test ! -e "$tmp/dg"
+mkdir -p "$tmp/dg2" && echo old > "$tmp/dg2/frame.exr"
+"$render" --size 8x8 --frames 1 --out "$tmp/dg2/frame" --dump-graph "$tmp/dg2/./frame.exr" > /dev/null 2> "$tmp/err.txt"
+check "--dump-graph = the EXR exits 1" test $? -eq 1
+check "--dump-graph = the EXR explained" grep -qF -- "--dump-graph: '$tmp/dg2/./frame.exr' is also the EXR" "$tmp/err.txt"
+check "--dump-graph = the EXR: the EXR kept" test "$(cat "$tmp/dg2/frame.exr")" = old
+"$render" --size 8x8 --frames 1 --out "$tmp/dg/frame" --stats "$tmp/g.json" --dump-graph "$tmp/g.json" > /dev/null 2> "$tmp/err.txt"
+check "--dump-graph = --stats exits 1" test $? -eq 1
+check "--dump-graph = --stats explained" grep -qF -- "--dump-graph: '$tmp/g.json' is also the --stats file" "$tmp/err.txt"
+"$render" --size 8x8 --frames 1 --out "$tmp/dg/frame" --trace "$tmp/g.dot" --dump-graph "$tmp/g" > /dev/null 2> "$tmp/err.txt"
+check "--dump-graph's dot file = --trace exits 1" test $? -eq 1
+check "--dump-graph's dot file = --trace explained" grep -qF -- "--dump-graph: '$tmp/g.dot' is also the --trace file" "$tmp/err.txt"
+mkfifo "$tmp/graph.fifo"
+timeout 20 "$render" --size 8x8 --frames 1 --out "$tmp/dg/frame" --dump-graph "$tmp/graph.fifo" > /dev/null 2> "$tmp/err.txt"
+check "--dump-graph to a FIFO exits 1 (no hang)" test $? -eq 1
+check "--dump-graph to a FIFO explained" grep -qF -- "--dump-graph: $tmp/graph.fifo: exists and is not a regular file" "$tmp/err.txt"
+mkdir -p "$tmp/dg3/graph.txt.dot"
+"$render" --size 8x8 --frames 1 --out "$tmp/dg3/frame" --dump-graph "$tmp/dg3/graph.txt" > /dev/null 2> "$tmp/err.txt"
+check "--dump-graph whose dot path is a folder exits 1" test $? -eq 1
+check "--dump-graph whose dot path is a folder explained" grep -qF -- "graph.txt.dot: is a directory" "$tmp/err.txt"
+check "--dump-graph whose dot path is a folder: no empty FILE left" test "$(ls -A "$tmp/dg3")" = graph.txt.dot
+"$render" --reference 1 --size 8x8 --out "$tmp/dg/frame" --dump-graph "$tmp/g.txt" > /dev/null 2> "$tmp/err.txt"
+check "--dump-graph with --reference exits 2" test $? -eq 2
+check "--dump-graph with --reference explained" grep -qF -- "--dump-graph record the GPU renderer's frames and graph; --reference renders on the CPU" "$tmp/err.txt"
+"$render" --reference 1 --gpus 2 --size 8x8 --out "$tmp/dg/frame" > /dev/null 2> "$tmp/err.txt"
+check "--gpus with --reference exits 2" test $? -eq 2
+check "--gpus with --reference explained" grep -qF -- "--reference renders on the CPU, on no device" "$tmp/err.txt"
+check "nothing written for refused --dump-graph" test ! -e "$tmp/dg" -a ! -e "$tmp/g.txt" -a ! -e "$tmp/g.json"
+# Numbers read one strict way (corvid/parse.h): a sign or a blank is refused like any other text.
+refused "--gpus with a plus sign" "--gpus: '+2' is not a count in 1..64" --gpus +2
+refused "--gpus with a blank" "--gpus: ' 2' is not a count in 1..64" --gpus " 2"
+refused "--virtual-gpus with a plus sign" "--virtual-gpus: '+1' is not a count in 1..64" --virtual-gpus +1
+refused "--frames with a plus sign" "--frames: '+2' is not a whole number in 1..4096" --frames +2
+refused "--gpus over the device limit" "--gpus: '65' is not a count in 1..64 (the device limit)" --gpus 65
+CORVID_TRANSFER_ASYNC=no "$render" --gpus 2 --adapters llvmpipe --size 8x8 --frames 1 --quiet --out "$tmp/ta/frame" 2> "$tmp/err.txt"
+check "CORVID_TRANSFER_ASYNC=no exits 1" test $? -eq 1
+check "CORVID_TRANSFER_ASYNC=no explained" grep -qF "CORVID_TRANSFER_ASYNC='no' is not 0 (synchronous transfers) or 1 (the default)" "$tmp/err.txt"
+check "CORVID_TRANSFER_ASYNC=no: nothing written" test ! -e "$tmp/ta"
+CORVID_TRANSFER_ASYNC=0 "$render" --gpus 2 --adapters llvmpipe --size 8x8 --frames 1 --quiet --out "$tmp/ta/frame" 2> "$tmp/err.txt"
+check "CORVID_TRANSFER_ASYNC=0 renders" test $? -eq 0 -a -s "$tmp/ta/frame.png"
+# A denormal is finite: 1e-45 is a number of stops like any other (strtof's ERANGE is not "not finite").
+"$render" --size 8x8 --frames 1 --quiet --exposure 1e-45 --out "$tmp/dn/frame" 2> "$tmp/err.txt"
+check "--exposure 1e-45 accepted" test $? -eq 0
+refused "--exposure 1e39 (past float)" "--exposure: '1e39' is not a finite number of stops" --exposure 1e39
+# A path of about 4100 characters: the message keeps the reason at its end, the path is cut in its middle.
+"$render" --size 8x8 --out "$tmp/$(printf 'p%.0s' $(seq 4100))" > /dev/null 2> "$tmp/err.txt"
+check "4100-character path exits 1" test $? -eq 1
+check "4100-character path: the reason kept" grep -q "File name too long$" "$tmp/err.txt"
+check "4100-character path: the path cut in its middle" grep -qF " [...] " "$tmp/err.txt"
+# A write that fails (here a file-size limit, as a full disk; the CPU reference: no GPU driver
+# writes a cache under the limit) names the file, not its hidden temporary.
+(trap '' XFSZ; ulimit -f 4; exec "$render" --reference 1 --size 64x64 --quiet --out "$tmp/fz/frame") 2> "$tmp/err.txt"
+check "failed write exits 1" test $? -eq 1
+check "failed write names the EXR" grep -qF "$tmp/fz/frame.exr" "$tmp/err.txt"
+check "failed write does not name the temporary" not grep -q "corvid-tmp" "$tmp/err.txt"
+check "failed write: nothing left" test ! -e "$tmp/fz"
+# Device memory running out names the texture, its size and format and its bytes (it said only
+# "vkBindImageMemory 'gbuffer position': VK_ERROR_OUT_OF_DEVICE_MEMORY"). lavapipe's memory is the
+# process's: a 3 GB address-space limit and a 16384x16384 frame (4 GiB G-buffer textures). A build
+# that cannot start under such a limit (a sanitizer's shadow memory) skips it.
+if (ulimit -v 3000000; "$render" --help > /dev/null 2>&1); then
+  (ulimit -v 3000000; exec "$render" --size 16384x16384 --frames 1 --quiet --out "$tmp/oom/frame") 2> "$tmp/err.txt"
+  check "device out of memory exits 1" test $? -eq 1
+  check "device out of memory: the texture's size, format and bytes" \
+    grep -qE "CV_ERROR_OUT_OF_MEMORY: texture '[^']+' \(16384x16384 [a-z0-9 ]+, [0-9]+ bytes\) on device 'gpu0'" "$tmp/err.txt"
+  check "device out of memory: nothing written" test ! -e "$tmp/oom"
+else
+  echo "render_cli: this build cannot run under ulimit -v: the out-of-memory message is not checked"
+fi
+# SIGINT / SIGTERM during a render remove the hidden temporaries and the folders --out made,
+# and exit 130 / 143 (they were left behind).
+interrupt() {  # interrupt SIGNAL DIR: a long render into DIR/a/b, stopped once it renders
+  "$render" --size 64x32 --frames 4096 --out "$2/a/b/frame" --stats "$2/a/s.json" --dump-graph "$2/g.txt" \
+    > /dev/null 2> "$tmp/int.err" &
+  local pid=$!
+  for _ in $(seq 300); do grep -q "scene 'room'" "$tmp/int.err" && break; sleep 0.1; done
+  kill "-$1" "$pid"
+  wait "$pid"
+}
+interrupt INT "$tmp/int"
+check "SIGINT: exit 130" test $? -eq 130
+check "SIGINT: the folders --out made are gone" test ! -e "$tmp/int"
+check "SIGINT: said so" grep -q "interrupted: removed the unfinished output files" "$tmp/int.err"
+mkdir -p "$tmp/term"
+interrupt TERM "$tmp/term"
+check "SIGTERM: exit 143" test $? -eq 143
+check "SIGTERM: an existing folder stays, empty" test -d "$tmp/term" -a -z "$(ls -A "$tmp/term")"
+
 "$render" --help > "$tmp/help.txt"
 check "help exits 0" test $? -eq 0
 check "help lists --gpus" grep -q -- "--gpus" "$tmp/help.txt"

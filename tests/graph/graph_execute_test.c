@@ -1,6 +1,6 @@
 /* The render graph executed on mock devices: the barriers each pass's list
  * begins with, and a small frame (clear, multicast, copy, stamp, copy-back)
- * on three devices checked byte by byte. */
+ * on three devices and on CV_MAX_DEVICES, checked byte by byte. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -80,13 +80,14 @@ static void test_barriers(void) {
 
 typedef struct frame {
     cv_graph_resource a, b;
+    uint32_t columns; /* COLUMNS, or more for more devices */
 } frame;
 
 static void clear_a(const cv_graph_pass_context *pc, cv_command_list *list, void *user) {
     const frame *f = user;
     cv_cmd_clear_buffer(list, pc->queue,
                         &(cv_clear_buffer_args){
-                            .buffer = cv_graph_buffer(pc, f->a), .size = COLUMNS * 4, .value = 0x11111111u });
+                            .buffer = cv_graph_buffer(pc, f->a), .size = f->columns * 4, .value = 0x11111111u });
 }
 
 /* Even columns of the window get 1000 + column; odd ones keep what the copy put there. */
@@ -102,15 +103,19 @@ static void stamp_b(const cv_graph_pass_context *pc, cv_command_list *list, void
     }
 }
 
-static void test_execute_three_devices(void) {
+/* The frame on `count` devices, 16 columns each: with CV_MAX_DEVICES, device
+ * bits past 31 (a 32-bit mask loaded device 35's resources on device 3). */
+static void test_execute_devices(uint32_t count) {
+    enum { MAX_COLUMNS = CV_MAX_DEVICES * 16, MAX_TIMINGS = 2 * CV_MAX_DEVICES + 4 };
     graph_world w;
-    world_open(&w, 3);
+    world_open(&w, count);
+    const uint32_t columns = count * 16;
     cv_buffer result_h;
-    CHECK_OK(cv_buffer_create(w.ctx, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "result" }, &result_h));
-    frame f;
+    CHECK_OK(cv_buffer_create(w.ctx, &(cv_buffer_desc){ .size = columns * 4, .label = "result" }, &result_h));
+    frame f = { .columns = columns };
     cv_graph_resource result;
-    CHECK_OK(cv_graph_create_buffer(w.graph, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "a" }, 4, &f.a));
-    CHECK_OK(cv_graph_create_buffer(w.graph, &(cv_buffer_desc){ .size = COLUMNS * 4, .label = "b" }, 4, &f.b));
+    CHECK_OK(cv_graph_create_buffer(w.graph, &(cv_buffer_desc){ .size = columns * 4, .label = "a" }, 4, &f.a));
+    CHECK_OK(cv_graph_create_buffer(w.graph, &(cv_buffer_desc){ .size = columns * 4, .label = "b" }, 4, &f.b));
     CHECK_OK(cv_graph_import_buffer(w.graph, result_h, 4, &result));
     cv_graph_pass clear, copy, stamp, gather;
     CHECK_OK(cv_graph_add_pass(w.graph,
@@ -133,30 +138,30 @@ static void test_execute_three_devices(void) {
     CHECK_OK(cv_graph_write(w.graph, stamp, f.b, CV_GRAPH_TRANSFER_DST, CV_GRAPH_TRANSFER_AUTO));
     CHECK_OK(cv_graph_add_copy_pass(w.graph, "gather", CV_MGPU_PRIMARY_ONLY, f.b, result, &gather));
     CHECK_OK(cv_graph_output(w.graph, result));
-    CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
+    CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = columns, .tile = 8 }));
     cv_graph_stats st;
     CHECK_OK(cv_graph_get_stats(w.graph, &st));
     CHECK_EQ_INT(st.transfers, 2); /* a multicast, b copied back */
-    CHECK_EQ_INT(st.copies, 4);
+    CHECK_EQ_INT(st.copies, 2 * (count - 1));
 
     for (int frame_no = 0; frame_no < 2; frame_no++) {
-        uint32_t zero[COLUMNS] = { 0 };
-        CHECK_OK(cv_device_write_buffer(w.devices[0], result_h, 0, sizeof(zero), zero));
-        cv_graph_timing t[16];
+        static uint32_t zero[MAX_COLUMNS];
+        CHECK_OK(cv_device_write_buffer(w.devices[0], result_h, 0, columns * 4, zero));
+        cv_graph_timing t[MAX_TIMINGS];
         uint32_t n = 0;
-        CHECK_OK(cv_graph_execute(w.graph, t, 16, &n));
+        CHECK_OK(cv_graph_execute(w.graph, t, MAX_TIMINGS, &n));
         /* The first frame splits evenly; later splits follow measured times (a
          * device may get no columns, and no instance), so only bytes are checked. */
         if (frame_no == 0)
-            CHECK_EQ_INT(n, 1 + 2 + 3 + 3 + 1); /* clear, 2 transfers, copy x3, stamp x3, gather */
-        uint32_t got[COLUMNS];
-        CHECK_OK(cv_device_read_buffer(w.devices[0], result_h, 0, sizeof(got), got));
+            CHECK_EQ_INT(n, 1 + 2 + count + count + 1); /* clear, 2 transfers, copy and stamp on each, gather */
+        static uint32_t got[MAX_COLUMNS];
+        CHECK_OK(cv_device_read_buffer(w.devices[0], result_h, 0, columns * 4, got));
         int wrong = 0;
-        for (uint32_t c = 0; c < COLUMNS; c++)
+        for (uint32_t c = 0; c < columns; c++)
             wrong += got[c] != (c % 2 ? 0x11111111u : 1000 + c); /* odd: cleared on dev0, multicast */
         CHECK_EQ_INT(wrong, 0);
         /* Rebake from the balancer's measurements: still the same bytes. */
-        CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = COLUMNS, .tile = 8 }));
+        CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = columns, .tile = 8 }));
     }
     CHECK_OK(cv_buffer_destroy(w.ctx, result_h));
     world_close(&w);
@@ -334,7 +339,8 @@ static void test_collect(void) {
 
 int main(void) {
     test_barriers();
-    test_execute_three_devices();
+    test_execute_devices(3);
+    test_execute_devices(CV_MAX_DEVICES);
     test_enable_and_submit();
     test_collect();
     CHECK_NOTHING_LIVE();

@@ -6,7 +6,7 @@
 
 typedef struct graph_world {
     cv_context *ctx;
-    cv_device *devices[4];
+    cv_device *devices[CV_MAX_DEVICES];
     uint32_t count;
     cv_graph *graph;
 } graph_world;

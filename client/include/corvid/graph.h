@@ -38,7 +38,8 @@
  * then splits from a frame a few frames old, which converges the same way,
  * only later). CORVID_TRANSFER_ASYNC=0 in the environment (read at every
  * transfer) makes every transfer synchronous, as before rings existed (for
- * comparisons: bench/mgpu_frames.sh). A record callback sees its column window and the handles of
+ * comparisons: bench/mgpu_frames.sh); 1, empty or unset is the default, and
+ * any other value fails cv_graph_bake with CV_ERROR_INVALID_ARGUMENT. A record callback sees its column window and the handles of
  * its resources, never the device count:
  *
  *     static void trace(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {

@@ -56,7 +56,9 @@ const char *cv_result_name(cv_result r);
 /* "stale handle (its resource was destroyed)". */
 const char *cv_result_string(cv_result r);
 
-/* The longest message kept, terminating NUL included; longer ones are cut. */
+/* The longest message kept, terminating NUL included; a longer one keeps its
+ * first quarter and its end, cut in the middle by " [...] " (the reason that
+ * follows a long path survives). */
 #define CV_ERROR_MESSAGE_MAX 4096
 
 /* The detailed message of the last failure on this thread ("" if none). */

@@ -15,7 +15,7 @@ typedef struct bake_state {
     uint32_t *order;          /* all passes, topologically */
     graph_physical *physical; /* the pool, then the entries this bake adds */
     uint32_t physical_count;
-    uint32_t *devices; /* per resource: bit d if device d uses it */
+    graph_device_mask *devices; /* per resource: the devices that use it */
 } bake_state;
 
 enum { ORDER = 1, NEEDS = 2 };
@@ -456,13 +456,13 @@ static cv_result lay_out_steps(const cv_graph *g, const bake_state *s, graph_bak
     return CV_OK;
 }
 
-static uint32_t step_devices(const graph_baked *b, const graph_step *st) {
-    uint32_t mask = 0;
+static graph_device_mask step_devices(const graph_baked *b, const graph_step *st) {
+    graph_device_mask mask = 0;
     if (st->transfer)
         for (uint32_t c = 0; c < st->plan.count; c++)
-            mask |= 1u << st->plan.copies[c].src_device | 1u << st->plan.copies[c].dst_device;
+            mask |= GRAPH_DEVICE_BIT(st->plan.copies[c].src_device) | GRAPH_DEVICE_BIT(st->plan.copies[c].dst_device);
     for (uint32_t i = 0; i < st->instance_count; i++)
-        mask |= 1u << b->instances[st->instance_first + i].device;
+        mask |= GRAPH_DEVICE_BIT(b->instances[st->instance_first + i].device);
     return mask;
 }
 
@@ -471,14 +471,14 @@ static cv_result lifetimes(const cv_graph *g, bake_state *s, graph_baked *b) {
     uint32_t n = g->resource_count;
     b->first = malloc((n + 1) * sizeof(uint32_t));
     b->last = calloc(n + 1, sizeof(uint32_t));
-    s->devices = calloc(n + 1, sizeof(uint32_t));
+    s->devices = calloc(n + 1, sizeof(*s->devices));
     if (!b->first || !b->last || !s->devices)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
     for (uint32_t r = 0; r < n; r++)
         b->first[r] = UINT32_MAX;
     for (uint32_t i = 0; i < b->step_count; i++) {
         const graph_step *st = &b->steps[i];
-        uint32_t mask = step_devices(b, st);
+        graph_device_mask mask = step_devices(b, st);
         const graph_pass *pass = &g->passes[st->pass];
         for (uint32_t a = 0; a < (st->transfer ? 1 : pass->access_count); a++) {
             uint32_t r = st->transfer ? st->resource : (pass->accesses[a].id & ~GRAPH_HISTORY_BIT) - 1;
@@ -661,7 +661,7 @@ static cv_result create_like(cv_graph *g, cv_handle_type type, const cv_texture_
     return res;
 }
 
-static cv_result load_on(cv_graph *g, cv_handle h, uint32_t mask) {
+static cv_result load_on(cv_graph *g, cv_handle h, graph_device_mask mask) {
     cv_result res = CV_OK;
     for (uint32_t d = 0; d < g->device_count && res == CV_OK; d++)
         if ((mask >> d & 1) && !cv_device_has(g->devices[d], h))
@@ -741,8 +741,12 @@ cv_result cv_graph_bake(cv_graph *g, const cv_graph_bake_desc *desc) {
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_bake: NULL argument");
     bake_state s = { .n = g->pass_count };
     graph_baked b = { 0 };
-    /* 1. Validate: known resources, accesses their types allow, no double write in a pass. */
-    cv_result res = validate(g);
+    /* 1. Validate: known resources, accesses their types allow, no double write in a pass;
+     *    the environment's transfer switch (graph.h). */
+    bool async;
+    cv_result res = graph_transfer_async(&async);
+    if (res == CV_OK)
+        res = validate(g);
     /* 2. Dependencies: the write each read sees; read-after-write, write-after-write, write-after-read edges. */
     if (res == CV_OK)
         res = find_dependencies(g, &s);

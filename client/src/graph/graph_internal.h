@@ -128,6 +128,12 @@ typedef struct graph_frame {
     bool balanced;
 } graph_frame;
 
+/* A set of the graph's devices, bit d for device d: one bit for every device
+ * a graph may have (CV_MAX_DEVICES), so never a 32-bit type. */
+typedef uint64_t graph_device_mask;
+_Static_assert(CV_MAX_DEVICES <= 64, "graph_device_mask has a bit per device");
+#define GRAPH_DEVICE_BIT(d) ((graph_device_mask)1 << (d))
+
 struct cv_graph {
     cv_context *ctx;
     cv_device *devices[CV_MAX_DEVICES];
@@ -192,7 +198,11 @@ bool graph_physical_shared(const graph_physical *p);
  * CV_TEXTURE_USAGE_SHARED) on the devices in mask: with `shared`, on the
  * primary and as aliases of it on the others; without, an ordinary
  * representation everywhere (an alias an earlier bake made is replaced). */
-cv_result graph_load_shared(cv_graph *g, cv_handle h, uint32_t mask, bool shared);
+cv_result graph_load_shared(cv_graph *g, cv_handle h, graph_device_mask mask, bool shared);
+/* CORVID_TRANSFER_ASYNC (graph.h): *async false for "0", true for "1", empty
+ * or unset; another value fails (the bake refuses it; execution then moves
+ * synchronously). */
+cv_result graph_transfer_async(bool *async);
 /* Execution: a zero-copy transfer step (the primary waits for each source's
  * instance of the writing pass in frame fr; last[] rises to the waits'
  * tickets); before a secondary's instance, its wait for the

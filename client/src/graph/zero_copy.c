@@ -124,7 +124,7 @@ void graph_unshare(graph_baked *b, uint32_t r) {
     }
 }
 
-cv_result graph_load_shared(cv_graph *g, cv_handle h, uint32_t mask, bool shared) {
+cv_result graph_load_shared(cv_graph *g, cv_handle h, graph_device_mask mask, bool shared) {
     cv_result res = CV_OK;
     if (shared && cv_device_is_alias(g->devices[0], h)) {
         /* The primary holds an alias (it was a secondary of an earlier device

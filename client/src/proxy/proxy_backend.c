@@ -8,6 +8,7 @@
 #include <time.h>
 
 #include "corvid/command_codec.h"
+#include "corvid/parse.h"
 #include "corvid/sha256.h"
 #include "proxy_internal.h"
 
@@ -26,6 +27,21 @@ static bool contains_nocase(const char *text, const char *needle) {
     return false;
 }
 
+/* CORVID_NODE_TIMEOUT_MS and CORVID_NODE_PEER_DEADLINE_MS (unset or empty: the
+ * defaults), read strictly: "abc" was taken as "the default" without a word. */
+static cv_result read_env_ms(proxy_device *p) {
+    const char *names[2] = { "CORVID_NODE_TIMEOUT_MS", "CORVID_NODE_PEER_DEADLINE_MS" };
+    uint64_t v[2] = { DEFAULT_TIMEOUT_MS, 0 };
+    for (int i = 0; i < 2; i++) {
+        const char *text = getenv(names[i]);
+        if (text && text[0] && cv_parse_uint_named(names[i], text, 1, 86400000, &v[i]) != CV_OK)
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s (milliseconds)", cv_last_error());
+    }
+    p->timeout_ms = (uint32_t)v[0];
+    p->peer_deadline_ms = (uint32_t)v[1];
+    return CV_OK;
+}
+
 /* The node device an adapter spec names: "" = 0, a decimal index, or the first
  * device whose label or adapter name contains the text (case-insensitive), as
  * local adapters are chosen. */
@@ -34,9 +50,8 @@ static cv_result resolve_device(const char *endpoint, const char *text, uint32_t
         *out = 0;
         return CV_OK;
     }
-    char *end;
-    unsigned long v = strtoul(text, &end, 10);
-    if (!*end && text[0] != '-' && text[0] != '+') {
+    uint64_t v;
+    if (cv_parse_uint(text, 0, UINT64_MAX, &v)) {
         if (v >= CV_MAX_DEVICES)
             return cv_error(CV_ERROR_NOT_FOUND, "node '%s': device %s does not exist (at most %u)", endpoint, text,
                             CV_MAX_DEVICES);
@@ -92,10 +107,11 @@ static cv_result proxy_device_create(const cv_device_desc *desc, cv_device_info 
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "proxy device");
     snprintf(p->endpoint, sizeof(p->endpoint), "%s", desc->endpoint);
     p->remote_device = remote;
-    const char *timeout = getenv("CORVID_NODE_TIMEOUT_MS");
-    p->timeout_ms = timeout && atoi(timeout) > 0 ? (uint32_t)atoi(timeout) : DEFAULT_TIMEOUT_MS;
-    const char *deadline = getenv("CORVID_NODE_PEER_DEADLINE_MS");
-    p->peer_deadline_ms = deadline && atoi(deadline) > 0 ? (uint32_t)atoi(deadline) : 0;
+    r = read_env_ms(p);
+    if (r != CV_OK) {
+        free(p);
+        return r;
+    }
     pthread_mutex_init(&p->lock, NULL);
     pthread_cond_init(&p->cond, NULL);
     proxy_peer_register(p);

@@ -6,6 +6,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "corvid/parse.h"
 #include "proxy_internal.h"
 
 static void send_resume(proxy_device *p, uint64_t failure);
@@ -332,11 +333,9 @@ cv_result proxy_client_config(cv_rpc_client_config *cc, char *token, size_t cap)
     }
     const char *keepalive = env("CORVID_NODE_KEEPALIVE_MS");
     if (keepalive) {
-        char *end;
-        unsigned long ms = strtoul(keepalive, &end, 10);
-        if (*end || ms < 100 || ms > 3600000)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_NODE_KEEPALIVE_MS: '%s' is not 100..3600000 ms",
-                            keepalive);
+        uint64_t ms;
+        if (cv_parse_uint_named("CORVID_NODE_KEEPALIVE_MS", keepalive, 100, 3600000, &ms) != CV_OK)
+            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s (milliseconds)", cv_last_error());
         cc->keepalive_ms = cc->keepalive_timeout_ms = (uint32_t)ms;
     }
     cc->tls_ca_file = env("CORVID_NODE_TLS_CA");

@@ -1,6 +1,8 @@
 /* The client side: one channel per cv_rpc_client, bidirectional streams on it, unary calls. */
 #include "rpc_internal.h"
 
+#include "corvid/file_util.h"
+
 #include <assert.h>
 #include <errno.h>
 #include <grpc/grpc_security.h>
@@ -335,12 +337,19 @@ cv_result cv_rpc_client_unary(cv_rpc_client *c, const char *method, const void *
 
 /* ---- files ---- */
 
+/* The reason of cv_file_fopen_regular's failure, without the path it starts with. */
+static const char *reason_of(const char *path) {
+    const char *e = cv_last_error();
+    size_t n = strlen(path);
+    return strncmp(e, path, n) == 0 && e[n] == ':' && e[n + 1] == ' ' ? e + n + 2 : e;
+}
+
 cv_result cv_rpc_read_pem_file(const char *path, const char *what, char **out) {
     if (!path || !*path || !what || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_read_pem_file: null or empty argument");
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return cv_error(CV_ERROR_IO, "%s file '%s': %s", what, path, strerror(errno));
+    FILE *f;
+    if (cv_file_fopen_regular(path, "rb", &f) != CV_OK)
+        return cv_error(CV_ERROR_IO, "%s file '%s': %s", what, path, reason_of(path));
     char *text = malloc(MAX_PEM_BYTES + 1);
     size_t n = text ? fread(text, 1, MAX_PEM_BYTES + 1, f) : 0;
     bool failed = text && ferror(f);
@@ -371,9 +380,9 @@ cv_result cv_rpc_read_pem_file(const char *path, const char *what, char **out) {
 cv_result cv_rpc_read_token_file(const char *path, char *out, size_t cap) {
     if (!path || !*path || !out || cap == 0)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_read_token_file: null or empty argument");
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return cv_error(CV_ERROR_IO, "token file '%s': %s", path, strerror(errno));
+    FILE *f;
+    if (cv_file_fopen_regular(path, "rb", &f) != CV_OK)
+        return cv_error(CV_ERROR_IO, "token file '%s': %s", path, reason_of(path));
     char line[MAX_TOKEN_CHARS + 3];
     size_t n = fread(line, 1, sizeof line - 1, f);
     bool failed = ferror(f);

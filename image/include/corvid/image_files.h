@@ -46,4 +46,16 @@ cv_result cv_file_set_commit(cv_file_set *set);
 /* Removes the temporaries not committed and frees the set; NULL is fine. */
 void cv_file_set_destroy(cv_file_set *set);
 
+/* After a writer failed on a temporary of the set: cv_last_error() with each
+ * temporary's name replaced by the file it stands for ("out/frame.exr: No
+ * space left on device", not "out/.123-0.corvid-tmp: ..."); returns `r`. */
+cv_result cv_file_set_name_error(const cv_file_set *set, cv_result r);
+
+/* Removes every temporary file this library's writers (file sets, cv_exr_write,
+ * cv_png_write) hold at this moment, in any thread. Async-signal-safe: for a
+ * handler of SIGINT / SIGTERM that then calls _exit, so that an interrupted
+ * program leaves no hidden ".<pid>-<n>.corvid-tmp" files. (At most 32 at once
+ * are tracked; a program of Corvid's holds at most 8.) */
+void cv_image_temps_remove_all(void);
+
 #endif

@@ -1,0 +1,33 @@
+/* Whole numbers typed by people: every program option and environment
+ * variable that takes a count, a size or a time in milliseconds reads it here,
+ * one strict way, so that no program accepts what another refuses.
+ *
+ * Accepted: plain decimal digits, nothing else ("12"). Refused: a sign ("+2",
+ * "-1": strtoul takes both, the second as 2^64-1), blanks (" 2"), hex ("0x10"),
+ * anything after the digits ("2abc", "2 "), the empty string, and a value
+ * outside min..max. (atoi read "abc" as 0, which then meant "the default".)
+ *
+ *   uint64_t n;
+ *   if (!cv_parse_uint(text, 1, 64, &n))               // a program's own message
+ *       fprintf(stderr, "prog: --gpus: '%s' is not a whole number in 1..64\n", text);
+ *   cv_result r = cv_parse_uint_named("CORVID_NODE_TIMEOUT_MS", getenv("CORVID_NODE_TIMEOUT_MS"),
+ *                                     1, 86400000, &n); // CV_ERROR_INVALID_ARGUMENT naming the variable
+ */
+#ifndef CORVID_PARSE_H
+#define CORVID_PARSE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "corvid/result.h"
+
+/* *out = the number `text` writes, if it is plain decimal digits within
+ * min..max; otherwise false and *out unchanged. NULL text is false. */
+bool cv_parse_uint(const char *text, uint64_t min, uint64_t max, uint64_t *out);
+
+/* cv_parse_uint, failing with CV_ERROR_INVALID_ARGUMENT
+ * "<what>: '<text>' is not a whole number in <min>..<max>" (text cut to 64
+ * characters in the message). */
+cv_result cv_parse_uint_named(const char *what, const char *text, uint64_t min, uint64_t max, uint64_t *out);
+
+#endif
