@@ -46,7 +46,7 @@ static void usage(FILE *f) {
             "  --ao-radius M      AO ray length in scene units, > 0 (default 2%% of the scene diagonal)\n"
             "  --camera EX,EY,EZ,TX,TY,TZ,FOV\n"
             "                     the camera at eye EX,EY,EZ looking at TX,TY,TZ, vertical field of view\n"
-            "                     FOV degrees in (0,180), up +y (default: the scene's camera)\n"
+            "                     FOV degrees in (0,170], up +y (default: the scene's camera)\n"
             "  --sun DX,DY,DZ,A   direction toward the sun (not 0,0,0) and its cone's half angle A\n"
             "                     degrees in [0,90), 0 = hard shadows (default: the scene's sun, 1.5)\n"
             "  --orbit D          the camera turns D degrees per frame about the vertical axis through\n"
@@ -265,8 +265,8 @@ static bool opt_camera(options *o, const char *name, const char *value) {
     float v[7];
     if (!parse_floats(value, v, 7))
         return refuse(name, value, "7 finite numbers EX,EY,EZ,TX,TY,TZ,FOV");
-    if (!(v[6] > 0.0f && v[6] < 180.0f))
-        return refuse(name, value, "EX,EY,EZ,TX,TY,TZ,FOV with FOV in (0,180) degrees");
+    if (!(v[6] > 0.0f && v[6] <= CV_RENDER_MAX_FOV_DEGREES))
+        return refuse(name, value, "EX,EY,EZ,TX,TY,TZ,FOV with FOV in (0,170] degrees (CV_RENDER_MAX_FOV_DEGREES)");
     memcpy(o->settings.camera_eye, v, sizeof(o->settings.camera_eye));
     memcpy(o->settings.camera_target, v + 3, sizeof(o->settings.camera_target));
     o->settings.camera_fov_degrees = v[6];

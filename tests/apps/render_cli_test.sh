@@ -206,8 +206,9 @@ refused "camera with 3 numbers" "--camera: '1,2,3' is not 7 finite numbers EX,EY
 refused "camera with 8 numbers" "--camera: '1,2,3,4,5,6,45,1' is not 7 finite numbers" --camera 1,2,3,4,5,6,45,1
 refused "camera with NaN" "--camera: 'nan,0,0,0,0,1,45' is not 7 finite numbers" --camera nan,0,0,0,0,1,45
 refused "camera with inf" "--camera: '0,0,0,0,0,1,inf' is not 7 finite numbers" --camera 0,0,0,0,0,1,inf
-refused "camera fov 180" "--camera: '0,1,5,0,1,0,180' is not EX,EY,EZ,TX,TY,TZ,FOV with FOV in (0,180) degrees" --camera 0,1,5,0,1,0,180
-refused "camera fov 0" "with FOV in (0,180) degrees" --camera 0,1,5,0,1,0,0
+refused "camera fov 180" "--camera: '0,1,5,0,1,0,180' is not EX,EY,EZ,TX,TY,TZ,FOV with FOV in (0,170] degrees" --camera 0,1,5,0,1,0,180
+refused "camera fov 170.5" "with FOV in (0,170] degrees" --camera 0,1,5,0,1,0,170.5
+refused "camera fov 0" "with FOV in (0,170] degrees" --camera 0,1,5,0,1,0,0
 refused "camera eye at target" "--camera: '1,1,1,1,1,1,45': renderer: camera eye (1, 1, 1) equals its target" --camera 1,1,1,1,1,1,45
 refused "camera empty item" "--camera: '1,,1,0,0,0,45' is not 7 finite numbers" --camera 1,,1,0,0,0,45
 refused "sun with 2 numbers" "--sun: '1,2' is not 4 finite numbers DX,DY,DZ,A" --sun 1,2
