@@ -112,19 +112,7 @@ cv_result vk_host_buffer_read(cv_backend_device *bd, vk_buffer *b, uint64_t offs
 void vk_image_transition(VkCommandBuffer cmd, const vk_texture *t, VkImageLayout from, VkImageLayout to,
                          VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access, VkPipelineStageFlags2 dst_stage,
                          VkAccessFlags2 dst_access) {
-    VkImageMemoryBarrier2 barrier = {
-        .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2,
-        .srcStageMask = src_stage,
-        .srcAccessMask = src_access,
-        .dstStageMask = dst_stage,
-        .dstAccessMask = dst_access,
-        .oldLayout = from,
-        .newLayout = to,
-        .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-        .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-        .image = t->image,
-        .subresourceRange = { t->aspect, 0, 1, 0, 1 },
-    };
+    VkImageMemoryBarrier2 barrier = vk_image_barrier(t, from, to, src_stage, src_access, dst_stage, dst_access);
     VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
                              .imageMemoryBarrierCount = 1,
                              .pImageMemoryBarriers = &barrier };

@@ -64,19 +64,7 @@ static void batch_add(VkCommandBuffer cmd, barrier_batch *b, const vk_texture *t
                       VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
     if (b->count == 64)
         batch_flush(cmd, b, NULL);
-    b->images[b->count++] = (VkImageMemoryBarrier2){
-        .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2,
-        .srcStageMask = src_stage,
-        .srcAccessMask = src_access,
-        .dstStageMask = dst_stage,
-        .dstAccessMask = dst_access,
-        .oldLayout = from,
-        .newLayout = to,
-        .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-        .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-        .image = t->image,
-        .subresourceRange = { t->aspect, 0, 1, 0, 1 },
-    };
+    b->images[b->count++] = vk_image_barrier(t, from, to, src_stage, src_access, dst_stage, dst_access);
 }
 
 #define ALL_ACCESS (VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT)

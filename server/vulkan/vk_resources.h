@@ -35,6 +35,11 @@ typedef struct vk_sampler {
     VkSampler sampler;
 } vk_sampler;
 
+/* A layout transition barrier over the whole of t. */
+VkImageMemoryBarrier2 vk_image_barrier(const vk_texture *t, VkImageLayout from, VkImageLayout to,
+                                       VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
+                                       VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
+
 /* Whether every buffer and image kind can live in imported host memory (vk_memory.h). */
 bool vk_resources_host_import_ok(const cv_backend_device *bd);
 
