@@ -72,6 +72,28 @@ cv_result cv_node_memory_reserve(cv_node *node, uint64_t bytes) {
 
 void cv_node_memory_release(cv_node *node, uint64_t bytes) { atomic_fetch_sub(&node->memory_used, bytes); }
 
+/* Contexts of abandoned sessions. Process-wide rather than per node: they must outlive the node that
+ * abandoned them (a GPU job that never ends keeps using their memory), and holding them here keeps them
+ * reachable, so LeakSanitizer does not report the deliberate leak as a bug and fail the process. */
+static pthread_mutex_t abandoned_lock = PTHREAD_MUTEX_INITIALIZER;
+static cv_context **abandoned;
+static size_t abandoned_count, abandoned_capacity;
+
+void cv_node_keep_abandoned(cv_context *ctx) {
+    pthread_mutex_lock(&abandoned_lock);
+    if (abandoned_count == abandoned_capacity) {
+        size_t cap = abandoned_capacity ? 2 * abandoned_capacity : 8;
+        cv_context **grown = realloc(abandoned, cap * sizeof(*grown));
+        if (grown) {
+            abandoned = grown;
+            abandoned_capacity = cap;
+        }
+    }
+    if (abandoned_count < abandoned_capacity) /* else, out of memory: leaked unheld, as intended anyway */
+        abandoned[abandoned_count++] = ctx;
+    pthread_mutex_unlock(&abandoned_lock);
+}
+
 /* The default node-wide memory limit: the machine's physical memory (lavapipe's device memory is host
  * memory; a GPU server has at least as much host memory as its GPUs have device memory, as a rule). */
 static uint64_t default_memory_limit(void) {

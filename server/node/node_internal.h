@@ -50,6 +50,9 @@ struct cv_node {
 cv_result cv_node_memory_reserve(cv_node *node, uint64_t bytes);
 /* Gives back what cv_node_memory_reserve took, once the memory is freed. */
 void cv_node_memory_release(cv_node *node, uint64_t bytes);
+/* Keeps the context of a session whose device was abandoned (session.c): never freed, as its GPU may
+ * still use its memory, but held where leak checkers see it as deliberate. */
+void cv_node_keep_abandoned(cv_context *ctx);
 
 /* Runs one session on the calling thread until its stream ends. */
 void cv_node_session_run(cv_node *node, cv_rpc_stream *stream);

@@ -1072,6 +1072,8 @@ static void session_finish(session *s) {
      * deliberately leaked (see the top of this file). */
     if (s->ctx && (!s->dev || work_finished(s)))
         cv_context_destroy(s->ctx); /* waits for the device, frees every resource */
+    else if (s->ctx)
+        cv_node_keep_abandoned(s->ctx);
     cv_node_memory_release(s->node, s->memory_bytes);
     cv_handle_map_finish(&s->map);
     proto_arena_finish(&s->arena);

@@ -128,6 +128,15 @@ int main(int argc, char **argv) {
         return 2;
     }
     const char *const extra[] = { "--submit-timeout", "1", "--drain-timeout", "2", "--validation", NULL };
+    /* Under ASan the node's leak check is off: the node deliberately abandons a device whose lavapipe
+       queue thread still runs the runaway dispatch, and what that thread allocates is the driver's,
+       reachable from nothing of Corvid's (the node keeps the abandoned contexts themselves reachable). */
+    const char *asan = getenv("ASAN_OPTIONS");
+    if (asan) {
+        char options[512];
+        snprintf(options, sizeof(options), "%s:detect_leaks=0", asan);
+        setenv("ASAN_OPTIONS", options, 1);
+    }
     scratch_process_node node = { 0 };
     CHECK_OK(scratch_process_node_start(&node, argv[1], 2, 0, extra));
     if (!node.pid)
