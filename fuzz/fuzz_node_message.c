@@ -19,7 +19,9 @@
 
 #include "fuzz_input.h"
 #include "node_internal.h"
+#include "node_log.h"
 #include "peer.h"
+#include "peer_members.h"
 
 /* ---- the stream: the fuzz input instead of gRPC ----------------------------- */
 
@@ -95,6 +97,24 @@ cv_node_stats cv_node_get_stats(cv_node *node) {
     return (cv_node_stats){ 0 };
 }
 
+/* node.c's memory accounting, as node.c does it (node.c is not linked). */
+cv_result cv_node_memory_reserve(cv_node *n, uint64_t bytes) {
+    if (bytes > n->memory_limit - atomic_load(&n->memory_used))
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "fuzz: node memory limit of %llu bytes",
+                        (unsigned long long)n->memory_limit);
+    atomic_fetch_add(&n->memory_used, bytes);
+    return CV_OK;
+}
+
+void cv_node_memory_release(cv_node *n, uint64_t bytes) { atomic_fetch_sub(&n->memory_used, bytes); }
+
+/* The mock completes every submission at once, so no session abandons its device. */
+void cv_node_keep_abandoned(cv_context *ctx) {
+    (void)ctx;
+    fprintf(stderr, "fuzz: a session abandoned its device on the mock backend\n");
+    abort();
+}
+
 /* ---- the node ------------------------------------------------------------------ */
 
 int LLVMFuzzerInitialize(int *argc, char ***argv);
@@ -128,8 +148,11 @@ int LLVMFuzzerInitialize(int *argc, char ***argv) {
     snprintf(node.name, sizeof(node.name), "fuzz");
     node.device_info = calloc(1, sizeof(*node.device_info));
     node.metrics = cv_node_metrics_create(1);
+    node.memory_limit = 1ull << 30;
+    node_log_init(&node.log);
     if (!mkdtemp(cache_dir) || !node.device_info || !node.metrics ||
         cv_content_store_open(cache_dir, 64ull << 20, &node.store) != CV_OK ||
+        peer_members_create(NULL, "fuzz: peers", true, &node.members) != CV_OK ||
         peer_state_create(&node, &node.peer) != CV_OK) {
         fprintf(stderr, "fuzz: cannot set up the node: %s\n", cv_last_error());
         abort();
