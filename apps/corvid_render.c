@@ -21,6 +21,7 @@
 #include "corvid/scene_procedural.h"
 #include "corvid/tonemap.h"
 #include "corvid/vulkan.h"
+#include "env_log.h"
 #include "render_exr.h"
 #include "render_outputs.h"
 
@@ -624,6 +625,7 @@ static double now_ms(void) {
 }
 
 int main(int argc, char **argv) {
+    env_log_apply();
     cv_vulkan_gpu_config gpu_config = { 0 };
     if (cv_vulkan_gpu_args(&argc, argv, &gpu_config) != CV_OK) {
         fprintf(stderr, "corvid-render: %s (see --help)\n", cv_last_error());

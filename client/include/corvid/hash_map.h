@@ -47,6 +47,9 @@ typedef struct cv_hash_map {
     uint64_t seed;
 } cv_hash_map;
 
+/* A seed nobody outside the process can guess (getrandom; the clock if that fails), for maps whose
+ * keys come from clients. */
+uint64_t cv_hash_map_random_seed(void);
 /* An empty map (no allocation until the first put). */
 void cv_hash_map_init(cv_hash_map *m, uint64_t seed);
 /* Frees the map's memory; the map is empty and usable again. */

@@ -2,6 +2,9 @@
 #include "corvid/hash_map.h"
 
 #include <stdlib.h>
+#include <sys/random.h>
+
+#include "corvid/clock.h"
 
 enum { SLOT_EMPTY = 0, SLOT_LIVE, SLOT_TOMBSTONE };
 
@@ -16,6 +19,13 @@ static uint32_t home(const cv_hash_map *m, uint64_t key) {
     key *= UINT64_C(0xc4ceb9fe1a85ec53);
     key ^= key >> 33;
     return (uint32_t)key & (m->capacity - 1);
+}
+
+uint64_t cv_hash_map_random_seed(void) {
+    uint64_t seed;
+    if (getrandom(&seed, sizeof seed, GRND_NONBLOCK) != (ssize_t)sizeof seed)
+        seed = cv_now_ns() * UINT64_C(0x2545f4914f6cdd1d);
+    return seed;
 }
 
 void cv_hash_map_init(cv_hash_map *m, uint64_t seed) { *m = (cv_hash_map){ .seed = seed }; }
