@@ -8,9 +8,9 @@
  * never wraps into the past.
  *
  * Condition variables that wait on deadlines are made with cv_cond_init, which
- * puts them on CLOCK_MONOTONIC; cv_cond_wait_until then waits on them. A
- * condition variable on another clock (the default CLOCK_REALTIME one) takes
- * cv_deadline_timespec(deadline, CLOCK_REALTIME) for pthread_cond_timedwait.
+ * puts them on CLOCK_MONOTONIC (a default one, on CLOCK_REALTIME, would wait
+ * an hour longer when the wall clock is set back an hour); cv_cond_wait_until
+ * then waits on them.
  *
  *     uint64_t deadline = cv_deadline_after_ms(timeout_ms);
  *     pthread_mutex_lock(&q->lock);
@@ -48,10 +48,9 @@ bool cv_deadline_passed(uint64_t deadline);
 /* Nanoseconds left until the deadline: 0 once it has passed, UINT64_MAX for CV_DEADLINE_NEVER. */
 uint64_t cv_deadline_left_ns(uint64_t deadline);
 
-/* The deadline as an absolute time on `clock` (CLOCK_MONOTONIC or CLOCK_REALTIME), for
- * pthread_cond_timedwait on a condition variable of that clock. CV_DEADLINE_NEVER maps to a time
- * centuries away. */
-struct timespec cv_deadline_timespec(uint64_t deadline, clockid_t clock);
+/* The deadline as a CLOCK_MONOTONIC timespec, for calls that take one (pthread_cond_timedwait on a
+ * cv_cond_init condition variable, sem_clockwait). CV_DEADLINE_NEVER maps to a time centuries away. */
+struct timespec cv_deadline_timespec(uint64_t deadline);
 
 /* Initialises a condition variable on CLOCK_MONOTONIC (pthread_cond_init's return). */
 int cv_cond_init(pthread_cond_t *cond);

@@ -5,13 +5,11 @@
 
 #define NS_PER_S UINT64_C(1000000000)
 
-static uint64_t now_on(clockid_t clock) {
+uint64_t cv_now_ns(void) {
     struct timespec t;
-    clock_gettime(clock, &t);
+    clock_gettime(CLOCK_MONOTONIC, &t);
     return (uint64_t)t.tv_sec * NS_PER_S + (uint64_t)t.tv_nsec;
 }
-
-uint64_t cv_now_ns(void) { return now_on(CLOCK_MONOTONIC); }
 
 double cv_now_ms(void) {
     struct timespec t;
@@ -39,14 +37,8 @@ uint64_t cv_deadline_left_ns(uint64_t deadline) {
     return deadline > now ? deadline - now : 0;
 }
 
-struct timespec cv_deadline_timespec(uint64_t deadline, clockid_t clock) {
-    uint64_t at = deadline;
-    if (clock != CLOCK_MONOTONIC) {
-        /* The same distance from now on the other clock; one that has passed stays passed. */
-        uint64_t left = cv_deadline_left_ns(deadline), now = now_on(clock);
-        at = left >= UINT64_MAX - now ? UINT64_MAX : now + left;
-    }
-    return (struct timespec){ .tv_sec = (time_t)(at / NS_PER_S), .tv_nsec = (long)(at % NS_PER_S) };
+struct timespec cv_deadline_timespec(uint64_t deadline) {
+    return (struct timespec){ .tv_sec = (time_t)(deadline / NS_PER_S), .tv_nsec = (long)(deadline % NS_PER_S) };
 }
 
 int cv_cond_init(pthread_cond_t *cond) {
@@ -61,7 +53,7 @@ int cv_cond_init(pthread_cond_t *cond) {
 int cv_cond_wait_until(pthread_cond_t *cond, pthread_mutex_t *mutex, uint64_t deadline) {
     if (deadline == CV_DEADLINE_NEVER)
         return pthread_cond_wait(cond, mutex);
-    struct timespec at = cv_deadline_timespec(deadline, CLOCK_MONOTONIC);
+    struct timespec at = cv_deadline_timespec(deadline);
     int r = pthread_cond_timedwait(cond, mutex, &at);
     return r == ETIMEDOUT ? ETIMEDOUT : 0;
 }
