@@ -4,6 +4,7 @@
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "check.h"
 #include "corvid/clock.h"
@@ -211,10 +212,32 @@ static void test_log_levels(void) {
     CHECK(cv_log_enabled(CV_LOG_INFO) && !cv_log_enabled(CV_LOG_DEBUG));
 }
 
+/* The default sink: one line on stderr, "corvid <origin>: <message>". */
+static void test_log_stderr(void) {
+    fflush(stderr);
+    int saved = dup(STDERR_FILENO);
+    FILE *capture_file = tmpfile();
+    CHECK(saved >= 0 && capture_file != NULL);
+    if (saved < 0 || !capture_file)
+        return;
+    dup2(fileno(capture_file), STDERR_FILENO);
+    cv_log_set_sink(NULL, NULL, CV_LOG_INFO);
+    cv_log(CV_LOG_INFO, "test", "hello %s", "there");
+    cv_log(CV_LOG_DEBUG, "test", "dropped");
+    fflush(stderr);
+    dup2(saved, STDERR_FILENO);
+    close(saved);
+    char text[128] = { 0 };
+    rewind(capture_file);
+    size_t n = fread(text, 1, sizeof(text) - 1, capture_file);
+    fclose(capture_file);
+    CHECK_EQ_INT(n, strlen("corvid test: hello there\n"));
+    CHECK(strcmp(text, "corvid test: hello there\n") == 0);
+}
+
 /* Several threads log while the main thread swaps sinks: each message reaches exactly one sink. */
 typedef struct counting {
-    pthread_mutex_t lock; /* only to read `count` at the end; the sink's own lock serialises calls */
-    long count;
+    long count; /* the sink's lock serialises the calls */
 } counting;
 
 static void count_message(cv_log_level level, const char *origin, const char *message, void *user) {
@@ -235,7 +258,7 @@ static void *log_many(void *arg) {
 }
 
 static void test_log_threads(void) {
-    counting a = { .lock = PTHREAD_MUTEX_INITIALIZER }, b = { .lock = PTHREAD_MUTEX_INITIALIZER };
+    counting a = { 0 }, b = { 0 };
     cv_log_set_sink(count_message, &a, CV_LOG_INFO);
     pthread_t threads[LOG_THREADS];
     for (int i = 0; i < LOG_THREADS; i++)
@@ -254,6 +277,7 @@ int main(void) {
     test_hash_map_random();
     test_hash_map_tombstones();
     test_log_levels();
+    test_log_stderr();
     test_log_threads();
     CHECK_NOTHING_LIVE();
     return check_report("core_util");
