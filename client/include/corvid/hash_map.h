@@ -14,12 +14,11 @@
  * chooses takes a random seed, so that nobody can aim keys at one probe run.
  *
  *     cv_hash_map m;
- *     cv_hash_map_init(&m, 0);
- *     if (cv_hash_map_put(&m, client_id, node_id) != CV_OK)
- *         return cv_last_error()...;                    (out of memory: the map is unchanged)
- *     uint64_t node_id;
- *     if (cv_hash_map_get(&m, client_id, &node_id))
- *         use(node_id);
+ *     cv_hash_map_init(&m, cv_hash_map_random_seed());
+ *     cv_result r = cv_hash_map_put(&m, client_id, node_id); (on failure the map is unchanged)
+ *     uint64_t id;
+ *     if (cv_hash_map_get(&m, client_id, &id))
+ *         use(id);
  *     cv_hash_map_remove(&m, client_id, NULL);
  *     cv_hash_map_finish(&m);
  *
