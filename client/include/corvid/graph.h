@@ -20,11 +20,14 @@
  * the previous frame's contents of a transient, for temporal passes.
  *
  * Bake (cv_graph_bake) validates, culls passes that reach no output, orders,
- * partitions the width, plans cross-device copies, allocates transients from a
- * pool (two with the same description and disjoint lifetimes share one
- * resource), places barriers and lays out one command list per pass and device.
- * A bake that fails changes nothing: the previous bake stays executable. Bake
- * again whenever the partition should change (execute feeds the balancer).
+ * places cross-device transfers, allocates transients from a pool (two with
+ * the same description and disjoint lifetimes share one resource), places
+ * barriers and lays out one command list per pass and device: the structure,
+ * baked again only when the graph, the width, the tile, the devices that get
+ * columns or the zero-copy choice changed. The partition step runs on every
+ * bake (the renderer bakes every frame, with the balancer's new split): each
+ * device's column window and the transfers' copy plans. A bake that fails
+ * changes nothing: the previous bake stays executable.
  *
  * Evaluation (cv_graph_execute) records every pass instance on worker threads
  * through its record callback, submits in step order on each device, runs each
@@ -36,15 +39,23 @@
  * without waiting at all; cv_graph_collect reads such a frame's timings and
  * feeds the balancer later, once it finished (lagged feedback: the balancer
  * then splits from a frame a few frames old, which converges the same way,
- * only later). CORVID_TRANSFER_ASYNC=0 in the environment (read at every
- * transfer) makes every transfer synchronous, as before rings existed (for
- * comparisons: bench/mgpu_frames.sh); 1, empty or unset is the default, and
- * any other value fails cv_graph_bake with CV_ERROR_INVALID_ARGUMENT. A record callback sees its column window and the handles of
- * its resources, never the device count:
+ * only later). cv_graph_bake_desc.sync_transfers makes every transfer
+ * synchronous, as before rings existed (for comparisons: bench/mgpu_frames.sh).
+ *
+ * A pass is declared as one chain (kajiya's way): cv_graph_pass_begin() opens a
+ * builder, each read, write or create returns the use the record callback
+ * binds, and cv_graph_pass_end() adds the pass. The chain's calls keep the
+ * first error, as command lists do: after a failing call the rest do nothing,
+ * and the end returns that error naming the pass and the resource
+ * ("graph: pass 'trace': write of 'visibility': ...") and adds nothing. A
+ * record callback sees its column window and its uses' handles, never the
+ * device count:
+ *
+ *     typedef struct trace_pass { cv_graph_use gbuffer, visibility; } trace_pass;
  *
  *     static void trace(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
- *         cv_binding b[2] = { { cv_any(cv_graph_texture(pc, s->gbuffer)) },
- *                             { cv_any(cv_graph_texture(pc, s->visibility)) } };
+ *         const trace_pass *t = user;
+ *         cv_binding b[2] = { cv_graph_use_binding(pc, t->gbuffer), cv_graph_use_binding(pc, t->visibility) };
  *         struct { uint32_t x0, width; } push = { pc->x, pc->width };
  *         cv_cmd_dispatch(l, pc->queue, &(cv_dispatch_args){ ... .groups_x = (pc->width + 7) / 8 ... });
  *     }
@@ -52,22 +63,32 @@
  *     cv_graph *g;
  *     cv_graph_create(ctx, devices, n, &g);
  *     cv_graph_resource gbuf, vis;
- *     cv_graph_create_texture(g, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA32F, .label = "gbuffer" }, &gbuf);
- *     cv_graph_create_texture(g, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA16F, .label = "visibility" }, &vis);
- *     cv_graph_pass p;
- *     cv_graph_add_pass(g, &(cv_graph_pass_desc){ "gbuffer", CV_QUEUE_GRAPHICS, CV_MGPU_PRIMARY_ONLY,
- *                                                 raster, s }, &p);
- *     cv_graph_write(g, p, gbuf, CV_GRAPH_COLOR_TARGET, CV_GRAPH_TRANSFER_AUTO);    // multicast
- *     cv_graph_add_pass(g, &(cv_graph_pass_desc){ "trace", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES,
- *                                                 trace, s }, &p);
- *     cv_graph_read(g, p, gbuf, CV_GRAPH_STORAGE_READ);
- *     cv_graph_write(g, p, vis, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO);    // gathered
+ *     raster_pass r;                                               // its uses, for raster()
+ *     cv_graph_builder *b = cv_graph_pass_begin(g, &(cv_graph_pass_desc){ "gbuffer", CV_QUEUE_GRAPHICS,
+ *                                                                         CV_MGPU_PRIMARY_ONLY, raster, &r });
+ *     r.position = cv_graph_pass_create_texture(b, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA32F,
+ *                                                                     .label = "gbuffer" },
+ *                                               CV_GRAPH_COLOR_TARGET, CV_GRAPH_TRANSFER_AUTO, &gbuf);
+ *     cv_graph_pass_end(b, NULL);                                  // multicast to the trace pass
+ *     trace_pass t;
+ *     b = cv_graph_pass_begin(g, &(cv_graph_pass_desc){ "trace", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES, trace, &t });
+ *     t.gbuffer = cv_graph_pass_read(b, gbuf, CV_GRAPH_STORAGE_READ);
+ *     t.visibility = cv_graph_pass_create_texture(b, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA16F,
+ *                                                                       .label = "visibility" },
+ *                                                 CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO, &vis);
+ *     if (cv_graph_pass_end(b, NULL) != CV_OK)                     // gathered for the filter
+ *         ... cv_last_error() names the pass and the declaration that failed ...
  *     ... a PRIMARY_ONLY "filter" pass reads vis and writes "image" ...
  *     cv_graph_output(g, image);
  *     each frame:
- *         cv_graph_bake(g, &(cv_graph_bake_desc){ .width = w, .tile = 8 });
+ *         cv_graph_bake(g, &(cv_graph_bake_desc){ .width = w, .tile = 8 });   // after the first: the partition step
+ *                                                                              // only (the balancer's new split)
  *         cv_graph_execute(g, timings, CV_GRAPH_MAX_STEPS, &count);
  *     cv_graph_destroy(g);
+ *
+ * The older calls (cv_graph_create_texture, cv_graph_add_pass, cv_graph_read,
+ * cv_graph_write, cv_graph_texture) still work and build the same graph; the
+ * builder is the preferred way, since a pass then names each resource once.
  *
  * Errors name the pass and resource ("graph: pass 'trace': reads 'rays', a
  * transient no pass writes"). A graph is used by one thread at a time. */
@@ -183,6 +204,46 @@ cv_result cv_graph_write(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_g
 cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy policy, cv_graph_resource src,
                                  cv_graph_resource dst, cv_graph_pass *out);
 
+/* Graph pass builder: a pass under construction (graph.h's top comment).
+ * Every builder cv_graph_pass_begin returns must be ended by cv_graph_pass_end,
+ * which frees it. */
+typedef struct cv_graph_builder cv_graph_builder;
+/* One declaration of a pass: the resource (its id) and which declaration of
+ * the pass it is (1, 2, ...). {0, 0}: the call failed, or an earlier one did. */
+typedef struct cv_graph_use {
+    uint32_t resource;
+    uint32_t access;
+} cv_graph_use;
+
+/* Opens a builder for a pass of this description (checked now and again at
+ * the end). Never NULL: a builder that could not be made fails at its end. */
+cv_graph_builder *cv_graph_pass_begin(cv_graph *g, const cv_graph_pass_desc *desc);
+/* Declarations, checked now (a known resource, an access of the right kind
+ * for its type, no write of a history, a rule that fits the pass's policy, no
+ * second write without a read between). After the chain's first failure they
+ * do nothing and return {0, 0}. */
+cv_graph_use cv_graph_pass_read(cv_graph_builder *b, cv_graph_resource r, cv_graph_access a);
+cv_graph_use cv_graph_pass_write(cv_graph_builder *b, cv_graph_resource r, cv_graph_access a, cv_graph_transfer rule);
+/* A transient the pass creates and writes (access a must be a write); *out
+ * (may be NULL) its handle, usable by later passes, or {0} after a failure.
+ * It joins the graph at the end, with the pass: no resource may be added to
+ * the graph in between (the end then fails). */
+cv_graph_use cv_graph_pass_create_texture(cv_graph_builder *b, const cv_texture_desc *desc, cv_graph_access a,
+                                          cv_graph_transfer rule, cv_graph_resource *out);
+cv_graph_use cv_graph_pass_create_buffer(cv_graph_builder *b, const cv_buffer_desc *desc, uint64_t column_bytes,
+                                         cv_graph_access a, cv_graph_transfer rule, cv_graph_resource *out);
+/* Ends the chain and frees the builder: the first error of any call above
+ * (its message names the pass and the resource, cv_last_error() again), or
+ * adds the pass with all its declarations and transients. A failed end adds
+ * nothing. *out (may be NULL): the pass, {0} on failure. */
+cv_result cv_graph_pass_end(cv_graph_builder *b, cv_graph_pass *out);
+/* Record side: the handle or binding of a declared use on the device being
+ * recorded. A use of another pass, a failed use, or a texture asked as a
+ * buffer (or the reverse) gives id 0, which the list rejects. */
+cv_texture cv_graph_use_texture(const cv_graph_pass_context *pc, cv_graph_use u);
+cv_buffer cv_graph_use_buffer(const cv_graph_pass_context *pc, cv_graph_use u);
+cv_binding cv_graph_use_binding(const cv_graph_pass_context *pc, cv_graph_use u);
+
 /* Zero-copy gathers. A gathered texture (written by ALL_DEVICES passes, read
  * by the primary) can live in one memory that every device of one adapter
  * shares (cv_device_load_alias): each device writes its window straight into
@@ -193,11 +254,11 @@ cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy p
  * not read its texels outside their window (the other devices write them at
  * the same time). Before a device writes such a texture again, it waits on the
  * GPU for the primary's last use of it.
- *   AUTO: CORVID_ZERO_COPY in the environment (read at every bake: auto, on
- *         or off; unset: auto) decides; auto shares where every secondary can
- *         alias the primary and no transfer path is forced (transfer.h: a
- *         forced path is kept, for comparisons); a texture whose format the
- *         adapter cannot export (the alias is refused) is copied.
+ *   AUTO: shares where every secondary can alias the primary and no
+ *         transfer path is forced (transfer.h: a forced path is kept, for
+ *         comparisons); a texture whose format the adapter cannot export (the
+ *         alias is refused) is copied. (Programs read CORVID_ZERO_COPY into
+ *         this field: apps/common/env_graph.h.)
  *   ON:   shares, or the bake fails naming the pair that cannot.
  *   OFF:  copies. */
 typedef enum cv_graph_zero_copy {
@@ -211,8 +272,19 @@ typedef struct cv_graph_bake_desc {
     uint32_t tile;                 /* window starts are multiples of it; 0 = 8 */
     const cv_partition *partition; /* NULL: the graph's balancer splits the width */
     cv_graph_zero_copy zero_copy;
+    /* Every transfer synchronous on the host, as before rings existed (for
+     * comparisons; programs read CORVID_TRANSFER_ASYNC=0 into it:
+     * apps/common/env_graph.h). false: asynchronous where the pair allows. */
+    bool sync_transfers;
 } cv_graph_bake_desc;
 
+/* Bakes the graph for this frame's partition. The structure (validation,
+ * culling, order, steps, transients and their aliasing, barriers, command
+ * lists) is baked again only when a construction call changed the graph
+ * since (a pass, declaration, resource, history, output or enabled pass), or
+ * the width, the tile, the devices that get columns or zero_copy changed;
+ * otherwise only the partition step runs (windows and copy plans).
+ * sync_transfers and the partition itself may change freely. */
 cv_result cv_graph_bake(cv_graph *g, const cv_graph_bake_desc *desc);
 
 /* What a bake decided, for tests and tools (valid until the next bake). */
@@ -224,6 +296,8 @@ typedef struct cv_graph_stats {
                        pair it copies between (where the pair allows rings), not during a frame */
     uint32_t zero_copy;            /* transfers that are GPU-side waits on shared memory (counted in transfers, not
                                       in copies) */
+    uint32_t structure_bakes;      /* bakes of this graph so far that baked the structure (the others ran only the
+                                      partition step) */
 } cv_graph_stats;
 cv_result cv_graph_get_stats(const cv_graph *g, cv_graph_stats *out);
 /* The partition of the last bake. */
