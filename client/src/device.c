@@ -103,6 +103,11 @@ static void collect_finished(cv_device *dev) {
 
 /* ---- create / destroy ------------------------------------------------------ */
 
+static void member_forget(void *member, uint64_t id);
+static void member_destroy(void *member) { cv_device_destroy(member); }
+/* How the context reaches its devices (context_internal.h). */
+static const cv_context_member_ops member_ops = { member_forget, member_destroy };
+
 cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc, cv_device **out) {
     if (!ctx || !backend || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_create: NULL argument");
@@ -123,7 +128,7 @@ cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_
         snprintf(dev->label, sizeof(dev->label), "%s", d.label);
     else
         snprintf(dev->label, sizeof(dev->label), "%s:%u", backend->name, dev->info.adapter_index);
-    r = cv_context_attach_device(ctx, dev);
+    r = cv_context_attach(ctx, dev, &member_ops);
     if (r != CV_OK) {
         backend->device_destroy(dev->bd);
         pthread_mutex_destroy(&dev->lock);
@@ -138,7 +143,7 @@ cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_
 void cv_device_destroy(cv_device *dev) {
     if (!dev)
         return;
-    cv_context_detach_device(dev->ctx, dev);
+    cv_context_detach(dev->ctx, dev);
     pthread_mutex_lock(&dev->lock);
     if (dev->last_ticket)
         dev->backend->wait(dev->bd, dev->last_ticket, UINT64_MAX);
@@ -258,7 +263,8 @@ cv_result cv_device_unload(cv_device *dev, cv_handle h) {
     return r;
 }
 
-void cv_device_forget(cv_device *dev, uint64_t id) {
+static void member_forget(void *member, uint64_t id) {
+    cv_device *dev = member;
     pthread_mutex_lock(&dev->lock);
     drop(dev, id);
     pthread_mutex_unlock(&dev->lock);

@@ -6,6 +6,7 @@
 #include <stdatomic.h>
 
 #include "corvid/backend.h"
+#include "corvid/device.h"
 
 /* One table of representations per handle type, indexed by slot, grown on demand. */
 typedef struct resource_table {

@@ -17,6 +17,7 @@
 #include <time.h>
 
 #include "corvid/backend.h"
+#include "corvid/device.h"
 #include "corvid/texel.h"
 
 typedef struct mock_object {

@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "corvid/transfer.h"
+
 #include "device_internal.h"
 #include "transfer_link.h"
 #include "transfer_peer.h"

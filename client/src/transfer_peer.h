@@ -12,7 +12,7 @@
 #ifndef CORVID_TRANSFER_PEER_H
 #define CORVID_TRANSFER_PEER_H
 
-#include "corvid/transfer.h"
+#include "corvid/transfer_types.h"
 
 /* One transfer, checked by transfer.c: a texture rect to (dst_x, dst_y), or a buffer range. */
 typedef struct cv_transfer_peer_region {

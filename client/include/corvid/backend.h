@@ -66,7 +66,8 @@
 #ifndef CORVID_BACKEND_H
 #define CORVID_BACKEND_H
 
-#include "corvid/device.h"
+#include "corvid/context.h"
+#include "corvid/device_info.h"
 
 typedef struct cv_backend_device cv_backend_device; /* each backend's own */
 
