@@ -8,8 +8,6 @@
 #include <string.h>
 #include <time.h>
 
-#include "node_internal.h"
-
 static const char *const kind_names[NODE_LOG_KIND_COUNT] = {
     [NODE_LOG_ALWAYS] = "log",
     [NODE_LOG_REFUSED_CALL] = "refused-call",
@@ -78,8 +76,11 @@ size_t cv_log_escape(char *out, size_t cap, const char *in) {
     return at;
 }
 
-void node_log_init(node_log_state *state) {
+void node_log_init(node_log_state *state, bool enabled, node_log_sink sink, void *user) {
     memset(state, 0, sizeof(*state));
+    state->enabled = enabled;
+    state->sink = sink;
+    state->user = user;
     pthread_mutex_init(&state->lock, NULL);
 }
 
@@ -92,17 +93,17 @@ static uint64_t now_ms(void) {
 }
 
 /* One line, escaped already, to the sink. */
-static void emit(cv_node *node, const char *line) {
-    if (node->config.log_sink)
-        node->config.log_sink(line, node->config.log_user);
+static void emit(node_log_state *log, const char *line) {
+    if (log->sink)
+        log->sink(line, log->user);
     else
         fprintf(stderr, "%s\n", line);
 }
 
-static void emit_summary(cv_node *node, node_log_kind kind, uint64_t count) {
+static void emit_summary(node_log_state *log, node_log_kind kind, uint64_t count) {
     char line[128];
     snprintf(line, sizeof(line), "corvid-node: (%" PRIu64 " more %s lines suppressed)", count, kind_names[kind]);
-    emit(node, line);
+    emit(log, line);
 }
 
 /* Whether a line of `kind` may go now; *summary gets the count of lines suppressed before it, to report first. */
@@ -127,13 +128,13 @@ static bool admit(node_log_state *st, node_log_kind kind, uint64_t *summary) {
     return ok;
 }
 
-void node_log(cv_node *node, node_log_kind kind, const char *fmt, ...) {
-    if (!node->config.log_sessions)
+void node_log(node_log_state *log, node_log_kind kind, const char *fmt, ...) {
+    if (!log->enabled)
         return;
     uint64_t summary;
-    bool ok = admit(&node->log, kind, &summary);
+    bool ok = admit(log, kind, &summary);
     if (summary)
-        emit_summary(node, kind, summary);
+        emit_summary(log, kind, summary);
     if (!ok)
         return;
     char text[1024];
@@ -144,16 +145,16 @@ void node_log(cv_node *node, node_log_kind kind, const char *fmt, ...) {
     char line[4 * sizeof(text) + 16];
     size_t n = (size_t)snprintf(line, sizeof(line), "corvid-node: ");
     cv_log_escape(line + n, sizeof(line) - n, text);
-    emit(node, line);
+    emit(log, line);
 }
 
-void node_log_flush(cv_node *node) {
+void node_log_flush(node_log_state *log) {
     for (int k = 0; k < NODE_LOG_KIND_COUNT; k++) {
-        pthread_mutex_lock(&node->log.lock);
-        uint64_t count = node->log.suppressed[k];
-        node->log.suppressed[k] = 0;
-        pthread_mutex_unlock(&node->log.lock);
-        if (count && node->config.log_sessions)
-            emit_summary(node, (node_log_kind)k, count);
+        pthread_mutex_lock(&log->lock);
+        uint64_t count = log->suppressed[k];
+        log->suppressed[k] = 0;
+        pthread_mutex_unlock(&log->lock);
+        if (count && log->enabled)
+            emit_summary(log, (node_log_kind)k, count);
     }
 }
