@@ -162,11 +162,16 @@ void proxy_peer_abort_dead(proxy_device *p);
 /* proxy_send without proxy_peer_settle. */
 cv_result proxy_send_now(proxy_device *p, Corvid__ClientMessage *m);
 
-/* The rpc client configuration for talking to a node, from the environment: CORVID_NODE_TOKEN_FILE (the bearer
- * token, read from the file into `token`, cap >= 1025), CORVID_NODE_TLS_CA (TLS, trusting that CA), and
- * CORVID_NODE_TLS_CERT / CORVID_NODE_TLS_KEY (a client certificate for mutual TLS), CORVID_NODE_KEEPALIVE_MS (keepalive
- * ping interval and timeout, so a node that stops answering is noticed within about twice that; default 10 s + 5 s).
- * Errors name the variable. */
-cv_result proxy_client_config(cv_rpc_client_config *cc, char *token, size_t cap);
+/* A copy of the process's proxy options (cv_proxy_configure), its strings in its own buffers, timeout_ms
+ * filled in with the default (proxy_options.c). Wipe `token` after use. */
+typedef struct proxy_settings {
+    cv_proxy_options options;
+    char token[1040], tls_ca[1024], tls_cert[1024], tls_key[1024];
+} proxy_settings;
+void proxy_settings_get(proxy_settings *out);
+/* The rpc client configuration for talking to a node: the bearer token, TLS (trusting tls_ca_file, with a
+ * client certificate for mutual TLS), keepalive ping interval and timeout (so a node that stops answering is
+ * noticed within about twice keepalive_ms; 0: the rpc defaults, 10 s + 5 s). Points into `s`. */
+void proxy_client_config(const proxy_settings *s, cv_rpc_client_config *cc);
 
 #endif
