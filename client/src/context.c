@@ -24,13 +24,13 @@ struct cv_context {
     uint32_t member_count, member_capacity;
 };
 
-/* Context tags are process-wide state because their one purpose is to tell
- * apart the contexts that live in one process (a node holds one per client
- * session): each handle carries its context's tag and every lookup compares it.
- * A set of the tags in use, not a bare counter, so two live contexts never
+/* Context tags: a set of the tags in use, not a bare counter, so two live contexts never
  * share one; the cursor moves on, so a destroyed context's tag comes back as
  * late as possible and its old handles read as foreign meanwhile. 0 is never a
- * tag, so a handle with no tag is recognisably malformed. */
+ * tag, so a handle with no tag is recognisably malformed.
+ * process-wide: a tag's one purpose is to tell apart the contexts that live in
+ * one process (a node holds one per client session): each handle carries its
+ * context's tag and every lookup compares it. */
 static pthread_mutex_t tags_lock = PTHREAD_MUTEX_INITIALIZER;
 static bool tag_used[CV_HANDLE_TAG_MAX + 1];
 static uint32_t tag_cursor;
@@ -63,9 +63,9 @@ static void tag_release(uint32_t tag) {
     pthread_mutex_unlock(&tags_lock);
 }
 
-/* Contexts alive in the process. It exists for leak checks (cv_live_contexts,
- * CHECK_NOTHING_LIVE in the tests), and is atomic because contexts come and go
- * on any thread. */
+/* process-wide: the contexts alive in the process, for leak checks
+ * (cv_live_contexts, CHECK_NOTHING_LIVE in the tests); atomic because contexts
+ * come and go on any thread. */
 static atomic_uint live_contexts;
 
 static bool is_described(cv_handle_type t) {

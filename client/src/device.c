@@ -10,9 +10,9 @@
 
 #include "context_internal.h"
 
-/* Devices alive in the process. It exists for leak checks (cv_live_devices,
- * CHECK_NOTHING_LIVE in the tests), and is atomic because devices come and go
- * on any thread. */
+/* process-wide: the devices alive in the process, whatever their context, for
+ * leak checks (cv_live_devices, CHECK_NOTHING_LIVE in the tests); atomic
+ * because devices come and go on any thread. */
 static atomic_uint live_devices;
 
 uint32_t cv_live_devices(void) { return atomic_load(&live_devices); }

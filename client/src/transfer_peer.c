@@ -8,9 +8,9 @@
 
 #include "device_internal.h"
 
-/* Process-wide on purpose: one backend (the proxy) registers its table once, from any thread that creates one
- * of its devices; transfer ids must increase across every device pair of the process, because a destination
- * session takes its transfers in id order. */
+/* process-wide: one backend (the proxy) registers its table once, from any thread that creates one of its
+ * devices, and the core stays free of gRPC; transfer ids must increase across every device pair of the
+ * process, because a destination session takes its transfers in id order. */
 static _Atomic(const cv_transfer_peer_ops *) registered;
 static atomic_uint_fast64_t next_transfer_id;
 

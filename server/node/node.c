@@ -72,7 +72,7 @@ cv_result cv_node_memory_reserve(cv_node *node, uint64_t bytes) {
 
 void cv_node_memory_release(cv_node *node, uint64_t bytes) { atomic_fetch_sub(&node->memory_used, bytes); }
 
-/* Contexts of abandoned sessions. Process-wide rather than per node: they must outlive the node that
+/* Contexts of abandoned sessions. process-wide rather than per node: they must outlive the node that
  * abandoned them (a GPU job that never ends keeps using their memory), and holding them here keeps them
  * reachable, so LeakSanitizer does not report the deliberate leak as a bug and fail the process. */
 static pthread_mutex_t abandoned_lock = PTHREAD_MUTEX_INITIALIZER;

@@ -28,8 +28,9 @@ static cv_result peer_move(const cv_transfer_peer_region *g, uint64_t transfer_i
 static const cv_transfer_peer_ops ops = { .backend = "proxy", .capable = peer_capable, .move = peer_move };
 
 /* Every live proxy device of the process, by serial: an await names its source by serial, because the
- * source device may be destroyed first. Process-wide on purpose: devices of every context may transfer to
- * each other; the lock guards the list and the serials. */
+ * source device may be destroyed first. The lock guards the list and the serials.
+ * process-wide: a serial must name one device among all that a destination may hear of, and proxy devices
+ * of every context in the process reach nodes through the same peer path. */
 static pthread_mutex_t registry_lock = PTHREAD_MUTEX_INITIALIZER;
 static proxy_device *registry;
 static uint64_t next_serial;
