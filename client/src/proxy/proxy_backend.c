@@ -587,6 +587,8 @@ static const cv_backend proxy_backend = {
     .refused = proxy_refused,
     .lost = proxy_lost,
     .timings = proxy_timings,
+    .peer_capable = proxy_peer_capable,
+    .peer_move = proxy_peer_move,
 };
 
 const cv_backend *cv_proxy_backend(void) { return &proxy_backend; }

@@ -149,9 +149,11 @@ void proxy_note_failure(proxy_device *p, uint64_t failure, uint64_t seq, uint64_
 /* If a transfer failure waits to be reported to a wait for `ticket`: returns its error (naming the node) and
  * tells the node the client knows (ResumeAfterFailure); else CV_OK. Lock not held. */
 cv_result proxy_report_failure(proxy_device *p, uint64_t ticket);
-/* Registers the proxy's peer transfer path with the core, and the device in the process's registry
- * (proxy_peer.c); unregister before freeing it. */
+/* Registers the device in the process's registry (proxy_peer.c); unregister before freeing it. */
 void proxy_peer_register(proxy_device *p);
+/* The backend's PEER path (backend.h: peer_capable, peer_move). */
+bool proxy_peer_capable(cv_backend_device *p);
+cv_result proxy_peer_move(const cv_transfer_peer_region *region, uint64_t transfer_id);
 void proxy_peer_unregister(proxy_device *p);
 /* Gives up awaits of this session whose source the caller knows is lost: tells the node (so a held await
  * fails at once) and resumes the session after them, in its stream. Called before every send. */

@@ -20,12 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../transfer_peer.h"
 #include "proxy_internal.h"
-
-static bool peer_capable(cv_device *dev);
-static cv_result peer_move(const cv_transfer_peer_region *g, uint64_t transfer_id);
-static const cv_transfer_peer_ops ops = { .backend = "proxy", .capable = peer_capable, .move = peer_move };
 
 /* Every live proxy device of the process, by serial: an await names its source by serial, because the
  * source device may be destroyed first. The lock guards the list and the serials.
@@ -108,7 +103,6 @@ void proxy_peer_settle(proxy_device *p) {
 }
 
 void proxy_peer_register(proxy_device *p) {
-    cv_transfer_peer_register(&ops);
     pthread_mutex_lock(&registry_lock);
     p->serial = ++next_serial;
     p->registry_next = registry;
@@ -126,15 +120,14 @@ void proxy_peer_unregister(proxy_device *p) {
     pthread_mutex_unlock(&registry_lock);
 }
 
-static bool peer_capable(cv_device *dev) {
-    proxy_device *p = cv_device_backend_data(dev);
+bool proxy_peer_capable(cv_backend_device *p) {
     pthread_mutex_lock(&p->lock);
     bool ok = p->has_session_key && p->dead == CV_OK && p->async_error == CV_OK;
     pthread_mutex_unlock(&p->lock);
     return ok;
 }
 
-static cv_result peer_move(const cv_transfer_peer_region *g, uint64_t transfer_id) {
+cv_result proxy_peer_move(const cv_transfer_peer_region *g, uint64_t transfer_id) {
     proxy_device *src = cv_device_backend_data(g->src), *dst = cv_device_backend_data(g->dst);
     Corvid__PushTransfer push = CORVID__PUSH_TRANSFER__INIT;
     push.transfer_id = transfer_id;
