@@ -10,7 +10,9 @@
 #include "corvid/command_codec.h"
 #include "corvid/parse.h"
 #include "corvid/sha256.h"
-#include "proxy_internal.h"
+#include "proxy_options.h"
+#include "proxy_peer.h"
+#include "proxy_session.h"
 
 /* A loaded resource: the node knows it by the client's id. */
 typedef struct proxy_resource {

@@ -1,5 +1,5 @@
-/* The proxy backend's session with a node (proxy_session.c) and what the
- * backend table (proxy_backend.c) uses of it.
+/* The proxy device: the state its session with a node (proxy_session.h), its
+ * peer path (proxy_peer.h) and the backend table (proxy_backend.c) share.
  *
  * One proxy device = one gRPC stream to one node device. The device's calls
  * come under the core's device lock, so at most one request waits for an answer
@@ -125,55 +125,11 @@ struct cv_backend_device {
         bool given_up;                     /* ... and the session resumed after it (the caller knows) */
     } awaits[PROXY_AWAITS];
     uint32_t awaits_next;
+    /* Set by the peer path (proxy_peer_register): runs before every proxy_send, so the session need not know
+       the peer path that sits above it. NULL: nothing. */
+    void (*before_send)(struct cv_backend_device *p);
 };
 
 typedef struct cv_backend_device proxy_device;
-
-/* Connects, says hello, fills *info. */
-cv_result proxy_session_open(proxy_device *p, cv_device_info *info);
-/* Closes the stream (waiting a little for the node to finish what was sent). */
-void proxy_session_close(proxy_device *p);
-
-/* Sends a message; fails if the session is dead or an earlier request was refused. */
-cv_result proxy_send(proxy_device *p, Corvid__ClientMessage *m);
-/* Sends a request and waits for its answer. `pending` (seq is set here) says
- * where the answer goes. */
-cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending);
-/* The error every call returns once the session is unusable, or CV_OK. */
-cv_result proxy_health(proxy_device *p);
-
-/* Records a transfer failure the node reported (lock held): in the Reply to request `seq` (0: in the Completed
- * of `ticket`); see soft_failure. */
-void proxy_note_failure(proxy_device *p, uint64_t failure, uint64_t seq, uint64_t ticket, cv_result result,
-                        const char *message);
-/* If a transfer failure waits to be reported to a wait for `ticket`: returns its error (naming the node) and
- * tells the node the client knows (ResumeAfterFailure); else CV_OK. Lock not held. */
-cv_result proxy_report_failure(proxy_device *p, uint64_t ticket);
-/* Registers the device in the process's registry (proxy_peer.c); unregister before freeing it. */
-void proxy_peer_register(proxy_device *p);
-/* The backend's PEER path (backend.h: peer_capable, peer_move). */
-bool proxy_peer_capable(cv_backend_device *p);
-cv_result proxy_peer_move(const cv_transfer_peer_region *region, uint64_t transfer_id);
-void proxy_peer_unregister(proxy_device *p);
-/* Gives up awaits of this session whose source the caller knows is lost: tells the node (so a held await
- * fails at once) and resumes the session after them, in its stream. Called before every send. */
-void proxy_peer_settle(proxy_device *p);
-/* Tells the node to fail at once the held awaits whose source device died (without resuming: a wait that
- * then meets the skipped work reports it). Safe at any time. */
-void proxy_peer_abort_dead(proxy_device *p);
-/* proxy_send without proxy_peer_settle. */
-cv_result proxy_send_now(proxy_device *p, Corvid__ClientMessage *m);
-
-/* A copy of the process's proxy options (cv_proxy_configure), its strings in its own buffers, timeout_ms
- * filled in with the default (proxy_options.c). Wipe `token` after use. */
-typedef struct proxy_settings {
-    cv_proxy_options options;
-    char token[1040], tls_ca[1024], tls_cert[1024], tls_key[1024];
-} proxy_settings;
-void proxy_settings_get(proxy_settings *out);
-/* The rpc client configuration for talking to a node: the bearer token, TLS (trusting tls_ca_file, with a
- * client certificate for mutual TLS), keepalive ping interval and timeout (so a node that stops answering is
- * noticed within about twice keepalive_ms; 0: the rpc defaults, 10 s + 5 s). Points into `s`. */
-void proxy_client_config(const proxy_settings *s, cv_rpc_client_config *cc);
 
 #endif

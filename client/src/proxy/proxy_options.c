@@ -4,7 +4,9 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "proxy_internal.h"
+#include "proxy_options.h"
+
+#include "corvid/node_protocol.h"
 
 #define DEFAULT_TIMEOUT_MS 120000u
 

@@ -1,4 +1,4 @@
-/* The proxy's PEER transfer path (transfer_peer.h): a transfer between two
+/* The proxy's PEER transfer path (proxy_peer.h, backend.h): a transfer between two
  * proxy devices is two messages, one in each session's ordered stream. The
  * source session gets PushTransfer (after the work that writes the region: the
  * node reads it once that is done, compresses it and sends it to the
@@ -20,7 +20,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "proxy_internal.h"
+#include "proxy_peer.h"
+#include "proxy_session.h"
 
 /* Every live proxy device of the process, by serial: an await names its source by serial, because the
  * source device may be destroyed first. The lock guards the list and the serials.
@@ -103,6 +104,7 @@ void proxy_peer_settle(proxy_device *p) {
 }
 
 void proxy_peer_register(proxy_device *p) {
+    p->before_send = proxy_peer_settle;
     pthread_mutex_lock(&registry_lock);
     p->serial = ++next_serial;
     p->registry_next = registry;

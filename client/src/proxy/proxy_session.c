@@ -1,5 +1,5 @@
 /* A proxy device's session with its node: connect and hello, sending,
- * request/answer, and the receiver thread (proxy_internal.h). */
+ * request/answer, and the receiver thread (proxy_session.h). */
 #include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -7,7 +7,8 @@
 #include <time.h>
 
 #include "corvid/parse.h"
-#include "proxy_internal.h"
+#include "proxy_options.h"
+#include "proxy_session.h"
 
 static void send_resume(proxy_device *p, uint64_t failure);
 
@@ -33,7 +34,8 @@ cv_result proxy_health(proxy_device *p) {
 }
 
 cv_result proxy_send(proxy_device *p, Corvid__ClientMessage *m) {
-    proxy_peer_settle(p);
+    if (p->before_send)
+        p->before_send(p);
     return proxy_send_now(p, m);
 }
 
