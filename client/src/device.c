@@ -116,11 +116,13 @@ cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_
     if (!dev)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_device_create");
     pthread_mutex_init(&dev->lock, NULL);
+    pthread_mutex_init(&dev->slots_lock, NULL);
     dev->ctx = ctx;
     dev->backend = backend;
     cv_result r = backend->device_create(&d, &dev->info, &dev->bd);
     if (r != CV_OK) {
         pthread_mutex_destroy(&dev->lock);
+        pthread_mutex_destroy(&dev->slots_lock);
         free(dev);
         return r;
     }
@@ -132,6 +134,7 @@ cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_
     if (r != CV_OK) {
         backend->device_destroy(dev->bd);
         pthread_mutex_destroy(&dev->lock);
+        pthread_mutex_destroy(&dev->slots_lock);
         free(dev);
         return r;
     }
@@ -163,6 +166,9 @@ void cv_device_destroy(cv_device *dev) {
     free(dev->deferred);
     pthread_mutex_unlock(&dev->lock);
     pthread_mutex_destroy(&dev->lock);
+    for (uint32_t i = 0; i < dev->slot_count; i++)
+        free(dev->slots[i]);
+    pthread_mutex_destroy(&dev->slots_lock);
     free(dev);
     atomic_fetch_sub(&live_devices, 1);
 }
