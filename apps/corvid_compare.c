@@ -153,9 +153,17 @@ static void print_json_string(const char *s) {
     putchar('"');
 }
 
-int main(int argc, char **argv) {
-    const char *paths[2] = { NULL, NULL }, *only = NULL;
-    bool json = false, per_channel = false;
+/* What the command line asks for. */
+typedef struct args {
+    const char *paths[2];
+    const layer_def *selected; /* --layer; NULL = every layer */
+    bool json, per_channel;
+} args;
+
+/* -1 to compare, else the exit status (0 after --help, 2 after a message). */
+static int parse_args(int argc, char **argv, args *o) {
+    *o = (args){ 0 };
+    const char *only = NULL;
     int npaths = 0;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
@@ -163,9 +171,9 @@ int main(int argc, char **argv) {
             usage(stdout);
             return 0;
         } else if (!strcmp(arg, "--json")) {
-            json = true;
+            o->json = true;
         } else if (!strcmp(arg, "--per-channel")) {
-            per_channel = true;
+            o->per_channel = true;
         } else if (!strcmp(arg, "--layer") || !strncmp(arg, "--layer=", 8)) {
             only = arg[7] == '=' ? arg + 8 : (i + 1 < argc ? argv[++i] : NULL);
             if (!only || !*only) {
@@ -176,7 +184,7 @@ int main(int argc, char **argv) {
             fprintf(stderr, "corvid-compare: unknown option '%s' (see --help)\n", arg);
             return 2;
         } else if (npaths < 2) {
-            paths[npaths++] = arg;
+            o->paths[npaths++] = arg;
         } else {
             fprintf(stderr, "corvid-compare: more than two files ('%s'); see --help\n", arg);
             return 2;
@@ -186,12 +194,11 @@ int main(int argc, char **argv) {
         usage(stderr);
         return 2;
     }
-    const layer_def *selected = NULL;
     if (only) {
         for (size_t k = 0; k < LAYER_COUNT; k++)
             if (!strcmp(only, layer_defs[k].name))
-                selected = &layer_defs[k];
-        if (!selected) {
+                o->selected = &layer_defs[k];
+        if (!o->selected) {
             fprintf(stderr,
                     "corvid-compare: unknown layer '%s' (radiance, albedo, normal, depth, shadow, ao, direct, "
                     "reflection, motion)\n",
@@ -199,129 +206,162 @@ int main(int argc, char **argv) {
             return 2;
         }
     }
-    cv_exr_image img[2] = { { 0 }, { 0 } };
-    cv_result read;
-    for (int f = 0; f < 2; f++)
-        if ((read = cv_exr_read(paths[f], &img[f])) != CV_OK) {
-            /* the result's name too: "a.exr: out of memory for channel 'R' ..." is not a channel's name */
-            fprintf(stderr, "corvid-compare: %s: %s\n", cv_result_name(read), cv_last_error());
-            cv_exr_image_free(&img[0]);
-            return 2;
-        }
+    return -1;
+}
+
+/* One comparison of two read files: coverage and the rows of metrics. */
+typedef struct comparison {
+    const char *paths[2];
+    cv_exr_image img[2];
+    uint64_t covered[2], both;
+    row rows[LAYER_COUNT * 4];
+    size_t nrows;
+} comparison;
+
+/* The layers both files have (the selected one only): 0, or 2 after a message. */
+static int common_layers(const comparison *c, const layer_def *selected, const layer_def **common, size_t *ncommon) {
     int rc = 0;
-    if (img[0].width != img[1].width || img[0].height != img[1].height) {
-        fprintf(stderr, "corvid-compare: %s is %ux%u but %s is %ux%u; compare renders of the same size\n", paths[0],
-                img[0].width, img[0].height, paths[1], img[1].width, img[1].height);
-        rc = 2;
-    }
-    const layer_def *common[LAYER_COUNT];
-    size_t ncommon = 0;
+    *ncommon = 0;
     for (size_t k = 0; rc == 0 && k < LAYER_COUNT; k++) {
         const layer_def *d = &layer_defs[k];
         if (selected && d != selected)
             continue;
-        bool in_a = has_layer(&img[0], d), in_b = has_layer(&img[1], d);
+        bool in_a = has_layer(&c->img[0], d), in_b = has_layer(&c->img[1], d);
         if (selected && (!in_a || !in_b)) {
-            fprintf(stderr, "corvid-compare: layer '%s' is not in %s%s%s\n", d->name, !in_a ? paths[0] : "",
-                    !in_a && !in_b ? " nor in " : "", !in_b ? paths[1] : "");
+            fprintf(stderr, "corvid-compare: layer '%s' is not in %s%s%s\n", d->name, !in_a ? c->paths[0] : "",
+                    !in_a && !in_b ? " nor in " : "", !in_b ? c->paths[1] : "");
             rc = 2;
         }
         if (in_a && in_b)
-            common[ncommon++] = d;
+            common[(*ncommon)++] = d;
     }
-    if (rc == 0 && ncommon == 0) {
+    if (rc == 0 && *ncommon == 0) {
         fprintf(stderr,
                 "corvid-compare: %s and %s have no layer in common (radiance R/G/B, albedo.*, normal.*, "
                 "depth.Z, shadow.Y, ao.Y, direct.*, reflection.*, motion.*)\n",
-                paths[0], paths[1]);
+                c->paths[0], c->paths[1]);
         rc = 2;
     }
-    size_t n = (size_t)img[0].width * img[0].height;
-    uint8_t *cov[2] = { NULL, NULL }, *mask = NULL;
-    uint64_t covered[2] = { 0, 0 }, both = 0;
-    row rows[LAYER_COUNT * 4];
-    size_t nrows = 0;
-    if (rc == 0) {
-        cov[0] = malloc(n);
-        cov[1] = malloc(n);
-        mask = malloc(n);
-        if (!cov[0] || !cov[1] || !mask) {
-            fprintf(stderr, "corvid-compare: out of memory for the coverage masks (%zu pixels)\n", n);
-            rc = 2;
-        }
+    return rc;
+}
+
+/* The rows of every common layer over the pixels both files cover: 0, or 2 after a message. */
+static int compare_layers(comparison *c, const layer_def *const *common, size_t ncommon, bool per_channel) {
+    size_t n = (size_t)c->img[0].width * c->img[0].height;
+    uint8_t *cov[2] = { malloc(n), malloc(n) }, *mask = malloc(n);
+    int rc = 0;
+    if (!cov[0] || !cov[1] || !mask) {
+        fprintf(stderr, "corvid-compare: out of memory for the coverage masks (%zu pixels)\n", n);
+        rc = 2;
     }
     if (rc == 0) {
-        coverage(&img[0], cov[0]);
-        coverage(&img[1], cov[1]);
+        coverage(&c->img[0], cov[0]);
+        coverage(&c->img[1], cov[1]);
         for (size_t i = 0; i < n; i++) {
-            covered[0] += cov[0][i];
-            covered[1] += cov[1][i];
+            c->covered[0] += cov[0][i];
+            c->covered[1] += cov[1][i];
             mask[i] = cov[0][i] && cov[1][i];
-            both += mask[i];
+            c->both += mask[i];
         }
     }
     for (size_t k = 0; rc == 0 && k < ncommon; k++) {
         const layer_def *d = common[k];
         if (d->luminance) {
-            rc = compare_row(&img[0], &img[1], mask, d, -1, &rows[nrows++]);
-            for (uint32_t c = 0; rc == 0 && per_channel && c < d->count; c++)
-                rc = compare_row(&img[0], &img[1], mask, d, (int)c, &rows[nrows++]);
+            rc = compare_row(&c->img[0], &c->img[1], mask, d, -1, &c->rows[c->nrows++]);
+            for (uint32_t ch = 0; rc == 0 && per_channel && ch < d->count; ch++)
+                rc = compare_row(&c->img[0], &c->img[1], mask, d, (int)ch, &c->rows[c->nrows++]);
         } else {
-            for (uint32_t c = 0; rc == 0 && c < d->count; c++)
-                rc = compare_row(&img[0], &img[1], mask, d, (int)c, &rows[nrows++]);
-        }
-    }
-    if (rc == 0 && json) {
-        printf("{\"a\": ");
-        print_json_string(paths[0]);
-        printf(", \"b\": ");
-        print_json_string(paths[1]);
-        printf(
-            ", \"width\": %u, \"height\": %u, \"covered_a\": %llu, \"covered_b\": %llu, \"compared\": %llu, "
-            "\"layers\": [",
-            img[0].width, img[0].height, (unsigned long long)covered[0], (unsigned long long)covered[1],
-            (unsigned long long)both);
-        for (size_t r = 0; r < nrows; r++) {
-            const cv_image_metrics *m = &rows[r].m;
-            printf("%s\n  {\"layer\": \"%s\", \"channel\": \"%s\", \"pixels\": %llu, \"nonfinite\": %llu, \"rmse\": ",
-                   r ? "," : "", rows[r].layer, rows[r].channel, (unsigned long long)m->pixels,
-                   (unsigned long long)m->nonfinite);
-            print_number(m->rmse);
-            printf(", \"bias\": ");
-            print_number(m->bias);
-            printf(", \"max_abs\": ");
-            print_number(m->max_abs);
-            printf(", \"ssim\": ");
-            print_number(m->ssim);
-            printf(", \"ssim_windows\": %llu, \"ssim_peak\": ", (unsigned long long)m->ssim_windows);
-            print_number(rows[r].peak);
-            printf("}");
-        }
-        printf("\n]}\n");
-    } else if (rc == 0) {
-        printf("A: %s\nB: %s\n%ux%u: %llu pixels covered in A, %llu in B, %llu in both (compared)\n", paths[0],
-               paths[1], img[0].width, img[0].height, (unsigned long long)covered[0], (unsigned long long)covered[1],
-               (unsigned long long)both);
-        printf("%-10s %-3s %9s %11s %11s %11s %9s %8s\n", "layer", "ch", "pixels", "rmse", "bias(B-A)", "max|B-A|",
-               "ssim", "windows");
-        for (size_t r = 0; r < nrows; r++) {
-            const cv_image_metrics *m = &rows[r].m;
-            printf("%-10s %-3s %9llu %11.6f %+11.6f %11.6f ", rows[r].layer, rows[r].channel,
-                   (unsigned long long)m->pixels, m->rmse, m->bias, m->max_abs);
-            if (isnan(m->ssim))
-                printf("%9s", "n/a");
-            else
-                printf("%9.5f", m->ssim);
-            printf(" %8llu", (unsigned long long)m->ssim_windows);
-            if (m->nonfinite)
-                printf("  (%llu non-finite pixels left out)", (unsigned long long)m->nonfinite);
-            printf("\n");
+            for (uint32_t ch = 0; rc == 0 && ch < d->count; ch++)
+                rc = compare_row(&c->img[0], &c->img[1], mask, d, (int)ch, &c->rows[c->nrows++]);
         }
     }
     free(cov[0]);
     free(cov[1]);
     free(mask);
-    cv_exr_image_free(&img[0]);
-    cv_exr_image_free(&img[1]);
+    return rc;
+}
+
+static void print_json(const comparison *c) {
+    printf("{\"a\": ");
+    print_json_string(c->paths[0]);
+    printf(", \"b\": ");
+    print_json_string(c->paths[1]);
+    printf(
+        ", \"width\": %u, \"height\": %u, \"covered_a\": %llu, \"covered_b\": %llu, \"compared\": %llu, "
+        "\"layers\": [",
+        c->img[0].width, c->img[0].height, (unsigned long long)c->covered[0], (unsigned long long)c->covered[1],
+        (unsigned long long)c->both);
+    for (size_t r = 0; r < c->nrows; r++) {
+        const cv_image_metrics *m = &c->rows[r].m;
+        printf("%s\n  {\"layer\": \"%s\", \"channel\": \"%s\", \"pixels\": %llu, \"nonfinite\": %llu, \"rmse\": ",
+               r ? "," : "", c->rows[r].layer, c->rows[r].channel, (unsigned long long)m->pixels,
+               (unsigned long long)m->nonfinite);
+        print_number(m->rmse);
+        printf(", \"bias\": ");
+        print_number(m->bias);
+        printf(", \"max_abs\": ");
+        print_number(m->max_abs);
+        printf(", \"ssim\": ");
+        print_number(m->ssim);
+        printf(", \"ssim_windows\": %llu, \"ssim_peak\": ", (unsigned long long)m->ssim_windows);
+        print_number(c->rows[r].peak);
+        printf("}");
+    }
+    printf("\n]}\n");
+}
+
+static void print_table(const comparison *c) {
+    printf("A: %s\nB: %s\n%ux%u: %llu pixels covered in A, %llu in B, %llu in both (compared)\n", c->paths[0],
+           c->paths[1], c->img[0].width, c->img[0].height, (unsigned long long)c->covered[0],
+           (unsigned long long)c->covered[1], (unsigned long long)c->both);
+    printf("%-10s %-3s %9s %11s %11s %11s %9s %8s\n", "layer", "ch", "pixels", "rmse", "bias(B-A)", "max|B-A|",
+           "ssim", "windows");
+    for (size_t r = 0; r < c->nrows; r++) {
+        const cv_image_metrics *m = &c->rows[r].m;
+        printf("%-10s %-3s %9llu %11.6f %+11.6f %11.6f ", c->rows[r].layer, c->rows[r].channel,
+               (unsigned long long)m->pixels, m->rmse, m->bias, m->max_abs);
+        if (isnan(m->ssim))
+            printf("%9s", "n/a");
+        else
+            printf("%9.5f", m->ssim);
+        printf(" %8llu", (unsigned long long)m->ssim_windows);
+        if (m->nonfinite)
+            printf("  (%llu non-finite pixels left out)", (unsigned long long)m->nonfinite);
+        printf("\n");
+    }
+}
+
+int main(int argc, char **argv) {
+    args o;
+    int parsed = parse_args(argc, argv, &o);
+    if (parsed >= 0)
+        return parsed;
+    comparison c = { .paths = { o.paths[0], o.paths[1] } };
+    cv_result read;
+    for (int f = 0; f < 2; f++)
+        if ((read = cv_exr_read(c.paths[f], &c.img[f])) != CV_OK) {
+            /* the result's name too: "a.exr: out of memory for channel 'R' ..." is not a channel's name */
+            fprintf(stderr, "corvid-compare: %s: %s\n", cv_result_name(read), cv_last_error());
+            cv_exr_image_free(&c.img[0]);
+            return 2;
+        }
+    int rc = 0;
+    if (c.img[0].width != c.img[1].width || c.img[0].height != c.img[1].height) {
+        fprintf(stderr, "corvid-compare: %s is %ux%u but %s is %ux%u; compare renders of the same size\n", c.paths[0],
+                c.img[0].width, c.img[0].height, c.paths[1], c.img[1].width, c.img[1].height);
+        rc = 2;
+    }
+    const layer_def *common[LAYER_COUNT];
+    size_t ncommon = 0;
+    if (rc == 0)
+        rc = common_layers(&c, o.selected, common, &ncommon);
+    if (rc == 0)
+        rc = compare_layers(&c, common, ncommon, o.per_channel);
+    if (rc == 0 && o.json)
+        print_json(&c);
+    else if (rc == 0)
+        print_table(&c);
+    cv_exr_image_free(&c.img[0]);
+    cv_exr_image_free(&c.img[1]);
     return rc;
 }

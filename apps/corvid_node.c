@@ -25,7 +25,8 @@
 #include "corvid/rpc.h"
 #include "corvid/vulkan.h"
 #include "env_log.h"
-#include "metrics.h"
+#include "env_client.h"
+#include "metrics_http.h"
 #include "node.h"
 #include "node_metrics_args.h"
 
@@ -151,6 +152,111 @@ static int parse_size(const char *opt, const char *text, uint64_t *out) {
     return 0;
 }
 
+/* One option that takes a value: 0 when taken, 2 after a message, -1 when no such option. */
+static int parse_valued(const char *name, const char *value, options *o) {
+    int bad = 0;
+    if (!strcmp(name, "--listen")) {
+        o->listen = value;
+    } else if (!strcmp(name, "--backend")) {
+        if (strcmp(value, "vulkan") && strcmp(value, "mock")) {
+            fprintf(stderr, "corvid-node: --backend: '%s' is not vulkan or mock\n", value);
+            return 2;
+        }
+        o->backend = value;
+    } else if (!strcmp(name, "--mock-devices")) {
+        bad = parse_u32(name, value, 1, 64, &o->mock_devices);
+    } else if (!strcmp(name, "--cache-dir")) {
+        o->cache_dir = value;
+    } else if (!strcmp(name, "--cache-size")) {
+        bad = parse_size(name, value, &o->cache_bytes);
+        if (!bad && o->cache_bytes < CV_NODE_MIN_CACHE_BYTES) {
+            fprintf(stderr,
+                    "corvid-node: --cache-size: '%s' is too small: at least 16M (a smaller store could not "
+                    "hold a scene; a blob larger than the store is refused)\n",
+                    value);
+            bad = 2;
+        }
+    } else if (!strcmp(name, "--idle-timeout")) {
+        bad = parse_u32(name, value, 1, 86400, &o->idle_timeout_s);
+    } else if (!strcmp(name, "--submit-timeout")) {
+        bad = parse_u32(name, value, 1, 86400, &o->submit_timeout_s);
+    } else if (!strcmp(name, "--drain-timeout")) {
+        bad = parse_u32(name, value, 0, 3600, &o->drain_timeout_s);
+    } else if (!strcmp(name, "--peer-deadline-ms")) {
+        bad = parse_u32(name, value, 100, 600000, &o->peer_deadline_ms);
+    } else if (!strcmp(name, "--peer-keepalive-ms")) {
+        bad = parse_u32(name, value, 100, 600000, &o->peer_keepalive_ms);
+    } else if (!strcmp(name, "--peer-tls-ca")) {
+        o->peer_tls_ca = value;
+    } else if (!strcmp(name, "--peers")) {
+        if (cv_node_check_peers(value, "--peers") != CV_OK) {
+            fprintf(stderr, "corvid-node: %s\n", cv_last_error());
+            return 2;
+        }
+        o->peers = value;
+    } else if (!strcmp(name, "--health-listen")) {
+        if (!strrchr(value, ':')) {
+            fprintf(stderr, "corvid-node: --health-listen: '%s' is not HOST:PORT\n", value);
+            bad = 2;
+        }
+        o->health_listen = value;
+    } else if (!strcmp(name, "--max-sessions")) {
+        bad = parse_u32(name, value, 1, 65536, &o->max_sessions);
+    } else if (!strcmp(name, "--name")) {
+        o->name = value;
+    } else if (!strcmp(name, "--port-file")) {
+        o->port_file = value;
+    } else if (!strcmp(name, "--token-file")) {
+        o->token_file = value;
+    } else if (!strcmp(name, "--tls-cert")) {
+        o->tls_cert = value;
+    } else if (!strcmp(name, "--tls-key")) {
+        o->tls_key = value;
+    } else if (!strcmp(name, "--tls-client-ca")) {
+        o->tls_client_ca = value;
+    } else if (!strcmp(name, "--quota-memory")) {
+        bad = parse_size(name, value, &o->quota.memory_bytes);
+    } else if (!strcmp(name, "--quota-resources")) {
+        bad = parse_u32(name, value, 1, 1u << 24, &o->quota.resources);
+    } else if (!strcmp(name, "--quota-inflight")) {
+        bad = parse_u32(name, value, 1, CV_NODE_MAX_QUOTA_INFLIGHT, &o->quota.inflight);
+    } else if (!strcmp(name, "--quota-upload")) {
+        bad = parse_size(name, value, &o->quota.upload_bytes);
+    } else if (!strcmp(name, "--memory-limit")) {
+        bad = parse_size(name, value, &o->memory_limit);
+    } else if (!strcmp(name, "--token")) {
+        fprintf(stderr,
+                "corvid-node: --token: a token on the command line is visible to every user (ps); put "
+                "it in a file and give --token-file FILE\n");
+        return 2;
+    } else {
+        return -1;
+    }
+    return bad;
+}
+
+/* What the options say together, once all are read: 0, or 2 after a message. */
+static int check_args(options *o) {
+    if (!o->listen[0] || !strchr(o->listen, ':')) {
+        fprintf(stderr, "corvid-node: --listen: '%s' is not HOST:PORT\n", o->listen);
+        return 2;
+    }
+    if (!o->tls_cert != !o->tls_key) {
+        fprintf(stderr, "corvid-node: %s needs %s too\n", o->tls_cert ? "--tls-cert" : "--tls-key",
+                o->tls_cert ? "--tls-key" : "--tls-cert");
+        return 2;
+    }
+    if (o->tls_client_ca && !o->tls_cert) {
+        fprintf(stderr, "corvid-node: --tls-client-ca needs --tls-cert and --tls-key (mutual TLS is TLS)\n");
+        return 2;
+    }
+    if (!o->token_file) {
+        const char *env = getenv("CORVID_NODE_TOKEN_FILE");
+        o->token_file = env && *env ? env : NULL;
+    }
+    return 0;
+}
+
 /* Returns 0 to run, 1 after --help, 2 on a bad option (nothing started). */
 static int parse_args(int argc, char **argv, options *o) {
     *o = (options){ .listen = "127.0.0.1:7700",
@@ -187,105 +293,17 @@ static int parse_args(int argc, char **argv, options *o) {
             o->validation = true;
         } else if (!strcmp(name, "--quiet")) {
             o->quiet = true;
-        } else if (!strcmp(name, "--listen")) {
-            o->listen = value;
-        } else if (!strcmp(name, "--backend")) {
-            if (strcmp(value, "vulkan") && strcmp(value, "mock")) {
-                fprintf(stderr, "corvid-node: --backend: '%s' is not vulkan or mock\n", value);
-                return 2;
-            }
-            o->backend = value;
-        } else if (!strcmp(name, "--mock-devices")) {
-            bad = parse_u32(name, value, 1, 64, &o->mock_devices);
-        } else if (!strcmp(name, "--cache-dir")) {
-            o->cache_dir = value;
-        } else if (!strcmp(name, "--cache-size")) {
-            bad = parse_size(name, value, &o->cache_bytes);
-            if (!bad && o->cache_bytes < CV_NODE_MIN_CACHE_BYTES) {
-                fprintf(stderr,
-                        "corvid-node: --cache-size: '%s' is too small: at least 16M (a smaller store could not "
-                        "hold a scene; a blob larger than the store is refused)\n",
-                        value);
-                bad = 2;
-            }
-        } else if (!strcmp(name, "--idle-timeout")) {
-            bad = parse_u32(name, value, 1, 86400, &o->idle_timeout_s);
-        } else if (!strcmp(name, "--submit-timeout")) {
-            bad = parse_u32(name, value, 1, 86400, &o->submit_timeout_s);
-        } else if (!strcmp(name, "--drain-timeout")) {
-            bad = parse_u32(name, value, 0, 3600, &o->drain_timeout_s);
-        } else if (!strcmp(name, "--peer-deadline-ms")) {
-            bad = parse_u32(name, value, 100, 600000, &o->peer_deadline_ms);
-        } else if (!strcmp(name, "--peer-keepalive-ms")) {
-            bad = parse_u32(name, value, 100, 600000, &o->peer_keepalive_ms);
-        } else if (!strcmp(name, "--peer-tls-ca")) {
-            o->peer_tls_ca = value;
-        } else if (!strcmp(name, "--peers")) {
-            if (cv_node_check_peers(value, "--peers") != CV_OK) {
-                fprintf(stderr, "corvid-node: %s\n", cv_last_error());
-                return 2;
-            }
-            o->peers = value;
-        } else if (!strcmp(name, "--health-listen")) {
-            if (!strrchr(value, ':')) {
-                fprintf(stderr, "corvid-node: --health-listen: '%s' is not HOST:PORT\n", value);
-                bad = 2;
-            }
-            o->health_listen = value;
-        } else if (!strcmp(name, "--max-sessions")) {
-            bad = parse_u32(name, value, 1, 65536, &o->max_sessions);
-        } else if (!strcmp(name, "--name")) {
-            o->name = value;
-        } else if (!strcmp(name, "--port-file")) {
-            o->port_file = value;
-        } else if (!strcmp(name, "--token-file")) {
-            o->token_file = value;
-        } else if (!strcmp(name, "--tls-cert")) {
-            o->tls_cert = value;
-        } else if (!strcmp(name, "--tls-key")) {
-            o->tls_key = value;
-        } else if (!strcmp(name, "--tls-client-ca")) {
-            o->tls_client_ca = value;
-        } else if (!strcmp(name, "--quota-memory")) {
-            bad = parse_size(name, value, &o->quota.memory_bytes);
-        } else if (!strcmp(name, "--quota-resources")) {
-            bad = parse_u32(name, value, 1, 1u << 24, &o->quota.resources);
-        } else if (!strcmp(name, "--quota-inflight")) {
-            bad = parse_u32(name, value, 1, CV_NODE_MAX_QUOTA_INFLIGHT, &o->quota.inflight);
-        } else if (!strcmp(name, "--quota-upload")) {
-            bad = parse_size(name, value, &o->quota.upload_bytes);
-        } else if (!strcmp(name, "--memory-limit")) {
-            bad = parse_size(name, value, &o->memory_limit);
-        } else if (!strcmp(name, "--token")) {
-            fprintf(stderr,
-                    "corvid-node: --token: a token on the command line is visible to every user (ps); put "
-                    "it in a file and give --token-file FILE\n");
-            return 2;
         } else {
-            fprintf(stderr, "corvid-node: unknown option '%s' (see --help)\n", arg);
-            return 2;
+            bad = parse_valued(name, value, o);
+            if (bad < 0) {
+                fprintf(stderr, "corvid-node: unknown option '%s' (see --help)\n", arg);
+                return 2;
+            }
         }
         if (bad)
             return bad;
     }
-    if (!o->listen[0] || !strchr(o->listen, ':')) {
-        fprintf(stderr, "corvid-node: --listen: '%s' is not HOST:PORT\n", o->listen);
-        return 2;
-    }
-    if (!o->tls_cert != !o->tls_key) {
-        fprintf(stderr, "corvid-node: %s needs %s too\n", o->tls_cert ? "--tls-cert" : "--tls-key",
-                o->tls_cert ? "--tls-key" : "--tls-cert");
-        return 2;
-    }
-    if (o->tls_client_ca && !o->tls_cert) {
-        fprintf(stderr, "corvid-node: --tls-client-ca needs --tls-cert and --tls-key (mutual TLS is TLS)\n");
-        return 2;
-    }
-    if (!o->token_file) {
-        const char *env = getenv("CORVID_NODE_TOKEN_FILE");
-        o->token_file = env && *env ? env : NULL;
-    }
-    return 0;
+    return check_args(o);
 }
 
 /* The default cache directory, following the XDG base directory convention. */
@@ -354,6 +372,111 @@ static void log_to_stderr(cv_log_level level, const char *origin, const char *me
         fprintf(stderr, "corvid %s: %s\n", origin, message);
 }
 
+/* The node's token and the metrics token: read before anything starts, so a bad file is a clear error at
+ * once; and a node open beyond this machine must have a token. 0, or 2 after a message. */
+static int read_tokens(const options *o, const node_metrics_options *mo, char *token, size_t token_cap,
+                       char *metrics_token, size_t metrics_cap) {
+    if (o->token_file) {
+        if (cv_rpc_read_token_file(o->token_file, token, token_cap) != CV_OK) {
+            fprintf(stderr, "corvid-node: --token-file: %s\n", cv_last_error());
+            return 2;
+        }
+        struct stat st;
+        if (stat(o->token_file, &st) == 0 && (st.st_mode & (S_IRWXG | S_IRWXO)))
+            fprintf(stderr, "corvid-node: warning: token file '%s' can be read by other users (chmod 600 it)\n",
+                    o->token_file);
+    }
+    if (mo->token_file && cv_rpc_read_token_file(mo->token_file, metrics_token, metrics_cap) != CV_OK) {
+        fprintf(stderr, "corvid-node: --metrics-token-file: %s\n", cv_last_error());
+        return 2;
+    }
+    if (!cv_node_listen_is_local(o->listen)) {
+        if (!o->token_file) {
+            fprintf(stderr,
+                    "corvid-node: --listen %s is not loopback: give a token with --token-file FILE (or "
+                    "CORVID_NODE_TOKEN_FILE), a file whose first line is the token; clients set "
+                    "CORVID_NODE_TOKEN_FILE to a file with the same token\n",
+                    o->listen);
+            return 2;
+        }
+        if (!o->tls_cert)
+            fprintf(stderr,
+                    "corvid-node: warning: --listen %s without --tls-cert: the token and all data travel "
+                    "unencrypted\n",
+                    o->listen);
+    }
+    return 0;
+}
+
+/* The node's configuration from the options (token: read by read_tokens; "" without --token-file). */
+static cv_node_config node_config(const options *o, const cv_node_device_spec *devices, uint32_t device_count,
+                                  const char *cache_dir, const char *token) {
+    return (cv_node_config){
+        .listen = o->listen,
+        .name = o->name,
+        .devices = devices,
+        .device_count = device_count,
+        .validation = o->validation,
+        .cache_dir = o->cache_dir ? o->cache_dir : cache_dir,
+        .cache_bytes = o->cache_bytes,
+        .idle_timeout_ms = o->idle_timeout_s * 1000u,
+        .submit_timeout_ms = o->submit_timeout_s * 1000u,
+        .max_sessions = o->max_sessions,
+        .log_sessions = !o->quiet,
+        .token = o->token_file ? token : NULL,
+        .tls_cert_file = o->tls_cert,
+        .tls_key_file = o->tls_key,
+        .tls_client_ca_file = o->tls_client_ca,
+        .quota = o->quota,
+        .memory_bytes = o->memory_limit,
+        .peer_token = o->token_file ? token : NULL,
+        .peer_tls_ca_file = o->peer_tls_ca,
+        .peer_deadline_ms = o->peer_deadline_ms,
+        .peer_keepalive_ms = o->peer_keepalive_ms,
+        .peers = o->peers,
+        .health_listen = o->health_listen,
+    };
+}
+
+/* --port-file, then the lines that say where the node listens: 0, or 1 after a message. */
+static int announce(cv_node *node, const options *o, const cv_node_config *config, const node_metrics_options *mo,
+                    cv_metrics_server *metrics) {
+    int port = cv_node_port(node);
+    if (o->port_file) {
+        FILE *f = NULL;
+        cv_result pr = cv_file_fopen_regular(o->port_file, "w", &f);
+        if (pr == CV_OK) {
+            bool written = fprintf(f, "%d\n", port) >= 0;
+            if (fclose(f) != 0 || !written)
+                pr = cv_error(CV_ERROR_IO, "%s: %s", o->port_file, strerror(errno));
+        }
+        if (pr != CV_OK) {
+            fprintf(stderr, "corvid-node: --port-file: %s\n", cv_last_error());
+            return 1;
+        }
+    }
+    /* A unix socket has no port (gRPC reports 1 for it): the address is the path. */
+    char where[PATH_MAX + 16];
+    const char *colon = strrchr(o->listen, ':');
+    if (!strncmp(o->listen, "unix:", 5) || !strncmp(o->listen, "unix-abstract:", 14))
+        snprintf(where, sizeof(where), "%s", o->listen);
+    else
+        snprintf(where, sizeof(where), "%.*s:%d", (int)(colon - o->listen), o->listen, port);
+    printf("corvid-node: listening on %s with %u device%s (%s), cache %s, %s, %s\n", where, config->device_count,
+           config->device_count == 1 ? "" : "s", o->backend, config->cache_dir,
+           o->tls_client_ca ? "mutual TLS"
+           : o->tls_cert    ? "TLS"
+                            : "plaintext",
+           o->token_file ? "token required" : "no token");
+    if (metrics)
+        printf("corvid-node: metrics at http://%s:%d/metrics%s\n", mo->listen ? mo->listen : "127.0.0.1",
+               cv_metrics_server_port(metrics), mo->token_file ? " (bearer token required)" : "");
+    if (o->health_listen)
+        printf("corvid-node: plaintext health (grpc.health.v1 only) on port %d\n", cv_node_health_port(node));
+    fflush(stdout);
+    return 0;
+}
+
 int main(int argc, char **argv) {
     cv_log_set_sink(log_to_stderr, NULL, env_log_level());
     cv_vulkan_gpu_config gpus = { 0 };
@@ -368,39 +491,14 @@ int main(int argc, char **argv) {
     int parsed = parse_args(argc, argv, &o);
     if (parsed)
         return parsed == 1 ? 0 : 2;
-    /* The token: read before anything starts, so a bad file is a clear error at once. */
-    static char token[1040];
-    if (o.token_file) {
-        if (cv_rpc_read_token_file(o.token_file, token, sizeof(token)) != CV_OK) {
-            fprintf(stderr, "corvid-node: --token-file: %s\n", cv_last_error());
-            return 2;
-        }
-        struct stat st;
-        if (stat(o.token_file, &st) == 0 && (st.st_mode & (S_IRWXG | S_IRWXO)))
-            fprintf(stderr, "corvid-node: warning: token file '%s' can be read by other users (chmod 600 it)\n",
-                    o.token_file);
-    }
-    static char metrics_token[1040];
-    if (metrics_opts.token_file &&
-        cv_rpc_read_token_file(metrics_opts.token_file, metrics_token, sizeof(metrics_token)) != CV_OK) {
-        fprintf(stderr, "corvid-node: --metrics-token-file: %s\n", cv_last_error());
+    if (cv_env_client_configure(CV_ENV_CLIENT_TRANSFER) != CV_OK) {
+        fprintf(stderr, "corvid-node: %s\n", cv_last_error());
         return 2;
     }
-    if (!cv_node_listen_is_local(o.listen)) {
-        if (!o.token_file) {
-            fprintf(stderr,
-                    "corvid-node: --listen %s is not loopback: give a token with --token-file FILE (or "
-                    "CORVID_NODE_TOKEN_FILE), a file whose first line is the token; clients set "
-                    "CORVID_NODE_TOKEN_FILE to a file with the same token\n",
-                    o.listen);
-            return 2;
-        }
-        if (!o.tls_cert)
-            fprintf(stderr,
-                    "corvid-node: warning: --listen %s without --tls-cert: the token and all data travel "
-                    "unencrypted\n",
-                    o.listen);
-    }
+    /* The tokens: read before anything starts, so a bad file is a clear error at once. */
+    static char token[1040], metrics_token[1040];
+    if (read_tokens(&o, &metrics_opts, token, sizeof(token), metrics_token, sizeof(metrics_token)) != 0)
+        return 2;
     char cache_dir[PATH_MAX];
     if (!o.cache_dir && default_cache_dir(cache_dir, sizeof(cache_dir)) != 0) {
         fprintf(stderr, "corvid-node: no cache directory: give --cache-dir\n");
@@ -422,31 +520,7 @@ int main(int argc, char **argv) {
     pthread_sigmask(SIG_BLOCK, &signals, NULL);
     signal(SIGPIPE, SIG_IGN);
 
-    cv_node_config config = {
-        .listen = o.listen,
-        .name = o.name,
-        .devices = devices,
-        .device_count = device_count,
-        .validation = o.validation,
-        .cache_dir = o.cache_dir ? o.cache_dir : cache_dir,
-        .cache_bytes = o.cache_bytes,
-        .idle_timeout_ms = o.idle_timeout_s * 1000u,
-        .submit_timeout_ms = o.submit_timeout_s * 1000u,
-        .max_sessions = o.max_sessions,
-        .log_sessions = !o.quiet,
-        .token = o.token_file ? token : NULL,
-        .tls_cert_file = o.tls_cert,
-        .tls_key_file = o.tls_key,
-        .tls_client_ca_file = o.tls_client_ca,
-        .quota = o.quota,
-        .memory_bytes = o.memory_limit,
-        .peer_token = o.token_file ? token : NULL,
-        .peer_tls_ca_file = o.peer_tls_ca,
-        .peer_deadline_ms = o.peer_deadline_ms,
-        .peer_keepalive_ms = o.peer_keepalive_ms,
-        .peers = o.peers,
-        .health_listen = o.health_listen,
-    };
+    cv_node_config config = node_config(&o, devices, device_count, cache_dir, token);
     cv_node *node;
     r = cv_node_start(&config, &node);
     memset(token, 0, sizeof(token)); /* the node keeps its hash, and a copy to present to peer nodes */
@@ -454,47 +528,17 @@ int main(int argc, char **argv) {
         fprintf(stderr, "corvid-node: %s\n", cv_last_error());
         return 1;
     }
-    int port = cv_node_port(node);
     cv_metrics_server *metrics = NULL;
     if (metrics_opts.enabled &&
         start_metrics(node, &metrics_opts, metrics_token, sizeof(metrics_token), &metrics) != 0) {
         cv_node_stop(node, 0);
         return 1;
     }
-    if (o.port_file) {
-        FILE *f = NULL;
-        cv_result pr = cv_file_fopen_regular(o.port_file, "w", &f);
-        if (pr == CV_OK) {
-            bool written = fprintf(f, "%d\n", port) >= 0;
-            if (fclose(f) != 0 || !written)
-                pr = cv_error(CV_ERROR_IO, "%s: %s", o.port_file, strerror(errno));
-        }
-        if (pr != CV_OK) {
-            fprintf(stderr, "corvid-node: --port-file: %s\n", cv_last_error());
-            cv_node_stop(node, 0);
-            return 1;
-        }
+    if (announce(node, &o, &config, &metrics_opts, metrics) != 0) {
+        cv_metrics_server_stop(metrics);
+        cv_node_stop(node, 0);
+        return 1;
     }
-    /* A unix socket has no port (gRPC reports 1 for it): the address is the path. */
-    char where[PATH_MAX + 16];
-    const char *colon = strrchr(o.listen, ':');
-    if (!strncmp(o.listen, "unix:", 5) || !strncmp(o.listen, "unix-abstract:", 14))
-        snprintf(where, sizeof(where), "%s", o.listen);
-    else
-        snprintf(where, sizeof(where), "%.*s:%d", (int)(colon - o.listen), o.listen, port);
-    printf("corvid-node: listening on %s with %u device%s (%s), cache %s, %s, %s\n", where, device_count,
-           device_count == 1 ? "" : "s", o.backend, config.cache_dir,
-           o.tls_client_ca ? "mutual TLS"
-           : o.tls_cert    ? "TLS"
-                           : "plaintext",
-           o.token_file ? "token required" : "no token");
-    if (metrics)
-        printf("corvid-node: metrics at http://%s:%d/metrics%s\n",
-               metrics_opts.listen ? metrics_opts.listen : "127.0.0.1", cv_metrics_server_port(metrics),
-               metrics_opts.token_file ? " (bearer token required)" : "");
-    if (o.health_listen)
-        printf("corvid-node: plaintext health (grpc.health.v1 only) on port %d\n", cv_node_health_port(node));
-    fflush(stdout);
 
     int sig = 0;
     sigwait(&signals, &sig);

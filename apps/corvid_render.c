@@ -22,6 +22,7 @@
 #include "corvid/tonemap.h"
 #include "corvid/vulkan.h"
 #include "env_log.h"
+#include "env_client.h"
 #include "render_exr.h"
 #include "render_outputs.h"
 
@@ -630,6 +631,10 @@ int main(int argc, char **argv) {
     if (o.help) {
         usage(stdout);
         return 0;
+    }
+    if (cv_env_client_configure(CV_ENV_CLIENT_ALL) != CV_OK) {
+        fprintf(stderr, "corvid-render: %s\n", cv_last_error());
+        return 1;
     }
     /* What no single option decides (--size with --reflection-samples). */
     if (cv_render_settings_check(&o.settings) != CV_OK) {

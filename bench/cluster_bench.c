@@ -95,7 +95,7 @@ static int cmp_double(const void *a, const void *b) {
 
 static void node_death(const char *binary, const cv_scene *scene, const cv_bvh *bvh, cv_render_settings s) {
     const char *const extra[] = { "--peer-deadline-ms", "2000", "--peer-keepalive-ms", "1000", "--quiet", NULL };
-    setenv("CORVID_NODE_KEEPALIVE_MS", "1000", 1);
+    cv_proxy_configure(&(cv_proxy_options){ .keepalive_ms = 1000 });
     scratch_process_node nodes[3] = { 0 };
     cv_result r = CV_OK;
     for (int i = 0; i < 3 && r == CV_OK; i++)
@@ -137,7 +137,7 @@ static void node_death(const char *binary, const cv_scene *scene, const cv_bvh *
         cv_context_destroy(ctx);
     for (int i = 0; i < 3; i++)
         scratch_process_node_stop(&nodes[i]);
-    unsetenv("CORVID_NODE_KEEPALIVE_MS");
+    cv_proxy_configure(NULL);
 }
 
 int main(int argc, char **argv) {

@@ -149,11 +149,16 @@ int LLVMFuzzerInitialize(int *argc, char ***argv) {
     node.device_info = calloc(1, sizeof(*node.device_info));
     node.metrics = cv_node_metrics_create(1);
     node.memory_limit = 1ull << 30;
-    node_log_init(&node.log);
+    node_log_init(&node.log, node.config.log_sessions, NULL, NULL);
     if (!mkdtemp(cache_dir) || !node.device_info || !node.metrics ||
         cv_content_store_open(cache_dir, 64ull << 20, &node.store) != CV_OK ||
         peer_members_create(NULL, "fuzz: peers", true, &node.members) != CV_OK ||
-        peer_state_create(&node, &node.peer) != CV_OK) {
+        peer_state_create(&(peer_config){ .deadline_ms = node.config.peer_deadline_ms,
+                                          .members = node.members,
+                                          .metrics = node.metrics,
+                                          .log = &node.log,
+                                          .errors = &node.errors },
+                          &node.peer) != CV_OK) {
         fprintf(stderr, "fuzz: cannot set up the node: %s\n", cv_last_error());
         abort();
     }

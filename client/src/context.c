@@ -1,5 +1,6 @@
 /* The application context: handle pools, resource descriptions, command lists
- * and the set of attached devices (see context.h). */
+ * and the set of attached devices (see context.h), known only by the ops they
+ * registered (context_internal.h). */
 #include "context_internal.h"
 
 #include "corvid/handle_pool.h"
@@ -9,22 +10,27 @@
 #include <stdlib.h>
 #include <string.h>
 
+typedef struct context_member {
+    void *self;
+    const cv_context_member_ops *ops;
+} context_member;
+
 struct cv_context {
     pthread_mutex_t lock;
     uint32_t tag; /* in every handle it makes (handle.h) */
     /* Slot data: a cv_resource_desc for described types, a cv_command_list for cmdlists. */
     cv_handle_pool pools[CV_HANDLE_TYPE_COUNT];
-    cv_device **devices;
-    uint32_t device_count, device_capacity;
+    context_member *members;
+    uint32_t member_count, member_capacity;
 };
 
-/* Context tags are process-wide state because their one purpose is to tell
- * apart the contexts that live in one process (a node holds one per client
- * session): each handle carries its context's tag and every lookup compares it.
- * A set of the tags in use, not a bare counter, so two live contexts never
+/* Context tags: a set of the tags in use, not a bare counter, so two live contexts never
  * share one; the cursor moves on, so a destroyed context's tag comes back as
  * late as possible and its old handles read as foreign meanwhile. 0 is never a
- * tag, so a handle with no tag is recognisably malformed. */
+ * tag, so a handle with no tag is recognisably malformed.
+ * process-wide: a tag's one purpose is to tell apart the contexts that live in
+ * one process (a node holds one per client session): each handle carries its
+ * context's tag and every lookup compares it. */
 static pthread_mutex_t tags_lock = PTHREAD_MUTEX_INITIALIZER;
 static bool tag_used[CV_HANDLE_TAG_MAX + 1];
 static uint32_t tag_cursor;
@@ -57,9 +63,9 @@ static void tag_release(uint32_t tag) {
     pthread_mutex_unlock(&tags_lock);
 }
 
-/* Contexts alive in the process. It exists for leak checks (cv_live_contexts,
- * CHECK_NOTHING_LIVE in the tests), and is atomic because contexts come and go
- * on any thread. */
+/* process-wide: the contexts alive in the process, for leak checks
+ * (cv_live_contexts, CHECK_NOTHING_LIVE in the tests); atomic because contexts
+ * come and go on any thread. */
 static atomic_uint live_contexts;
 
 static bool is_described(cv_handle_type t) {
@@ -126,21 +132,21 @@ cv_result cv_context_create(const cv_context_desc *desc, cv_context **out) {
 void cv_context_destroy(cv_context *ctx) {
     if (!ctx)
         return;
-    /* Devices detach themselves; take them one at a time without holding the lock. */
+    /* Members detach themselves; take them one at a time without holding the lock. */
     for (;;) {
         pthread_mutex_lock(&ctx->lock);
-        cv_device *dev = ctx->device_count ? ctx->devices[ctx->device_count - 1] : NULL;
+        context_member m = ctx->member_count ? ctx->members[ctx->member_count - 1] : (context_member){ 0 };
         pthread_mutex_unlock(&ctx->lock);
-        if (!dev)
+        if (!m.self)
             break;
-        cv_device_destroy(dev);
+        m.ops->destroy(m.self);
     }
     for (uint32_t i = 0; i < ctx->pools[CV_HANDLE_CMDLIST].used; i++)
         cv_command_list_finish(list_of(ctx, i));
     for (int t = 0; t < CV_HANDLE_TYPE_COUNT; t++)
         if (ctx->pools[t].capacity)
             cv_handle_pool_finish(&ctx->pools[t]);
-    free(ctx->devices);
+    free(ctx->members);
     pthread_mutex_destroy(&ctx->lock);
     tag_release(ctx->tag);
     free(ctx);
@@ -314,14 +320,14 @@ cv_result cv_destroy(cv_context *ctx, cv_handle h) {
     cv_handle_pool_free(&ctx->pools[t], h.id);
     if (t == CV_HANDLE_CMDLIST)
         list_of(ctx, cv_handle_index(h.id))->ended_ok = false;
-    uint32_t n = ctx->device_count;
-    cv_device **devices = n ? malloc(n * sizeof(*devices)) : NULL;
-    if (devices)
-        memcpy(devices, ctx->devices, n * sizeof(*devices));
+    uint32_t n = ctx->member_count;
+    context_member *members = n ? malloc(n * sizeof(*members)) : NULL;
+    if (members)
+        memcpy(members, ctx->members, n * sizeof(*members));
     pthread_mutex_unlock(&ctx->lock);
-    for (uint32_t i = 0; devices && i < n; i++)
-        cv_device_forget(devices[i], h.id);
-    free(devices);
+    for (uint32_t i = 0; members && i < n; i++)
+        members[i].ops->forget(members[i].self, h.id);
+    free(members);
     return CV_OK;
 }
 
@@ -368,29 +374,29 @@ cv_result cv_context_executable_list(cv_context *ctx, uint64_t id, cv_command_li
     return r;
 }
 
-cv_result cv_context_attach_device(cv_context *ctx, cv_device *dev) {
+cv_result cv_context_attach(cv_context *ctx, void *member, const cv_context_member_ops *ops) {
     pthread_mutex_lock(&ctx->lock);
-    if (ctx->device_count == ctx->device_capacity) {
-        uint32_t cap = ctx->device_capacity ? ctx->device_capacity * 2 : 8;
-        cv_device **d = realloc(ctx->devices, cap * sizeof(*d));
-        if (!d) {
+    if (ctx->member_count == ctx->member_capacity) {
+        uint32_t cap = ctx->member_capacity ? ctx->member_capacity * 2 : 8;
+        context_member *m = realloc(ctx->members, cap * sizeof(*m));
+        if (!m) {
             pthread_mutex_unlock(&ctx->lock);
             return cv_error(CV_ERROR_OUT_OF_MEMORY, "attaching device");
         }
-        ctx->devices = d;
-        ctx->device_capacity = cap;
+        ctx->members = m;
+        ctx->member_capacity = cap;
     }
-    ctx->devices[ctx->device_count++] = dev;
+    ctx->members[ctx->member_count++] = (context_member){ member, ops };
     pthread_mutex_unlock(&ctx->lock);
     return CV_OK;
 }
 
-void cv_context_detach_device(cv_context *ctx, cv_device *dev) {
+void cv_context_detach(cv_context *ctx, void *member) {
     pthread_mutex_lock(&ctx->lock);
-    for (uint32_t i = 0; i < ctx->device_count; i++) {
-        if (ctx->devices[i] == dev) {
-            memmove(&ctx->devices[i], &ctx->devices[i + 1], (ctx->device_count - i - 1) * sizeof(*ctx->devices));
-            ctx->device_count--;
+    for (uint32_t i = 0; i < ctx->member_count; i++) {
+        if (ctx->members[i].self == member) {
+            memmove(&ctx->members[i], &ctx->members[i + 1], (ctx->member_count - i - 1) * sizeof(*ctx->members));
+            ctx->member_count--;
             break;
         }
     }

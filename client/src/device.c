@@ -10,9 +10,9 @@
 
 #include "context_internal.h"
 
-/* Devices alive in the process. It exists for leak checks (cv_live_devices,
- * CHECK_NOTHING_LIVE in the tests), and is atomic because devices come and go
- * on any thread. */
+/* process-wide: the devices alive in the process, whatever their context, for
+ * leak checks (cv_live_devices, CHECK_NOTHING_LIVE in the tests); atomic
+ * because devices come and go on any thread. */
 static atomic_uint live_devices;
 
 uint32_t cv_live_devices(void) { return atomic_load(&live_devices); }
@@ -103,6 +103,11 @@ static void collect_finished(cv_device *dev) {
 
 /* ---- create / destroy ------------------------------------------------------ */
 
+static void member_forget(void *member, uint64_t id);
+static void member_destroy(void *member) { cv_device_destroy(member); }
+/* How the context reaches its devices (context_internal.h). */
+static const cv_context_member_ops member_ops = { member_forget, member_destroy };
+
 cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc, cv_device **out) {
     if (!ctx || !backend || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_device_create: NULL argument");
@@ -111,11 +116,13 @@ cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_
     if (!dev)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_device_create");
     pthread_mutex_init(&dev->lock, NULL);
+    pthread_mutex_init(&dev->slots_lock, NULL);
     dev->ctx = ctx;
     dev->backend = backend;
     cv_result r = backend->device_create(&d, &dev->info, &dev->bd);
     if (r != CV_OK) {
         pthread_mutex_destroy(&dev->lock);
+        pthread_mutex_destroy(&dev->slots_lock);
         free(dev);
         return r;
     }
@@ -123,10 +130,11 @@ cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_
         snprintf(dev->label, sizeof(dev->label), "%s", d.label);
     else
         snprintf(dev->label, sizeof(dev->label), "%s:%u", backend->name, dev->info.adapter_index);
-    r = cv_context_attach_device(ctx, dev);
+    r = cv_context_attach(ctx, dev, &member_ops);
     if (r != CV_OK) {
         backend->device_destroy(dev->bd);
         pthread_mutex_destroy(&dev->lock);
+        pthread_mutex_destroy(&dev->slots_lock);
         free(dev);
         return r;
     }
@@ -138,7 +146,7 @@ cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_
 void cv_device_destroy(cv_device *dev) {
     if (!dev)
         return;
-    cv_context_detach_device(dev->ctx, dev);
+    cv_context_detach(dev->ctx, dev);
     pthread_mutex_lock(&dev->lock);
     if (dev->last_ticket)
         dev->backend->wait(dev->bd, dev->last_ticket, UINT64_MAX);
@@ -158,6 +166,9 @@ void cv_device_destroy(cv_device *dev) {
     free(dev->deferred);
     pthread_mutex_unlock(&dev->lock);
     pthread_mutex_destroy(&dev->lock);
+    for (uint32_t i = 0; i < dev->slot_count; i++)
+        free(dev->slots[i]);
+    pthread_mutex_destroy(&dev->slots_lock);
     free(dev);
     atomic_fetch_sub(&live_devices, 1);
 }
@@ -258,7 +269,8 @@ cv_result cv_device_unload(cv_device *dev, cv_handle h) {
     return r;
 }
 
-void cv_device_forget(cv_device *dev, uint64_t id) {
+static void member_forget(void *member, uint64_t id) {
+    cv_device *dev = member;
     pthread_mutex_lock(&dev->lock);
     drop(dev, id);
     pthread_mutex_unlock(&dev->lock);

@@ -6,6 +6,10 @@
 #include <stdatomic.h>
 
 #include "corvid/backend.h"
+#include "corvid/device.h"
+
+/* Staging slots a device keeps for STAGED transfers (see cv_device.slots). */
+#define CV_DEVICE_CACHED_SLOTS 4
 
 /* One table of representations per handle type, indexed by slot, grown on demand. */
 typedef struct resource_table {
@@ -48,6 +52,11 @@ struct cv_device {
     atomic_bool abandoned; /* cv_device_abandon: host waits give up */
     uint64_t epoch;        /* bumps whenever a representation goes away */
     uint32_t loaded;       /* representations loaded (resources + compiled lists) */
+    /* Host staging slots of STAGED transfers from this device (transfer.c), kept between transfers and freed
+     * with the device. Their own lock: a transfer takes them without holding the device's. */
+    pthread_mutex_t slots_lock;
+    void *slots[CV_DEVICE_CACHED_SLOTS];
+    uint32_t slot_count;
 };
 
 /* Validates a list against this device's resources (lock held). validate.c */

@@ -17,6 +17,7 @@
 
 #include "corvid/backend.h"
 #include "corvid/clock.h"
+#include "corvid/device.h"
 #include "corvid/texel.h"
 
 typedef struct mock_object {

@@ -24,6 +24,8 @@ static const registry_entry entries[] = {
 };
 #define ENTRY_COUNT (sizeof(entries) / sizeof(entries[0]))
 
+/* process-wide: the registry's table, derived once from the constant entries
+ * above and never changed after; every context and device reads the same one. */
 static cv_pipeline_info infos[ENTRY_COUNT];
 static pthread_once_t once = PTHREAD_ONCE_INIT;
 

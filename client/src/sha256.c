@@ -4,8 +4,9 @@
 #include <openssl/evp.h>
 #include <pthread.h>
 
-/* OpenSSL 3 looks the algorithm up in its provider tables on every init that
- * names it through EVP_sha256(); fetching it once keeps that off each upload. */
+/* process-wide: OpenSSL 3 looks the algorithm up in its provider tables on
+ * every init that names it through EVP_sha256(); fetching it once for the
+ * process (it is immutable and thread-safe) keeps that off each upload. */
 static EVP_MD *sha256_md;
 static pthread_once_t sha256_once = PTHREAD_ONCE_INIT;
 

@@ -22,30 +22,26 @@
 #define CHUNK_BYTES (4u << 20) /* bench_transfer measures this size (bench/README.md) */
 _Static_assert((uint64_t)CV_MAX_TEXTURE_DIM * 16 <= CHUNK_BYTES, "a texture row fits one staging slot");
 
-/* Staging slots are kept between transfers (a few, process-wide): freeing
- * them let glibc hand the pages back to the kernel, and faulting them in again
- * made every other multi-chunk transfer 4-5x slower (bench_transfer). */
-#define CACHED_SLOTS 4
-static pthread_mutex_t slot_lock = PTHREAD_MUTEX_INITIALIZER;
-static void *slot_cache[CACHED_SLOTS];
-static uint32_t slot_cached;
-
-static void *slot_take(void) {
-    pthread_mutex_lock(&slot_lock);
-    void *slot = slot_cached ? slot_cache[--slot_cached] : NULL;
-    pthread_mutex_unlock(&slot_lock);
+/* Staging slots are kept between transfers, by the source device (a few,
+ * freed with it): freeing them let glibc hand the pages back to the kernel,
+ * and faulting them in again made every other multi-chunk transfer 4-5x
+ * slower (bench_transfer). */
+static void *slot_take(cv_device *dev) {
+    pthread_mutex_lock(&dev->slots_lock);
+    void *slot = dev->slot_count ? dev->slots[--dev->slot_count] : NULL;
+    pthread_mutex_unlock(&dev->slots_lock);
     return slot ? slot : malloc(CHUNK_BYTES);
 }
 
-static void slot_give(void *slot) {
+static void slot_give(cv_device *dev, void *slot) {
     if (!slot)
         return;
-    pthread_mutex_lock(&slot_lock);
-    if (slot_cached < CACHED_SLOTS) {
-        slot_cache[slot_cached++] = slot;
+    pthread_mutex_lock(&dev->slots_lock);
+    if (dev->slot_count < CV_DEVICE_CACHED_SLOTS) {
+        dev->slots[dev->slot_count++] = slot;
         slot = NULL;
     }
-    pthread_mutex_unlock(&slot_lock);
+    pthread_mutex_unlock(&dev->slots_lock);
     free(slot);
 }
 
@@ -236,14 +232,14 @@ static cv_result run_job(transfer_job *j, cv_transfer_stats *stats) {
         chunks = (j->size + j->chunk_bytes - 1) / j->chunk_bytes;
     }
     if (path == CV_TRANSFER_STAGED) {
-        j->host[0] = slot_take();
-        j->host[1] = chunks > 1 ? slot_take() : NULL;
+        j->host[0] = slot_take(j->src);
+        j->host[1] = chunks > 1 ? slot_take(j->src) : NULL;
         if (!j->host[0] || (chunks > 1 && !j->host[1]))
             r = cv_error(CV_ERROR_OUT_OF_MEMORY, "transfer: staging of %u bytes", CHUNK_BYTES);
         if (r == CV_OK)
             r = run_pipeline(staged_chunk, j, chunks, &st);
-        slot_give(j->host[0]);
-        slot_give(j->host[1]);
+        slot_give(j->src, j->host[0]);
+        slot_give(j->src, j->host[1]);
     } else {
         r = run_pipeline(link_chunk, j, chunks, &st);
         transfer_link_release(&j->link);

@@ -16,6 +16,9 @@
 #define SLOT_BYTES (8ull << 20)
 #define STAGING_BYTES (2 * SLOT_BYTES)
 
+/* process-wide: devices import the one host region and cache the stagings they made (by key) for their whole
+ * life, whatever their context, so the region is never unmapped and one lock serialises the link transfers
+ * that reuse it. */
 static pthread_mutex_t link_lock = PTHREAD_MUTEX_INITIALIZER;
 static void *host_region; /* STAGING_BYTES at host_alignment; never unmapped */
 static uint64_t host_alignment;

@@ -4,7 +4,7 @@
 #ifndef CORVID_TRANSFER_LINK_H
 #define CORVID_TRANSFER_LINK_H
 
-#include "corvid/transfer.h"
+#include "corvid/transfer_types.h"
 
 /* Two slots of slot_bytes each, at offsets 0 and slot_bytes of both stagings. */
 typedef struct transfer_link {

@@ -1,10 +1,10 @@
 /* The choice of transfer path (transfer.h): the mode in force (the API's, else
- * CORVID_TRANSFER_PATH, else AUTO) resolved against what the two devices
- * offer (backend.h, cv_link_caps). */
-#include <pthread.h>
+ * AUTO) resolved against what the two devices offer (backend.h, cv_link_caps). */
+#include <stdatomic.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
+
+#include "corvid/transfer.h"
 
 #include "device_internal.h"
 #include "transfer_link.h"
@@ -14,9 +14,10 @@ static const char *const names[CV_TRANSFER_PATH_COUNT] = {
     "auto", "staged", "host-import", "shared", "peer", "device"
 };
 
-static pthread_mutex_t mode_lock = PTHREAD_MUTEX_INITIALIZER;
-static bool mode_set;
-static cv_transfer_path mode_forced;
+/* process-wide: a program's override for comparisons and benchmarks (corvid-render's CORVID_TRANSFER_PATH),
+ * meant for every transfer of the process, most of them made deep inside the render graph and the node's
+ * sessions, which take no transfer settings of their own. AUTO: none. */
+static _Atomic int mode_forced = CV_TRANSFER_AUTO;
 
 const char *cv_transfer_path_name(cv_transfer_path path) {
     return (unsigned)path < CV_TRANSFER_PATH_COUNT ? names[path] : "unknown";
@@ -36,33 +37,15 @@ cv_result cv_transfer_path_parse(const char *name, cv_transfer_path *out) {
 cv_result cv_transfer_set_path(cv_transfer_path path) {
     if ((unsigned)path >= CV_TRANSFER_PATH_COUNT)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_transfer_set_path: no path %d", (int)path);
-    pthread_mutex_lock(&mode_lock);
-    mode_set = true;
-    mode_forced = path;
-    pthread_mutex_unlock(&mode_lock);
+    atomic_store(&mode_forced, (int)path);
     return CV_OK;
 }
 
-void cv_transfer_clear_path(void) {
-    pthread_mutex_lock(&mode_lock);
-    mode_set = false;
-    pthread_mutex_unlock(&mode_lock);
-}
+void cv_transfer_clear_path(void) { atomic_store(&mode_forced, (int)CV_TRANSFER_AUTO); }
 
 cv_result cv_transfer_mode(cv_transfer_path *out) {
-    pthread_mutex_lock(&mode_lock);
-    bool set = mode_set;
-    *out = mode_forced;
-    pthread_mutex_unlock(&mode_lock);
-    if (set)
-        return CV_OK;
-    const char *env = getenv("CORVID_TRANSFER_PATH");
-    if (!env || !env[0]) {
-        *out = CV_TRANSFER_AUTO;
-        return CV_OK;
-    }
-    cv_result r = cv_transfer_path_parse(env, out);
-    return r == CV_OK ? r : cv_error(r, "CORVID_TRANSFER_PATH: %s", cv_last_error());
+    *out = (cv_transfer_path)atomic_load(&mode_forced);
+    return CV_OK;
 }
 
 /* Whether the pair can take `path` (DEVICE, SHARED or HOST_IMPORT); if not, why, in `why`. */

@@ -11,6 +11,8 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include "corvid/transfer.h"
+
 #include "device_internal.h"
 #include "transfer_job.h"
 

@@ -1,4 +1,4 @@
-/* corvid-node's metrics registry and its Prometheus text (metrics.h). */
+/* corvid-node's metrics registry (metrics.h): what it counts, and its own series of the Prometheus text. */
 #include "metrics.h"
 #include "node_log.h"
 
@@ -9,8 +9,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-#include "node_internal.h"
 
 /* Upper bounds of the pass-time buckets, in seconds: a GPU pass takes from a
  * fraction of a millisecond (a small copy) to seconds (a big frame on lavapipe). */
@@ -117,13 +115,7 @@ void cv_node_metrics_passes(cv_node_metrics *m, const cv_pass_timing *timings, u
 
 /* ---- the text ------------------------------------------------------------------ */
 
-typedef struct writer {
-    char *buf;
-    size_t cap, len; /* len counts what did not fit too */
-} writer;
-
-static void emit(writer *w, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void emit(writer *w, const char *fmt, ...) {
+void cv_metrics_emit(cv_metrics_writer *w, const char *fmt, ...) {
     va_list ap;
     va_start(ap, fmt);
     size_t room = w->len < w->cap ? w->cap - w->len : 0;
@@ -134,7 +126,7 @@ static void emit(writer *w, const char *fmt, ...) {
 }
 
 /* A label value with \, " and newline escaped, as the format requires. */
-static void escape_label(const char *in, char *out, size_t cap) {
+void cv_metrics_escape_label(const char *in, char *out, size_t cap) {
     size_t o = 0;
     for (; *in && o + 3 < cap; in++) {
         if (*in == '\\' || *in == '"') {
@@ -150,57 +142,31 @@ static void escape_label(const char *in, char *out, size_t cap) {
     out[o] = '\0';
 }
 
-static void header(writer *w, const char *name, const char *type, const char *help) {
-    emit(w, "# HELP %s %s\n# TYPE %s %s\n", name, help, name, type);
+void cv_metrics_header(cv_metrics_writer *w, const char *name, const char *type, const char *help) {
+    cv_metrics_emit(w, "# HELP %s %s\n# TYPE %s %s\n", name, help, name, type);
 }
 
-static void scalar(writer *w, const char *name, const char *type, const char *help, uint64_t value) {
-    header(w, name, type, help);
-    emit(w, "%s %" PRIu64 "\n", name, value);
+void cv_metrics_scalar(cv_metrics_writer *w, const char *name, const char *type, const char *help, uint64_t value) {
+    cv_metrics_header(w, name, type, help);
+    cv_metrics_emit(w, "%s %" PRIu64 "\n", name, value);
 }
 
-size_t cv_node_metrics_text(cv_node *node, char *buf, size_t cap) {
-    writer w = { .buf = buf, .cap = cap };
-    if (buf && cap)
-        buf[0] = '\0';
-    cv_node_stats st = cv_node_get_stats(node);
-    cv_node_metrics *m = node->metrics;
-
-    scalar(&w, "corvid_node_sessions_active", "gauge", "Client sessions running now.", st.sessions_active);
-    scalar(&w, "corvid_node_sessions_total", "counter", "Client sessions started since the node started.",
-           st.sessions_started);
-    scalar(&w, "corvid_node_draining", "gauge", "1 once the node drains (new sessions refused), else 0.",
-           atomic_load(&node->draining) ? 1 : 0);
-    scalar(&w, "corvid_node_messages_received_total", "counter", "Client messages received, all sessions.",
-           st.messages_in);
-    scalar(&w, "corvid_node_submissions_total", "counter",
-           "Command-list submissions (a frame is one or more), including failed ones.", st.submissions);
-    scalar(&w, "corvid_node_bytes_received_total", "counter", "Bytes of session messages received from clients.",
-           st.bytes_in);
-    scalar(&w, "corvid_node_bytes_sent_total", "counter", "Bytes of session messages sent to clients.", st.bytes_out);
-    scalar(&w, "corvid_node_cache_hits_total", "counter", "Content store lookups that found their blob.",
-           st.cache_hits);
-    scalar(&w, "corvid_node_cache_misses_total", "counter", "Content store lookups that did not.", st.cache_misses);
-    scalar(&w, "corvid_node_cache_bytes", "gauge", "Bytes held by the content store.", st.cache_bytes);
-    scalar(&w, "corvid_node_errors_total", "counter",
-           "Requests answered with an error, failed submissions and sessions ended with an error status.", st.errors);
-    scalar(&w, "corvid_node_devices_abandoned_total", "counter",
-           "Session devices leaked because their GPU work did not finish (--submit-timeout, or still running "
-           "at the session's end).",
-           st.devices_abandoned);
-
-    header(&w, "corvid_node_device_memory_bytes", "gauge",
-           "Bytes of live resources (buffers, textures, acceleration structures) sessions hold on each node device.");
-    for (uint32_t i = 0; i < node->config.device_count; i++) {
+void cv_node_metrics_write(cv_node_metrics *m, const char *const *device_labels, uint32_t device_count,
+                           cv_metrics_writer *w) {
+    cv_metrics_header(w, "corvid_node_device_memory_bytes", "gauge",
+                      "Bytes of live resources (buffers, textures, acceleration structures) sessions hold on each "
+                      "node device.");
+    for (uint32_t i = 0; i < device_count; i++) {
         char label[2 * CV_LABEL_MAX + 1];
-        escape_label(node->devices[i].label, label, sizeof(label));
+        cv_metrics_escape_label(device_labels[i], label, sizeof(label));
         int64_t bytes = m && i < m->device_count ? atomic_load(&m->device_bytes[i]) : 0;
-        emit(&w, "corvid_node_device_memory_bytes{device=\"%s\"} %" PRId64 "\n", label, bytes < 0 ? 0 : bytes);
+        cv_metrics_emit(w, "corvid_node_device_memory_bytes{device=\"%s\"} %" PRId64 "\n", label,
+                        bytes < 0 ? 0 : bytes);
     }
 
-    header(&w, "corvid_node_gpu_pass_seconds", "histogram",
-           "GPU time of each marked pass of finished submissions, by pass label (at most 32 labels, then "
-           "\"other\"); a submission whose list was submitted again before it finished has no timings.");
+    cv_metrics_header(w, "corvid_node_gpu_pass_seconds", "histogram",
+                      "GPU time of each marked pass of finished submissions, by pass label (at most 32 labels, then "
+                      "\"other\"); a submission whose list was submitted again before it finished has no timings.");
     if (m) {
         pthread_mutex_lock(&m->lock);
         for (uint32_t i = 0; i <= CV_NODE_METRICS_MAX_PASSES; i++) {
@@ -210,22 +176,22 @@ size_t cv_node_metrics_text(cv_node *node, char *buf, size_t cap) {
             if (i == CV_NODE_METRICS_MAX_PASSES && h->count == 0)
                 continue;
             char label[2 * CV_LABEL_MAX + 1];
-            escape_label(h->label, label, sizeof(label));
+            cv_metrics_escape_label(h->label, label, sizeof(label));
             uint64_t cumulative = 0;
             for (uint32_t b = 0; b < BUCKETS; b++) {
                 cumulative += h->buckets[b];
-                emit(&w, "corvid_node_gpu_pass_seconds_bucket{pass=\"%s\",le=\"%g\"} %" PRIu64 "\n", label,
-                     pass_buckets[b], cumulative);
+                cv_metrics_emit(w, "corvid_node_gpu_pass_seconds_bucket{pass=\"%s\",le=\"%g\"} %" PRIu64 "\n", label,
+                                pass_buckets[b], cumulative);
             }
-            emit(&w, "corvid_node_gpu_pass_seconds_bucket{pass=\"%s\",le=\"+Inf\"} %" PRIu64 "\n", label, h->count);
-            emit(&w, "corvid_node_gpu_pass_seconds_sum{pass=\"%s\"} %.9g\n", label, h->sum);
-            emit(&w, "corvid_node_gpu_pass_seconds_count{pass=\"%s\"} %" PRIu64 "\n", label, h->count);
+            cv_metrics_emit(w, "corvid_node_gpu_pass_seconds_bucket{pass=\"%s\",le=\"+Inf\"} %" PRIu64 "\n", label,
+                            h->count);
+            cv_metrics_emit(w, "corvid_node_gpu_pass_seconds_sum{pass=\"%s\"} %.9g\n", label, h->sum);
+            cv_metrics_emit(w, "corvid_node_gpu_pass_seconds_count{pass=\"%s\"} %" PRIu64 "\n", label, h->count);
         }
         pthread_mutex_unlock(&m->lock);
     }
 
-    scalar(&w, "corvid_node_node_loss_events_total", "counter",
-           "Cluster nodes lost (fed by the cluster work; always 0 on a node without it).",
-           m ? atomic_load(&m->node_loss_events) : 0);
-    return w.len;
+    cv_metrics_scalar(w, "corvid_node_node_loss_events_total", "counter",
+                      "Cluster nodes lost (fed by the cluster work; always 0 on a node without it).",
+                      m ? atomic_load(&m->node_loss_events) : 0);
 }

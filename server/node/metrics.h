@@ -1,5 +1,5 @@
-/* corvid-node's Prometheus metrics: the registry (counters, gauges and the
- * pass-time histogram) and its text exposition, format 0.0.4.
+/* corvid-node's Prometheus metrics registry (counters, gauges and the
+ * pass-time histogram) and the writing of Prometheus text, format 0.0.4.
  *
  * The node's own counters (sessions, messages, bytes, submissions, errors) and
  * the content store's (hits, misses, bytes) stay where they are; the registry
@@ -7,16 +7,12 @@
  * of GPU pass times by pass label (fed from the timings a session reads for
  * Completed), and node-loss events (transfers into this node's sessions that a client gave up because
  * their source node was lost: peer.c).
- * cv_node_metrics_text renders all of it; metrics_http.c serves that text at
- * /metrics with libmicrohttpd.
+ * cv_node_metrics_text (metrics_text.h) renders the node's text with it;
+ * metrics_http.c serves that at /metrics with libmicrohttpd (metrics_http.h).
  *
- *     cv_metrics_server *ms;
- *     cv_metrics_server_config mc = { .address = "127.0.0.1", .port = 0, .token = NULL };
- *     if (cv_metrics_server_start(node, &mc, &ms) == CV_OK) {
- *         printf("metrics on port %d\n", cv_metrics_server_port(ms));
- *         ...
- *         cv_metrics_server_stop(ms);   // before cv_node_stop
- *     }
+ *     cv_node_metrics *m = cv_node_metrics_create(device_count);
+ *     cv_node_metrics_device_bytes(m, 0, (int64_t)cv_node_resource_bytes(&desc));  // a create on device 0
+ *     cv_node_metrics_passes(m, timings, count);                                  // a finished submission
  *
  * Thread-safe: sessions feed the registry from their threads while a scrape
  * reads it. */
@@ -26,9 +22,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "corvid/device.h"
+#include "corvid/context.h"
+#include "corvid/device_info.h"
 #include "corvid/types.h"
-#include "node.h"
 
 typedef struct cv_node_metrics cv_node_metrics;
 
@@ -51,26 +47,21 @@ void cv_node_metrics_passes(cv_node_metrics *m, const cv_pass_timing *timings, u
 /* One node of a cluster lost (the cluster work calls this). */
 void cv_node_metrics_node_loss(cv_node_metrics *m);
 
-/* The node's metrics as Prometheus text (format 0.0.4), snprintf-style: writes
- * at most `cap` bytes including the NUL and returns the length of the whole text,
- * so a caller whose buffer was short can retry with that length + 1. */
-size_t cv_node_metrics_text(cv_node *node, char *buf, size_t cap);
+/* Writing Prometheus text, snprintf-style: what does not fit in `cap` is
+ * counted in `len` but not written. */
+typedef struct cv_metrics_writer {
+    char *buf;
+    size_t cap, len;
+} cv_metrics_writer;
+void cv_metrics_emit(cv_metrics_writer *w, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* A label value with \, " and newline escaped, as the format requires. */
+void cv_metrics_escape_label(const char *in, char *out, size_t cap);
+void cv_metrics_header(cv_metrics_writer *w, const char *name, const char *type, const char *help);
+void cv_metrics_scalar(cv_metrics_writer *w, const char *name, const char *type, const char *help, uint64_t value);
 
-/* The HTTP endpoint (metrics_http.c, libmicrohttpd): GET /metrics answers the
- * text above, any other path 404. The server reads the node on every scrape: stop
- * it before stopping the node. Idle and slow clients cannot block it: 512
- * connections, each closed after one request or 5 s, whichever comes first. */
-typedef struct cv_metrics_server_config {
-    const char *address; /* numeric IPv4 or IPv6 address; NULL = 127.0.0.1 */
-    int port;            /* 0 picks a free one */
-    /* NULL = none; else /metrics answers 401 without "Authorization: Bearer <token>" (Prometheus:
-       authorization.credentials_file). Only its SHA-256 is kept, compared in constant time. */
-    const char *token;
-    uint32_t deadline_ms; /* a connection's whole life, however slowly it sends; 0 = 5000 */
-} cv_metrics_server_config;
-typedef struct cv_metrics_server cv_metrics_server;
-cv_result cv_metrics_server_start(cv_node *node, const cv_metrics_server_config *config, cv_metrics_server **out);
-int cv_metrics_server_port(const cv_metrics_server *server);
-void cv_metrics_server_stop(cv_metrics_server *server);
+/* Appends the registry's series: device memory (one per label of the node's
+ * devices, in order), the pass-time histogram, node-loss events. */
+void cv_node_metrics_write(cv_node_metrics *m, const char *const *device_labels, uint32_t device_count,
+                           cv_metrics_writer *w);
 
 #endif

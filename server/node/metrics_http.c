@@ -1,4 +1,4 @@
-/* The node's /metrics endpoint (metrics.h), served by libmicrohttpd on its own
+/* The node's /metrics endpoint (metrics_http.h), served by libmicrohttpd on its own
  * polling thread: GET or HEAD /metrics answers the Prometheus text, other paths
  * 404, other methods 405, and 401 without the bearer token when one is configured.
  * Each scrape renders the text afresh from the node.
@@ -21,7 +21,8 @@
 
 #include "corvid/clock.h"
 #include "corvid/sha256.h"
-#include "metrics.h"
+#include "metrics_http.h"
+#include "metrics_text.h"
 
 #define CONTENT_TYPE "text/plain; version=0.0.4; charset=utf-8"
 #define METRICS_MAX_CONNECTIONS 512u /* a scrape needs one; idle or slow ones are cut at the deadline */

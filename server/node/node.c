@@ -72,7 +72,7 @@ cv_result cv_node_memory_reserve(cv_node *node, uint64_t bytes) {
 
 void cv_node_memory_release(cv_node *node, uint64_t bytes) { atomic_fetch_sub(&node->memory_used, bytes); }
 
-/* Contexts of abandoned sessions. Process-wide rather than per node: they must outlive the node that
+/* Contexts of abandoned sessions. process-wide rather than per node: they must outlive the node that
  * abandoned them (a GPU job that never ends keeps using their memory), and holding them here keeps them
  * reachable, so LeakSanitizer does not report the deliberate leak as a bug and fail the process. */
 static pthread_mutex_t abandoned_lock = PTHREAD_MUTEX_INITIALIZER;
@@ -134,7 +134,7 @@ static int on_call(const char *method, const char *peer, const cv_rpc_metadata *
     if (!why)
         return STATUS_OK;
     atomic_fetch_add(&node->unauthenticated, 1);
-    node_log(node, NODE_LOG_REFUSED_CALL, "refused %s from %s: %s", method, peer, why);
+    node_log(&node->log, NODE_LOG_REFUSED_CALL, "refused %s from %s: %s", method, peer, why);
     snprintf(message, cap,
              "unauthenticated: %s (this node needs its bearer token: the client reads it from the "
              "file named by CORVID_NODE_TOKEN_FILE)",
@@ -278,17 +278,16 @@ static int on_unary(const char *method, const void *request, size_t size, void *
     if (strcmp(method, CV_NODE_METHOD_PEER_PIECE) == 0) {
         *response = NULL;
         *response_size = 0;
-        return peer_on_piece(node, request, size, message, message_cap);
+        return peer_on_piece(node->peer, request, size, message, message_cap);
     }
     int status = check_info_request(request, size, message, message_cap);
     return status != STATUS_OK ? status : answer_info(node, response, response_size, message, message_cap);
 }
 
 static void free_node(cv_node *node) {
-    node_log_flush(node);
+    node_log_flush(&node->log);
     node_log_finish(&node->log);
     OPENSSL_cleanse(node->token_sha, sizeof(node->token_sha));
-    OPENSSL_cleanse(node->peer_token, sizeof(node->peer_token));
     peer_state_destroy(node->peer);
     peer_members_destroy(node->members);
     if (node->store)
@@ -318,9 +317,8 @@ static cv_result probe_devices(cv_node *node) {
     return r;
 }
 
-cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
-    if (!config || !out || !config->devices || !config->listen || !config->cache_dir)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_node_start: NULL config, devices, listen or cache_dir");
+/* What cv_node_start refuses before it starts anything. */
+static cv_result check_config(const cv_node_config *config) {
     if (config->device_count == 0 || config->device_count > CV_MAX_DEVICES)
         return cv_error(CV_ERROR_OUT_OF_RANGE, "node: %u devices (1..%u)", config->device_count, CV_MAX_DEVICES);
     if (config->token && !config->token[0])
@@ -337,22 +335,17 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
                         " bytes (cache_bytes, corvid-node --cache-size) is too "
                         "small: at least %llu bytes (16M); a blob larger than the store is refused",
                         config->cache_bytes, CV_NODE_MIN_CACHE_BYTES);
+    if (config->quota.inflight > CV_NODE_MAX_QUOTA_INFLIGHT)
+        return cv_error(CV_ERROR_OUT_OF_RANGE, "node: quota of %u lists in flight (at most %u)",
+                        config->quota.inflight, CV_NODE_MAX_QUOTA_INFLIGHT);
+    return CV_OK;
+}
+
+/* The node's own copy of its configuration: devices, name, quota and limits with their defaults; what is used
+ * only at start (addresses, the cache directory, TLS files, the peer settings that peer.h copies) or must not
+ * be kept (the token: only its hash is) cleared. */
+static cv_result copy_config(cv_node *node, const cv_node_config *config) {
     const cv_node_quota *q = &config->quota;
-    if (q->inflight > CV_NODE_MAX_QUOTA_INFLIGHT)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "node: quota of %u lists in flight (at most %u)", q->inflight,
-                        CV_NODE_MAX_QUOTA_INFLIGHT);
-    peer_members *members;
-    cv_result checked = peer_members_create(config->peers, "node: peers", cv_node_listen_is_local(config->listen),
-                                            &members);
-    if (checked != CV_OK)
-        return checked;
-    cv_node *node = calloc(1, sizeof(*node));
-    if (!node) {
-        peer_members_destroy(members);
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
-    }
-    node->members = members;
-    node_log_init(&node->log);
     node->quota = (cv_node_quota){
         .memory_bytes = q->memory_bytes ? q->memory_bytes : CV_NODE_DEFAULT_QUOTA_MEMORY,
         .resources = q->resources ? q->resources : CV_NODE_DEFAULT_QUOTA_RESOURCES,
@@ -360,23 +353,12 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         .upload_bytes = q->upload_bytes ? q->upload_bytes : CV_NODE_DEFAULT_QUOTA_UPLOAD,
     };
     node->memory_limit = config->memory_bytes ? config->memory_bytes : default_memory_limit();
-    if (config->token) {
-        cv_result hashed = cv_sha256(config->token, strlen(config->token), node->token_sha);
-        if (hashed != CV_OK) {
-            peer_members_destroy(node->members);
-            free(node);
-            return hashed;
-        }
-        node->has_token = true;
-    }
     node->config = *config;
     node->devices = calloc(config->device_count, sizeof(*node->devices));
     node->device_info = calloc(config->device_count, sizeof(*node->device_info));
     node->metrics = cv_node_metrics_create(config->device_count);
-    if (!node->devices || !node->device_info || !node->metrics) {
-        free_node(node);
+    if (!node->devices || !node->device_info || !node->metrics)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
-    }
     memcpy(node->devices, config->devices, config->device_count * sizeof(*node->devices));
     node->config.devices = node->devices;
     for (uint32_t i = 0; i < config->device_count; i++) {
@@ -391,28 +373,33 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         snprintf(node->name, sizeof(node->name), "corvid-node");
     node->config.name = node->name;
     node->config.listen = NULL;
-    node->config.cache_dir = NULL; /* used only here, below */
-    node->config.token = NULL;     /* only its hash is kept */
-    node->config.peers = NULL;     /* parsed into node->members */
-    if (config->peer_token)
-        snprintf(node->peer_token, sizeof(node->peer_token), "%s", config->peer_token);
-    if (config->peer_tls_ca_file)
-        snprintf(node->peer_tls_ca, sizeof(node->peer_tls_ca), "%s", config->peer_tls_ca_file);
-    node->config.peer_token = node->config.peer_tls_ca_file = NULL; /* the copies above */
+    node->config.cache_dir = NULL;                                  /* used only at start */
+    node->config.token = NULL;                                      /* only its hash is kept */
+    node->config.peers = NULL;                                      /* parsed into node->members */
+    node->config.peer_token = node->config.peer_tls_ca_file = NULL; /* peer.h keeps copies */
     node->config.tls_cert_file = node->config.tls_key_file = node->config.tls_client_ca_file = NULL;
     node->config.quota = node->quota;
     node->config.memory_bytes = node->memory_limit;
+    return CV_OK;
+}
 
-    cv_result r = probe_devices(node);
-    if (r == CV_OK)
-        r = peer_state_create(node, &node->peer);
-    if (r == CV_OK)
-        r = cv_content_store_open(config->cache_dir, config->cache_bytes ? config->cache_bytes : 4ull << 30,
-                                  &node->store);
-    if (r != CV_OK) {
-        free_node(node);
-        return r;
-    }
+/* The node's peer machinery, counting and logging into the node. */
+static cv_result start_peer(cv_node *node, const cv_node_config *config) {
+    peer_config pc = {
+        .keepalive_ms = config->peer_keepalive_ms,
+        .deadline_ms = config->peer_deadline_ms ? config->peer_deadline_ms : CV_NODE_DEFAULT_PEER_DEADLINE_MS,
+        .token = config->peer_token,
+        .tls_ca_file = config->peer_tls_ca_file,
+        .members = node->members,
+        .metrics = node->metrics,
+        .log = &node->log,
+        .errors = &node->errors,
+    };
+    return peer_state_create(&pc, &node->peer);
+}
+
+/* The sessions' server and, if asked for, the plaintext health server. */
+static cv_result start_servers(cv_node *node, const cv_node_config *config) {
     cv_rpc_server_config rc = {
         .listen = config->listen,
         .max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES,
@@ -427,28 +414,62 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         .tls_key_file = config->tls_key_file,
         .tls_client_ca_file = config->tls_client_ca_file,
     };
-    r = cv_rpc_server_start(&rc, &node->server);
+    cv_result r = cv_rpc_server_start(&rc, &node->server);
+    if (r != CV_OK || !config->health_listen)
+        return r;
+    cv_rpc_server_config hc = {
+        .listen = config->health_listen,
+        .max_message_bytes = 4096,
+        .max_streams = 1,
+        .on_unary = on_health_unary,
+        .unary_methods = health_methods,
+        .user = node,
+    };
+    r = cv_rpc_server_start(&hc, &node->health_server);
+    if (r != CV_OK) {
+        char why[1024];
+        snprintf(why, sizeof(why), "%s", cv_last_error());
+        cv_rpc_server_destroy(node->server, 0);
+        return cv_error(r, "node: health port '%s': %s", config->health_listen, why);
+    }
+    return CV_OK;
+}
+
+cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
+    if (!config || !out || !config->devices || !config->listen || !config->cache_dir)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_node_start: NULL config, devices, listen or cache_dir");
+    cv_result r = check_config(config);
+    if (r != CV_OK)
+        return r;
+    peer_members *members;
+    r = peer_members_create(config->peers, "node: peers", cv_node_listen_is_local(config->listen), &members);
+    if (r != CV_OK)
+        return r;
+    cv_node *node = calloc(1, sizeof(*node));
+    if (!node) {
+        peer_members_destroy(members);
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
+    }
+    node->members = members;
+    node_log_init(&node->log, config->log_sessions, config->log_sink, config->log_user);
+    if (config->token) {
+        r = cv_sha256(config->token, strlen(config->token), node->token_sha);
+        node->has_token = r == CV_OK;
+    }
+    if (r == CV_OK)
+        r = copy_config(node, config);
+    if (r == CV_OK)
+        r = probe_devices(node);
+    if (r == CV_OK)
+        r = start_peer(node, config);
+    if (r == CV_OK)
+        r = cv_content_store_open(config->cache_dir, config->cache_bytes ? config->cache_bytes : 4ull << 30,
+                                  &node->store);
+    if (r == CV_OK)
+        r = start_servers(node, config);
     if (r != CV_OK) {
         free_node(node);
         return r;
-    }
-    if (config->health_listen) {
-        cv_rpc_server_config hc = {
-            .listen = config->health_listen,
-            .max_message_bytes = 4096,
-            .max_streams = 1,
-            .on_unary = on_health_unary,
-            .unary_methods = health_methods,
-            .user = node,
-        };
-        r = cv_rpc_server_start(&hc, &node->health_server);
-        if (r != CV_OK) {
-            char why[1024];
-            snprintf(why, sizeof(why), "%s", cv_last_error());
-            cv_rpc_server_destroy(node->server, 0);
-            free_node(node);
-            return cv_error(r, "node: health port '%s': %s", config->health_listen, why);
-        }
     }
     node->config.health_listen = NULL;
     *out = node;
@@ -497,6 +518,7 @@ void cv_node_stop(cv_node *node, uint32_t timeout_ms) {
 
 cv_node_stats cv_node_get_stats(cv_node *node) {
     cv_content_stats cs = cv_content_store_stats(node->store);
+    peer_counters peer = peer_get_counters(node->peer);
     return (cv_node_stats){
         .sessions_started = atomic_load(&node->sessions_started),
         .sessions_active = atomic_load(&node->sessions_active),
@@ -512,10 +534,10 @@ cv_node_stats cv_node_get_stats(cv_node *node) {
         .quota_refusals = atomic_load(&node->quota_refusals),
         .memory_bytes = atomic_load(&node->memory_used),
         .memory_limit = node->memory_limit,
-        .peer_raw_out = atomic_load(&node->peer_raw_out),
-        .peer_bytes_out = atomic_load(&node->peer_bytes_out),
-        .peer_bytes_in = atomic_load(&node->peer_bytes_in),
-        .peer_failures = atomic_load(&node->peer_failures),
+        .peer_raw_out = peer.raw_out,
+        .peer_bytes_out = peer.bytes_out,
+        .peer_bytes_in = peer.bytes_in,
+        .peer_failures = peer.failures,
         .transfer_failures = atomic_load(&node->transfer_failures),
         .devices_abandoned = atomic_load(&node->devices_abandoned),
     };

@@ -1,5 +1,6 @@
 /* What node.c (the server, Info, health) shares with session.c (one client's
- * stream). */
+ * stream). The node's lower parts (metrics.h, node_log.h, peer.h) never see
+ * this: the node hands them what they need. */
 #ifndef CORVID_NODE_INTERNAL_H
 #define CORVID_NODE_INTERNAL_H
 
@@ -11,6 +12,7 @@
 #include "corvid/node_protocol.h"
 #include "corvid/rpc.h"
 #include "node.h"
+#include "peer.h"
 
 struct cv_node {
     cv_node_config config; /* pointers below are the node's own copies */
@@ -25,11 +27,9 @@ struct cv_node {
     atomic_uint_fast64_t sessions_started, sessions_active;
     atomic_uint_fast64_t messages_in, bytes_in, bytes_out, submissions, errors;
     atomic_uint_fast64_t unauthenticated, quota_refusals, devices_abandoned;
-    atomic_uint_fast64_t peer_raw_out, peer_bytes_out, peer_bytes_in, peer_failures, transfer_failures;
-    struct peer_state *peer;      /* node-to-node transfers (peer.h) */
-    struct peer_members *members; /* where transfers may go (peer_members.h) */
-    char peer_token[1040];        /* presented to peers; "" = none */
-    char peer_tls_ca[1024];       /* file name; "" = plaintext to peers */
+    atomic_uint_fast64_t transfer_failures;
+    peer_state *peer;      /* node-to-node transfers, their counters and the peer token (peer.h) */
+    peer_members *members; /* where transfers may go (peer_members.h) */
     bool has_token;
     uint8_t token_sha[32];    /* SHA-256 of the token; the token itself is not kept */
     cv_node_quota quota;      /* defaults filled in */

@@ -9,7 +9,6 @@
 
 #include "corvid/clock.h"
 #include "corvid/log.h"
-#include "node_internal.h"
 
 /* The longest escaped text of a line: every byte of a 1023-byte message may take 4. */
 #define NODE_LOG_LINE_MAX (4 * 1024)
@@ -82,8 +81,11 @@ size_t cv_log_escape(char *out, size_t cap, const char *in) {
     return at;
 }
 
-void node_log_init(node_log_state *state) {
+void node_log_init(node_log_state *state, bool enabled, node_log_sink sink, void *user) {
     memset(state, 0, sizeof(*state));
+    state->enabled = enabled;
+    state->sink = sink;
+    state->user = user;
     pthread_mutex_init(&state->lock, NULL);
 }
 
@@ -91,20 +93,20 @@ void node_log_finish(node_log_state *state) { pthread_mutex_destroy(&state->lock
 
 /* One line's text, escaped already: to the node's own sink as "corvid-node: <text>", else to the
  * process's log (corvid/log.h) with origin "node". */
-static void emit(cv_node *node, const char *text) {
-    if (!node->config.log_sink) {
+static void emit(node_log_state *log, const char *text) {
+    if (!log->sink) {
         cv_log(CV_LOG_INFO, "node", "%s", text);
         return;
     }
     char line[NODE_LOG_LINE_MAX + 16];
     snprintf(line, sizeof(line), "corvid-node: %s", text);
-    node->config.log_sink(line, node->config.log_user);
+    log->sink(line, log->user);
 }
 
-static void emit_summary(cv_node *node, node_log_kind kind, uint64_t count) {
+static void emit_summary(node_log_state *log, node_log_kind kind, uint64_t count) {
     char text[128];
     snprintf(text, sizeof(text), "(%" PRIu64 " more %s lines suppressed)", count, kind_names[kind]);
-    emit(node, text);
+    emit(log, text);
 }
 
 /* Whether a line of `kind` may go now; *summary gets the count of lines suppressed before it, to report first. */
@@ -129,13 +131,13 @@ static bool admit(node_log_state *st, node_log_kind kind, uint64_t *summary) {
     return ok;
 }
 
-void node_log(cv_node *node, node_log_kind kind, const char *fmt, ...) {
-    if (!node->config.log_sessions)
+void node_log(node_log_state *log, node_log_kind kind, const char *fmt, ...) {
+    if (!log->enabled)
         return;
     uint64_t summary;
-    bool ok = admit(&node->log, kind, &summary);
+    bool ok = admit(log, kind, &summary);
     if (summary)
-        emit_summary(node, kind, summary);
+        emit_summary(log, kind, summary);
     if (!ok)
         return;
     char raw[1024];
@@ -145,16 +147,16 @@ void node_log(cv_node *node, node_log_kind kind, const char *fmt, ...) {
     va_end(ap);
     char text[NODE_LOG_LINE_MAX];
     cv_log_escape(text, sizeof(text), raw);
-    emit(node, text);
+    emit(log, text);
 }
 
-void node_log_flush(cv_node *node) {
+void node_log_flush(node_log_state *log) {
     for (int k = 0; k < NODE_LOG_KIND_COUNT; k++) {
-        pthread_mutex_lock(&node->log.lock);
-        uint64_t count = node->log.suppressed[k];
-        node->log.suppressed[k] = 0;
-        pthread_mutex_unlock(&node->log.lock);
-        if (count && node->config.log_sessions)
-            emit_summary(node, (node_log_kind)k, count);
+        pthread_mutex_lock(&log->lock);
+        uint64_t count = log->suppressed[k];
+        log->suppressed[k] = 0;
+        pthread_mutex_unlock(&log->lock);
+        if (count && log->enabled)
+            emit_summary(log, (node_log_kind)k, count);
     }
 }

@@ -18,17 +18,17 @@
  * "(K more <kind> lines suppressed)", when the next one of that kind comes after
  * the second, or when the node stops (node_log_flush).
  *
- *     node_log(node, NODE_LOG_ALWAYS, "session %" PRIu64 ": client '%s'", id, name);
- *     node_log(node, NODE_LOG_REQUEST_ERROR, "session %" PRIu64 ": request %" PRIu64 ": %s", id, seq, why);
+ *     node_log_init(&node->log, config->log_sessions, config->log_sink, config->log_user);
+ *     node_log(&node->log, NODE_LOG_ALWAYS, "session %" PRIu64 ": client '%s'", id, name);
+ *     node_log(&node->log, NODE_LOG_REQUEST_ERROR, "session %" PRIu64 ": request %" PRIu64 ": %s", id, seq, why);
  */
 #ifndef CORVID_NODE_LOG_H
 #define CORVID_NODE_LOG_H
 
 #include <pthread.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
-
-typedef struct cv_node cv_node;
 
 /* Escapes `in` (NUL-terminated) into out (cap bytes, always NUL-terminated when cap > 0); an escape is never
  * cut in half. Returns the length written. */
@@ -44,20 +44,26 @@ typedef enum node_log_kind {
 
 #define NODE_LOG_BURST 20u /* lines of one kind a second */
 
-/* The rate limiter's state, one per node (in cv_node). */
+/* Where a line goes (cv_node_config.log_sink): one escaped line without its newline. */
+typedef void (*node_log_sink)(const char *line, void *user);
+
+/* One node's log: where it goes and the rate limiter's state (in cv_node). */
 typedef struct node_log_state {
+    bool enabled;       /* config.log_sessions: false drops every line */
+    node_log_sink sink; /* NULL = the process's log (corvid/log.h), origin "node" */
+    void *user;
     pthread_mutex_t lock;
     uint64_t window_start_ms[NODE_LOG_KIND_COUNT];
     uint32_t in_window[NODE_LOG_KIND_COUNT];
     uint64_t suppressed[NODE_LOG_KIND_COUNT];
 } node_log_state;
 
-void node_log_init(node_log_state *state);
+void node_log_init(node_log_state *state, bool enabled, node_log_sink sink, void *user);
 void node_log_finish(node_log_state *state);
 
-/* Formats, escapes and writes one line "corvid-node: <text>" when the node logs (config.log_sessions). */
-void node_log(cv_node *node, node_log_kind kind, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+/* Formats, escapes and writes one line "corvid-node: <text>" when the log is enabled. */
+void node_log(node_log_state *log, node_log_kind kind, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 /* Writes the summaries of lines still suppressed. */
-void node_log_flush(cv_node *node);
+void node_log_flush(node_log_state *log);
 
 #endif

@@ -12,8 +12,7 @@
 #include <zstd.h>
 
 #include "corvid/clock.h"
-#include "node_internal.h"
-#include "peer_members.h"
+#include "corvid/rpc.h"
 
 enum {
     STATUS_OK = 0,
@@ -60,8 +59,10 @@ typedef struct peer_channel {
 #define MAX_CHANNELS 64u
 
 struct peer_state {
-    cv_node *node;
-    pthread_mutex_t lock; /* inboxes, the send queue */
+    peer_config config; /* strings: the copies below */
+    char token[1040], tls_ca[1024];
+    atomic_uint_fast64_t raw_out, bytes_out, bytes_in, failures; /* peer_counters */
+    pthread_mutex_t lock;                                        /* inboxes, the send queue */
     peer_inbox *inboxes;
     pthread_cond_t queued;
     send_job *head, *tail;
@@ -75,7 +76,7 @@ struct peer_state {
 
 /* ---- receiving ---------------------------------------------------------------- */
 
-cv_result peer_inbox_open(cv_node *node, uint8_t key[CV_NODE_SESSION_KEY_BYTES], peer_inbox **out) {
+cv_result peer_inbox_open(peer_state *ps, uint8_t key[CV_NODE_SESSION_KEY_BYTES], peer_inbox **out) {
     *out = NULL;
     peer_inbox *in = calloc(1, sizeof(*in));
     if (!in)
@@ -86,7 +87,6 @@ cv_result peer_inbox_open(cv_node *node, uint8_t key[CV_NODE_SESSION_KEY_BYTES],
     }
     cv_cond_init(&in->arrived);
     memcpy(key, in->key, CV_NODE_SESSION_KEY_BYTES);
-    peer_state *ps = node->peer;
     in->ps = ps;
     pthread_mutex_lock(&ps->lock);
     in->next = ps->inboxes;
@@ -102,10 +102,9 @@ static void drop_entry(peer_inbox *in, uint32_t i) {
     in->entries[i] = in->entries[--in->count];
 }
 
-void peer_inbox_close(cv_node *node, peer_inbox *in) {
+void peer_inbox_close(peer_state *ps, peer_inbox *in) {
     if (!in)
         return;
-    peer_state *ps = node->peer;
     pthread_mutex_lock(&ps->lock);
     for (peer_inbox **at = &ps->inboxes; *at; at = &(*at)->next)
         if (*at == in) {
@@ -281,23 +280,22 @@ static int deposit(peer_state *ps, const Corvid__PeerPiece *m, char *message, si
     return STATUS_OK;
 }
 
-int peer_on_piece(cv_node *node, const void *request, size_t size, char *message, size_t cap) {
+int peer_on_piece(peer_state *ps, const void *request, size_t size, char *message, size_t cap) {
     Corvid__PeerPiece *m = corvid__peer_piece__unpack(NULL, size, request);
     if (!m) {
         snprintf(message, cap, "peer_piece: %zu bytes are not a corvid.PeerPiece", size);
         return STATUS_INVALID_ARGUMENT;
     }
-    peer_state *ps = node->peer;
     pthread_mutex_lock(&ps->lock);
     int status = deposit(ps, m, message, cap);
     pthread_mutex_unlock(&ps->lock);
     if (status == STATUS_OK && m->abort) /* a client gave a transfer up: its source node was lost */
-        cv_node_metrics_node_loss(node->metrics);
+        cv_node_metrics_node_loss(ps->config.metrics);
     if (status == STATUS_OK)
-        atomic_fetch_add(&node->peer_bytes_in, m->data.len);
+        atomic_fetch_add(&ps->bytes_in, m->data.len);
     else {
-        atomic_fetch_add(&node->errors, 1);
-        node_log(node, NODE_LOG_PEER, "refused a peer piece: %s", message);
+        atomic_fetch_add(ps->config.errors, 1);
+        node_log(ps->config.log, NODE_LOG_PEER, "refused a peer piece: %s", message);
     }
     corvid__peer_piece__free_unpacked(m, NULL);
     return status;
@@ -317,11 +315,11 @@ cv_result peer_decompress(const void *data, size_t size, void *out, size_t raw_s
     return CV_OK;
 }
 
-cv_result peer_check_destination(cv_node *node, const char *destination, char *target, size_t cap) {
-    return peer_members_check(node->members, destination, target, cap);
+cv_result peer_check_destination(peer_state *ps, const char *destination, char *target, size_t cap) {
+    return peer_members_check(ps->config.members, destination, target, cap);
 }
 
-cv_result peer_send(cv_node *node, const char *destination, const uint8_t key[CV_NODE_SESSION_KEY_BYTES],
+cv_result peer_send(peer_state *ps, const char *destination, const uint8_t key[CV_NODE_SESSION_KEY_BYTES],
                     uint64_t transfer_id, const void *raw, size_t raw_size) {
     send_job *job = calloc(1, sizeof(*job));
     size_t bound = ZSTD_compressBound(raw_size);
@@ -344,8 +342,7 @@ cv_result peer_send(cv_node *node, const char *destination, const uint8_t key[CV
     job->raw_size = raw_size;
     job->data = data;
     job->size = n;
-    atomic_fetch_add(&node->peer_raw_out, raw_size);
-    peer_state *ps = node->peer;
+    atomic_fetch_add(&ps->raw_out, raw_size);
     pthread_mutex_lock(&ps->lock);
     if (ps->tail)
         ps->tail->next = job;
@@ -361,13 +358,12 @@ static cv_rpc_client *channel_to(peer_state *ps, const char *destination) {
     for (uint32_t i = 0; i < ps->channel_count; i++)
         if (strcmp(ps->channels[i].destination, destination) == 0)
             return ps->channels[i].client;
-    cv_node *node = ps->node;
     cv_rpc_client_config cc = {
         .max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES,
-        .keepalive_ms = node->config.peer_keepalive_ms,
-        .keepalive_timeout_ms = node->config.peer_keepalive_ms,
-        .bearer_token = node->peer_token[0] ? node->peer_token : NULL,
-        .tls_ca_file = node->peer_tls_ca[0] ? node->peer_tls_ca : NULL,
+        .keepalive_ms = ps->config.keepalive_ms,
+        .keepalive_timeout_ms = ps->config.keepalive_ms,
+        .bearer_token = ps->config.token,
+        .tls_ca_file = ps->config.tls_ca_file,
     };
     cv_rpc_client *c;
     if (cv_rpc_client_create(destination, &cc, &c) != CV_OK)
@@ -384,10 +380,8 @@ static cv_rpc_client *channel_to(peer_state *ps, const char *destination) {
 }
 
 static void deliver(peer_state *ps, const send_job *job) {
-    cv_node *node = ps->node;
     cv_rpc_client *c = channel_to(ps, job->destination);
-    uint32_t timeout = node->config.peer_deadline_ms ? node->config.peer_deadline_ms
-                                                     : CV_NODE_DEFAULT_PEER_DEADLINE_MS;
+    uint32_t timeout = ps->config.deadline_ms;
     cv_result r = c ? CV_OK : CV_ERROR_CONNECTION;
     char why[512] = "";
     if (!c)
@@ -418,12 +412,12 @@ static void deliver(peer_state *ps, const send_job *job) {
         if (r != CV_OK)
             snprintf(why, sizeof(why), "%s", cv_last_error());
         else
-            atomic_fetch_add(&node->peer_bytes_out, packed);
+            atomic_fetch_add(&ps->bytes_out, packed);
     }
     if (r != CV_OK) {
-        atomic_fetch_add(&node->peer_failures, 1);
-        atomic_fetch_add(&node->errors, 1);
-        node_log(node, NODE_LOG_PEER, "transfer %" PRIu64 " to %s not delivered: %s", job->transfer_id,
+        atomic_fetch_add(&ps->failures, 1);
+        atomic_fetch_add(ps->config.errors, 1);
+        node_log(ps->config.log, NODE_LOG_PEER, "transfer %" PRIu64 " to %s not delivered: %s", job->transfer_id,
                  job->destination, why);
     }
 }
@@ -450,12 +444,23 @@ static void *sender_main(void *arg) {
     return NULL;
 }
 
-cv_result peer_state_create(cv_node *node, peer_state **out) {
+cv_result peer_state_create(const peer_config *config, peer_state **out) {
     *out = NULL;
+    if ((config->token && strlen(config->token) >= sizeof(((peer_state *)0)->token)) ||
+        (config->tls_ca_file && strlen(config->tls_ca_file) >= sizeof(((peer_state *)0)->tls_ca)))
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "node: the peer token or peer TLS CA file name is too long");
     peer_state *ps = calloc(1, sizeof(*ps));
     if (!ps)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "node: peer state");
-    ps->node = node;
+    ps->config = *config;
+    if (config->token && config->token[0])
+        ps->config.token = strcpy(ps->token, config->token);
+    else
+        ps->config.token = NULL;
+    if (config->tls_ca_file && config->tls_ca_file[0])
+        ps->config.tls_ca_file = strcpy(ps->tls_ca, config->tls_ca_file);
+    else
+        ps->config.tls_ca_file = NULL;
     pthread_mutex_init(&ps->lock, NULL);
     pthread_cond_init(&ps->queued, NULL);
     if (pthread_create(&ps->sender, NULL, sender_main, ps) != 0) {
@@ -486,5 +491,13 @@ void peer_state_destroy(peer_state *ps) {
         cv_rpc_client_destroy(ps->channels[i].client);
     pthread_cond_destroy(&ps->queued);
     pthread_mutex_destroy(&ps->lock);
+    OPENSSL_cleanse(ps->token, sizeof(ps->token));
     free(ps);
+}
+
+peer_counters peer_get_counters(peer_state *ps) {
+    return (peer_counters){ .raw_out = atomic_load(&ps->raw_out),
+                            .bytes_out = atomic_load(&ps->bytes_out),
+                            .bytes_in = atomic_load(&ps->bytes_in),
+                            .failures = atomic_load(&ps->failures) };
 }

@@ -117,7 +117,7 @@ static void log_line(session *s, node_log_kind kind, const char *fmt, ...) {
     va_start(ap, fmt);
     vsnprintf(text, sizeof(text), fmt, ap);
     va_end(ap);
-    node_log(s->node, kind, "session %" PRIu64 " (%s): %s", s->id, s->peer, text);
+    node_log(&s->node->log, kind, "session %" PRIu64 " (%s): %s", s->id, s->peer, text);
 }
 
 /* ---- sending --------------------------------------------------------------- */
@@ -812,7 +812,7 @@ static cv_result do_push(session *s, const Corvid__PushTransfer *m) {
         return cv_error(CV_ERROR_MALFORMED, "push_transfer.session_key: %zu bytes, a session key has %u",
                         m->session_key.len, CV_NODE_SESSION_KEY_BYTES);
     char target[PEER_ADDRESS_MAX];
-    r = peer_check_destination(s->node, m->destination, target, sizeof(target));
+    r = peer_check_destination(s->node->peer, m->destination, target, sizeof(target));
     if (r != CV_OK)
         return r;
     uint8_t *raw = malloc((size_t)bytes);
@@ -822,7 +822,7 @@ static cv_result do_push(session *s, const Corvid__PushTransfer *m) {
             ? cv_device_read_texture(s->dev, (cv_texture){ id }, (cv_rect){ m->x, m->y, m->width, m->height }, raw)
             : cv_device_read_buffer(s->dev, (cv_buffer){ id }, m->offset, m->size, raw);
     if (r == CV_OK)
-        r = peer_send(s->node, target, m->session_key.data, m->transfer_id, raw, (size_t)bytes);
+        r = peer_send(s->node->peer, target, m->session_key.data, m->transfer_id, raw, (size_t)bytes);
     free(raw);
     return r;
 }
@@ -915,7 +915,7 @@ static cv_result do_hello(session *s, uint64_t seq, const Corvid__Hello *m, int 
     s->watcher_started = true;
     s->device_index = m->device;
     uint8_t key[CV_NODE_SESSION_KEY_BYTES];
-    r = peer_inbox_open(node, key, &s->inbox);
+    r = peer_inbox_open(node->peer, key, &s->inbox);
     if (r != CV_OK) {
         *status = STATUS_RESOURCE_EXHAUSTED;
         return r;
@@ -1062,7 +1062,7 @@ static bool work_finished(session *s) {
 static void session_finish(session *s) {
     end_upload(s);
     stop_watcher(s, true);
-    peer_inbox_close(s->node, s->inbox);
+    peer_inbox_close(s->node->peer, s->inbox);
     cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -(int64_t)s->memory_bytes);
     /* An abandoned device's GPU may still use its memory: the context and device are
      * deliberately leaked (see the top of this file). */

@@ -172,7 +172,7 @@ static void node_killed(const char *node_binary, const cv_scene *scene, const cv
     /* A killed node's connections reset: its loss is seen at once, and the awaits from it are given up
      * (not left to the peer deadline, which stays long enough for a slow frame on a loaded machine). */
     const char *const extra[] = { "--peer-deadline-ms", "10000", "--peer-keepalive-ms", "2000", "--quiet", NULL };
-    setenv("CORVID_NODE_KEEPALIVE_MS", "2000", 1);
+    CHECK_OK(cv_proxy_configure(&(cv_proxy_options){ .keepalive_ms = 2000 }));
     scratch_process_node nodes[3] = { 0 };
     for (int i = 0; i < 3; i++)
         CHECK_OK(scratch_process_node_start(&nodes[i], node_binary, 1, 0, extra));
@@ -221,7 +221,7 @@ static void node_killed(const char *node_binary, const cv_scene *scene, const cv
         cv_render_output_free(&rejoined);
     }
     cv_context_destroy(ctx);
-    unsetenv("CORVID_NODE_KEEPALIVE_MS");
+    CHECK_OK(cv_proxy_configure(NULL));
     for (int i = 0; i < 3; i++)
         scratch_process_node_stop(&nodes[i]);
     cv_render_output_free(&local);
@@ -250,7 +250,8 @@ static void node_stalled(const cv_scene *scene, const cv_bvh *bvh) {
     const uint32_t frames = 4;
     cv_render_output local = { 0 };
     CHECK_OK(render_local(scene, bvh, frames, &local));
-    setenv("CORVID_NODE_KEEPALIVE_MS", "1500", 1); /* a silent node is noticed within about 3 s */
+    /* a silent node is noticed within about 3 s */
+    CHECK_OK(cv_proxy_configure(&(cv_proxy_options){ .keepalive_ms = 1500 }));
     cv_node_config quick = { .peer_deadline_ms = 10000, .peer_keepalive_ms = 1500 };
     scratch_node nodes[2];
     CHECK_OK(scratch_node_start_secured(&nodes[0], cv_vulkan_backend(), 1, &quick));
@@ -286,7 +287,7 @@ static void node_stalled(const cv_scene *scene, const cv_bvh *bvh) {
     }
     cv_context_destroy(ctx);
     tcp_relay_stop(relay);
-    unsetenv("CORVID_NODE_KEEPALIVE_MS");
+    CHECK_OK(cv_proxy_configure(NULL));
     for (int i = 0; i < 2; i++) {
         CHECK_EQ_INT(scratch_node_wait_sessions(&nodes[i], 5000), 0);
         scratch_node_stop(&nodes[i]);

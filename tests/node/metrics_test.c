@@ -24,7 +24,8 @@
 #include "check.h"
 #include "corvid/command_list.h"
 #include "corvid/proxy.h"
-#include "metrics.h"
+#include "metrics_http.h"
+#include "metrics_text.h"
 #include "scratch_node.h"
 
 #define SUBMISSIONS 5

@@ -2,7 +2,7 @@
  *
  * A scripted node (the rpc layer and the protocol's messages, no node code)
  * answers the hello and every request but one read, which it holds. The
- * client's read times out (CORVID_NODE_TIMEOUT_MS): the session is dead, every
+ * client's read times out (cv_proxy_options.timeout_ms): the session is dead, every
  * ticket counts as finished, and so the client may release a command list whose
  * submission the node never reported. Only then does the node report that
  * submission Completed, with timings. The client must ignore it: before the
@@ -125,8 +125,8 @@ static void on_stream(cv_rpc_stream *s, const char *method, void *user) {
 }
 
 int main(void) {
-    /* Read at device creation; long enough for a loaded sanitizer run to connect. */
-    setenv("CORVID_NODE_TIMEOUT_MS", "2000", 1);
+    /* Taken at device creation; long enough for a loaded sanitizer run to connect. */
+    CHECK_OK(cv_proxy_configure(&(cv_proxy_options){ .timeout_ms = 2000 }));
     script sc = { 0 };
     const char *methods[] = { CV_NODE_METHOD_SESSION, NULL };
     cv_rpc_server *server = NULL;

@@ -4,7 +4,7 @@
  *
  * In-process nodes on 127.0.0.1 port 0 serving mock devices. Clients speak
  * node.proto by hand over the rpc layer (as tests/node/hostile_test.c does), or
- * go through the proxy backend with CORVID_NODE_TOKEN_FILE / CORVID_NODE_TLS_*
+ * go through the proxy backend with its token and TLS options (cv_proxy_configure)
  * set. Certificates are made at test time with the openssl command into a
  * temporary directory: a CA, a server certificate for 127.0.0.1 and
  * localhost, a client certificate, an expired server certificate, and a
@@ -240,7 +240,7 @@ static void tokens(void) {
     CHECK(roundtrip(&c));
     raw_close(&c);
 
-    /* The proxy backend, with the token from CORVID_NODE_TOKEN_FILE; and without it. */
+    /* The proxy backend, with the token (as corvid-render reads it from CORVID_NODE_TOKEN_FILE); and without it. */
     char token_file[512], bad_file[512], empty_file[512];
     CHECK(write_file("token", TOKEN) && write_file("bad-token", "guess\n") && write_file("empty-token", "\n"));
     path_of(token_file, sizeof(token_file), "token");
@@ -250,17 +250,19 @@ static void tokens(void) {
     CHECK_OK(cv_context_create(NULL, &ctx));
     cv_device *dev = NULL;
     cv_device_desc desc = { .endpoint = n.endpoint };
-    setenv("CORVID_NODE_TOKEN_FILE", bad_file, 1);
+    char token_text[1040];
+    CHECK_OK(cv_rpc_read_token_file(bad_file, token_text, sizeof(token_text)));
+    CHECK_OK(cv_proxy_configure(&(cv_proxy_options){ .bearer_token = token_text }));
     CHECK_RESULT(cv_device_create(ctx, cv_proxy_backend(), &desc, &dev), CV_ERROR_CONNECTION);
     CHECK(strstr(cv_last_error(), "unauthenticated") != NULL);
-    setenv("CORVID_NODE_TOKEN_FILE", empty_file, 1);
-    CHECK_RESULT(cv_device_create(ctx, cv_proxy_backend(), &desc, &dev), CV_ERROR_MALFORMED);
-    CHECK(strstr(cv_last_error(), "CORVID_NODE_TOKEN_FILE") && strstr(cv_last_error(), "empty"));
-    setenv("CORVID_NODE_TOKEN_FILE", token_file, 1);
+    CHECK_RESULT(cv_rpc_read_token_file(empty_file, token_text, sizeof(token_text)), CV_ERROR_MALFORMED);
+    CHECK(strstr(cv_last_error(), "empty") != NULL);
+    CHECK_OK(cv_rpc_read_token_file(token_file, token_text, sizeof(token_text)));
+    CHECK_OK(cv_proxy_configure(&(cv_proxy_options){ .bearer_token = token_text }));
     CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &desc, &dev));
     if (dev)
         cv_device_destroy(dev);
-    unsetenv("CORVID_NODE_TOKEN_FILE");
+    CHECK_OK(cv_proxy_configure(NULL));
     cv_context_destroy(ctx);
 
     cv_node_stats st = cv_node_get_stats(n.node);
@@ -412,14 +414,14 @@ static void tls(void) {
                                       &client),
                  CV_ERROR_INVALID_ARGUMENT);
 
-    /* The proxy backend through CORVID_NODE_TLS_CA: write and read bytes back. */
+    /* The proxy backend over TLS (tls_ca_file; corvid-render's CORVID_NODE_TLS_CA): write and read bytes back. */
     cv_context *ctx;
     CHECK_OK(cv_context_create(NULL, &ctx));
     cv_device_desc desc = { .endpoint = n.endpoint };
     cv_device *dev = NULL;
-    setenv("CORVID_NODE_TLS_CA", other_pem, 1);
+    CHECK_OK(cv_proxy_configure(&(cv_proxy_options){ .tls_ca_file = other_pem }));
     CHECK_RESULT(cv_device_create(ctx, cv_proxy_backend(), &desc, &dev), CV_ERROR_CONNECTION);
-    setenv("CORVID_NODE_TLS_CA", ca_pem, 1);
+    CHECK_OK(cv_proxy_configure(&(cv_proxy_options){ .tls_ca_file = ca_pem }));
     CHECK_OK(cv_device_create(ctx, cv_proxy_backend(), &desc, &dev));
     if (dev) {
         cv_buffer b;
@@ -434,7 +436,7 @@ static void tls(void) {
         cv_destroy(ctx, (cv_handle){ b.id });
         cv_device_destroy(dev);
     }
-    unsetenv("CORVID_NODE_TLS_CA");
+    CHECK_OK(cv_proxy_configure(NULL));
     cv_context_destroy(ctx);
     CHECK_EQ_INT(scratch_node_wait_sessions(&n, 5000), 0);
     scratch_node_stop(&n);

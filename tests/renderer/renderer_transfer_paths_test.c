@@ -1,6 +1,6 @@
 /* The hybrid renderer on 1, 2, 3 and 4 virtual GPUs (lavapipe, validation on)
  * with every cross-device transfer forced onto each path in turn through
- * CORVID_TRANSFER_PATH (staged, host-import, shared; with
+ * cv_transfer_set_path (staged, host-import, shared; with
  * CORVID_VGPU_DEVICE=shared also device), and with zero-copy gathers
  * (CORVID_ZERO_COPY=on: visibility and reflection samples traced straight
  * into the primary's memory): radiance and visibility must be bit-identical
@@ -161,7 +161,7 @@ int main(void) {
     size_t bytes = (size_t)W * H * 4 * sizeof(float);
     cv_render_output one = { 0 }, one_observed = { 0 };
     cv_render_stats stats;
-    unsetenv("CORVID_TRANSFER_PATH");
+    cv_transfer_clear_path();
     CHECK_OK(render_on(1, scene, bvh, &one, &stats, NULL, false));
     CHECK(stats.setup_ms == 0); /* one device: no rings, no set-up bake */
     transfer_check alone = { .gpus = 1 };
@@ -183,7 +183,9 @@ int main(void) {
         bool zero_copy = strcmp(paths[p], "zero-copy") == 0;
         if (p == 3 && !shared)
             continue; /* the device path needs one VkDevice */
-        setenv("CORVID_TRANSFER_PATH", zero_copy ? "auto" : paths[p], 1);
+        cv_transfer_path forced;
+        CHECK_OK(cv_transfer_path_parse(zero_copy ? "auto" : paths[p], &forced));
+        CHECK_OK(cv_transfer_set_path(forced));
         setenv("CORVID_ZERO_COPY", zero_copy ? "on" : "auto", 1);
         /* Sanitizer builds: 2 and 3 (an even and an uneven split), not 4 as well. */
         for (uint32_t gpus = 2; gpus <= CV_TEST_REPEATS(4u, 3u); gpus++) {
@@ -224,7 +226,7 @@ int main(void) {
             cv_render_output_free(&observed);
         }
     }
-    unsetenv("CORVID_TRANSFER_PATH");
+    cv_transfer_clear_path();
     unsetenv("CORVID_ZERO_COPY");
     /* A moving camera: the G-buffer every frame, each secondary gets its window
      * of it; the gathers zero-copy (auto, on lavapipe's separate VkDevices and

@@ -62,11 +62,19 @@
  *   memory alive on its own.
  * - link_wait (optional; needs link_caps) submits on bd, with `ticket` after
  *   ticket-1, a GPU-side wait until wait->device reached wait->ticket (same
- *   rules as link_copy_async's wait), so bd's later work follows it. */
+ *   rules as link_copy_async's wait), so bd's later work follows it.
+ * - peer_capable / peer_move (optional, both or neither) are transfer.h's PEER
+ *   path: devices of one backend that move data between each other without
+ *   the client, such as proxy devices on different corvid-node sessions.
+ *   peer_capable says whether bd can send or receive now; peer_move starts one
+ *   move between two capable devices of the backend, already checked by
+ *   transfer.c, and returns without waiting for it; transfer ids increase from
+ *   call to call across the process. The core stays free of gRPC. */
 #ifndef CORVID_BACKEND_H
 #define CORVID_BACKEND_H
 
-#include "corvid/device.h"
+#include "corvid/context.h"
+#include "corvid/device_info.h"
 
 typedef struct cv_backend_device cv_backend_device; /* each backend's own */
 
@@ -111,6 +119,16 @@ typedef struct cv_staging_desc {
     uint64_t allocation_size; /* likewise */
     bool owned;               /* a staging of its own (not cached), freed by link_release */
 } cv_staging_desc;
+
+/* One PEER move (peer_move), checked by transfer.c: a texture rect to (dst_x, dst_y), or a buffer range. */
+typedef struct cv_transfer_peer_region {
+    cv_device *src, *dst;
+    uint64_t src_id, dst_id;
+    bool texture;
+    cv_rect src_rect;
+    uint32_t dst_x, dst_y;
+    uint64_t src_offset, dst_offset, size; /* size: bytes either way */
+} cv_transfer_peer_region;
 
 /* A GPU-side wait on another device's ticket (link_copy_async). */
 typedef struct cv_link_wait {
@@ -177,6 +195,9 @@ struct cv_backend {
     cv_result (*resource_alias)(cv_backend_device *bd, uint64_t id, const cv_resource_desc *desc,
                                 cv_backend_device *src_bd, void *src_obj, void **out_obj);
     cv_result (*link_wait)(cv_backend_device *bd, const cv_link_wait *wait, uint64_t ticket);
+    /* The PEER transfer path (optional, see the contract above). */
+    bool (*peer_capable)(cv_backend_device *bd);
+    cv_result (*peer_move)(const cv_transfer_peer_region *region, uint64_t transfer_id);
 };
 
 /* A device's representation of one handle. */

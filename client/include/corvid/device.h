@@ -16,50 +16,7 @@
 #define CORVID_DEVICE_H
 
 #include "corvid/context.h"
-
-typedef struct cv_device cv_device;
-typedef struct cv_backend cv_backend;
-
-typedef struct cv_device_desc {
-    /* Which adapter: "" or NULL = the backend's default; a decimal index ("1"); or a
-     * case-insensitive substring of the adapter name ("llvmpipe", "H100"). */
-    const char *adapter;
-    bool validation;          /* enable API validation where the backend has it */
-    char label[CV_LABEL_MAX]; /* e.g. "gpu0"; shown in messages */
-    const char *endpoint;     /* proxy backend: "host:port" of a corvid-node */
-} cv_device_desc;
-
-typedef struct cv_device_info {
-    char name[256];   /* adapter name */
-    char backend[16]; /* "vulkan", "mock", "proxy" */
-    char driver[128];
-    uint32_t adapter_index; /* index among the backend's adapters */
-    uint32_t vendor_id, device_id;
-    bool separate_compute_queue; /* a compute-only queue family is used */
-    bool separate_copy_queue;    /* a transfer-only queue family is used */
-    bool ray_tracing_pipeline;   /* VK_KHR_ray_tracing_pipeline available */
-    char trace_path[16];         /* path trace_rays uses: "compute", "pipeline", "none" */
-    char cross_wait[16];         /* vulkan: how GPU waits on another device's work run: "import" (its
-                                    semaphore imported, where the pair allows), "bridge" (a host thread),
-                                    or "device" (CORVID_VGPU_DEVICE=shared: on the semaphore itself between
-                                    instances of one VkDevice; import or bridge to others) */
-    bool gpu_timestamps;         /* pass timings come from the GPU */
-    uint64_t max_storage_buffer_range;
-    uint32_t max_dispatch[3]; /* workgroup count limits */
-} cv_device_info;
-
-/* Pass timing: the region between a begin_marker and its end_marker, or a
- * timestamp (duration 0). start_ms is relative to the start of the list;
- * host_ms is when the pass began on this process's CLOCK_MONOTONIC (ms), so
- * that passes of several devices can be laid on one timeline: Vulkan devices
- * with calibrated timestamps and the mock give it; 0 where the device cannot
- * say (no calibrated clock, a remote node's devices). */
-typedef struct cv_pass_timing {
-    char label[CV_LABEL_MAX];
-    double start_ms;
-    double duration_ms;
-    double host_ms;
-} cv_pass_timing;
+#include "corvid/device_info.h"
 
 cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc, cv_device **out);
 /* Waits for the device's work, releases everything it holds, detaches it. */

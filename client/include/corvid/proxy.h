@@ -28,16 +28,33 @@
  * written. If they never come (the source died or stalled), the node skips the
  * submissions that needed them and the next cv_device_wait reports it, once;
  * the device stays usable (docs/node.md, "Clusters").
- * Environment: CORVID_NODE_TIMEOUT_MS (one answer, default 120 s),
- * CORVID_NODE_KEEPALIVE_MS (default 10000: a silent node is noticed within about
- * twice that), CORVID_NODE_PEER_DEADLINE_MS (how long a node waits for a peer's
- * transfer; default and maximum the node's --peer-deadline-ms). */
+ * How devices reach nodes (timeouts, token, TLS) is the process's, set once by
+ * the program (cv_proxy_configure; programs read it from CORVID_NODE_* with
+ * apps/common/env_client.h). */
 #ifndef CORVID_PROXY_H
 #define CORVID_PROXY_H
 
 #include "corvid/device.h"
 
 const cv_backend *cv_proxy_backend(void);
+
+/* How this process's proxy devices (and cv_proxy_query_node) reach nodes. Zero fields take the defaults. */
+typedef struct cv_proxy_options {
+    uint32_t timeout_ms;       /* one answer from a node, 1..86400000; 0 = 120000 */
+    uint32_t peer_deadline_ms; /* how long a node waits for a peer's transfer, 1..86400000; 0 = the node's
+                                  --peer-deadline-ms (also the most it allows) */
+    uint32_t keepalive_ms;     /* ping interval and timeout, 100..3600000; 0 = 10000 + 5000: a silent node is
+                                  noticed within about twice that */
+    const char *bearer_token;  /* presented to nodes (--token-file of corvid-node); NULL or "" = none */
+    const char *tls_ca_file;   /* NULL = plaintext; else TLS, trusting the PEM CA certificates in this file */
+    const char *tls_cert_file; /* with tls_key_file (both or neither, and tls_ca_file): a client certificate */
+    const char *tls_key_file;
+} cv_proxy_options;
+
+/* Sets the options of every proxy device created and node queried from now on (the strings are copied; NULL =
+ * all defaults). Process-wide, from any thread; a device keeps what it was created with. A field out of range
+ * or a certificate without key or CA is CV_ERROR_INVALID_ARGUMENT naming the field, and nothing changes. */
+cv_result cv_proxy_configure(const cv_proxy_options *options);
 
 /* Traffic of one proxy device's session. */
 typedef struct cv_proxy_stats {

@@ -29,11 +29,11 @@
  *                node itself, in the sessions' message order; the call returns
  *                without waiting and the client sees none of the bytes
  *                (docs/node.md, "Clusters").
- * AUTO (the default) takes the first of these the pair can use. The
- * environment variable CORVID_TRANSFER_PATH=device|shared|host-import|staged|auto,
- * read at every transfer, or cv_transfer_set_path (which wins over it) forces
- * one: a forced path that a pair cannot use fails with CV_ERROR_UNSUPPORTED
- * naming both devices and what is missing.
+ * AUTO (the default) takes the first of these the pair can use.
+ * cv_transfer_set_path forces one (programs: CORVID_TRANSFER_PATH=device|
+ * shared|host-import|staged|auto, read by apps/common/env_client.h): a forced
+ * path that a pair cannot use fails with CV_ERROR_UNSUPPORTED naming both
+ * devices and what is missing.
  *
  * Asynchronous transfers (DEVICE, SHARED and HOST_IMPORT pairs whose backends
  * have asynchronous link copies, Vulkan's): on DEVICE a ring has no slots and
@@ -60,24 +60,7 @@
 #define CORVID_TRANSFER_H
 
 #include "corvid/device.h"
-
-typedef enum cv_transfer_path {
-    CV_TRANSFER_AUTO = 0,
-    CV_TRANSFER_STAGED = 1,
-    CV_TRANSFER_HOST_IMPORT = 2,
-    CV_TRANSFER_SHARED = 3,
-    CV_TRANSFER_PEER = 4,
-    CV_TRANSFER_DEVICE = 5, /* one GPU copy between two instances of one shared device (CORVID_VGPU_DEVICE=shared) */
-    CV_TRANSFER_PATH_COUNT
-} cv_transfer_path;
-
-typedef struct cv_transfer_stats {
-    uint64_t bytes;
-    double read_ms;  /* source device -> staging (host memory, or shared memory) */
-    double write_ms; /* staging -> destination device */
-    double total_ms;
-    cv_transfer_path path; /* the path the bytes took: STAGED, HOST_IMPORT, SHARED, PEER or DEVICE */
-} cv_transfer_stats;
+#include "corvid/transfer_types.h"
 
 cv_result cv_transfer_buffer(cv_device *src, cv_buffer src_buffer, uint64_t src_offset, cv_device *dst,
                              cv_buffer dst_buffer, uint64_t dst_offset, uint64_t size, cv_transfer_stats *stats);
@@ -89,11 +72,11 @@ const char *cv_transfer_path_name(cv_transfer_path path);
 /* Parses a name above; CV_ERROR_INVALID_ARGUMENT (listing the names) otherwise. */
 cv_result cv_transfer_path_parse(const char *name, cv_transfer_path *out);
 /* Process-wide: the path every transfer from now on takes (AUTO: chosen per
- * pair). Overrides CORVID_TRANSFER_PATH; cv_transfer_clear_path returns to it. */
+ * pair); cv_transfer_clear_path returns to AUTO. Programs read it from
+ * CORVID_TRANSFER_PATH (apps/common/env_client.h). */
 cv_result cv_transfer_set_path(cv_transfer_path path);
 void cv_transfer_clear_path(void);
-/* The mode in force: the API's path, else CORVID_TRANSFER_PATH's, else AUTO
- * (CV_ERROR_INVALID_ARGUMENT naming the variable for a bad value). */
+/* The mode in force: the API's path, else AUTO. */
 cv_result cv_transfer_mode(cv_transfer_path *out);
 /* The path a transfer from src to dst would take now (the mode in force,
  * resolved for the pair); CV_ERROR_UNSUPPORTED if a forced path does not fit. */

@@ -10,9 +10,9 @@
 #include "corvid/command_codec.h"
 #include "corvid/parse.h"
 #include "corvid/sha256.h"
-#include "proxy_internal.h"
-
-#define DEFAULT_TIMEOUT_MS 120000u
+#include "proxy_options.h"
+#include "proxy_peer.h"
+#include "proxy_session.h"
 
 /* A loaded resource: the node knows it by the client's id. */
 typedef struct proxy_resource {
@@ -25,21 +25,6 @@ static bool contains_nocase(const char *text, const char *needle) {
         if (strncasecmp(text, needle, n) == 0)
             return true;
     return false;
-}
-
-/* CORVID_NODE_TIMEOUT_MS and CORVID_NODE_PEER_DEADLINE_MS (unset or empty: the
- * defaults), read strictly: "abc" was taken as "the default" without a word. */
-static cv_result read_env_ms(proxy_device *p) {
-    const char *names[2] = { "CORVID_NODE_TIMEOUT_MS", "CORVID_NODE_PEER_DEADLINE_MS" };
-    uint64_t v[2] = { DEFAULT_TIMEOUT_MS, 0 };
-    for (int i = 0; i < 2; i++) {
-        const char *text = getenv(names[i]);
-        if (text && text[0] && cv_parse_uint_named(names[i], text, 1, 86400000, &v[i]) != CV_OK)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s (milliseconds)", cv_last_error());
-    }
-    p->timeout_ms = (uint32_t)v[0];
-    p->peer_deadline_ms = (uint32_t)v[1];
-    return CV_OK;
 }
 
 /* The node device an adapter spec names: "" = 0, a decimal index, or the first
@@ -107,11 +92,16 @@ static cv_result proxy_device_create(const cv_device_desc *desc, cv_device_info 
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "proxy device");
     snprintf(p->endpoint, sizeof(p->endpoint), "%s", desc->endpoint);
     p->remote_device = remote;
-    r = read_env_ms(p);
-    if (r != CV_OK) {
+    proxy_settings *s = malloc(sizeof(*s));
+    if (!s) {
         free(p);
-        return r;
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "proxy device");
     }
+    proxy_settings_get(s);
+    p->timeout_ms = s->options.timeout_ms;
+    p->peer_deadline_ms = s->options.peer_deadline_ms;
+    memset(s->token, 0, sizeof(s->token));
+    free(s);
     pthread_mutex_init(&p->lock, NULL);
     cv_cond_init(&p->cond);
     proxy_peer_register(p);
@@ -582,6 +572,8 @@ static const cv_backend proxy_backend = {
     .refused = proxy_refused,
     .lost = proxy_lost,
     .timings = proxy_timings,
+    .peer_capable = proxy_peer_capable,
+    .peer_move = proxy_peer_move,
 };
 
 const cv_backend *cv_proxy_backend(void) { return &proxy_backend; }
@@ -600,12 +592,15 @@ cv_result cv_proxy_query_node(const char *endpoint, uint32_t timeout_ms, cv_prox
     if (!endpoint || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_proxy_query_node: NULL argument");
     cv_rpc_client *client;
+    proxy_settings *s = malloc(sizeof(*s));
+    if (!s)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_proxy_query_node: settings");
+    proxy_settings_get(s);
     cv_rpc_client_config cc;
-    char token[1040];
-    cv_result r = proxy_client_config(&cc, token, sizeof(token));
-    if (r == CV_OK)
-        r = cv_rpc_client_create(endpoint, &cc, &client);
-    memset(token, 0, sizeof(token));
+    proxy_client_config(s, &cc);
+    cv_result r = cv_rpc_client_create(endpoint, &cc, &client);
+    memset(s->token, 0, sizeof(s->token));
+    free(s);
     if (r != CV_OK) /* this client's settings (token and TLS files): creating connects nothing yet */
         return cv_error(r, "node '%s': %s", endpoint, cv_last_error());
     Corvid__InfoRequest req = CORVID__INFO_REQUEST__INIT;

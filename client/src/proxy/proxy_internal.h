@@ -1,5 +1,5 @@
-/* The proxy backend's session with a node (proxy_session.c) and what the
- * backend table (proxy_backend.c) uses of it.
+/* The proxy device: the state its session with a node (proxy_session.h), its
+ * peer path (proxy_peer.h) and the backend table (proxy_backend.c) share.
  *
  * One proxy device = one gRPC stream to one node device. The device's calls
  * come under the core's device lock, so at most one request waits for an answer
@@ -125,48 +125,11 @@ struct cv_backend_device {
         bool given_up;                     /* ... and the session resumed after it (the caller knows) */
     } awaits[PROXY_AWAITS];
     uint32_t awaits_next;
+    /* Set by the peer path (proxy_peer_register): runs before every proxy_send, so the session need not know
+       the peer path that sits above it. NULL: nothing. */
+    void (*before_send)(struct cv_backend_device *p);
 };
 
 typedef struct cv_backend_device proxy_device;
-
-/* Connects, says hello, fills *info. */
-cv_result proxy_session_open(proxy_device *p, cv_device_info *info);
-/* Closes the stream (waiting a little for the node to finish what was sent). */
-void proxy_session_close(proxy_device *p);
-
-/* Sends a message; fails if the session is dead or an earlier request was refused. */
-cv_result proxy_send(proxy_device *p, Corvid__ClientMessage *m);
-/* Sends a request and waits for its answer. `pending` (seq is set here) says
- * where the answer goes. */
-cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending);
-/* The error every call returns once the session is unusable, or CV_OK. */
-cv_result proxy_health(proxy_device *p);
-
-/* Records a transfer failure the node reported (lock held): in the Reply to request `seq` (0: in the Completed
- * of `ticket`); see soft_failure. */
-void proxy_note_failure(proxy_device *p, uint64_t failure, uint64_t seq, uint64_t ticket, cv_result result,
-                        const char *message);
-/* If a transfer failure waits to be reported to a wait for `ticket`: returns its error (naming the node) and
- * tells the node the client knows (ResumeAfterFailure); else CV_OK. Lock not held. */
-cv_result proxy_report_failure(proxy_device *p, uint64_t ticket);
-/* Registers the proxy's peer transfer path with the core, and the device in the process's registry
- * (proxy_peer.c); unregister before freeing it. */
-void proxy_peer_register(proxy_device *p);
-void proxy_peer_unregister(proxy_device *p);
-/* Gives up awaits of this session whose source the caller knows is lost: tells the node (so a held await
- * fails at once) and resumes the session after them, in its stream. Called before every send. */
-void proxy_peer_settle(proxy_device *p);
-/* Tells the node to fail at once the held awaits whose source device died (without resuming: a wait that
- * then meets the skipped work reports it). Safe at any time. */
-void proxy_peer_abort_dead(proxy_device *p);
-/* proxy_send without proxy_peer_settle. */
-cv_result proxy_send_now(proxy_device *p, Corvid__ClientMessage *m);
-
-/* The rpc client configuration for talking to a node, from the environment: CORVID_NODE_TOKEN_FILE (the bearer
- * token, read from the file into `token`, cap >= 1025), CORVID_NODE_TLS_CA (TLS, trusting that CA), and
- * CORVID_NODE_TLS_CERT / CORVID_NODE_TLS_KEY (a client certificate for mutual TLS), CORVID_NODE_KEEPALIVE_MS (keepalive
- * ping interval and timeout, so a node that stops answering is noticed within about twice that; default 10 s + 5 s).
- * Errors name the variable. */
-cv_result proxy_client_config(cv_rpc_client_config *cc, char *token, size_t cap);
 
 #endif

@@ -1,4 +1,4 @@
-/* The proxy's PEER transfer path (transfer_peer.h): a transfer between two
+/* The proxy's PEER transfer path (proxy_peer.h, backend.h): a transfer between two
  * proxy devices is two messages, one in each session's ordered stream. The
  * source session gets PushTransfer (after the work that writes the region: the
  * node reads it once that is done, compresses it and sends it to the
@@ -20,16 +20,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../transfer_peer.h"
-#include "proxy_internal.h"
-
-static bool peer_capable(cv_device *dev);
-static cv_result peer_move(const cv_transfer_peer_region *g, uint64_t transfer_id);
-static const cv_transfer_peer_ops ops = { .backend = "proxy", .capable = peer_capable, .move = peer_move };
+#include "proxy_peer.h"
+#include "proxy_session.h"
 
 /* Every live proxy device of the process, by serial: an await names its source by serial, because the
- * source device may be destroyed first. Process-wide on purpose: devices of every context may transfer to
- * each other; the lock guards the list and the serials. */
+ * source device may be destroyed first. The lock guards the list and the serials.
+ * process-wide: a serial must name one device among all that a destination may hear of, and proxy devices
+ * of every context in the process reach nodes through the same peer path. */
 static pthread_mutex_t registry_lock = PTHREAD_MUTEX_INITIALIZER;
 static proxy_device *registry;
 static uint64_t next_serial;
@@ -107,7 +104,7 @@ void proxy_peer_settle(proxy_device *p) {
 }
 
 void proxy_peer_register(proxy_device *p) {
-    cv_transfer_peer_register(&ops);
+    p->before_send = proxy_peer_settle;
     pthread_mutex_lock(&registry_lock);
     p->serial = ++next_serial;
     p->registry_next = registry;
@@ -125,15 +122,14 @@ void proxy_peer_unregister(proxy_device *p) {
     pthread_mutex_unlock(&registry_lock);
 }
 
-static bool peer_capable(cv_device *dev) {
-    proxy_device *p = cv_device_backend_data(dev);
+bool proxy_peer_capable(cv_backend_device *p) {
     pthread_mutex_lock(&p->lock);
     bool ok = p->has_session_key && p->dead == CV_OK && p->async_error == CV_OK;
     pthread_mutex_unlock(&p->lock);
     return ok;
 }
 
-static cv_result peer_move(const cv_transfer_peer_region *g, uint64_t transfer_id) {
+cv_result proxy_peer_move(const cv_transfer_peer_region *g, uint64_t transfer_id) {
     proxy_device *src = cv_device_backend_data(g->src), *dst = cv_device_backend_data(g->dst);
     Corvid__PushTransfer push = CORVID__PUSH_TRANSFER__INIT;
     push.transfer_id = transfer_id;

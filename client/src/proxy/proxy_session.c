@@ -1,5 +1,5 @@
 /* A proxy device's session with its node: connect and hello, sending,
- * request/answer, and the receiver thread (proxy_internal.h). */
+ * request/answer, and the receiver thread (proxy_session.h). */
 #include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -7,7 +7,8 @@
 
 #include "corvid/clock.h"
 #include "corvid/parse.h"
-#include "proxy_internal.h"
+#include "proxy_options.h"
+#include "proxy_session.h"
 
 static void send_resume(proxy_device *p, uint64_t failure);
 
@@ -33,7 +34,8 @@ cv_result proxy_health(proxy_device *p) {
 }
 
 cv_result proxy_send(proxy_device *p, Corvid__ClientMessage *m) {
-    proxy_peer_settle(p);
+    if (p->before_send)
+        p->before_send(p);
     return proxy_send_now(p, m);
 }
 
@@ -306,48 +308,16 @@ static void *receiver_main(void *arg) {
 
 /* ---- open / close ----------------------------------------------------------- */
 
-static const char *env(const char *name) {
-    const char *v = getenv(name);
-    return v && *v ? v : NULL;
-}
-
-cv_result proxy_client_config(cv_rpc_client_config *cc, char *token, size_t cap) {
-    *cc = (cv_rpc_client_config){ .max_message_bytes = CV_NODE_MAX_MESSAGE_BYTES };
-    const char *token_file = env("CORVID_NODE_TOKEN_FILE");
-    if (token_file) {
-        cv_result r = cv_rpc_read_token_file(token_file, token, cap);
-        if (r != CV_OK)
-            return cv_error(r, "CORVID_NODE_TOKEN_FILE: %s", cv_last_error());
-        cc->bearer_token = token;
-    }
-    const char *keepalive = env("CORVID_NODE_KEEPALIVE_MS");
-    if (keepalive) {
-        uint64_t ms;
-        if (cv_parse_uint_named("CORVID_NODE_KEEPALIVE_MS", keepalive, 100, 3600000, &ms) != CV_OK)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s (milliseconds)", cv_last_error());
-        cc->keepalive_ms = cc->keepalive_timeout_ms = (uint32_t)ms;
-    }
-    cc->tls_ca_file = env("CORVID_NODE_TLS_CA");
-    cc->tls_cert_file = env("CORVID_NODE_TLS_CERT");
-    cc->tls_key_file = env("CORVID_NODE_TLS_KEY");
-    if ((cc->tls_cert_file || cc->tls_key_file) && !cc->tls_ca_file)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "CORVID_NODE_TLS_CERT/KEY (a client certificate) need "
-                        "CORVID_NODE_TLS_CA (the CA that signed the node's certificate)");
-    if (!cc->tls_cert_file != !cc->tls_key_file)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s is set without %s",
-                        cc->tls_cert_file ? "CORVID_NODE_TLS_CERT" : "CORVID_NODE_TLS_KEY",
-                        cc->tls_cert_file ? "CORVID_NODE_TLS_KEY" : "CORVID_NODE_TLS_CERT");
-    return CV_OK;
-}
-
 cv_result proxy_session_open(proxy_device *p, cv_device_info *info) {
+    proxy_settings *s = malloc(sizeof(*s));
+    if (!s)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "proxy: settings");
+    proxy_settings_get(s);
     cv_rpc_client_config cc;
-    char token[1040];
-    cv_result r = proxy_client_config(&cc, token, sizeof(token));
-    if (r == CV_OK)
-        r = cv_rpc_client_create(p->endpoint, &cc, &p->client);
-    memset(token, 0, sizeof(token));
+    proxy_client_config(s, &cc);
+    cv_result r = cv_rpc_client_create(p->endpoint, &cc, &p->client);
+    memset(s->token, 0, sizeof(s->token));
+    free(s);
     if (r != CV_OK) /* this client's settings (token and TLS files): creating connects nothing yet */
         return cv_error(r, "node '%s': %s", p->endpoint, cv_last_error());
     if (r == CV_OK)
