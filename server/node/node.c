@@ -1,9 +1,9 @@
 /* corvid-node's server (node.h): devices probed at start, the content store,
  * the gRPC service (sessions, Info, grpc.health.v1), drain and stop. */
-#include <inttypes.h>
 #include <arpa/inet.h>
 #include <inttypes.h>
 #include <malloc.h>
+#include <stdatomic.h>
 #include <openssl/crypto.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -284,7 +284,14 @@ static int on_unary(const char *method, const void *request, size_t size, void *
     return status != STATUS_OK ? status : answer_info(node, response, response_size, message, message_cap);
 }
 
+/* Nodes started and not yet stopped. process-wide: it counts every node of the process, for the
+ * end-of-test check that a test stopped what it started (cv_live_nodes, as cv_live_contexts). */
+static atomic_uint live_nodes;
+
+uint32_t cv_live_nodes(void) { return atomic_load(&live_nodes); }
+
 static void free_node(cv_node *node) {
+    atomic_fetch_sub(&live_nodes, 1);
     node_log_flush(&node->log);
     node_log_finish(&node->log);
     OPENSSL_cleanse(node->token_sha, sizeof(node->token_sha));
@@ -450,6 +457,7 @@ cv_result cv_node_start(const cv_node_config *config, cv_node **out) {
         peer_members_destroy(members);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_node_start");
     }
+    atomic_fetch_add(&live_nodes, 1); /* free_node takes it off again */
     node->members = members;
     node_log_init(&node->log, config->log_sessions, config->log_sink, config->log_user);
     if (config->token) {

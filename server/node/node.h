@@ -176,5 +176,7 @@ void cv_node_cancel_sessions(cv_node *node, const char *reason);
 void cv_node_stop(cv_node *node, uint32_t timeout_ms);
 #define CV_NODE_CANCEL_GRACE_MS 1000u
 cv_node_stats cv_node_get_stats(cv_node *node);
+/* Nodes started and not yet stopped in this process (tests check it is 0 at their end). */
+uint32_t cv_live_nodes(void);
 
 #endif

@@ -465,7 +465,14 @@ static void *acceptor_main(void *arg) {
 
 /* ---- the server object ---- */
 
+/* Servers started and not yet destroyed. process-wide: it counts every server of the process, for the
+ * end-of-test check that a test destroyed what it started (cv_rpc_live_servers, as cv_live_contexts). */
+static atomic_uint live_servers;
+
+uint32_t cv_rpc_live_servers(void) { return atomic_load(&live_servers); }
+
 static void free_server(cv_rpc_server *s) {
+    atomic_fetch_sub(&live_servers, 1);
     free_methods(s->stream_methods);
     free_methods(s->unary_methods);
     pthread_cond_destroy(&s->cond);
@@ -482,6 +489,7 @@ cv_result cv_rpc_server_start(const cv_rpc_server_config *config, cv_rpc_server 
     cv_rpc_server *s = calloc(1, sizeof *s);
     if (!s)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_rpc_server_start");
+    atomic_fetch_add(&live_servers, 1); /* free_server takes it off again */
     pthread_mutex_init(&s->mu, NULL);
     cv_cond_init(&s->cond);
     bool ok = true;

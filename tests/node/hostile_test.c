@@ -368,10 +368,9 @@ static void idle_timeout(void) {
 }
 
 int main(void) {
-    if (scratch_node_start(&node, cv_mock_backend(), 1, false) != CV_OK) {
-        fprintf(stderr, "cannot start the node: %s\n", cv_last_error());
-        return 1;
-    }
+    CHECK_OK(scratch_node_start(&node, cv_mock_backend(), 1, false));
+    if (!node.node)
+        return check_report("node_hostile");
     malformed_and_protocol();
     bad_requests();
     uploads();

@@ -237,10 +237,9 @@ static void cases(void) {
 
 int main(void) {
     cv_node_config quick = { .peer_deadline_ms = 2000 };
-    if (scratch_node_start_secured(&node, cv_mock_backend(), 1, &quick) != CV_OK) {
-        fprintf(stderr, "cannot start the node: %s\n", cv_last_error());
-        return 1;
-    }
+    CHECK_OK(scratch_node_start_secured(&node, cv_mock_backend(), 1, &quick));
+    if (!node.node)
+        return check_report("node_peer_hostile");
     cases();
     /* The node still serves a new session. */
     raw_client c;

@@ -632,6 +632,8 @@ static const struct {
 };
 
 int main(int argc, char **argv) {
+    check_live_counter("rpc servers", cv_rpc_live_servers);
+    check_live_counter("rpc clients", cv_rpc_live_clients);
     for (size_t i = 0; i < sizeof tests / sizeof tests[0]; i++) {
         if (argc > 1 && strcmp(argv[1], tests[i].name) != 0)
             continue;

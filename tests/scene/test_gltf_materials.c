@@ -58,10 +58,10 @@ static void expect_refused(const char *name, const char *material, const char *w
 static bool near(float a, float b) { return fabsf(a - b) <= 1e-6f; }
 
 int main(void) {
-    if (!mkdtemp(dir)) {
-        fprintf(stderr, "mkdtemp failed\n");
-        return 1;
-    }
+    bool made = mkdtemp(dir) != NULL;
+    CHECK(made);
+    if (!made)
+        return check_report("glTF materials");
     const char *path = write_gltf("good.gltf",
                                   "{\"name\":\"brass\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.9,0.5,0.25,1]"
                                   ","

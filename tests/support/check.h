@@ -1,11 +1,13 @@
 /* Minimal assertions for Corvid's C tests: each failed check prints where and
- * why and is counted; check_report() prints a summary and gives main's exit
- * code. Checks do not abort, so one run reports every failure. */
+ * why and is counted; check_report() checks that nothing the test made is
+ * still live, prints a summary and gives main's exit code. Checks do not
+ * abort, so one run reports every failure. */
 #ifndef CORVID_TEST_CHECK_H
 #define CORVID_TEST_CHECK_H
 
-#include <stdio.h>
 #include <inttypes.h>
+#include <stdint.h>
+#include <stdio.h>
 #include "corvid/context.h"
 #include "corvid/result.h"
 
@@ -47,15 +49,24 @@ extern int check_count;
 #define CHECK_OK(expr) CHECK_RESULT(expr, CV_OK)
 
 /* Checks that every context and device the test created has been destroyed
- * (libuv's way: each test proves it cleaned up). Use it at the end of a test,
- * after destroying what it made. */
+ * (libuv's way: each test proves it cleaned up). check_report() checks it
+ * itself, so every test ends with it; use it midway, after destroying what one
+ * phase of a test made. */
 #define CHECK_NOTHING_LIVE() \
     do { \
         CHECK_EQ_INT(cv_live_contexts(), 0); \
         CHECK_EQ_INT(cv_live_devices(), 0); \
     } while (0)
 
-/* Prints "<name>: N passed, N failed" and returns the process exit code. */
+/* Another count of live objects that check_report() checks is zero, e.g. the
+ * Vulkan backend's memory blocks or the nodes a test started: the support code
+ * that creates such objects registers their counter (again: no change). */
+void check_live_counter(const char *what, uint32_t (*count)(void));
+
+/* Checks that nothing the test made is live (contexts, devices and graphs,
+ * then the registered counters), prints "<name>: N passed, N failed" and
+ * returns the process exit code. Call it last, after destroying everything the
+ * test made; tests/check/check_live_test.c shows it failing a leak. */
 int check_report(const char *name);
 
 /* How many times a test repeats the same code: `full` normally, `sanitized`

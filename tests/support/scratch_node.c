@@ -9,11 +9,17 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "check.h"
 #include "corvid/backend.h"
+#include "corvid/rpc.h"
 
 static cv_result start(scratch_node *n, const cv_backend *backend, uint32_t count, bool validation,
                        uint32_t idle_timeout_ms, const char *cache_dir, const cv_node_config *security) {
     memset(n, 0, sizeof(*n));
+    /* Whoever starts a node ends with it stopped, and with the clients of its proxy devices gone. */
+    check_live_counter("nodes", cv_live_nodes);
+    check_live_counter("rpc servers", cv_rpc_live_servers);
+    check_live_counter("rpc clients", cv_rpc_live_clients);
     if (count == 0 || count > 8)
         return cv_error(CV_ERROR_OUT_OF_RANGE, "scratch node: %u devices (1..8)", count);
     if (cache_dir) {

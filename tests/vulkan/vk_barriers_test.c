@@ -125,8 +125,10 @@ int main(void) {
     cv_device *dev = NULL;
     CHECK_OK(cv_context_create(NULL, &ctx));
     CHECK_OK(vkt_device(ctx, NULL, "barriers", &dev));
-    if (!dev)
+    if (!dev) {
+        cv_context_destroy(ctx); /* with any device it made */
         return check_report("vk_barriers");
+    }
     const cv_backend *backend = cv_vulkan_backend();
     cv_backend_device *bd = cv_device_backend_data(dev);
     scene s = { 0 };

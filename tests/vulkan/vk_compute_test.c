@@ -251,8 +251,10 @@ int main(void) {
     fixture f = { 0 };
     CHECK_OK(cv_context_create(NULL, &f.ctx));
     CHECK_OK(vkt_device(f.ctx, vkt_adapter(), "compute", &f.dev));
-    if (!f.dev)
+    if (!f.dev) {
+        cv_context_destroy(f.ctx); /* with any device it made */
         return check_report("vk_compute");
+    }
     CHECK_OK(cv_cmdlist_create(f.ctx, &f.list));
     test_fill(&f);
     test_saxpy_chain(&f);

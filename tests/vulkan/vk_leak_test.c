@@ -20,8 +20,10 @@ int main(void) {
     cv_device *dev = NULL;
     CHECK_OK(cv_context_create(NULL, &ctx));
     CHECK_OK(vkt_device(ctx, NULL, "leaks", &dev));
-    if (!dev)
+    if (!dev) {
+        cv_context_destroy(ctx); /* with any device it made */
         return check_report("vk_leak");
+    }
     cv_vulkan_memory_stats base;
     CHECK_OK(cv_vulkan_get_memory_stats(dev, &base));
     CHECK_EQ_INT(base.allocation_count, 0);

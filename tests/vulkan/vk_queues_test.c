@@ -21,8 +21,10 @@ int main(void) {
     cv_device *dev = NULL;
     CHECK_OK(cv_context_create(NULL, &ctx));
     CHECK_OK(vkt_device(ctx, NULL, "queues", &dev));
-    if (!dev)
+    if (!dev) {
+        cv_context_destroy(ctx); /* with any device it made */
         return check_report("vk_queues");
+    }
     const cv_device_info *info = cv_device_get_info(dev);
     printf("device '%s': separate compute queue %d, separate copy queue %d\n", info->name,
            info->separate_compute_queue, info->separate_copy_queue);

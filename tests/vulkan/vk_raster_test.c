@@ -48,8 +48,10 @@ int main(void) {
     cv_device *dev = NULL;
     CHECK_OK(cv_context_create(NULL, &ctx));
     CHECK_OK(vkt_device(ctx, NULL, "raster", &dev));
-    if (!dev)
+    if (!dev) {
+        cv_context_destroy(ctx); /* with any device it made */
         return check_report("vk_raster");
+    }
     cv_pipeline triangle = vkt_pipeline(ctx, dev, "test.triangle");
     cv_texture color = vkt_texture(ctx, dev, W, H, CV_FORMAT_RGBA8_UNORM, CV_TEXTURE_USAGE_COLOR_TARGET, "color");
     cv_texture depth = vkt_texture(ctx, dev, W, H, CV_FORMAT_D32F, 0, "depth");

@@ -85,8 +85,10 @@ int main(void) {
     cv_device *dev = NULL;
     CHECK_OK(cv_context_create(NULL, &ctx));
     CHECK_OK(vkt_device(ctx, vkt_adapter(), "resources", &dev));
-    if (!dev)
+    if (!dev) {
+        cv_context_destroy(ctx); /* with any device it made */
         return check_report("vk_resources");
+    }
     test_registry(ctx, dev);
     test_formats(ctx, dev);
     cv_vulkan_memory_stats stats;

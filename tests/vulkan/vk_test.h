@@ -25,7 +25,8 @@ cv_pipeline vkt_pipeline(cv_context *ctx, cv_device *dev, const char *name);
 cv_result vkt_two_virtual_gpus(cv_context *ctx, cv_device *out[2]);
 /* Submits an ended list and waits for it; *ticket (if given) gets its ticket. */
 cv_result vkt_run(cv_device *dev, cv_cmdlist list, uint64_t *ticket);
-/* Checks that the validation layer reported nothing, then prints the summary. */
+/* Checks that the validation layer reported nothing, then reports
+ * (check_report: nothing live, no Vulkan memory block either). */
 int vkt_report(const char *name);
 
 #endif

@@ -30,8 +30,10 @@ int main(void) {
     cv_device *dev = NULL;
     CHECK_OK(cv_context_create(NULL, &ctx));
     CHECK_OK(vkt_device(ctx, NULL, "tickets", &dev));
-    if (!dev)
+    if (!dev) {
+        cv_context_destroy(ctx); /* with any device it made */
         return check_report("vk_ticket");
+    }
     cv_pipeline saxpy = vkt_pipeline(ctx, dev, "test.saxpy");
     cv_buffer x = vkt_buffer(ctx, dev, 4 * N, 0, "x"), y = vkt_buffer(ctx, dev, 4 * N, 0, "y");
     float hx[N], hy[N], out[N];

@@ -26,8 +26,10 @@ int main(void) {
     cv_device *dev = NULL;
     CHECK_OK(cv_context_create(NULL, &ctx));
     CHECK_OK(vkt_device(ctx, NULL, "timings", &dev));
-    if (!dev)
+    if (!dev) {
+        cv_context_destroy(ctx); /* with any device it made */
         return check_report("vk_timings");
+    }
     CHECK(cv_device_get_info(dev)->gpu_timestamps);
     cv_pipeline fill = vkt_pipeline(ctx, dev, "test.fill_u32");
     cv_pipeline triangle = vkt_pipeline(ctx, dev, "test.triangle");

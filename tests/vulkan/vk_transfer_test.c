@@ -75,8 +75,10 @@ int main(void) {
     CHECK_EQ_INT(table.count, 2);
     cv_device *gpu[2] = { NULL, NULL };
     CHECK_OK(cv_vulkan_create_devices(ctx, &table, true, gpu));
-    if (!gpu[0] || !gpu[1])
+    if (!gpu[0] || !gpu[1]) {
+        cv_context_destroy(ctx); /* with any device it made */
         return check_report("vk_transfer");
+    }
     CHECK(strcmp(cv_device_label(gpu[1]), "gpu1") == 0);
 
     /* One handle per resource, a representation on each device. */

@@ -135,8 +135,10 @@ int main(void) {
     CHECK_OK(cv_context_create(NULL, &ctx));
     cv_device *devices[3] = { NULL, NULL, NULL };
     CHECK_OK(cv_vulkan_create_devices(ctx, &table, true, devices));
-    if (!devices[0])
+    if (!devices[0]) {
+        cv_context_destroy(ctx); /* with any device it made */
         return check_report("vk_virtual_gpu");
+    }
     CHECK(cv_device_backend_data(devices[0]) != cv_device_backend_data(devices[1]));
     worker workers[3];
     pthread_t threads[3];

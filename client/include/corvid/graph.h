@@ -170,6 +170,8 @@ cv_buffer cv_graph_buffer(const cv_graph_pass_context *pc, cv_graph_resource r);
 cv_result cv_graph_create(cv_context *ctx, cv_device *const *devices, uint32_t count, cv_graph **out);
 /* Waits for the devices, destroys every resource and list the graph made. */
 void cv_graph_destroy(cv_graph *g);
+/* Graphs created and not yet destroyed in this process (tests check it is 0 at their end). */
+uint32_t cv_live_graphs(void);
 
 /* Construction. Transients: the graph allocates them (the label names them in
  * messages and dumps). column_bytes: for copies of a column range of a buffer,

@@ -117,6 +117,8 @@ typedef struct cv_rpc_client_config {
 cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *config, cv_rpc_client **out);
 /* Streams must be destroyed first. NULL is ignored. */
 void cv_rpc_client_destroy(cv_rpc_client *c);
+/* Clients created and not yet destroyed in this process (tests check it is 0 at their end). */
+uint32_t cv_rpc_live_clients(void);
 
 /* Opens a bidi stream on `method` ("/corvid.Node/Session"), sending `metadata` (count entries) as initial
  * metadata. Returns once the call is started (does not wait for the server): a node that cannot be reached
@@ -173,6 +175,8 @@ void cv_rpc_server_drain(cv_rpc_server *s);
 /* Waits up to timeout_ms for running streams to end, then cancels the rest (their recv/send fail), waits
  * for every handler to return, joins every thread and frees everything. NULL is ignored. */
 void cv_rpc_server_destroy(cv_rpc_server *s, uint32_t timeout_ms);
+/* Servers started and not yet destroyed in this process (tests check it is 0 at their end). */
+uint32_t cv_rpc_live_servers(void);
 /* Streams whose handler has not yet returned (and been cleaned up). */
 uint32_t cv_rpc_server_active_streams(const cv_rpc_server *s);
 /* Waits up to timeout_ms for the running streams to end (a deadline, however often it wakes); returns how many

@@ -1,10 +1,17 @@
 /* Render graph construction: resources, passes and their declarations
  * (graph.h). Declarations are only recorded here; bake.c checks them. */
 #include <stdio.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "graph_internal.h"
+
+/* Graphs created and not yet destroyed. process-wide: it counts every graph of the process, for the
+ * end-of-test check that a test destroyed what it made (cv_live_graphs, as cv_live_contexts). */
+static atomic_uint live_graphs;
+
+uint32_t cv_live_graphs(void) { return atomic_load(&live_graphs); }
 
 static const char *access_names[CV_GRAPH_ACCESS_COUNT] = {
     [CV_GRAPH_COLOR_TARGET] = "color target",   [CV_GRAPH_DEPTH_TARGET] = "depth target",
@@ -52,6 +59,7 @@ cv_result cv_graph_create(cv_context *ctx, cv_device *const *devices, uint32_t c
         free(g);
         return res;
     }
+    atomic_fetch_add(&live_graphs, 1);
     *out = g;
     return CV_OK;
 }
@@ -108,6 +116,7 @@ void cv_graph_destroy(cv_graph *g) {
     free(g->passes);
     free(g->pool);
     free(g);
+    atomic_fetch_sub(&live_graphs, 1);
 }
 
 static cv_result add_resource(cv_graph *g, const graph_resource *r, cv_graph_resource *out) {

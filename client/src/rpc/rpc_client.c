@@ -71,6 +71,12 @@ static grpc_arg int_arg(const char *key, int value) {
 
 static int clamp_int(uint32_t v) { return v > INT32_MAX ? INT32_MAX : (int)v; }
 
+/* Clients created and not yet destroyed. process-wide: it counts every client of the process, for the
+ * end-of-test check that a test destroyed what it made (cv_rpc_live_clients, as cv_live_contexts). */
+static atomic_uint live_clients;
+
+uint32_t cv_rpc_live_clients(void) { return atomic_load(&live_clients); }
+
 cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *config, cv_rpc_client **out) {
     if (!target || !*target || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_client_create: null or empty target, or null out");
@@ -134,6 +140,7 @@ cv_result cv_rpc_client_create(const char *target, const cv_rpc_client_config *c
     c->channel = grpc_channel_create(target, creds, &channel_args);
     grpc_channel_credentials_release(creds);
     c->target = name;
+    atomic_fetch_add(&live_clients, 1);
     *out = c;
     return CV_OK;
 }
@@ -153,6 +160,7 @@ void cv_rpc_client_destroy(cv_rpc_client *c) {
         free(c->authorization);
     }
     free(c);
+    atomic_fetch_sub(&live_clients, 1);
 }
 
 static cv_result check_metadata(const cv_rpc_metadata *md, uint32_t count) {
