@@ -275,4 +275,22 @@ cv_result cv_graph_dump_dot(const cv_graph *g, FILE *f);
 
 const char *cv_graph_access_name(cv_graph_access a);
 
+/* The pass builder (issue 24): a pass declared as one chain, each declaration
+ * returning the use its record callback binds. Stand-in interface until the
+ * graph's own builder lands (h/graph); the renderer implements it over the
+ * calls above (renderer/src/graph_builder_shim.c). The brief's
+ * cv_graph_pass() would clash with the cv_graph_pass type: _begin here. */
+typedef struct cv_graph_builder cv_graph_builder;
+typedef struct cv_graph_use {
+    uint32_t resource;
+    uint32_t access;
+} cv_graph_use; /* resource 0 = failed */
+cv_graph_builder *cv_graph_pass_begin(cv_graph *g, const cv_graph_pass_desc *desc);
+cv_graph_use cv_graph_pass_read(cv_graph_builder *b, cv_graph_resource r, cv_graph_access a);
+cv_graph_use cv_graph_pass_write(cv_graph_builder *b, cv_graph_resource r, cv_graph_access a, cv_graph_transfer rule);
+cv_result cv_graph_pass_end(cv_graph_builder *b, cv_graph_pass *out);
+cv_texture cv_graph_use_texture(const cv_graph_pass_context *pc, cv_graph_use u);
+cv_buffer cv_graph_use_buffer(const cv_graph_pass_context *pc, cv_graph_use u);
+cv_binding cv_graph_use_binding(const cv_graph_pass_context *pc, cv_graph_use u);
+
 #endif

@@ -56,6 +56,7 @@
 #include "corvid/bvh.h"
 #include "corvid/device.h"
 #include "corvid/partition.h"
+#include "corvid/render_pass.h"
 #include "corvid/render_observer.h"
 #include "corvid/scene.h"
 
@@ -171,6 +172,14 @@ void cv_renderer_destroy(cv_renderer *r);
  * that came back, or a new one, then takes columns from the next frame. A
  * device that cannot take the scene is refused and left as it was. */
 cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev);
+
+/* Adds a pass module (corvid/render_pass.h) to the frame, after the
+ * renderer's own passes (and those added before it), from the next render
+ * on; `user` is passed to its callbacks. The module and user must outlive
+ * the renderer. Refused during a render (from its progress callback), for a
+ * module without name, declare or record, a name the frame has already, or
+ * more than 8 added passes. docs/render-graph.md, "Writing a pass". */
+cv_result cv_renderer_add_pass(cv_renderer *r, const cv_render_pass_module *module, void *user);
 
 /* Renders settings->frames frames and reads the result back. `progress`, if
  * set, is called after every frame. */
