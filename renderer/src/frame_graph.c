@@ -151,6 +151,9 @@ cv_result render_graph_build(cv_render_frame *f, uint64_t rays) {
     cv_result res = check_settings(s);
     if (res != CV_OK)
         return res;
+    f->info.settings = s;
+    f->info.width = f->width;
+    f->info.height = f->height;
     cv_render_frame_view shape = f->info;
     shape.moving = s->orbit_degrees != 0.0f;
     shape.reflections = s->reflections == 1;
