@@ -39,12 +39,22 @@
  * only later). CORVID_TRANSFER_ASYNC=0 in the environment (read at every
  * transfer) makes every transfer synchronous, as before rings existed (for
  * comparisons: bench/mgpu_frames.sh); 1, empty or unset is the default, and
- * any other value fails cv_graph_bake with CV_ERROR_INVALID_ARGUMENT. A record callback sees its column window and the handles of
- * its resources, never the device count:
+ * any other value fails cv_graph_bake with CV_ERROR_INVALID_ARGUMENT.
+ *
+ * A pass is declared as one chain (kajiya's way): cv_graph_pass_begin() opens a
+ * builder, each read, write or create returns the use the record callback
+ * binds, and cv_graph_pass_end() adds the pass. The chain's calls keep the
+ * first error, as command lists do: after a failing call the rest do nothing,
+ * and the end returns that error naming the pass and the resource
+ * ("graph: pass 'trace': write of 'visibility': ...") and adds nothing. A
+ * record callback sees its column window and its uses' handles, never the
+ * device count:
+ *
+ *     typedef struct trace_pass { cv_graph_use gbuffer, visibility; } trace_pass;
  *
  *     static void trace(const cv_graph_pass_context *pc, cv_command_list *l, void *user) {
- *         cv_binding b[2] = { { cv_any(cv_graph_texture(pc, s->gbuffer)) },
- *                             { cv_any(cv_graph_texture(pc, s->visibility)) } };
+ *         const trace_pass *t = user;
+ *         cv_binding b[2] = { cv_graph_use_binding(pc, t->gbuffer), cv_graph_use_binding(pc, t->visibility) };
  *         struct { uint32_t x0, width; } push = { pc->x, pc->width };
  *         cv_cmd_dispatch(l, pc->queue, &(cv_dispatch_args){ ... .groups_x = (pc->width + 7) / 8 ... });
  *     }
@@ -52,22 +62,31 @@
  *     cv_graph *g;
  *     cv_graph_create(ctx, devices, n, &g);
  *     cv_graph_resource gbuf, vis;
- *     cv_graph_create_texture(g, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA32F, .label = "gbuffer" }, &gbuf);
- *     cv_graph_create_texture(g, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA16F, .label = "visibility" }, &vis);
- *     cv_graph_pass p;
- *     cv_graph_add_pass(g, &(cv_graph_pass_desc){ "gbuffer", CV_QUEUE_GRAPHICS, CV_MGPU_PRIMARY_ONLY,
- *                                                 raster, s }, &p);
- *     cv_graph_write(g, p, gbuf, CV_GRAPH_COLOR_TARGET, CV_GRAPH_TRANSFER_AUTO);    // multicast
- *     cv_graph_add_pass(g, &(cv_graph_pass_desc){ "trace", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES,
- *                                                 trace, s }, &p);
- *     cv_graph_read(g, p, gbuf, CV_GRAPH_STORAGE_READ);
- *     cv_graph_write(g, p, vis, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO);    // gathered
+ *     raster_pass r;                                               // its uses, for raster()
+ *     cv_graph_builder *b = cv_graph_pass_begin(g, &(cv_graph_pass_desc){ "gbuffer", CV_QUEUE_GRAPHICS,
+ *                                                                   CV_MGPU_PRIMARY_ONLY, raster, &r });
+ *     r.position = cv_graph_pass_create_texture(b,      &(cv_texture_desc){ w, h, CV_FORMAT_RGBA32F,
+ *                                                                           .label = "gbuffer" },
+ *                                                     CV_GRAPH_COLOR_TARGET, CV_GRAPH_TRANSFER_AUTO, &gbuf);
+ *     cv_graph_pass_end(b, NULL);                                  // multicast to the trace pass
+ *     trace_pass t;
+ *     b = cv_graph_pass_begin(g, &(cv_graph_pass_desc){ "trace", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES, trace, &t });
+ *     t.gbuffer = cv_graph_pass_read(b, gbuf, CV_GRAPH_STORAGE_READ);
+ *     t.visibility = cv_graph_pass_create_texture(b, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA16F,
+ *                                                                       .label = "visibility" },
+ *                                                 CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO, &vis);
+ *     if (cv_graph_pass_end(b, NULL) != CV_OK)                     // gathered for the filter
+ *         ... cv_last_error() names the pass and the declaration that failed ...
  *     ... a PRIMARY_ONLY "filter" pass reads vis and writes "image" ...
  *     cv_graph_output(g, image);
  *     each frame:
  *         cv_graph_bake(g, &(cv_graph_bake_desc){ .width = w, .tile = 8 });
  *         cv_graph_execute(g, timings, CV_GRAPH_MAX_STEPS, &count);
  *     cv_graph_destroy(g);
+ *
+ * The older calls (cv_graph_create_texture, cv_graph_add_pass, cv_graph_read,
+ * cv_graph_write, cv_graph_texture) still work and build the same graph; the
+ * builder is the preferred way, since a pass then names each resource once.
  *
  * Errors name the pass and resource ("graph: pass 'trace': reads 'rays', a
  * transient no pass writes"). A graph is used by one thread at a time. */
@@ -183,6 +202,46 @@ cv_result cv_graph_write(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_g
 cv_result cv_graph_add_copy_pass(cv_graph *g, const char *name, cv_mgpu_policy policy, cv_graph_resource src,
                                  cv_graph_resource dst, cv_graph_pass *out);
 
+/* Graph pass builder: a pass under construction (graph.h's top comment).
+ * Every builder cv_graph_pass_begin returns must be ended by cv_graph_pass_end,
+ * which frees it. */
+typedef struct cv_graph_builder cv_graph_builder;
+/* One declaration of a pass: the resource (its id) and which declaration of
+ * the pass it is (1, 2, ...). {0, 0}: the call failed, or an earlier one did. */
+typedef struct cv_graph_use {
+    uint32_t resource;
+    uint32_t access;
+} cv_graph_use;
+
+/* Opens a builder for a pass of this description (checked now and again at
+ * the end). Never NULL: a builder that could not be made fails at its end. */
+cv_graph_builder *cv_graph_pass_begin(cv_graph *g, const cv_graph_pass_desc *desc);
+/* Declarations, checked now (a known resource, an access of the right kind
+ * for its type, no write of a history, a rule that fits the pass's policy, no
+ * second write without a read between). After the chain's first failure they
+ * do nothing and return {0, 0}. */
+cv_graph_use cv_graph_pass_read(cv_graph_builder *b, cv_graph_resource r, cv_graph_access a);
+cv_graph_use cv_graph_pass_write(cv_graph_builder *b, cv_graph_resource r, cv_graph_access a, cv_graph_transfer rule);
+/* A transient the pass creates and writes (access a must be a write); *out
+ * (may be NULL) its handle, usable by later passes, or {0} after a failure.
+ * It joins the graph at the end, with the pass: no resource may be added to
+ * the graph in between (the end then fails). */
+cv_graph_use cv_graph_pass_create_texture(cv_graph_builder *b, const cv_texture_desc *desc, cv_graph_access a,
+                                          cv_graph_transfer rule, cv_graph_resource *out);
+cv_graph_use cv_graph_pass_create_buffer(cv_graph_builder *b, const cv_buffer_desc *desc, uint64_t column_bytes,
+                                         cv_graph_access a, cv_graph_transfer rule, cv_graph_resource *out);
+/* Ends the chain and frees the builder: the first error of any call above
+ * (its message names the pass and the resource, cv_last_error() again), or
+ * adds the pass with all its declarations and transients. A failed end adds
+ * nothing. *out (may be NULL): the pass, {0} on failure. */
+cv_result cv_graph_pass_end(cv_graph_builder *b, cv_graph_pass *out);
+/* Record side: the handle or binding of a declared use on the device being
+ * recorded. A use of another pass, a failed use, or a texture asked as a
+ * buffer (or the reverse) gives id 0, which the list rejects. */
+cv_texture cv_graph_use_texture(const cv_graph_pass_context *pc, cv_graph_use u);
+cv_buffer cv_graph_use_buffer(const cv_graph_pass_context *pc, cv_graph_use u);
+cv_binding cv_graph_use_binding(const cv_graph_pass_context *pc, cv_graph_use u);
+
 /* Zero-copy gathers. A gathered texture (written by ALL_DEVICES passes, read
  * by the primary) can live in one memory that every device of one adapter
  * shares (cv_device_load_alias): each device writes its window straight into
@@ -274,23 +333,5 @@ cv_result cv_graph_dump_text(const cv_graph *g, FILE *f);
 cv_result cv_graph_dump_dot(const cv_graph *g, FILE *f);
 
 const char *cv_graph_access_name(cv_graph_access a);
-
-/* The pass builder (issue 24): a pass declared as one chain, each declaration
- * returning the use its record callback binds. Stand-in interface until the
- * graph's own builder lands (h/graph); the renderer implements it over the
- * calls above (renderer/src/graph_builder_shim.c). The brief's
- * cv_graph_pass() would clash with the cv_graph_pass type: _begin here. */
-typedef struct cv_graph_builder cv_graph_builder;
-typedef struct cv_graph_use {
-    uint32_t resource;
-    uint32_t access;
-} cv_graph_use; /* resource 0 = failed */
-cv_graph_builder *cv_graph_pass_begin(cv_graph *g, const cv_graph_pass_desc *desc);
-cv_graph_use cv_graph_pass_read(cv_graph_builder *b, cv_graph_resource r, cv_graph_access a);
-cv_graph_use cv_graph_pass_write(cv_graph_builder *b, cv_graph_resource r, cv_graph_access a, cv_graph_transfer rule);
-cv_result cv_graph_pass_end(cv_graph_builder *b, cv_graph_pass *out);
-cv_texture cv_graph_use_texture(const cv_graph_pass_context *pc, cv_graph_use u);
-cv_buffer cv_graph_use_buffer(const cv_graph_pass_context *pc, cv_graph_use u);
-cv_binding cv_graph_use_binding(const cv_graph_pass_context *pc, cv_graph_use u);
 
 #endif

@@ -1,5 +1,6 @@
 /* Render graph construction: resources, passes and their declarations
  * (graph.h). Declarations are only recorded here; bake.c checks them. */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -18,7 +19,7 @@ const char *cv_graph_access_name(cv_graph_access a) {
 
 bool graph_access_writes(cv_graph_access a) { return a <= CV_GRAPH_TRANSFER_DST; }
 
-static bool grow(void **items, uint32_t *capacity, uint32_t needed, size_t size) {
+bool graph_grow(void **items, uint32_t *capacity, uint32_t needed, size_t size) {
     if (needed <= *capacity)
         return true;
     uint32_t cap = *capacity ? *capacity * 2 : 8;
@@ -54,6 +55,8 @@ cv_result cv_graph_create(cv_context *ctx, cv_device *const *devices, uint32_t c
     *out = g;
     return CV_OK;
 }
+
+void graph_changed(cv_graph *g) { g->structure_epoch++; }
 
 bool graph_pass_touches(const graph_pass *q, uint32_t r) {
     for (uint32_t c = 0; c < q->access_count; c++)
@@ -111,22 +114,36 @@ static cv_result add_resource(cv_graph *g, const graph_resource *r, cv_graph_res
     if (g->resource_count == CV_GRAPH_MAX_RESOURCES)
         return cv_error(CV_ERROR_LIMIT_EXCEEDED, "graph: resource '%s': the graph already has %u resources", r->name,
                         CV_GRAPH_MAX_RESOURCES);
-    if (!grow((void **)&g->resources, &g->resource_capacity, g->resource_count + 1, sizeof(*r)))
+    if (!graph_grow((void **)&g->resources, &g->resource_capacity, g->resource_count + 1, sizeof(*r)))
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: resource '%s'", r->name);
     g->resources[g->resource_count++] = *r;
+    graph_changed(g);
     *out = (cv_graph_resource){ g->resource_count };
     return CV_OK;
+}
+
+bool graph_texture_ok(const cv_texture_desc *desc) {
+    return desc->width && desc->height && desc->width <= CV_MAX_TEXTURE_DIM && desc->height <= CV_MAX_TEXTURE_DIM &&
+           desc->format != CV_FORMAT_UNDEFINED && desc->format < CV_FORMAT_COUNT;
+}
+
+graph_resource graph_transient(const cv_texture_desc *texture, const cv_buffer_desc *buffer, uint64_t column_bytes) {
+    graph_resource r = { .type = texture ? CV_HANDLE_TEXTURE : CV_HANDLE_BUFFER, .column_bytes = column_bytes };
+    if (texture)
+        r.texture = *texture;
+    else
+        r.buffer = *buffer;
+    memcpy(r.name, texture ? texture->label : buffer->label, sizeof(r.name) - 1);
+    return r;
 }
 
 cv_result cv_graph_create_texture(cv_graph *g, const cv_texture_desc *desc, cv_graph_resource *out) {
     if (!g || !desc || !out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_create_texture: NULL argument");
-    if (desc->width == 0 || desc->height == 0 || desc->width > CV_MAX_TEXTURE_DIM ||
-        desc->height > CV_MAX_TEXTURE_DIM || desc->format == CV_FORMAT_UNDEFINED || desc->format >= CV_FORMAT_COUNT)
+    if (!graph_texture_ok(desc))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: texture '%.*s': %ux%u %s is not a texture", CV_LABEL_MAX,
                         desc->label, desc->width, desc->height, cv_format_name(desc->format));
-    graph_resource r = { .type = CV_HANDLE_TEXTURE, .texture = *desc };
-    memcpy(r.name, desc->label, sizeof(r.name) - 1);
+    graph_resource r = graph_transient(desc, NULL, 0);
     return add_resource(g, &r, out);
 }
 
@@ -136,8 +153,7 @@ cv_result cv_graph_create_buffer(cv_graph *g, const cv_buffer_desc *desc, uint64
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_create_buffer: NULL argument");
     if (desc->size == 0)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: buffer '%.*s': size 0", CV_LABEL_MAX, desc->label);
-    graph_resource r = { .type = CV_HANDLE_BUFFER, .buffer = *desc, .column_bytes = column_bytes };
-    memcpy(r.name, desc->label, sizeof(r.name) - 1);
+    graph_resource r = graph_transient(NULL, desc, column_bytes);
     return add_resource(g, &r, out);
 }
 
@@ -191,6 +207,7 @@ cv_result cv_graph_history(cv_graph *g, cv_graph_resource r, cv_graph_resource *
                         "(the application owns their contents)",
                         res->name);
     g->resources[r.id - 1].history = true;
+    graph_changed(g);
     *out = (cv_graph_resource){ r.id | GRAPH_HISTORY_BIT };
     return CV_OK;
 }
@@ -201,12 +218,11 @@ cv_result cv_graph_output(cv_graph *g, cv_graph_resource r) {
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_output: resource #%u is not a resource of this graph",
                         r.id);
     g->resources[r.id - 1].output = true;
+    graph_changed(g);
     return CV_OK;
 }
 
-cv_result cv_graph_add_pass(cv_graph *g, const cv_graph_pass_desc *desc, cv_graph_pass *out) {
-    if (!g || !desc || !out || !desc->name)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_add_pass: NULL argument");
+cv_result graph_check_pass(const cv_graph *g, const cv_graph_pass_desc *desc) {
     size_t len = strlen(desc->name);
     if (len == 0 || len >= CV_LABEL_MAX)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: pass '%s': a name needs 1..%u bytes", desc->name,
@@ -221,18 +237,40 @@ cv_result cv_graph_add_pass(cv_graph *g, const cv_graph_pass_desc *desc, cv_grap
     if (g->pass_count == CV_GRAPH_MAX_PASSES)
         return cv_error(CV_ERROR_LIMIT_EXCEEDED, "graph: pass '%s': the graph already has %u passes", desc->name,
                         CV_GRAPH_MAX_PASSES);
-    if (!grow((void **)&g->passes, &g->pass_capacity, g->pass_count + 1, sizeof(graph_pass)))
-        return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: pass '%s'", desc->name);
-    graph_pass *p = &g->passes[g->pass_count++];
-    *p = (graph_pass){ .queue = desc->queue, .policy = desc->policy, .record = desc->record, .user = desc->user };
-    memcpy(p->name, desc->name, len + 1);
-    *out = (cv_graph_pass){ g->pass_count };
     return CV_OK;
+}
+
+cv_result cv_graph_add_pass(cv_graph *g, const cv_graph_pass_desc *desc, cv_graph_pass *out) {
+    if (!g || !desc || !out || !desc->name)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_add_pass: NULL argument");
+    cv_result res = graph_check_pass(g, desc);
+    if (res != CV_OK)
+        return res;
+    if (!graph_grow((void **)&g->passes, &g->pass_capacity, g->pass_count + 1, sizeof(graph_pass)))
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: pass '%s'", desc->name);
+    *out = graph_push_pass(g, desc, NULL, 0);
+    return CV_OK;
+}
+
+cv_graph_pass graph_push_pass(cv_graph *g, const cv_graph_pass_desc *desc, graph_access *accesses, uint32_t count) {
+    graph_pass *p = &g->passes[g->pass_count++];
+    *p = (graph_pass){ .queue = desc->queue,
+                       .policy = desc->policy,
+                       .record = desc->record,
+                       .user = desc->user,
+                       .accesses = accesses,
+                       .access_count = count,
+                       .access_capacity = count };
+    snprintf(p->name, sizeof(p->name), "%s", desc->name);
+    graph_changed(g);
+    return (cv_graph_pass){ g->pass_count };
 }
 
 cv_result cv_graph_enable_pass(cv_graph *g, cv_graph_pass p, bool enabled) {
     if (!g || p.id == 0 || p.id > g->pass_count)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_enable_pass: unknown pass #%u", p.id);
+    if (g->passes[p.id - 1].disabled == enabled)
+        graph_changed(g);
     g->passes[p.id - 1].disabled = !enabled;
     return CV_OK;
 }
@@ -247,11 +285,12 @@ static cv_result declare(cv_graph *g, cv_graph_pass p, cv_graph_resource r, cv_g
                         write ? "write" : "read");
     if ((unsigned)rule > CV_GRAPH_TRANSFER_PRIMARY_TO_WINDOWS)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: pass '%s': transfer rule %d", pass->name, rule);
-    if (!grow((void **)&pass->accesses, &pass->access_capacity, pass->access_count + 1, sizeof(graph_access)))
+    if (!graph_grow((void **)&pass->accesses, &pass->access_capacity, pass->access_count + 1, sizeof(graph_access)))
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: pass '%s'", pass->name);
     pass->accesses[pass->access_count++] = (graph_access){
         .id = r.id, .access = access, .rule = rule, .write = write
     };
+    graph_changed(g);
     return CV_OK;
 }
 

@@ -158,6 +158,9 @@ struct cv_graph {
     uint64_t history_epoch;                  /* g->frame when history frames were last created */
     uint64_t primary_waited[CV_MAX_DEVICES]; /* per secondary: the primary's ticket it last GPU-waited for */
     graph_baked baked;
+    /* Bumped by every construction call (graph_changed): a bake redoes the
+     * structure when it moved since the structure was last baked. */
+    uint64_t structure_epoch;
 };
 
 /* What a record callback's pc->instance points at. */
@@ -167,6 +170,18 @@ typedef struct graph_record_ctx {
     uint32_t device;
 } graph_record_ctx;
 
+/* graph.c, shared with the builder (builder.c): growth of the graph's
+ * arrays; a pass description's checks against the graph (name, queue, policy,
+ * callback, limits); the pass appended (its arrays grown beforehand; it takes
+ * `accesses`, heap memory, over); a construction change (structure_epoch). */
+bool graph_grow(void **items, uint32_t *capacity, uint32_t needed, size_t size);
+cv_result graph_check_pass(const cv_graph *g, const cv_graph_pass_desc *desc);
+cv_graph_pass graph_push_pass(cv_graph *g, const cv_graph_pass_desc *desc, graph_access *accesses, uint32_t count);
+void graph_changed(cv_graph *g);
+/* Whether a transient texture's description is one (sizes, format); a
+ * transient's record (texture or buffer: the other NULL). */
+bool graph_texture_ok(const cv_texture_desc *desc);
+graph_resource graph_transient(const cv_texture_desc *texture, const cv_buffer_desc *buffer, uint64_t column_bytes);
 /* The resource behind an id, or NULL (sets *history). */
 const graph_resource *graph_lookup(const cv_graph *g, uint32_t id, bool *history);
 /* The handle an access to resource `index` (its history if `history`) uses on the devices. */
