@@ -69,27 +69,17 @@ typedef struct render_texture_info {
 } render_texture_info;
 extern const render_texture_info render_textures[TEX_COUNT];
 
-/* Resources the frame graph names: the textures above (imported: the
- * renderer keeps them from call to call), the scene buffers (imported) and
- * each device's ray and hit buffers (transients, one band of its window). */
+/* The scene buffers, imported into the frame graph (the ray and hit buffers
+ * are transients of the passes that use them, 'trace' and 'reflect'). */
 enum {
     BUF_VERTICES,
     BUF_MATERIALS,
     BUF_LIGHTS,
-    BUF_RAYS,
-    BUF_HITS,
-    BUF_INSTANCES,    /* instance -> its first triangle in the vertex list (reflection hits) */
-    BUF_REFLECT_RAYS, /* transients of pass 'reflect', one band each: reflection rays, */
-    BUF_REFLECT_HITS, /* their closest hits, */
-    BUF_SHADOW_RAYS,  /* shadow rays from those hits */
-    BUF_SHADOW_HITS,  /* and their any hits */
-    BUF_UVS,          /* per flat vertex uv */
-    BUF_IMAGE_TABLE,  /* texture images: where each lies in the pool (scene_upload.h) */
-    BUF_IMAGE_POOL,   /* and their texels */
-    BUF_BLUE_NOISE,   /* the blue-noise rank mask (corvid/blue_noise.h): render.raygen, the reflection samples */
-    /* Masked scenes: the hits of the alpha-mask re-traces of passes 'trace' and 'reflect' (renderer.h). */
-    BUF_ALPHA_HITS,
-    BUF_REFLECT_ALPHA_HITS,
+    BUF_INSTANCES,   /* instance -> its first triangle in the vertex list (reflection hits, the alpha-mask rule) */
+    BUF_UVS,         /* per flat vertex uv */
+    BUF_IMAGE_TABLE, /* texture images: where each lies in the pool (scene_upload.h) */
+    BUF_IMAGE_POOL,  /* and their texels */
+    BUF_BLUE_NOISE,  /* the blue-noise rank mask (corvid/blue_noise.h): render.raygen, the reflection samples */
     BUF_COUNT
 };
 
@@ -139,7 +129,7 @@ struct cv_render_frame {
     cv_graph *graph;
     uint32_t graph_generation;   /* counts graphs built: a frame loop sees a device added (or dropped) */
     bool graph_prebaked;         /* baked once before a render's clock (its transfer rings exist) */
-    uint64_t graph_rays;         /* rays the ray and hit buffers hold */
+    uint64_t graph_rays;         /* rays the ray and hit buffers of pass 'trace' hold */
     uint64_t graph_reflect_rays; /* rays each of the reflect pass's buffers holds */
     cv_graph_resource tex[TEX_COUNT], buf[BUF_COUNT];
     render_pass_slot slots[RENDER_MAX_PASSES]; /* the table's passes, then the extra ones */

@@ -17,12 +17,10 @@ void render_graph_destroy(cv_render_frame *f) {
     f->graph_prebaked = false;
 }
 
-/* The scene buffers and the renderer's textures into the graph, and the
- * transients of passes 'trace' and 'reflect' (one band of each device's
- * window). */
-static cv_result add_resources(cv_render_frame *f, uint64_t rays, uint64_t reflect_rays) {
+/* The renderer's textures and the scene buffers into the graph (the passes
+ * make their own transients). */
+static cv_result add_resources(cv_render_frame *f) {
     cv_graph *g = f->graph;
-    bool reflect = f->info.reflections;
     cv_result res = CV_OK;
     for (int t = 0; t < TEX_COUNT && res == CV_OK; t++)
         res = cv_graph_import_texture(g, f->textures[t], &f->tex[t]);
@@ -35,29 +33,8 @@ static cv_result add_resources(cv_render_frame *f, uint64_t rays, uint64_t refle
                      { f->blue_noise, BUF_BLUE_NOISE } };
     for (int i = 0; i < 7 && res == CV_OK; i++)
         res = cv_graph_import_buffer(g, imports[i].buffer, 0, &f->buf[imports[i].slot]);
-    if (res == CV_OK)
-        res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_RAY_BYTES, .label = "rays" }, 0,
-                                     &f->buf[BUF_RAYS]);
-    if (res == CV_OK)
-        res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_HIT_BYTES, .label = "hits" }, 0,
-                                     &f->buf[BUF_HITS]);
-    if (res == CV_OK && (reflect || f->alpha_mask))
+    if (res == CV_OK && (f->info.reflections || f->alpha_mask))
         res = cv_graph_import_buffer(g, f->instances, 0, &f->buf[BUF_INSTANCES]);
-    if (res == CV_OK && f->alpha_mask)
-        res = cv_graph_create_buffer(g, &(cv_buffer_desc){ .size = rays * CV_HIT_BYTES, .label = "alpha hits" }, 0,
-                                     &f->buf[BUF_ALPHA_HITS]);
-    if (res == CV_OK && f->alpha_mask && reflect)
-        res = cv_graph_create_buffer(g,
-                                     &(cv_buffer_desc){ .size = reflect_rays * CV_HIT_BYTES,
-                                                        .label = "reflect alpha hits" },
-                                     0, &f->buf[BUF_REFLECT_ALPHA_HITS]);
-    static const char *const reflect_labels[4] = { "reflect rays", "reflect hits", "reflect shadow rays",
-                                                   "reflect shadow hits" };
-    for (int k = 0; k < 4 && res == CV_OK && reflect; k++) {
-        cv_buffer_desc desc = { .size = reflect_rays * (k % 2 ? CV_HIT_BYTES : CV_RAY_BYTES) };
-        strncpy(desc.label, reflect_labels[k], sizeof(desc.label) - 1);
-        res = cv_graph_create_buffer(g, &desc, 0, &f->buf[BUF_REFLECT_RAYS + k]);
-    }
     return res;
 }
 
@@ -134,7 +111,7 @@ static cv_result build(cv_render_frame *f, uint64_t rays, uint64_t reflect_rays)
     memset(f->tex, 0, sizeof(f->tex));
     memset(f->buf, 0, sizeof(f->buf));
     f->slot_count = 0;
-    res = add_resources(f, rays, reflect_rays);
+    res = add_resources(f);
     for (size_t i = 0; i < sizeof(table) / sizeof(table[0]) && res == CV_OK; i++)
         res = declare_pass(f, table[i], NULL);
     for (uint32_t i = 0; i < f->extra_count && res == CV_OK; i++)
