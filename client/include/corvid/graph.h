@@ -20,11 +20,14 @@
  * the previous frame's contents of a transient, for temporal passes.
  *
  * Bake (cv_graph_bake) validates, culls passes that reach no output, orders,
- * partitions the width, plans cross-device copies, allocates transients from a
- * pool (two with the same description and disjoint lifetimes share one
- * resource), places barriers and lays out one command list per pass and device.
- * A bake that fails changes nothing: the previous bake stays executable. Bake
- * again whenever the partition should change (execute feeds the balancer).
+ * places cross-device transfers, allocates transients from a pool (two with
+ * the same description and disjoint lifetimes share one resource), places
+ * barriers and lays out one command list per pass and device: the structure,
+ * baked again only when the graph, the width, the tile, the devices that get
+ * columns or the zero-copy choice changed. The partition step runs on every
+ * bake (the renderer bakes every frame, with the balancer's new split): each
+ * device's column window and the transfers' copy plans. A bake that fails
+ * changes nothing: the previous bake stays executable.
  *
  * Evaluation (cv_graph_execute) records every pass instance on worker threads
  * through its record callback, submits in step order on each device, runs each
@@ -36,10 +39,8 @@
  * without waiting at all; cv_graph_collect reads such a frame's timings and
  * feeds the balancer later, once it finished (lagged feedback: the balancer
  * then splits from a frame a few frames old, which converges the same way,
- * only later). CORVID_TRANSFER_ASYNC=0 in the environment (read at every
- * transfer) makes every transfer synchronous, as before rings existed (for
- * comparisons: bench/mgpu_frames.sh); 1, empty or unset is the default, and
- * any other value fails cv_graph_bake with CV_ERROR_INVALID_ARGUMENT.
+ * only later). cv_graph_bake_desc.sync_transfers makes every transfer
+ * synchronous, as before rings existed (for comparisons: bench/mgpu_frames.sh).
  *
  * A pass is declared as one chain (kajiya's way): cv_graph_pass_begin() opens a
  * builder, each read, write or create returns the use the record callback
@@ -80,7 +81,7 @@
  *     ... a PRIMARY_ONLY "filter" pass reads vis and writes "image" ...
  *     cv_graph_output(g, image);
  *     each frame:
- *         cv_graph_bake(g, &(cv_graph_bake_desc){ .width = w, .tile = 8 });
+ *         cv_graph_bake(g, &(cv_graph_bake_desc){ .width = w, .tile = 8 });   // the partition step only
  *         cv_graph_execute(g, timings, CV_GRAPH_MAX_STEPS, &count);
  *     cv_graph_destroy(g);
  *
@@ -252,11 +253,11 @@ cv_binding cv_graph_use_binding(const cv_graph_pass_context *pc, cv_graph_use u)
  * not read its texels outside their window (the other devices write them at
  * the same time). Before a device writes such a texture again, it waits on the
  * GPU for the primary's last use of it.
- *   AUTO: CORVID_ZERO_COPY in the environment (read at every bake: auto, on
- *         or off; unset: auto) decides; auto shares where every secondary can
- *         alias the primary and no transfer path is forced (transfer.h: a
- *         forced path is kept, for comparisons); a texture whose format the
- *         adapter cannot export (the alias is refused) is copied.
+ *   AUTO: shares where every secondary can alias the primary and no
+ *         transfer path is forced (transfer.h: a forced path is kept, for
+ *         comparisons); a texture whose format the adapter cannot export (the
+ *         alias is refused) is copied. (Programs read CORVID_ZERO_COPY into
+ *         this field: apps/common/env_graph.h.)
  *   ON:   shares, or the bake fails naming the pair that cannot.
  *   OFF:  copies. */
 typedef enum cv_graph_zero_copy {
@@ -270,8 +271,19 @@ typedef struct cv_graph_bake_desc {
     uint32_t tile;                 /* window starts are multiples of it; 0 = 8 */
     const cv_partition *partition; /* NULL: the graph's balancer splits the width */
     cv_graph_zero_copy zero_copy;
+    /* Every transfer synchronous on the host, as before rings existed (for
+     * comparisons; programs read CORVID_TRANSFER_ASYNC=0 into it:
+     * apps/common/env_graph.h). false: asynchronous where the pair allows. */
+    bool sync_transfers;
 } cv_graph_bake_desc;
 
+/* Bakes the graph for this frame's partition. The structure (validation,
+ * culling, order, steps, transients and their aliasing, barriers, command
+ * lists) is baked again only when a construction call changed the graph
+ * since (a pass, declaration, resource, history, output or enabled pass), or
+ * the width, the tile, the devices that get columns or zero_copy changed;
+ * otherwise only the partition step runs (windows and copy plans).
+ * sync_transfers and the partition itself may change freely. */
 cv_result cv_graph_bake(cv_graph *g, const cv_graph_bake_desc *desc);
 
 /* What a bake decided, for tests and tools (valid until the next bake). */
@@ -283,6 +295,8 @@ typedef struct cv_graph_stats {
                        pair it copies between (where the pair allows rings), not during a frame */
     uint32_t zero_copy;            /* transfers that are GPU-side waits on shared memory (counted in transfers, not
                                       in copies) */
+    uint32_t structure_bakes;      /* bakes of this graph so far that baked the structure (the others ran only the
+                                      partition step) */
 } cv_graph_stats;
 cv_result cv_graph_get_stats(const cv_graph *g, cv_graph_stats *out);
 /* The partition of the last bake. */

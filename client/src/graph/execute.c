@@ -97,23 +97,14 @@ static cv_result record_all(cv_graph *g) {
     return CV_OK;
 }
 
-cv_result graph_transfer_async(bool *async) {
-    const char *text = getenv("CORVID_TRANSFER_ASYNC");
-    *async = !text || !text[0] || strcmp(text, "1") == 0;
-    if (*async || strcmp(text, "0") == 0)
-        return CV_OK;
-    return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                    "graph: CORVID_TRANSFER_ASYNC='%.32s' is not 0 (synchronous transfers) or 1 (the default)", text);
-}
-
 /* The pair's ring if it can take asynchronous transfers on the path in
- * force (NULL: move synchronously). A ring made for another path is
+ * force and the bake did not ask for synchronous ones (NULL: move
+ * synchronously). A ring made for another path is
  * replaced. Slots are sized from the first copy (a quarter more, for the
  * balancer's shifts; GRAPH_RING_SLOT_MIN..MAX); a larger copy takes several. */
 cv_transfer_ring *graph_pair_ring(cv_graph *g, uint32_t s, uint32_t d, uint64_t bytes) {
     cv_device *src = g->devices[s], *dst = g->devices[d];
-    bool async = false; /* a bad value was refused by the bake; then synchronous */
-    if (graph_transfer_async(&async) != CV_OK || !async || !cv_device_link_async(src) || !cv_device_link_async(dst))
+    if (g->baked.sync_transfers || !cv_device_link_async(src) || !cv_device_link_async(dst))
         return NULL;
     cv_transfer_path path;
     if (cv_transfer_choose_path(src, dst, &path) != CV_OK || path == CV_TRANSFER_STAGED)

@@ -1,5 +1,6 @@
 /* The render graph's own structures, shared by its files: construction
- * (graph.c), bake (bake.c), evaluation (execute.c), dumps (dump.c). */
+ * (graph.c, builder.c), bake (bake.c and its steps, bake.h), evaluation
+ * (execute.c), dumps (dump.c). */
 #ifndef CORVID_GRAPH_INTERNAL_H
 #define CORVID_GRAPH_INTERNAL_H
 
@@ -86,15 +87,24 @@ typedef struct graph_physical {
     uint64_t primary_ticket;
 } graph_physical;
 
+/* A set of the graph's devices, bit d for device d: one bit for every device
+ * a graph may have (CV_MAX_DEVICES), so never a 32-bit type. */
+typedef uint64_t graph_device_mask;
+_Static_assert(CV_MAX_DEVICES <= 64, "graph_device_mask has a bit per device");
+#define GRAPH_DEVICE_BIT(d) ((graph_device_mask)1 << (d))
+
 typedef struct graph_baked {
     bool valid;
+    /* The partition step's, redone by every bake. */
     uint32_t width;
     bool balanced; /* the partition came from the balancer */
     cv_partition partition;
-    graph_step *steps;
+    bool sync_transfers; /* cv_graph_bake_desc.sync_transfers */
+    graph_step *steps;   /* (their copy plans) */
     uint32_t step_count;
-    graph_instance *instances;
+    graph_instance *instances; /* (their windows) */
     uint32_t instance_count;
+    /* The structure's, kept by bakes while its key below holds. */
     graph_barrier *barriers;
     uint32_t barrier_count;
     bool *kept;              /* per pass */
@@ -103,6 +113,12 @@ typedef struct graph_baked {
     bool *shared;            /* per resource: a zero-copy gather (in a shared pool entry) */
     bool zero_copy_required; /* CV_GRAPH_ZERO_COPY_ON: a texture that cannot be shared fails the bake */
     cv_graph_stats stats;
+    /* The structure's key: the graph's structure_epoch, the devices with
+     * columns (a partition's copy plans and instances follow them) and the
+     * zero-copy choice it was baked with (and the width and tile, above). */
+    uint64_t epoch;
+    graph_device_mask active;
+    cv_graph_zero_copy zero_copy;
 } graph_baked;
 
 /* What one evaluated frame ran, for cv_graph_collect: per pass instance its
@@ -127,12 +143,6 @@ typedef struct graph_frame {
     cv_partition partition;
     bool balanced;
 } graph_frame;
-
-/* A set of the graph's devices, bit d for device d: one bit for every device
- * a graph may have (CV_MAX_DEVICES), so never a 32-bit type. */
-typedef uint64_t graph_device_mask;
-_Static_assert(CV_MAX_DEVICES <= 64, "graph_device_mask has a bit per device");
-#define GRAPH_DEVICE_BIT(d) ((graph_device_mask)1 << (d))
 
 struct cv_graph {
     cv_context *ctx;
@@ -161,6 +171,7 @@ struct cv_graph {
     /* Bumped by every construction call (graph_changed): a bake redoes the
      * structure when it moved since the structure was last baked. */
     uint64_t structure_epoch;
+    uint32_t structure_bakes; /* cv_graph_stats.structure_bakes */
 };
 
 /* What a record callback's pc->instance points at. */
@@ -203,7 +214,7 @@ void graph_make_rings(cv_graph *g);
 /* zero_copy.c: which gathered textures the devices share (graph.h,
  * cv_graph_zero_copy), decided after the steps are laid out: sets b->shared
  * and the steps' zero_copy, moves their copies in the stats. */
-cv_result graph_choose_zero_copy(cv_graph *g, const cv_graph_bake_desc *desc, graph_baked *b);
+cv_result graph_choose_zero_copy(cv_graph *g, cv_graph_zero_copy mode, graph_baked *b);
 /* Resource r copies after all (its texture could not be shared): its steps
  * and the stats go back to copies. */
 void graph_unshare(graph_baked *b, uint32_t r);
@@ -214,10 +225,6 @@ bool graph_physical_shared(const graph_physical *p);
  * primary and as aliases of it on the others; without, an ordinary
  * representation everywhere (an alias an earlier bake made is replaced). */
 cv_result graph_load_shared(cv_graph *g, cv_handle h, graph_device_mask mask, bool shared);
-/* CORVID_TRANSFER_ASYNC (graph.h): *async false for "0", true for "1", empty
- * or unset; another value fails (the bake refuses it; execution then moves
- * synchronously). */
-cv_result graph_transfer_async(bool *async);
 /* Execution: a zero-copy transfer step (the primary waits for each source's
  * instance of the writing pass in frame fr; last[] rises to the waits'
  * tickets); before a secondary's instance, its wait for the

@@ -19,22 +19,6 @@ bool graph_physical_shared(const graph_physical *p) {
     return p->type == CV_HANDLE_TEXTURE && (p->texture.usage & CV_TEXTURE_USAGE_SHARED);
 }
 
-static cv_result mode_of(const cv_graph_bake_desc *desc, cv_graph_zero_copy *out) {
-    *out = desc->zero_copy;
-    if ((unsigned)*out > CV_GRAPH_ZERO_COPY_OFF)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_graph_bake: zero_copy %d is not AUTO, ON or OFF", (int)*out);
-    const char *env = getenv("CORVID_ZERO_COPY");
-    if (*out != CV_GRAPH_ZERO_COPY_AUTO || !env || !env[0] || strcmp(env, "auto") == 0)
-        return CV_OK;
-    if (strcmp(env, "on") == 0)
-        *out = CV_GRAPH_ZERO_COPY_ON;
-    else if (strcmp(env, "off") == 0)
-        *out = CV_GRAPH_ZERO_COPY_OFF;
-    else
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "graph: CORVID_ZERO_COPY='%s' is not one of auto, on, off", env);
-    return CV_OK;
-}
-
 /* Whether every secondary can alias the primary's memory; if not, why. */
 static bool devices_can(const cv_graph *g, char *why, size_t cap) {
     for (uint32_t d = 1; d < g->device_count; d++) {
@@ -74,14 +58,12 @@ static bool qualifies(const cv_graph *g, const graph_baked *b, uint32_t r) {
     return last_gather >= 0;
 }
 
-cv_result graph_choose_zero_copy(cv_graph *g, const cv_graph_bake_desc *desc, graph_baked *b) {
+cv_result graph_choose_zero_copy(cv_graph *g, cv_graph_zero_copy mode, graph_baked *b) {
     b->shared = calloc(g->resource_count + 1, sizeof(bool));
     if (!b->shared)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "graph: bake");
-    cv_graph_zero_copy mode;
-    cv_result res = mode_of(desc, &mode);
-    if (res != CV_OK || mode == CV_GRAPH_ZERO_COPY_OFF || g->device_count < 2)
-        return res;
+    if (mode == CV_GRAPH_ZERO_COPY_OFF || g->device_count < 2)
+        return CV_OK;
     bool any = false;
     for (uint32_t r = 0; r < g->resource_count && !any; r++)
         any = qualifies(g, b, r);
@@ -95,7 +77,7 @@ cv_result graph_choose_zero_copy(cv_graph *g, const cv_graph_bake_desc *desc, gr
             return CV_OK; /* a forced path stays in force; a bad one is reported by the transfers */
     } else if (!devices_can(g, why, sizeof(why))) {
         return cv_error(CV_ERROR_UNSUPPORTED,
-                        "graph: zero-copy gathers are required (cv_graph_bake_desc.zero_copy or CORVID_ZERO_COPY=on) "
+                        "graph: zero-copy gathers are required (cv_graph_bake_desc.zero_copy is ON) "
                         "but %s",
                         why);
     }
