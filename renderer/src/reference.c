@@ -454,21 +454,16 @@ static void *reference_worker(void *arg) {
 
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out) {
-    if (!scene || !bvh || !out || samples == 0 || samples > 65536)
+    if (!scene || !bvh || !out || samples == 0 || samples > CV_RENDER_REFERENCE_MAX_SAMPLES)
         return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "cv_render_reference: need a scene, its BVH, an output and "
-                        "1..65536 samples");
+                        "cv_render_reference: need a scene, its BVH, an output and 1..%u samples",
+                        CV_RENDER_REFERENCE_MAX_SAMPLES);
     reference_job j = { .scene = scene,
                         .target = { .flat = bvh, .layout = CV_BVH_LAYOUT_NODE2 },
                         .s = cv_render_settings_resolve(settings, scene),
                         .default_material = cv_material_default(),
                         .samples = samples,
                         .out = out };
-    if (j.s.width > CV_MAX_TEXTURE_DIM || j.s.height > CV_MAX_TEXTURE_DIM || j.s.ao_samples > 32 ||
-        (j.s.reflections != 1 && j.s.reflections != -1))
-        return cv_error(CV_ERROR_OUT_OF_RANGE,
-                        "cv_render_reference: %ux%u, %u AO samples, reflections %d (limits %u, 32; 1 or -1)",
-                        j.s.width, j.s.height, j.s.ao_samples, j.s.reflections, CV_MAX_TEXTURE_DIM);
     cv_result res = cv_render_settings_check(&j.s);
     if (res == CV_OK)
         res = cv_render_camera_check(&j.s, scene);

@@ -1045,50 +1045,6 @@ static void pass_composite(const cv_graph_pass_context *pc, cv_command_list *l, 
     record_composite(r, r->graph_iterations, l);
 }
 
-cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene) {
-    cv_render_settings s = in ? *in : (cv_render_settings){ 0 };
-    if (!s.width)
-        s.width = 640;
-    if (!s.height)
-        s.height = 360;
-    if (!s.frames)
-        s.frames = 4;
-    if (!s.ao_samples)
-        s.ao_samples = 4;
-    if (!s.shadow_samples)
-        s.shadow_samples = 1;
-    if (s.ao_radius <= 0.0f) {
-        float lo[3], hi[3];
-        cv_scene_bounds(scene, lo, hi);
-        float d = sqrtf((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                        (hi[2] - lo[2]) * (hi[2] - lo[2]));
-        s.ao_radius = d * 0.02f;
-    }
-    if (s.sun_cone_degrees == 0.0f)
-        s.sun_cone_degrees = 1.5f;
-    if (s.sun_cone_degrees < 0.0f)
-        s.sun_cone_degrees = 0.0f;
-    if (!s.tile)
-        s.tile = 8;
-    if (s.filter_iterations == 0)
-        s.filter_iterations = 2;
-    if (s.filter_iterations < 0)
-        s.filter_iterations = 0;
-    if (!s.band_rays)
-        s.band_rays = CV_RENDER_BAND_RAYS;
-    if (s.reflections == 0)
-        s.reflections = 1;
-    if (s.reflection_radius == 0)
-        s.reflection_radius = 1;
-    if (s.reflection_radius < 0)
-        s.reflection_radius = 0;
-    if (s.reflection_scale == 0.0f)
-        s.reflection_scale = 1.0f;
-    if (!s.reflection_samples)
-        s.reflection_samples = 1;
-    return s;
-}
-
 static cv_result read_output(cv_renderer *r, uint32_t iterations, uint32_t frames, cv_render_output *out) {
     size_t n = (size_t)r->width * r->height * 4;
     memset(out, 0, sizeof(*out));
@@ -1160,14 +1116,6 @@ void cv_render_output_free(cv_render_output *out) {
  * built again when any of them changes). */
 static cv_result build_graph(cv_renderer *r, uint32_t iterations, uint64_t rays) {
     const cv_render_settings *s = &r->settings;
-    if (s->reflections != 1 && s->reflections != -1)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflections %d (1 = on, -1 = off)", s->reflections);
-    if (s->reflection_radius > 8)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflection radius %d pixels (limit 8)",
-                        s->reflection_radius);
-    if (s->reflection_scale != 1.0f && s->reflection_scale != 0.5f)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflection scale %g (1 or 0.5)",
-                        (double)s->reflection_scale);
     bool moving = s->orbit_degrees != 0.0f;
     bool reflect = s->reflections == 1;
     uint64_t reflect_rays = reflect_capacity(r, s);
@@ -1644,13 +1592,6 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         res = cv_render_camera_check(&s, r->scene);
     if (res != CV_OK)
         return res;
-    if (s.width > CV_MAX_TEXTURE_DIM || s.height > CV_MAX_TEXTURE_DIM || s.ao_samples > 32 || s.frames > 4096 ||
-        s.filter_iterations > 8 || s.first_frame > (1u << 24))
-        return cv_error(CV_ERROR_OUT_OF_RANGE,
-                        "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations, "
-                        "first frame %u (limits %u, 32, 4096, 8, 2^24)",
-                        s.width, s.height, s.ao_samples, s.frames, s.filter_iterations, s.first_frame,
-                        CV_MAX_TEXTURE_DIM);
     render_sun_direction(&s, r->data.sun_direction, r->sun_direction);
     r->settings = s;
     r->graph_frames = s.frames;
