@@ -291,41 +291,35 @@ static int finish(render_run *run, cv_result r) {
 }
 
 int main(int argc, char **argv) {
-    /* Large (the device table, the outputs): on the heap, not main's stack. */
-    render_run *run = calloc(1, sizeof(*run));
-    if (!run) {
-        fprintf(stderr, "corvid-render: out of memory\n");
-        return 1;
-    }
-    int code = 0;
-    if (cv_vulkan_gpu_args(&argc, argv, &run->gpu_config) != CV_OK) {
+    render_run run = { 0 };
+    if (cv_vulkan_gpu_args(&argc, argv, &run.gpu_config) != CV_OK) {
         fprintf(stderr, "corvid-render: %s (see --help)\n", cv_last_error());
-        code = 2;
+        return 2;
     }
-    if (!code)
-        code = render_args_parse(argc, argv, &run->o);
-    if (!code && run->o.help)
+    int code = render_args_parse(argc, argv, &run.o);
+    if (code)
+        return code;
+    if (run.o.help) {
         render_args_usage(stdout);
-    if (!code && !run->o.help)
-        code = check_choices(run);
-    if (!code && !run->o.help && run->o.list_adapters)
-        code = render_list_adapters();
-    else if (!code && !run->o.help) {
-        run->t0 = render_now_ms();
-        cv_result r = prepare(run);
-        if (r == CV_OK)
-            r = render(run);
-        cv_render_settings s = r == CV_OK ? cv_render_settings_resolve(&run->o.settings, run->scene)
-                                          : (cv_render_settings){ 0 };
-        if (r == CV_OK)
-            r = write_outputs(run);
-        if (r == CV_OK && !run->o.quiet && run->o.reference)
-            printf("wrote %s and %s (%ux%u, CPU reference, %u samples x %u AO rays/pixel)\n", run->out.exr,
-                   run->out.png, run->image.width, run->image.height, run->o.reference, s.ao_samples);
-        if (r == CV_OK && !run->o.quiet && !run->o.reference)
-            print_summary(run, &s);
-        code = finish(run, r);
+        return 0;
     }
-    free(run);
-    return code;
+    code = check_choices(&run);
+    if (code)
+        return code;
+    if (run.o.list_adapters)
+        return render_list_adapters();
+    run.t0 = render_now_ms();
+    cv_result r = prepare(&run);
+    if (r == CV_OK)
+        r = render(&run);
+    cv_render_settings s = r == CV_OK ? cv_render_settings_resolve(&run.o.settings, run.scene)
+                                      : (cv_render_settings){ 0 };
+    if (r == CV_OK)
+        r = write_outputs(&run);
+    if (r == CV_OK && !run.o.quiet && run.o.reference)
+        printf("wrote %s and %s (%ux%u, CPU reference, %u samples x %u AO rays/pixel)\n", run.out.exr, run.out.png,
+               run.image.width, run.image.height, run.o.reference, s.ao_samples);
+    if (r == CV_OK && !run.o.quiet && !run.o.reference)
+        print_summary(&run, &s);
+    return finish(&run, r);
 }
