@@ -10,12 +10,14 @@
  * `(cv_render_settings){ .frames = 8 }` is a whole request. Some rows keep
  * two more meanings in the sign or in zero (their flags below): a negative
  * filter_iterations, reflection_radius or sun_cone_degrees means "none" (the
- * option's 0), and a zero camera or sun leaves the scene's.
+ * option's 0), and a zero camera_fov_degrees or sun_toward leaves the
+ * scene's camera or sun.
  *
- *   cv_render_settings s = { .width = 320, .height = 180, .ao_samples = 8 };
- *   if (cv_render_settings_check(&s) != CV_OK)       // "renderer: AO samples 40 is outside <min>..<max>"
- *       return cv_last_error();
- *   cv_render_settings r = cv_render_settings_resolve(&s, scene);    // r.frames == 4
+ *   cv_render_settings s = { .width = 320, .height = 180, .ao_samples = 40 };
+ *   if (cv_render_settings_check(&s) != CV_OK)  // "renderer: AO samples 40 is outside <min>..<max>"
+ *       fprintf(stderr, "%s\n", cv_last_error());
+ *   s.ao_samples = 8;
+ *   cv_render_settings r = cv_render_settings_resolve(&s, scene); // r.frames: the frames row's def
  *
  *   const cv_render_setting *row = &cv_render_setting_rows[CV_RENDER_SETTING_frames];
  *   printf("%s: %g..%g, default %g\n", row->option, row->min, row->max, row->def); // "--frames: <min>..<max>, <default>"
