@@ -8,8 +8,11 @@
 #define CORVID_RENDER_FRAME_H
 
 #include "corvid/blue_noise.h"
+#include "corvid/bvh.h"
+#include "corvid/device.h"
+#include "corvid/render_output.h"
 #include "corvid/render_pass.h"
-#include "corvid/renderer.h"
+#include "corvid/render_settings.h"
 #include "scene_upload.h"
 
 enum {

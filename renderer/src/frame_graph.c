@@ -82,18 +82,6 @@ static cv_result add_outputs(cv_render_frame *f) {
     return res;
 }
 
-static cv_result check_settings(const cv_render_settings *s) {
-    if (s->reflections != 1 && s->reflections != -1)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflections %d (1 = on, -1 = off)", s->reflections);
-    if (s->reflection_radius > 8)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflection radius %d pixels (limit 8)",
-                        s->reflection_radius);
-    if (s->reflection_scale != 1.0f && s->reflection_scale != 0.5f)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: reflection scale %g (1 or 0.5)",
-                        (double)s->reflection_scale);
-    return CV_OK;
-}
-
 static cv_result build(cv_render_frame *f, uint64_t rays, uint64_t reflect_rays) {
     for (uint32_t d = 0; d < f->count; d++)
         if (rays * CV_RAY_BYTES > cv_device_get_info(f->devices[d])->max_storage_buffer_range)
@@ -125,9 +113,6 @@ static cv_result build(cv_render_frame *f, uint64_t rays, uint64_t reflect_rays)
 
 cv_result render_graph_build(cv_render_frame *f, uint64_t rays) {
     const cv_render_settings *s = &f->settings;
-    cv_result res = check_settings(s);
-    if (res != CV_OK)
-        return res;
     f->info.settings = s;
     f->info.width = f->width;
     f->info.height = f->height;

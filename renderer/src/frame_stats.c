@@ -6,7 +6,7 @@
 #include <string.h>
 #include <time.h>
 
-double render_now_ms(void) {
+double render_clock_ms(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
@@ -41,7 +41,7 @@ void render_stats_add_timings(const cv_render_frame *f, cv_render_stats *st, con
 cv_result render_stats_collect(const cv_render_frame *f, render_pending *pending, cv_render_stats *st, uint32_t index,
                                bool last) {
     const uint32_t lag = CV_GRAPH_FRAMES_KEPT - 1;
-    double start = render_now_ms();
+    double start = render_clock_ms();
     cv_result res = CV_OK;
     for (uint32_t k = index >= lag ? index - lag : 0; k < index && res == CV_OK && f->count > 1; k++) {
         uint32_t slot = k % CV_GRAPH_FRAMES_KEPT, n = 0;
@@ -50,7 +50,7 @@ cv_result render_stats_collect(const cv_render_frame *f, render_pending *pending
         res = cv_graph_collect(f->graph, pending->uncollected[slot], pending->timings, RENDER_TIMINGS, &n);
         pending->uncollected[slot] = 0;
         if (res == CV_OK)
-            render_stats_add_timings(f, st, pending->timings, n, &pending->parts[slot], render_now_ms() - start);
+            render_stats_add_timings(f, st, pending->timings, n, &pending->parts[slot], render_clock_ms() - start);
     }
     return res;
 }

@@ -17,7 +17,7 @@ typedef struct render_pending {
     cv_graph_timing timings[RENDER_TIMINGS];
 } render_pending;
 
-double render_now_ms(void);
+double render_clock_ms(void);
 /* Adds one finished frame's graph timings to the render's stats: transfer
  * totals, and each device's trace time over the columns it had then (`used`).
  * frame_wall stands in where a device has no GPU timings. */

@@ -19,7 +19,6 @@
  * frame_stats.h's. */
 #include "corvid/renderer.h"
 
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -60,9 +59,9 @@ cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, c
     f->scene = scene;
     f->bvh = bvh;
     memcpy(f->devices, devices, device_count * sizeof(*devices));
-    double t0 = render_now_ms();
+    double t0 = render_clock_ms();
     cv_result res = render_frame_upload_scene(f);
-    r->upload_ms = render_now_ms() - t0;
+    r->upload_ms = render_clock_ms() - t0;
     if (res != CV_OK) {
         cv_renderer_destroy(r);
         return res;
@@ -102,50 +101,6 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot) {
     return render_graph_dump(&r->frame, text, dot);
 }
 
-cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene) {
-    cv_render_settings s = in ? *in : (cv_render_settings){ 0 };
-    if (!s.width)
-        s.width = 640;
-    if (!s.height)
-        s.height = 360;
-    if (!s.frames)
-        s.frames = 4;
-    if (!s.ao_samples)
-        s.ao_samples = 4;
-    if (!s.shadow_samples)
-        s.shadow_samples = 1;
-    if (s.ao_radius <= 0.0f) {
-        float lo[3], hi[3];
-        cv_scene_bounds(scene, lo, hi);
-        float d = sqrtf((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                        (hi[2] - lo[2]) * (hi[2] - lo[2]));
-        s.ao_radius = d * 0.02f;
-    }
-    if (s.sun_cone_degrees == 0.0f)
-        s.sun_cone_degrees = 1.5f;
-    if (s.sun_cone_degrees < 0.0f)
-        s.sun_cone_degrees = 0.0f;
-    if (!s.tile)
-        s.tile = 8;
-    if (s.filter_iterations == 0)
-        s.filter_iterations = 2;
-    if (s.filter_iterations < 0)
-        s.filter_iterations = 0;
-    if (!s.band_rays)
-        s.band_rays = CV_RENDER_BAND_RAYS;
-    if (s.reflections == 0)
-        s.reflections = 1;
-    if (s.reflection_radius == 0)
-        s.reflection_radius = 1;
-    if (s.reflection_radius < 0)
-        s.reflection_radius = 0;
-    if (s.reflection_scale == 0.0f)
-        s.reflection_scale = 1.0f;
-    if (!s.reflection_samples)
-        s.reflection_samples = 1;
-    return s;
-}
-
 /* Checks and resolves the settings, then readies the targets and the graph
  * for them. */
 static cv_result prepare(cv_renderer *r, const cv_render_settings *settings) {
@@ -156,13 +111,6 @@ static cv_result prepare(cv_renderer *r, const cv_render_settings *settings) {
         res = cv_render_camera_check(&s, f->scene);
     if (res != CV_OK)
         return res;
-    if (s.width > CV_MAX_TEXTURE_DIM || s.height > CV_MAX_TEXTURE_DIM || s.ao_samples > 32 || s.frames > 4096 ||
-        s.filter_iterations > 8 || s.first_frame > (1u << 24))
-        return cv_error(CV_ERROR_OUT_OF_RANGE,
-                        "renderer: %ux%u, %u AO samples, %u frames, %d filter iterations, "
-                        "first frame %u (limits %u, 32, 4096, 8, 2^24)",
-                        s.width, s.height, s.ao_samples, s.frames, s.filter_iterations, s.first_frame,
-                        CV_MAX_TEXTURE_DIM);
     render_sun_direction(&s, f->data.sun_direction, f->sun_direction);
     f->settings = s;
     res = render_frame_ensure_targets(f, s.width, s.height, s.reflections == 1 ? s.reflection_samples : 1);
@@ -178,7 +126,7 @@ static cv_result prepare(cv_renderer *r, const cv_render_settings *settings) {
  * so the first frames do not pay for them. Returns the time it took (0: no
  * bake). */
 static cv_result prebake(cv_render_frame *f, double *ms) {
-    double start = render_now_ms();
+    double start = render_clock_ms();
     *ms = 0.0;
     if (f->count < 2 || f->graph_prebaked)
         return CV_OK;
@@ -189,7 +137,7 @@ static cv_result prebake(cv_render_frame *f, double *ms) {
     if (res == CV_OK)
         res = cv_graph_bake(f->graph, &(cv_graph_bake_desc){ .width = f->width, .tile = f->settings.tile });
     f->graph_prebaked = res == CV_OK;
-    *ms = render_now_ms() - start;
+    *ms = render_clock_ms() - start;
     return res;
 }
 
@@ -233,7 +181,7 @@ static cv_result run_frame(cv_render_frame *f, render_loop *loop, uint32_t index
      * pipelining); otherwise only the last frame waits. */
     bool wait_now = last || (s->observer && s->observer->frame);
     uint32_t n = 0;
-    double submitted = render_now_ms();
+    double submitted = render_clock_ms();
     if (res == CV_OK && wait_now) {
         res = cv_graph_execute(f->graph, loop->pending.timings, RENDER_TIMINGS, &n);
     } else if (res == CV_OK) {
@@ -249,7 +197,7 @@ static cv_result run_frame(cv_render_frame *f, render_loop *loop, uint32_t index
     }
     if (res != CV_OK)
         return res;
-    double frame_wall = render_now_ms() - submitted;
+    double frame_wall = render_clock_ms() - submitted;
     if (wait_now) {
         render_stats_add_timings(f, &loop->stats, loop->pending.timings, n, &part, frame_wall);
         render_observe_frame(&(render_frame_report){ f->devices, f->count, &part, s, index, f->height, submitted,
@@ -315,11 +263,11 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     loop->stats = (cv_render_stats){
         .device_count = f->count, .frames = f->settings.frames, .upload_ms = r->upload_ms, .setup_ms = setup_ms
     };
-    double frames_start = render_now_ms();
+    double frames_start = render_clock_ms();
     r->rendering = true;
     res = render_frames(r, loop, progress, user);
     r->rendering = false;
-    loop->stats.frame_ms = (render_now_ms() - frames_start) / f->settings.frames;
+    loop->stats.frame_ms = (render_clock_ms() - frames_start) / f->settings.frames;
     if (res == CV_OK)
         res = render_read_output(f, f->settings.frames, out);
     if (res == CV_OK && stats)

@@ -34,9 +34,7 @@
 #include <stdint.h>
 
 #include "corvid/graph.h"
-
-/* The renderer's settings (corvid/renderer.h). */
-typedef struct cv_render_settings cv_render_settings;
+#include "corvid/render_settings.h"
 
 /* The renderer's state for one frame: settings, size, cameras, the textures
  * and scene buffers in the graph. Read through the calls below. */

@@ -59,54 +59,8 @@
 #include "corvid/render_pass.h"
 #include "corvid/render_observer.h"
 #include "corvid/render_output.h"
+#include "corvid/render_settings.h"
 #include "corvid/scene.h"
-
-/* Cut points of alpha-masked materials a secondary ray passes (the rule above). */
-#define CV_RENDER_ALPHA_LAYERS 4u
-
-/* Rays per trace_rays command: a partition is traced in bands of rows so its
- * ray and hit buffers stay bounded (128 MiB of rays) whatever the image size. */
-#define CV_RENDER_BAND_RAYS (1u << 22)
-
-typedef struct cv_render_settings {
-    uint32_t width, height;             /* [640x360] pixels */
-    uint32_t frames;                    /* [4] frames accumulated (more = less noise) */
-    uint32_t ao_samples;                /* [4] AO rays per pixel per frame (0..32) */
-    uint32_t shadow_samples;            /* [1] shadow rays per pixel per frame: 1, 2, 4, 8, 16 or 32 */
-    float ao_radius;                    /* [2% of the scene diagonal] AO ray length, metres */
-    float sun_cone_degrees;             /* [1.5] half angle of the sun's cone (soft shadows); < 0 = hard shadows */
-    uint32_t camera;                    /* [0] scene camera index; a framing camera if the scene has none */
-    uint32_t tile;                      /* [8] partition tile width, pixels */
-    int32_t filter_iterations;          /* [2] a-trous iterations (steps 1, 2, 4, ...) of shadow and AO;
-                                           -1 = none, and no reflection denoise either */
-    uint32_t band_rays;                 /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
-    uint32_t first_frame;               /* [0] sample index of the first frame: frames draw the sample sets of
-                                 * first_frame .. first_frame + frames - 1 (a render can continue
-                                 * another's sequence; tests render single frames of a sequence) */
-    const cv_render_observer *observer; /* [NULL] called after every frame with its timings
-                                         * (corvid/render_observer.h); NULL = none */
-    /* View and light controls (corvid-render --camera, --sun, --orbit); zeros keep the scene's. */
-    float camera_eye[3];         /* with camera_fov_degrees > 0, the camera at camera_eye looks at */
-    float camera_target[3];      /* camera_target, up +y (+z when it looks straight up or down) */
-    float camera_fov_degrees;    /* [0 = the scene's camera, `camera`] vertical field of view,
-                                  * (0, CV_RENDER_MAX_FOV_DEGREES] */
-    float sun_toward[3];         /* [0,0,0 = the scene's sun] direction toward the sun, any length > 0;
-                               * its cone is sun_cone_degrees */
-    float orbit_degrees;         /* [0] the camera turns by this much per frame (sample index) about the
-                               * vertical axis (its up) through its target: a moving camera, whose
-                               * G-buffer runs every frame and whose history is reprojected */
-    int32_t reflections;         /* [1] 1 = GGX reflections (reflection_samples rays per pixel per frame,
-                                  * shaded with the sun, a shadow ray and the sky), -1 = none (no
-                                  * specular term) */
-    int32_t reflection_radius;   /* [1] spatial reuse radius of the reflection filter, pixels (0..8);
-                                 * -1 = none (every pixel keeps its own samples) */
-    float reflection_scale;      /* [1] reflection rays per pixel side: 1, or 0.5 = half resolution (one
-                                 * ray per 2x2 quad per frame, the quad's pixels in turn; the filter
-                                 * fills the others, its reuse radius one pixel wider) */
-    uint32_t reflection_samples; /* [1] reflection rays per traced pixel per frame: 1, 2, 4 or 8 (each
-                                  * with its shadow ray; the filter reuses all of them); the image
-                                  * height times this is at most CV_MAX_TEXTURE_DIM */
-} cv_render_settings;
 
 typedef struct cv_renderer cv_renderer;
 
@@ -156,49 +110,11 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot);
  * its closest hit as render.reflect_shade (sun with a shadow ray, emission; the
  * sky on a miss), fill the reflection plane (unreconstructed). tile,
  * band_rays, filter_iterations, reflection_radius and observer are ignored,
- * motion is not produced (NULL). `threads` pthreads (0 = 2).
+ * motion is not produced (NULL). `threads` pthreads (0 = 2). `samples` is
+ * 1..CV_RENDER_REFERENCE_MAX_SAMPLES.
  * Fills *out like cv_renderer_render; failures leave it untouched. */
+#define CV_RENDER_REFERENCE_MAX_SAMPLES 65536u
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out);
-
-/* The widest vertical field of view rendered, the scene's cameras' too. The
- * G-buffer's near plane (1e-4 of the scene's diagonal) cuts, at the image's
- * edges, what lies within tan(fov / 2) near planes of the camera, which the
- * CPU reference (no near plane) still sees: 0.11% of the diagonal at 170
- * degrees, but 11% at 179.9 (the room from its default eye: 1040 of 1328
- * pixels) and everything at 179.999 (an empty image). Wider is refused, by
- * the renderer and the reference alike. */
-#define CV_RENDER_MAX_FOV_DEGREES 170.0f
-
-/* Checks the view and light controls of `s`: finite numbers, camera_fov_degrees
- * 0 or in (0, CV_RENDER_MAX_FOV_DEGREES] with camera_eye != camera_target, sun_toward not 0,0,0 when
- * set (any finite value is "set"), sun_cone_degrees below 90, shadow_samples
- * 0 (the default) or a power of two up to 32, reflection_samples 0 (the
- * default) or a power of two up to 8 and, with reflections on, height times
- * reflection_samples at most CV_MAX_TEXTURE_DIM. The error names
- * the field and its value; cv_renderer_render and cv_render_reference check
- * the same. */
-cv_result cv_render_settings_check(const cv_render_settings *s);
-
-/* The camera of sample index `frame` (first_frame + the frame of a render):
- * camera_eye/target/fov if set, else the scene's camera `camera` (a framing
- * camera if the scene has none), turned by orbit_degrees * frame about the
- * vertical axis through its target. The CPU reference renders the camera of
- * first_frame + frames - 1, the frame cv_renderer_render's image shows. */
-cv_camera cv_render_camera(const cv_render_settings *s, const cv_scene *scene, uint32_t frame);
-
-/* CV_ERROR_OUT_OF_RANGE when the camera cv_render_camera picks for `s` has a
- * vertical field of view over CV_RENDER_MAX_FOV_DEGREES (a scene's camera can:
- * scene files allow up to 180); cv_renderer_render and cv_render_reference
- * check it after cv_render_settings_check. */
-cv_result cv_render_camera_check(const cv_render_settings *s, const cv_scene *scene);
-
-/* Shadow and AO rays per pixel per frame of resolved settings. */
-static inline uint32_t cv_render_rays_per_pixel(const cv_render_settings *s) {
-    return s->shadow_samples + s->ao_samples;
-}
-
-/* The settings with defaults filled in for this scene. */
-cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene);
 
 #endif
