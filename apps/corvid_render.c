@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "env_graph.h"
 #include "corvid/image_exr.h"
 #include "corvid/image_files.h"
 #include "corvid/image_png.h"
@@ -306,6 +307,14 @@ int main(int argc, char **argv) {
     code = check_choices(&run);
     if (code)
         return code;
+    /* The frame graph's variables (apps/common/env_graph.h) into the settings the renderer bakes with. */
+    cv_graph_bake_desc graph_env = { 0 };
+    if (cv_env_graph_bake(&graph_env) != CV_OK) {
+        fprintf(stderr, "corvid-render: %s\n", cv_last_error());
+        return 1;
+    }
+    run.o.settings.zero_copy = graph_env.zero_copy;
+    run.o.settings.sync_transfers = graph_env.sync_transfers;
     if (run.o.list_adapters)
         return render_list_adapters();
     run.t0 = render_now_ms();

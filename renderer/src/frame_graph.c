@@ -135,6 +135,15 @@ cv_result render_graph_rebuild(cv_render_frame *f) {
     return build(f, f->graph_rays, f->graph_reflect_rays);
 }
 
+cv_graph_bake_desc render_graph_bake_desc(const cv_render_frame *f, const cv_partition *part) {
+    const cv_render_settings *s = &f->settings;
+    return (cv_graph_bake_desc){ .width = part ? part->width : f->width,
+                                 .tile = part ? part->tile : s->tile,
+                                 .partition = part,
+                                 .zero_copy = (cv_graph_zero_copy)s->zero_copy,
+                                 .sync_transfers = s->sync_transfers != 0 };
+}
+
 cv_result render_graph_enable_passes(cv_render_frame *f) {
     cv_result res = CV_OK;
     for (uint32_t i = 0; i < f->slot_count && res == CV_OK; i++) {
@@ -148,14 +157,15 @@ cv_result render_graph_enable_passes(cv_render_frame *f) {
 cv_result render_graph_dump(cv_render_frame *f, FILE *text, FILE *dot) {
     cv_partition part;
     cv_result res = cv_graph_get_partition(f->graph, &part);
+    if (res != CV_OK)
+        return res;
     cv_render_frame_view frame = f->info;
     f->info.first = f->info.last = true;
-    if (res == CV_OK)
-        res = render_graph_enable_passes(f);
+    res = render_graph_enable_passes(f);
     f->info = frame;
+    cv_graph_bake_desc bake = render_graph_bake_desc(f, &part);
     if (res == CV_OK)
-        res = cv_graph_bake(f->graph,
-                            &(cv_graph_bake_desc){ .width = part.width, .tile = part.tile, .partition = &part });
+        res = cv_graph_bake(f->graph, &bake);
     if (res == CV_OK && text)
         res = cv_graph_dump_text(f->graph, text);
     if (res == CV_OK && dot)

@@ -17,6 +17,9 @@ void render_graph_destroy(cv_render_frame *f);
 /* Appends a program's pass after the table's (cv_renderer_add_pass); the
  * next render builds the graph with it. */
 cv_result render_graph_add_pass(cv_render_frame *f, const cv_render_pass_module *m, void *user);
+/* The bake of f's graph over `part` (NULL: the graph's balancer splits the
+ * width), with the settings' zero-copy choice and transfer mode. */
+cv_graph_bake_desc render_graph_bake_desc(const cv_render_frame *f, const cv_partition *part);
 /* Which passes run on the frame f->info describes (each module's enabled). */
 cv_result render_graph_enable_passes(cv_render_frame *f);
 /* f's graph as text and/or dot: every pass (the first frame of a one-frame

@@ -133,9 +133,10 @@ static cv_result prebake(cv_render_frame *f, double *ms) {
     f->info.frame = 0;
     f->info.first = true;
     f->info.last = f->settings.frames == 1;
+    cv_graph_bake_desc bake = render_graph_bake_desc(f, NULL);
     cv_result res = render_graph_enable_passes(f);
     if (res == CV_OK)
-        res = cv_graph_bake(f->graph, &(cv_graph_bake_desc){ .width = f->width, .tile = f->settings.tile });
+        res = cv_graph_bake(f->graph, &bake);
     f->graph_prebaked = res == CV_OK;
     *ms = render_clock_ms() - start;
     return res;
@@ -172,8 +173,9 @@ static cv_result run_frame(cv_render_frame *f, render_loop *loop, uint32_t index
     /* The graph's balancer splits the columns from the last frame's trace times. */
     if (res == CV_OK)
         res = render_stats_collect(f, &loop->pending, &loop->stats, index, last);
+    cv_graph_bake_desc bake = render_graph_bake_desc(f, NULL);
     if (res == CV_OK)
-        res = cv_graph_bake(f->graph, &(cv_graph_bake_desc){ .width = f->width, .tile = s->tile });
+        res = cv_graph_bake(f->graph, &bake);
     cv_partition part;
     if (res == CV_OK)
         res = cv_graph_get_partition(f->graph, &part);

@@ -132,7 +132,13 @@ enum {
       "reflection samples", "", \
       "reflection rays per traced pixel per frame, each with a shadow ray at its hit (less noise in glossy " \
       "reflections, at N times the reflection pass's cost); the image height times N is at most the texture " \
-      "limit")
+      "limit") \
+    X(zero_copy, CV_SETTING_U32, 0, NULL, NULL, 0, 2, 0, "zero copy", "", \
+      "columns gathered through memory the devices share (the frame graph's cv_graph_zero_copy): 0 = auto, " \
+      "1 = on (or the render fails), 2 = off (copies); programs read CORVID_ZERO_COPY into it") \
+    X(sync_transfers, CV_SETTING_U32, 0, NULL, NULL, 0, 1, 0, "synchronous transfers", "", \
+      "1: every transfer between devices synchronous on the host, as before transfer rings (for comparisons); " \
+      "programs read CORVID_TRANSFER_ASYNC=0 into it")
 
 /* The fields' meanings are the table's help texts; their ranges and defaults
  * are the table's. */
@@ -159,6 +165,8 @@ typedef struct cv_render_settings {
     int32_t reflection_radius;
     float reflection_scale;
     uint32_t reflection_samples;
+    uint32_t zero_copy;      /* cv_graph_zero_copy (corvid/graph.h) */
+    uint32_t sync_transfers; /* cv_graph_bake_desc.sync_transfers */
 } cv_render_settings;
 
 /* A row of the table as data. */
