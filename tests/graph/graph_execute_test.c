@@ -163,6 +163,28 @@ static void test_execute_devices(uint32_t count) {
         /* Rebake from the balancer's measurements: still the same bytes. */
         CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = columns, .tile = 8 }));
     }
+    /* A new split of the same devices runs the partition step only: new
+     * windows and copy plans, still the same bytes. */
+    double weights[CV_MAX_DEVICES];
+    for (uint32_t d = 0; d < count; d++)
+        weights[d] = 1.0 + d % 3;
+    cv_partition even, uneven;
+    CHECK_OK(cv_partition_split(columns, 8, count, NULL, &even));
+    CHECK_OK(cv_partition_split(columns, 8, count, weights, &uneven));
+    CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = columns, .partition = &even }));
+    CHECK_OK(cv_graph_get_stats(w.graph, &st));
+    uint32_t structure_bakes = st.structure_bakes;
+    CHECK_OK(cv_graph_bake(w.graph, &(cv_graph_bake_desc){ .width = columns, .partition = &uneven }));
+    CHECK_OK(cv_graph_get_stats(w.graph, &st));
+    CHECK_EQ_INT(st.structure_bakes, structure_bakes);
+    static uint32_t zero[MAX_COLUMNS], got[MAX_COLUMNS];
+    CHECK_OK(cv_device_write_buffer(w.devices[0], result_h, 0, columns * 4, zero));
+    CHECK_OK(cv_graph_execute(w.graph, NULL, 0, NULL));
+    CHECK_OK(cv_device_read_buffer(w.devices[0], result_h, 0, columns * 4, got));
+    int wrong = 0;
+    for (uint32_t c = 0; c < columns; c++)
+        wrong += got[c] != (c % 2 ? 0x11111111u : 1000 + c);
+    CHECK_EQ_INT(wrong, 0);
     CHECK_OK(cv_buffer_destroy(w.ctx, result_h));
     world_close(&w);
 }

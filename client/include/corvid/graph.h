@@ -65,10 +65,10 @@
  *     cv_graph_resource gbuf, vis;
  *     raster_pass r;                                               // its uses, for raster()
  *     cv_graph_builder *b = cv_graph_pass_begin(g, &(cv_graph_pass_desc){ "gbuffer", CV_QUEUE_GRAPHICS,
- *                                                                   CV_MGPU_PRIMARY_ONLY, raster, &r });
- *     r.position = cv_graph_pass_create_texture(b,      &(cv_texture_desc){ w, h, CV_FORMAT_RGBA32F,
- *                                                                           .label = "gbuffer" },
- *                                                     CV_GRAPH_COLOR_TARGET, CV_GRAPH_TRANSFER_AUTO, &gbuf);
+ *                                                                         CV_MGPU_PRIMARY_ONLY, raster, &r });
+ *     r.position = cv_graph_pass_create_texture(b, &(cv_texture_desc){ w, h, CV_FORMAT_RGBA32F,
+ *                                                                     .label = "gbuffer" },
+ *                                               CV_GRAPH_COLOR_TARGET, CV_GRAPH_TRANSFER_AUTO, &gbuf);
  *     cv_graph_pass_end(b, NULL);                                  // multicast to the trace pass
  *     trace_pass t;
  *     b = cv_graph_pass_begin(g, &(cv_graph_pass_desc){ "trace", CV_QUEUE_COMPUTE, CV_MGPU_ALL_DEVICES, trace, &t });
@@ -81,7 +81,8 @@
  *     ... a PRIMARY_ONLY "filter" pass reads vis and writes "image" ...
  *     cv_graph_output(g, image);
  *     each frame:
- *         cv_graph_bake(g, &(cv_graph_bake_desc){ .width = w, .tile = 8 });   // the partition step only
+ *         cv_graph_bake(g, &(cv_graph_bake_desc){ .width = w, .tile = 8 });   // after the first: the partition step
+ *                                                                              // only (the balancer's new split)
  *         cv_graph_execute(g, timings, CV_GRAPH_MAX_STEPS, &count);
  *     cv_graph_destroy(g);
  *
