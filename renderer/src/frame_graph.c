@@ -1,6 +1,6 @@
-/* The frame graph: the renderer's textures and scene buffers imported, the
- * ray buffers as transients, then every pass module present declared in table
- * order (frame_graph.h). */
+/* The frame graph: the renderer's textures and scene buffers imported, then
+ * every pass module present declared in table order, each making its own
+ * transients (frame_graph.h). */
 #include "frame_graph.h"
 
 #include <string.h>

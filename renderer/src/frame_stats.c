@@ -12,9 +12,6 @@ double render_clock_ms(void) {
     return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
 }
 
-/* Adds one finished frame's graph timings to the render's stats: transfer
- * totals, and each device's trace time over the columns it had then (`used`).
- * frame_wall stands in where a device has no GPU timings. */
 void render_stats_add_timings(const cv_render_frame *f, cv_render_stats *st, const cv_graph_timing *timings,
                               uint32_t n, const cv_partition *used, double frame_wall) {
     const cv_render_settings *s = &f->settings;
@@ -35,9 +32,6 @@ void render_stats_add_timings(const cv_render_frame *f, cv_render_stats *st, con
     }
 }
 
-/* Before frame `index`'s bake, with several devices: collects the frame
- * CV_GRAPH_FRAMES_KEPT - 1 back (all frames still pending, on the last frame)
- * and adds their timings. */
 cv_result render_stats_collect(const cv_render_frame *f, render_pending *pending, cv_render_stats *st, uint32_t index,
                                bool last) {
     const uint32_t lag = CV_GRAPH_FRAMES_KEPT - 1;

@@ -23,6 +23,9 @@ double render_clock_ms(void);
  * frame_wall stands in where a device has no GPU timings. */
 void render_stats_add_timings(const cv_render_frame *f, cv_render_stats *st, const cv_graph_timing *timings,
                               uint32_t n, const cv_partition *used, double frame_wall);
+/* Before frame `index`'s bake, with several devices: collects the frame
+ * CV_GRAPH_FRAMES_KEPT - 1 back (all frames still pending, on the last frame)
+ * and adds their timings. */
 cv_result render_stats_collect(const cv_render_frame *f, render_pending *pending, cv_render_stats *st, uint32_t index,
                                bool last);
 /* Adds frame `index`'s rays (over the columns of `part`) to the stats. */
