@@ -1,11 +1,11 @@
-/* Camera matrices, the view and light controls of cv_render_settings and the
- * orbiting camera (see camera.h and renderer.h). */
+/* Camera matrices, the camera and sun that cv_render_settings' view and light
+ * controls pick, and the orbiting camera (see camera.h and render_settings.h). */
 #include "camera.h"
 
 #include <math.h>
 #include <string.h>
 
-#include "corvid/renderer.h"
+#include "corvid/render_settings.h"
 
 static void normalize3(float v[3]) {
     float l = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
@@ -57,56 +57,9 @@ void render_camera_view_proj(const cv_camera *camera, float aspect, float near_p
     multiply(proj, view, view_proj);
 }
 
-static bool finite3(const float v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
-
-cv_result cv_render_settings_check(const cv_render_settings *s) {
-    if (!s)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_render_settings_check: NULL settings");
-    const float *e = s->camera_eye, *t = s->camera_target, *d = s->sun_toward;
-    if (!finite3(e) || !finite3(t) || !isfinite(s->camera_fov_degrees))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "renderer: camera eye (%g, %g, %g), target (%g, %g, %g), fov %g: not finite numbers", e[0],
-                        e[1], e[2], t[0], t[1], t[2], s->camera_fov_degrees);
-    if (s->camera_fov_degrees != 0.0f) {
-        if (!(s->camera_fov_degrees > 0.0f && s->camera_fov_degrees <= CV_RENDER_MAX_FOV_DEGREES))
-            return cv_error(CV_ERROR_OUT_OF_RANGE,
-                            "renderer: camera fov %g degrees is outside (0, %g] (0 = the scene's camera; wider, "
-                            "the near plane cuts what the image's edges see)",
-                            s->camera_fov_degrees, (double)CV_RENDER_MAX_FOV_DEGREES);
-        if (e[0] == t[0] && e[1] == t[1] && e[2] == t[2])
-            return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                            "renderer: camera eye (%g, %g, %g) equals its target: no view direction", e[0], e[1],
-                            e[2]);
-    }
-    if (!finite3(d))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: sun direction (%g, %g, %g): not finite numbers", d[0],
-                        d[1], d[2]);
-    if (!isfinite(s->sun_cone_degrees) || s->sun_cone_degrees >= 90.0f)
-        return cv_error(CV_ERROR_OUT_OF_RANGE,
-                        "renderer: sun cone half angle %g degrees is outside [0, 90) (negative = hard shadows)",
-                        s->sun_cone_degrees);
-    if (s->shadow_samples > 32 || (s->shadow_samples & (s->shadow_samples - 1)) != 0)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %u shadow samples: not 1, 2, 4, 8, 16 or 32",
-                        s->shadow_samples);
-    if (s->reflection_samples > 8 || (s->reflection_samples & (s->reflection_samples - 1)) != 0)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "renderer: %u reflection samples: not 1, 2, 4 or 8",
-                        s->reflection_samples);
-    /* render.reflect_shade's samples: reflection_samples images, one above the other, in one texture. */
-    if (s->reflections != -1 && s->height > CV_MAX_TEXTURE_DIM / (s->reflection_samples ? s->reflection_samples : 1))
-        return cv_error(CV_ERROR_OUT_OF_RANGE,
-                        "renderer: %u reflection samples of a %u-row image need a sample texture of %llu rows "
-                        "(limit %u): use fewer reflection samples, a lower image or no reflections",
-                        s->reflection_samples, s->height, (unsigned long long)s->height * s->reflection_samples,
-                        CV_MAX_TEXTURE_DIM);
-    if (!isfinite(s->orbit_degrees))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "renderer: orbit %g degrees per frame: not a finite number",
-                        s->orbit_degrees);
-    return CV_OK;
-}
-
 cv_result cv_render_camera_check(const cv_render_settings *s, const cv_scene *scene) {
     if (s->camera_fov_degrees > 0.0f)
-        return CV_OK; /* cv_render_settings_check's */
+        return CV_OK; /* cv_render_settings_check's range */
     cv_camera c = cv_render_camera(s, scene, s->first_frame);
     double degrees = (double)c.vertical_fov * (180.0 / 3.14159265358979);
     /* A file's camera of exactly the limit, rounded to radians in float, passes. */

@@ -1,10 +1,10 @@
 /* Camera matrices for the G-buffer pass: right-handed view, Vulkan clip space
  * (y down, depth 0..1), column-major as GLSL reads a mat4; and the sun of a
- * render (the view and light controls are in renderer.h). */
+ * render (the view and light controls are in render_settings.h). */
 #ifndef CORVID_RENDER_CAMERA_H
 #define CORVID_RENDER_CAMERA_H
 
-#include "corvid/renderer.h"
+#include "corvid/render_settings.h"
 #include "corvid/scene.h"
 
 /* view_proj = projection * view for an aspect ratio of width / height. */

@@ -3,7 +3,10 @@
 #ifndef CORVID_RENDER_FRAME_OBSERVER_H
 #define CORVID_RENDER_FRAME_OBSERVER_H
 
-#include "corvid/renderer.h"
+#include "corvid/device.h"
+#include "corvid/graph.h"
+#include "corvid/partition.h"
+#include "corvid/render_settings.h"
 
 typedef struct render_frame_report {
     cv_device *const *devices;

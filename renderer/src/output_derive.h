@@ -10,7 +10,7 @@
 #ifndef CORVID_RENDER_OUTPUT_DERIVE_H
 #define CORVID_RENDER_OUTPUT_DERIVE_H
 
-#include "corvid/renderer.h"
+#include "corvid/render_output.h"
 #include "scene_upload.h"
 
 /* Allocates and fills out->depth and out->direct from out->position,

@@ -247,36 +247,41 @@ static void reflected_radiance(const reference_job *j, const float o[3], const f
                  e.emission[k];
 }
 
-static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
+/* The closest hit of pixel (x, y)'s camera ray that render.gbuffer keeps, with its material evaluated. */
+typedef struct camera_hit {
+    float d[3]; /* the ray's direction */
+    cv_hit hit;
+    const render_vertex *v; /* the hit triangle's vertices; NULL: the ray sees sky */
+    const float *tri_uv;
+    cv_material_eval me;
+    uint32_t m; /* material index */
+} camera_hit;
+
+static void trace_camera(const reference_job *j, uint32_t x, uint32_t y, camera_hit *h) {
     const render_scene_data *data = j->data;
     const cv_camera *cam = &j->camera;
-    size_t i = ((size_t)y * j->s.width + x) * 4;
-    cv_render_output *out = j->out;
     /* The footprint as render.gbuffer's dFdxFine/dFdyFine measure it: within
      * the pixel's 2x2 quad, across its pair (the next pixel for an even
      * coordinate, the one before for an odd one). */
-    float d[3], dx[3], dy[3], dx0[3], dy0[3];
+    float *d = h->d, dx[3], dy[3], dx0[3], dy0[3];
     camera_ray(j, (float)x, (float)y, d);
     camera_ray(j, (float)(x | 1u), (float)y, dx);
     camera_ray(j, (float)(x & ~1u), (float)y, dx0);
     camera_ray(j, (float)x, (float)(y | 1u), dy);
     camera_ray(j, (float)x, (float)(y & ~1u), dy0);
     cv_ray ray = { { cam->position[0], cam->position[1], cam->position[2] }, 0.0f, { d[0], d[1], d[2] }, INFINITY };
-    cv_hit hit;
-    const render_vertex *v = NULL;
-    const float *tri_uv = NULL;
-    cv_material_eval me;
-    uint32_t m = 0;
+    h->v = NULL;
     /* The closest hit the G-buffer keeps: a point the alpha mask cuts away,
      * or a back face of a closed mesh (render.gbuffer discards both), lets
      * the ray go on. */
     for (uint32_t pass = 0; pass < 256; pass++) {
-        if (!cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, &hit)) {
-            v = NULL;
-            break;
+        if (!cv_trace_ray(&j->target, &ray, CV_TRACE_CLOSEST, &h->hit)) {
+            h->v = NULL;
+            return;
         }
-        v = &data->vertices[j->first_vertex[hit.instance] + 3ull * hit.triangle];
-        tri_uv = &data->uvs[2 * (j->first_vertex[hit.instance] + 3ull * hit.triangle)];
+        const cv_hit *hit = &h->hit;
+        const render_vertex *v = h->v = &data->vertices[j->first_vertex[hit->instance] + 3ull * hit->triangle];
+        const float *tri_uv = h->tri_uv = &data->uvs[2 * (j->first_vertex[hit->instance] + 3ull * hit->triangle)];
         float e1[3], e2[3], ng[3], nsum[3];
         for (int k = 0; k < 3; k++) {
             e1[k] = v[1].position[k] - v[0].position[k];
@@ -285,50 +290,27 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
         }
         cross3(e1, e2, ng);
         bool back = (dot3(ng, nsum) < 0.0f) != (dot3(ng, d) > 0.0f);
-        m = v[0].material < data->material_count ? v[0].material : data->material_count - 1;
-        float w = 1.0f - hit.u - hit.v, uv[2] = { tri_uv[0] * w + tri_uv[2] * hit.u + tri_uv[4] * hit.v,
-                                                  tri_uv[1] * w + tri_uv[3] * hit.u + tri_uv[5] * hit.v };
+        h->m = v[0].material < data->material_count ? v[0].material : data->material_count - 1;
+        float w = 1.0f - hit->u - hit->v, uv[2] = { tri_uv[0] * w + tri_uv[2] * hit->u + tri_uv[4] * hit->v,
+                                                    tri_uv[1] * w + tri_uv[3] * hit->u + tri_uv[5] * hit->v };
         float ux0[2], ux[2], uy0[2], uy[2], duv[4];
         bool footprint = plane_uv(v, tri_uv, cam->position, dx0, ux0) && plane_uv(v, tri_uv, cam->position, dx, ux) &&
                          plane_uv(v, tri_uv, cam->position, dy0, uy0) && plane_uv(v, tri_uv, cam->position, dy, uy);
         if (footprint) {
             duv[0] = ux[0] - ux0[0], duv[1] = ux[1] - ux0[1], duv[2] = uy[0] - uy0[0], duv[3] = uy[1] - uy0[1];
         }
-        cv_material_evaluate(j->scene, material_of(j, m), uv[0], uv[1], footprint ? duv : NULL, &me);
-        if (me.present && !(back && v[0].closed != 0.0f))
-            break;
-        ray.tmin = nextafterf(hit.t, INFINITY);
+        cv_material_evaluate(j->scene, material_of(j, h->m), uv[0], uv[1], footprint ? duv : NULL, &h->me);
+        if (h->me.present && !(back && v[0].closed != 0.0f))
+            return;
+        ray.tmin = nextafterf(hit->t, INFINITY);
     }
-    if (!v) {
-        float sky[4] = { 0.12f, 0.15f, 0.2f, 0.0f };
-        memcpy(&out->radiance[i], sky, sizeof(sky));
-        out->visibility[i] = 1.0f, out->visibility[i + 1] = 1.0f;
-        return;
-    }
-    float p[3], n[3], ng[3], e1[3], e2[3], w = 1.0f - hit.u - hit.v;
-    for (int k = 0; k < 3; k++) {
-        p[k] = cam->position[k] + d[k] * hit.t;
-        n[k] = w * v[0].normal[k] + hit.u * v[1].normal[k] + hit.v * v[2].normal[k];
-        e1[k] = v[1].position[k] - v[0].position[k];
-        e2[k] = v[2].position[k] - v[0].position[k];
-    }
-    normalize3(n);
-    cross3(e1, e2, ng);
-    normalize3(ng);
-    float nsum[3] = { v[0].normal[0] + v[1].normal[0] + v[2].normal[0],
-                      v[0].normal[1] + v[1].normal[1] + v[2].normal[1],
-                      v[0].normal[2] + v[1].normal[2] + v[2].normal[2] };
-    if (dot3(ng, nsum) < 0.0f)
-        for (int k = 0; k < 3; k++)
-            ng[k] = -ng[k];
-    if (dot3(ng, d) > 0.0f) /* the camera's side, as render.gbuffer */
-        for (int k = 0; k < 3; k++)
-            ng[k] = -ng[k], n[k] = -n[k];
-    const cv_material *material = material_of(j, m);
-    normal_image_apply(material, v, tri_uv, me.normal, n); /* the normal image, in the triangle's tangent frame */
-    float bias = render_ray_offset(data), origin[3];
-    for (int k = 0; k < 3; k++)
-        origin[k] = p[k] + ng[k] * bias;
+}
+
+/* Sun visibility and ambient occlusion at a camera hit (origin, shading normal n, geometric normal ng):
+ * `samples` samples of the sun's cone, each with ao_samples cosine AO rays, from pixel (x, y)'s stream. */
+static void sun_and_ao(const reference_job *j, uint32_t x, uint32_t y, const float origin[3], const float n[3],
+                       const float ng[3], float *sun_out, float *ao_out) {
+    const render_scene_data *data = j->data;
     uint64_t rng = ((uint64_t)(y * j->s.width + x) << 20) ^ 0x5EEDull;
     float to_sun[3] = { -data->sun_direction[0], -data->sun_direction[1], -data->sun_direction[2] }, st[3], sb[3],
           nt[3], nb[3];
@@ -360,24 +342,73 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
                 ao += 1.0f;
         }
     }
-    sun /= (float)j->samples;
-    ao /= (float)j->samples * (float)j->s.ao_samples;
+    *sun_out = sun / (float)j->samples;
+    *ao_out = ao / ((float)j->samples * (float)j->s.ao_samples);
+}
+
+/* Reflections: `samples` GGX samples (reflect_model.h) from their own stream,
+ * so the shadow and AO samples are those of a render without. */
+static void reflection_at(const reference_job *j, uint32_t x, uint32_t y, const float origin[3], const float view[3],
+                          const float n[3], const float ng[3], float roughness, float reflection[3]) {
+    uint64_t rng2 = ((uint64_t)(y * j->s.width + x) << 20) ^ 0x0EF1EC7ull;
+    for (uint32_t sample = 0; sample < j->samples; sample++) {
+        float uv[2] = { next_float(&rng2), next_float(&rng2) }, l[3], weight, radiance[3];
+        if (!reflect_sample(view, n, ng, roughness, uv, l, &weight))
+            continue;
+        reflected_radiance(j, origin, l, radiance);
+        for (int k = 0; k < 3; k++)
+            reflection[k] += weight * radiance[k];
+    }
+    for (int k = 0; k < 3; k++)
+        reflection[k] /= (float)j->samples;
+}
+
+static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
+    const render_scene_data *data = j->data;
+    const cv_camera *cam = &j->camera;
+    size_t i = ((size_t)y * j->s.width + x) * 4;
+    cv_render_output *out = j->out;
+    camera_hit h;
+    trace_camera(j, x, y, &h);
+    const render_vertex *v = h.v;
+    const float *d = h.d;
+    const cv_material_eval me = h.me;
+    if (!v) {
+        float sky[4] = { 0.12f, 0.15f, 0.2f, 0.0f };
+        memcpy(&out->radiance[i], sky, sizeof(sky));
+        out->visibility[i] = 1.0f, out->visibility[i + 1] = 1.0f;
+        return;
+    }
+    float p[3], n[3], ng[3], e1[3], e2[3], w = 1.0f - h.hit.u - h.hit.v;
+    for (int k = 0; k < 3; k++) {
+        p[k] = cam->position[k] + d[k] * h.hit.t;
+        n[k] = w * v[0].normal[k] + h.hit.u * v[1].normal[k] + h.hit.v * v[2].normal[k];
+        e1[k] = v[1].position[k] - v[0].position[k];
+        e2[k] = v[2].position[k] - v[0].position[k];
+    }
+    normalize3(n);
+    cross3(e1, e2, ng);
+    normalize3(ng);
+    float nsum[3] = { v[0].normal[0] + v[1].normal[0] + v[2].normal[0],
+                      v[0].normal[1] + v[1].normal[1] + v[2].normal[1],
+                      v[0].normal[2] + v[1].normal[2] + v[2].normal[2] };
+    if (dot3(ng, nsum) < 0.0f)
+        for (int k = 0; k < 3; k++)
+            ng[k] = -ng[k];
+    if (dot3(ng, d) > 0.0f) /* the camera's side, as render.gbuffer */
+        for (int k = 0; k < 3; k++)
+            ng[k] = -ng[k], n[k] = -n[k];
+    const cv_material *material = material_of(j, h.m);
+    normal_image_apply(material, v, h.tri_uv, me.normal, n); /* the normal image, in the triangle's tangent frame */
+    float bias = render_ray_offset(data), origin[3];
+    for (int k = 0; k < 3; k++)
+        origin[k] = p[k] + ng[k] * bias;
+    float to_sun[3] = { -data->sun_direction[0], -data->sun_direction[1], -data->sun_direction[2] }, sun, ao;
+    sun_and_ao(j, x, y, origin, n, ng, &sun, &ao);
     float base_roughness[4] = { me.base_color[0], me.base_color[1], me.base_color[2], me.roughness };
-    /* Reflections: `samples` GGX samples (reflect_model.h) from their own
-     * stream, so the shadow and AO samples are those of a render without. */
     float reflection[3] = { 0.0f, 0.0f, 0.0f }, view[3] = { -d[0], -d[1], -d[2] };
     if (out->reflection) {
-        uint64_t rng2 = ((uint64_t)(y * j->s.width + x) << 20) ^ 0x0EF1EC7ull;
-        for (uint32_t sample = 0; sample < j->samples; sample++) {
-            float uv[2] = { next_float(&rng2), next_float(&rng2) }, l[3], weight, radiance[3];
-            if (!reflect_sample(view, n, ng, base_roughness[3], uv, l, &weight))
-                continue;
-            reflected_radiance(j, origin, l, radiance);
-            for (int k = 0; k < 3; k++)
-                reflection[k] += weight * radiance[k];
-        }
-        for (int k = 0; k < 3; k++)
-            reflection[k] /= (float)j->samples;
+        reflection_at(j, x, y, origin, view, n, ng, base_roughness[3], reflection);
         memcpy(&out->reflection[i], reflection, sizeof(reflection));
         out->reflection[i + 3] = 1.0f;
     }
@@ -402,7 +433,7 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
     memcpy(&out->albedo[i], albedo, sizeof(albedo));
     out->albedo[i + 3] = 1.0f;
     memcpy(&out->normal[i], n, sizeof(n));
-    out->normal[i + 3] = (float)m;
+    out->normal[i + 3] = (float)h.m;
     memcpy(&out->position[i], p, sizeof(p));
     out->position[i + 3] = 1.0f;
     out->visibility[i] = sun, out->visibility[i + 1] = ao;
@@ -423,21 +454,16 @@ static void *reference_worker(void *arg) {
 
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out) {
-    if (!scene || !bvh || !out || samples == 0 || samples > 65536)
+    if (!scene || !bvh || !out || samples == 0 || samples > CV_RENDER_REFERENCE_MAX_SAMPLES)
         return cv_error(CV_ERROR_INVALID_ARGUMENT,
-                        "cv_render_reference: need a scene, its BVH, an output and "
-                        "1..65536 samples");
+                        "cv_render_reference: need a scene, its BVH, an output and 1..%u samples",
+                        CV_RENDER_REFERENCE_MAX_SAMPLES);
     reference_job j = { .scene = scene,
                         .target = { .flat = bvh, .layout = CV_BVH_LAYOUT_NODE2 },
                         .s = cv_render_settings_resolve(settings, scene),
                         .default_material = cv_material_default(),
                         .samples = samples,
                         .out = out };
-    if (j.s.width > CV_MAX_TEXTURE_DIM || j.s.height > CV_MAX_TEXTURE_DIM || j.s.ao_samples > 32 ||
-        (j.s.reflections != 1 && j.s.reflections != -1))
-        return cv_error(CV_ERROR_OUT_OF_RANGE,
-                        "cv_render_reference: %ux%u, %u AO samples, reflections %d (limits %u, 32; 1 or -1)",
-                        j.s.width, j.s.height, j.s.ao_samples, j.s.reflections, CV_MAX_TEXTURE_DIM);
     cv_result res = cv_render_settings_check(&j.s);
     if (res == CV_OK)
         res = cv_render_camera_check(&j.s, scene);

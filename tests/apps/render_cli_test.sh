@@ -199,7 +199,7 @@ refused "seed over 32 bits" "--seed: '4294967296' is not a whole number in 0..42
 refused "negative stress" "--scene: 'stress:-5' is not stress:N" --scene stress:-5
 refused "overflowing stress" "--scene: 'stress:18446744073709551616' is not stress:N" --scene stress:18446744073709551616
 refused "flag with a value" "--quiet takes no value" --quiet=1
-refused "AO radius 0" "--ao-radius: '0' is not a finite length > 0" --ao-radius 0
+refused "AO radius 0" "--ao-radius: '0' is not a finite number of scene units > 0" --ao-radius 0
 # The view and light controls: wrong counts, non-finite numbers and values
 # outside their ranges are refused naming the option and the value.
 refused "camera with 3 numbers" "--camera: '1,2,3' is not 7 finite numbers EX,EY,EZ,TX,TY,TZ,FOV" --camera 1,2,3

@@ -613,7 +613,7 @@ static void check_settings(const cv_test_gpus *g, const cv_scene *scene, const c
     static const uint32_t bad_samples[2] = { 3, 16 };
     for (int k = 0; k < 2; k++) {
         char want[64];
-        snprintf(want, sizeof want, "%u reflection samples: not 1, 2, 4 or 8", bad_samples[k]);
+        snprintf(want, sizeof want, "reflection samples %u is not one of 1, 2, 4, 8", bad_samples[k]);
         s.reflection_samples = bad_samples[k];
         CHECK_EQ_INT(cv_test_gpus_render(g, 1, scene, bvh, &s, &o, NULL), CV_ERROR_OUT_OF_RANGE);
         CHECK(strstr(cv_last_error(), want) != NULL);

@@ -2,7 +2,7 @@
  * with every cross-device transfer forced onto each path in turn through
  * cv_transfer_set_path (staged, host-import, shared; with
  * CORVID_VGPU_DEVICE=shared also device), and with zero-copy gathers
- * (CORVID_ZERO_COPY=on: visibility and reflection samples traced straight
+ * (cv_render_settings.zero_copy on: visibility and reflection samples traced straight
  * into the primary's memory): radiance and visibility must be bit-identical
  * to the one-device frame, and validation silent.
  * FRAMES frames, more than CV_GRAPH_FRAMES_KEPT: on host-import and shared
@@ -85,6 +85,9 @@ static void observe_frame(const cv_render_frame_info *f, void *user) {
     }
 }
 
+/* The zero-copy choice of the renders below (cv_render_settings.zero_copy). */
+static cv_graph_zero_copy zero_copy_choice = CV_GRAPH_ZERO_COPY_AUTO;
+
 static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out,
                            cv_render_stats *stats, const cv_render_observer *observer, bool moving) {
     cv_render_settings s = { .width = W,
@@ -94,7 +97,8 @@ static cv_result render_on(uint32_t gpus, const cv_scene *scene, const cv_bvh *b
                              .sun_cone_degrees = -1,
                              .filter_iterations = -1,
                              .orbit_degrees = moving ? 1.0f : 0.0f,
-                             .observer = observer };
+                             .observer = observer,
+                             .zero_copy = zero_copy_choice };
     return cv_test_render(gpus, scene, bvh, &s, out, stats);
 }
 
@@ -118,7 +122,6 @@ static void check_zero_copy_fallback(const cv_scene *scene, const cv_bvh *bvh, c
         snprintf(desc.label, sizeof desc.label, "gpu%d", d);
         CHECK_OK(cv_device_create(ctx, &refusing, &desc, &devices[d]));
     }
-    setenv("CORVID_ZERO_COPY", "auto", 1);
     transfer_check c = { .gpus = 2, .zero_copy = true, .reflection_copied = true };
     cv_render_settings s = { .width = W,
                              .height = H,
@@ -135,7 +138,6 @@ static void check_zero_copy_fallback(const cv_scene *scene, const cv_bvh *bvh, c
             CHECK_OK(cv_renderer_render(r, &s, &out, NULL, NULL, NULL));
     }
     cv_renderer_destroy(r);
-    unsetenv("CORVID_ZERO_COPY");
     CHECK_EQ_INT(c.frames, OBSERVED_FRAMES);
     CHECK_EQ_INT(c.visibility, OBSERVED_FRAMES);
     CHECK_EQ_INT(c.reflection, OBSERVED_FRAMES);
@@ -171,7 +173,7 @@ int main(void) {
     CHECK_EQ_INT(alone.visibility + alone.reflection + alone.gbuffer + alone.wrong, 0); /* nothing moves */
     /* With the virtual GPUs on one VkDevice (CORVID_VGPU_DEVICE=shared, ctest's
      * renderer_transfer_paths_shared) the direct path too. "zero-copy": the
-     * path left to auto with CORVID_ZERO_COPY=on (graph.h): the gathers are
+     * path left to auto with zero_copy on (graph.h): the gathers are
      * GPU-side waits on shared memory; a forced path turns it off. */
     const char *vgpu = getenv("CORVID_VGPU_DEVICE");
     bool shared = vgpu && strcmp(vgpu, "shared") == 0;
@@ -186,7 +188,7 @@ int main(void) {
         cv_transfer_path forced;
         CHECK_OK(cv_transfer_path_parse(zero_copy ? "auto" : paths[p], &forced));
         CHECK_OK(cv_transfer_set_path(forced));
-        setenv("CORVID_ZERO_COPY", zero_copy ? "on" : "auto", 1);
+        zero_copy_choice = zero_copy ? CV_GRAPH_ZERO_COPY_ON : CV_GRAPH_ZERO_COPY_AUTO;
         /* Sanitizer builds: 2 and 3 (an even and an uneven split), not 4 as well. */
         for (uint32_t gpus = 2; gpus <= CV_TEST_REPEATS(4u, 3u); gpus++) {
             cv_render_output many = { 0 };
@@ -227,7 +229,7 @@ int main(void) {
         }
     }
     cv_transfer_clear_path();
-    unsetenv("CORVID_ZERO_COPY");
+    zero_copy_choice = CV_GRAPH_ZERO_COPY_AUTO;
     /* A moving camera: the G-buffer every frame, each secondary gets its window
      * of it; the gathers zero-copy (auto, on lavapipe's separate VkDevices and
      * on one VkDevice alike). */

@@ -104,13 +104,13 @@ static void check_settings_refused(const cv_scene *scene, gpu *g) {
         { "fov 180",
           { .camera_eye = { 1, 1, 1 }, .camera_fov_degrees = 180 },
           CV_ERROR_OUT_OF_RANGE,
-          "fov 180 degrees is outside (0, 170]" },
+          "fov 180 degrees is outside (0,170]" },
         /* The GPU image was empty (the near plane cut everything) where the
          * reference covered every pixel. */
         { "fov 179.999",
           { .camera_eye = { 1, 1, 1 }, .camera_fov_degrees = 179.999f },
           CV_ERROR_OUT_OF_RANGE,
-          "fov 179.999 degrees is outside (0, 170]" },
+          "fov 179.999 degrees is outside (0,170]" },
         { "negative fov",
           { .camera_eye = { 1, 1, 1 }, .camera_fov_degrees = -5 },
           CV_ERROR_OUT_OF_RANGE,

@@ -56,106 +56,11 @@
 #include "corvid/bvh.h"
 #include "corvid/device.h"
 #include "corvid/partition.h"
+#include "corvid/render_pass.h"
 #include "corvid/render_observer.h"
+#include "corvid/render_output.h"
+#include "corvid/render_settings.h"
 #include "corvid/scene.h"
-
-/* Cut points of alpha-masked materials a secondary ray passes (the rule above). */
-#define CV_RENDER_ALPHA_LAYERS 4u
-
-/* Rays per trace_rays command: a partition is traced in bands of rows so its
- * ray and hit buffers stay bounded (128 MiB of rays) whatever the image size. */
-#define CV_RENDER_BAND_RAYS (1u << 22)
-
-typedef struct cv_render_settings {
-    uint32_t width, height;             /* [640x360] pixels */
-    uint32_t frames;                    /* [4] frames accumulated (more = less noise) */
-    uint32_t ao_samples;                /* [4] AO rays per pixel per frame (0..32) */
-    uint32_t shadow_samples;            /* [1] shadow rays per pixel per frame: 1, 2, 4, 8, 16 or 32 */
-    float ao_radius;                    /* [2% of the scene diagonal] AO ray length, metres */
-    float sun_cone_degrees;             /* [1.5] half angle of the sun's cone (soft shadows); < 0 = hard shadows */
-    uint32_t camera;                    /* [0] scene camera index; a framing camera if the scene has none */
-    uint32_t tile;                      /* [8] partition tile width, pixels */
-    int32_t filter_iterations;          /* [2] a-trous iterations (steps 1, 2, 4, ...) of shadow and AO;
-                                           -1 = none, and no reflection denoise either */
-    uint32_t band_rays;                 /* [CV_RENDER_BAND_RAYS] most rays per trace_rays command */
-    uint32_t first_frame;               /* [0] sample index of the first frame: frames draw the sample sets of
-                                 * first_frame .. first_frame + frames - 1 (a render can continue
-                                 * another's sequence; tests render single frames of a sequence) */
-    const cv_render_observer *observer; /* [NULL] called after every frame with its timings
-                                         * (corvid/render_observer.h); NULL = none */
-    /* View and light controls (corvid-render --camera, --sun, --orbit); zeros keep the scene's. */
-    float camera_eye[3];         /* with camera_fov_degrees > 0, the camera at camera_eye looks at */
-    float camera_target[3];      /* camera_target, up +y (+z when it looks straight up or down) */
-    float camera_fov_degrees;    /* [0 = the scene's camera, `camera`] vertical field of view,
-                                  * (0, CV_RENDER_MAX_FOV_DEGREES] */
-    float sun_toward[3];         /* [0,0,0 = the scene's sun] direction toward the sun, any length > 0;
-                               * its cone is sun_cone_degrees */
-    float orbit_degrees;         /* [0] the camera turns by this much per frame (sample index) about the
-                               * vertical axis (its up) through its target: a moving camera, whose
-                               * G-buffer runs every frame and whose history is reprojected */
-    int32_t reflections;         /* [1] 1 = GGX reflections (reflection_samples rays per pixel per frame,
-                                  * shaded with the sun, a shadow ray and the sky), -1 = none (no
-                                  * specular term) */
-    int32_t reflection_radius;   /* [1] spatial reuse radius of the reflection filter, pixels (0..8);
-                                 * -1 = none (every pixel keeps its own samples) */
-    float reflection_scale;      /* [1] reflection rays per pixel side: 1, or 0.5 = half resolution (one
-                                 * ray per 2x2 quad per frame, the quad's pixels in turn; the filter
-                                 * fills the others, its reuse radius one pixel wider) */
-    uint32_t reflection_samples; /* [1] reflection rays per traced pixel per frame: 1, 2, 4 or 8 (each
-                                  * with its shadow ray; the filter reuses all of them); the image
-                                  * height times this is at most CV_MAX_TEXTURE_DIM */
-} cv_render_settings;
-
-/* Per-device figures of the last frame. */
-typedef struct cv_render_device_stats {
-    cv_column_range columns;
-    uint64_t rays;
-    double trace_ms; /* GPU (or CPU, on lavapipe) time of raygen+trace+resolve */
-    double ms_per_column;
-} cv_render_device_stats;
-
-typedef struct cv_render_stats {
-    uint32_t device_count;
-    uint32_t frames;
-    cv_render_device_stats devices[CV_MAX_DEVICES];
-    uint64_t rays_total; /* over all frames: shadow and AO rays, (shadow_samples + ao_samples) per pixel per frame */
-    /* Over all frames, not in rays_total: reflection rays and the shadow ray from each one's hit, two per
-     * reflection sample per traced pixel per frame (every pixel; at reflection_scale 0.5 the pixels of the
-     * frame's slot of each 2x2 quad). As rays_total, it counts every pixel's rays, sky pixels' and lost samples' included. */
-    uint64_t reflection_rays;
-    /* Over all frames: ray slots of the alpha-mask re-traces (renderer.h's rule), every ray of a band
-     * per round, retired or not; 0 for a scene without alpha-masked materials (no round runs). */
-    uint64_t alpha_rays;
-    uint32_t devices_lost;   /* secondaries that died during the render; their columns went to the others */
-    uint64_t transfer_bytes; /* over all frames, between devices */
-    double transfer_ms;
-    double upload_ms; /* scene upload to all devices */
-    double frame_ms;  /* wall time per frame, mean */
-    double setup_ms;  /* several devices, a new graph: its first bake before the frames (transfer rings) */
-} cv_render_stats;
-
-/* The frame as planes of RGBA floats (width * height * 4 each; depth: 1 per pixel). */
-typedef struct cv_render_output {
-    uint32_t width, height;
-    float *radiance; /* linear HDR; alpha 1 on geometry, 0 on sky */
-    float *albedo;
-    float *normal;     /* xyz, w = material index */
-    float *position;   /* world position, w = 1 on geometry */
-    float *visibility; /* r = sun visibility, g = ambient occlusion (filtered; accumulated in
-                                 * float32), b, a = their mean squares over the frames (unfiltered) */
-    /* Planes added for the EXR's per-pass layers; NULL when not produced. */
-    float *depth;      /* ONE float per pixel (width * height): distance from the camera's position to the
-                        * visible surface (camera distance, not view-plane depth); +infinity on sky */
-    float *direct;     /* direct sun light as the composite adds it (albedo * sun * N.L * sun visibility / pi),
-                        * derived on the host from albedo, normal and visibility; alpha 1 on geometry */
-    float *motion;     /* NULL unless produced (cv_renderer_render): xy = where the pixel's surface
-                        * was in the previous frame's image minus the pixel centre, in pixels (the EXR's motion.X, motion.Y)
-                        * (0 for a still camera and on sky), z = the pixel's history length in
-                        * frames (this one included), w = 1 where the history was reprojected */
-    float *reflection; /* rgb = reflected radiance (GGX sample weight G2 / G1 applied, Fresnel not:
-                        * radiance adds F * reflection), a = 1 on geometry; NULL without reflections
-                        * (the EXR's reflection.R, G, B) */
-} cv_render_output;
 
 typedef struct cv_renderer cv_renderer;
 
@@ -172,12 +77,19 @@ void cv_renderer_destroy(cv_renderer *r);
  * device that cannot take the scene is refused and left as it was. */
 cv_result cv_renderer_add_device(cv_renderer *r, cv_device *dev);
 
+/* Adds a pass module (corvid/render_pass.h) to the frame, after the
+ * renderer's own passes (and those added before it), from the next render
+ * on; `user` is passed to its callbacks. The module and user must outlive
+ * the renderer. Refused during a render (from its progress callback), for a
+ * module without name, declare or record, a name the frame has already, or
+ * more than 8 added passes. docs/render-graph.md, "Writing a pass". */
+cv_result cv_renderer_add_pass(cv_renderer *r, const cv_render_pass_module *module, void *user);
+
 /* Renders settings->frames frames and reads the result back. `progress`, if
  * set, is called after every frame. */
 cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings, cv_render_output *out,
                              cv_render_stats *stats, void (*progress)(uint32_t frame, uint32_t frames, void *user),
                              void *user);
-void cv_render_output_free(cv_render_output *out);
 
 /* The renderer's frame as its render graph (corvid/graph.h) sees it, after a
  * render: every pass (the first frame of a one-frame render) over the last
@@ -198,49 +110,11 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot);
  * its closest hit as render.reflect_shade (sun with a shadow ray, emission; the
  * sky on a miss), fill the reflection plane (unreconstructed). tile,
  * band_rays, filter_iterations, reflection_radius and observer are ignored,
- * motion is not produced (NULL). `threads` pthreads (0 = 2).
+ * motion is not produced (NULL). `threads` pthreads (0 = 2). `samples` is
+ * 1..CV_RENDER_REFERENCE_MAX_SAMPLES.
  * Fills *out like cv_renderer_render; failures leave it untouched. */
+#define CV_RENDER_REFERENCE_MAX_SAMPLES 65536u
 cv_result cv_render_reference(const cv_scene *scene, const cv_bvh *bvh, const cv_render_settings *settings,
                               uint32_t samples, uint32_t threads, cv_render_output *out);
-
-/* The widest vertical field of view rendered, the scene's cameras' too. The
- * G-buffer's near plane (1e-4 of the scene's diagonal) cuts, at the image's
- * edges, what lies within tan(fov / 2) near planes of the camera, which the
- * CPU reference (no near plane) still sees: 0.11% of the diagonal at 170
- * degrees, but 11% at 179.9 (the room from its default eye: 1040 of 1328
- * pixels) and everything at 179.999 (an empty image). Wider is refused, by
- * the renderer and the reference alike. */
-#define CV_RENDER_MAX_FOV_DEGREES 170.0f
-
-/* Checks the view and light controls of `s`: finite numbers, camera_fov_degrees
- * 0 or in (0, CV_RENDER_MAX_FOV_DEGREES] with camera_eye != camera_target, sun_toward not 0,0,0 when
- * set (any finite value is "set"), sun_cone_degrees below 90, shadow_samples
- * 0 (the default) or a power of two up to 32, reflection_samples 0 (the
- * default) or a power of two up to 8 and, with reflections on, height times
- * reflection_samples at most CV_MAX_TEXTURE_DIM. The error names
- * the field and its value; cv_renderer_render and cv_render_reference check
- * the same. */
-cv_result cv_render_settings_check(const cv_render_settings *s);
-
-/* The camera of sample index `frame` (first_frame + the frame of a render):
- * camera_eye/target/fov if set, else the scene's camera `camera` (a framing
- * camera if the scene has none), turned by orbit_degrees * frame about the
- * vertical axis through its target. The CPU reference renders the camera of
- * first_frame + frames - 1, the frame cv_renderer_render's image shows. */
-cv_camera cv_render_camera(const cv_render_settings *s, const cv_scene *scene, uint32_t frame);
-
-/* CV_ERROR_OUT_OF_RANGE when the camera cv_render_camera picks for `s` has a
- * vertical field of view over CV_RENDER_MAX_FOV_DEGREES (a scene's camera can:
- * scene files allow up to 180); cv_renderer_render and cv_render_reference
- * check it after cv_render_settings_check. */
-cv_result cv_render_camera_check(const cv_render_settings *s, const cv_scene *scene);
-
-/* Shadow and AO rays per pixel per frame of resolved settings. */
-static inline uint32_t cv_render_rays_per_pixel(const cv_render_settings *s) {
-    return s->shadow_samples + s->ao_samples;
-}
-
-/* The settings with defaults filled in for this scene. */
-cv_render_settings cv_render_settings_resolve(const cv_render_settings *in, const cv_scene *scene);
 
 #endif
