@@ -182,6 +182,10 @@ def undocumented_state(files):
                 window = " ".join(lines[max(0, i - 6): i + 1])
                 if "process-wide" not in window:
                     found.append((f, i + 1, stripped))
+            elif depth == 0 and not in_comment and re.match(r"^static\s+(struct|union)(\s+\w+)?\s*\{\s*$", line):
+                window = " ".join(lines[max(0, i - 8): i + 1])
+                if "process-wide" not in window:
+                    found.append((f, i + 1, stripped))
             elif depth == 0 and not in_comment and STATE_RE.match(line) and "(" not in line.split("=")[0].replace("_Atomic(", ""):
                 if not re.match(r"^(static\s+)?const\b", line) and not line.startswith(("extern", "typedef", "return")):
                     window = " ".join(lines[max(0, i - 6): i + 1])

@@ -3,6 +3,8 @@
 
 #include "exr_errors.h"
 
+/* process-wide (one per thread): OpenEXR's error callback receives no user pointer we own, so the message
+ * of the failing call waits here for the same thread to read it right after. */
 static _Thread_local char captured[512];
 
 void exr_capture_error(exr_const_context_t ctxt, exr_result_t code, const char *msg) {

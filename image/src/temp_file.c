@@ -13,7 +13,7 @@
 #include "corvid/image_files.h"
 
 /* The temporaries that exist now, so that a program stopped by a signal can
- * remove them (cv_image_temps_remove_all). Process-wide on purpose: a signal
+ * remove them (cv_image_temps_remove_all). process-wide: a signal
  * ends the whole process, whichever thread or file set made them. Fixed
  * slots with the names inline: the signal handler allocates nothing and
  * follows no pointer another thread may free. */
@@ -53,6 +53,8 @@ void cv_image_temps_remove_all(void) {
 }
 
 cv_result image_temp_create(const char *path, char **temp, int *fd) {
+    /* process-wide: two threads (or two file sets) naming temporaries beside the same path must not pick
+     * the same name; the pid separates processes, this counter the calls of one. */
     static _Atomic unsigned counter;
     const char *slash = strrchr(path, '/');
     int dir_len = slash != NULL ? (int)(slash - path + 1) : 0;
