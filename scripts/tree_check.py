@@ -8,7 +8,10 @@
   scripts/tree_check.py state     list process-wide mutable variables (file-scope, not const) in
                                   library code whose line, or the comment just above it, does not
                                   say "process-wide" and why; exit 1 if any
-  scripts/tree_check.py all       all three (the ctest `tree_structure` runs this)
+  scripts/tree_check.py library   library code that reads the environment (getenv) or prints
+                                  (stdout/stderr) instead of taking configuration structs and
+                                  logging through the sink (corvid/log.h); exit 1 if any
+  scripts/tree_check.py all       all four (the ctest `tree_structure` runs this)
 
 An edge A -> B means a file of module A includes B's header ("b.h" or <corvid/b.h>), resolved
 the way the build resolves it: first beside the including file, then in every include/ folder
@@ -209,6 +212,33 @@ def undocumented_state(files):
     return found
 
 
+# Where library code may print: the log sink's default (stderr) is the one place.
+PRINT_ALLOWED = {os.path.join("client", "src", "util", "log.c")}
+LIBRARY_CALL_RE = re.compile(r"\b(getenv|secure_getenv)\s*\(|\bstderr\b|\bstdout\b|(?<![sn])\bprintf\s*\(|\bputs\s*\(|\bperror\s*\(")
+
+
+def library_calls(files):
+    """Library code takes configuration in structs and logs through one sink: no getenv, no prints."""
+    found = []
+    for f in files:
+        if not f.endswith(".c") or not f.startswith(LIBRARY_DIRS):
+            continue
+        with open(os.path.join(ROOT, f), encoding="utf-8", errors="replace") as fh:
+            text = fh.read()
+        # blank comments and strings, keeping line numbers
+        text = re.sub(r"/\*.*?\*/", lambda m: re.sub(r"[^\n]", " ", m.group(0)), text, flags=re.S)
+        text = re.sub(r"//[^\n]*", "", text)
+        text = re.sub(r'"(\\.|[^"\\\n])*"', '""', text)
+        for n, line in enumerate(text.split("\n"), 1):
+            m = LIBRARY_CALL_RE.search(line)
+            if not m:
+                continue
+            if f in PRINT_ALLOWED and "getenv" not in m.group(0):
+                continue
+            found.append((f, n, line.strip()))
+    return found
+
+
 def main(argv):
     global files_set
     what = argv[1] if len(argv) > 1 else "all"
@@ -246,6 +276,12 @@ def main(argv):
         for f, line, text in state:
             print(f"  {f}:{line}  {text}")
         rc |= 1 if state else 0
+    if what in ("library", "all"):
+        calls = library_calls(files)
+        print(f"library code reading the environment or printing: {len(calls)}")
+        for f, line, text in calls:
+            print(f"  {f}:{line}  {text}")
+        rc |= 1 if calls else 0
     return rc
 
 
