@@ -133,7 +133,7 @@ static cv_result import_ticket(cv_backend_device *bd, cv_backend_device *source,
         return vk_fail(vr, "vkGetSemaphoreFdKHR (the ticket semaphore of device '%s', for device '%s')",
                        source->label, bd->label);
     VkSemaphore s;
-    cv_result r = vk_device_create_timeline(bd, &s, "imported ticket");
+    cv_result r = vk_device_create_timeline(bd, &s, "imported ticket", false);
     if (r != CV_OK) {
         close(fd);
         return r;
@@ -157,7 +157,7 @@ static cv_result import_ticket(cv_backend_device *bd, cv_backend_device *source,
 cv_result vk_cross_wait_semaphore(cv_backend_device *bd, cv_backend_device *source, uint64_t use, VkSemaphore *out) {
     *out = VK_NULL_HANDLE;
     prune(bd);
-    vk_watch *w = source->bridge.watch;
+    vk_watch *w = vk_bridge_watch(source);
     for (uint32_t i = 0; i < bd->import_count; i++)
         if (bd->imports[i].watch == w) {
             if (bd->imports[i].semaphore)

@@ -31,7 +31,7 @@
 
 #include <stddef.h>
 
-#include "vk_device.h"
+#include "vk_device_core.h"
 
 typedef enum vk_cross_mode { VK_CROSS_AUTO = 0, VK_CROSS_BRIDGE, VK_CROSS_IMPORT } vk_cross_mode;
 

@@ -111,7 +111,7 @@ static cv_result cross_wait(cv_backend_device *bd, const cv_link_wait *wait, uin
         r = vk_bridge_request(bd, wait->device, wait->ticket, &value);
     if (r == CV_OK)
         waits[(*count)++] = imported ? semaphore_info(imported, wait->ticket)
-                                     : semaphore_info(bd->bridge.semaphore, value);
+                                     : semaphore_info(vk_bridge_semaphore(bd), value);
     return r;
 }
 

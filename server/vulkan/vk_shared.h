@@ -45,7 +45,7 @@
 
 #include <pthread.h>
 
-#include "vk_device.h"
+#include "vk_device_core.h"
 
 #define VK_SHARED_MAX_QUEUES 16u
 

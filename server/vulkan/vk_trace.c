@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "vk_host_transfer.h"
+#include "vk_trace.h"
 #include "vk_trace_calibrate.h"
 #include "vk_trace_rt.h"
 
@@ -242,7 +243,8 @@ static cv_result measure_if_needed(cv_backend_device *bd, vk_accel *a, const voi
     cv_result r = CV_OK;
     adapter_measurement *m = &measurements[index];
     if (!m->measured) {
-        r = vk_trace_calibrate(bd, a, triangles, &m->figures);
+        static const vk_trace_paths paths = { vk_trace_ready, vk_trace_prepare_accel, vk_trace_record };
+        r = vk_trace_calibrate(bd, &paths, a, triangles, &m->figures);
         if (r == CV_OK) {
             m->measured = true;
             m->faster = m->figures.pipeline_mrays > m->figures.compute_mrays ? CV_VULKAN_TRACE_PIPELINE
