@@ -21,6 +21,7 @@
 #include "corvid/scene_procedural.h"
 #include "corvid/tonemap.h"
 #include "corvid/vulkan.h"
+#include "env_vulkan.h"
 #include "render_exr.h"
 #include "render_outputs.h"
 
@@ -366,7 +367,7 @@ static bool opt_help(options *o, const char *name, const char *value) {
     return o->help = true;
 }
 
-/* Every option of corvid-render but those cv_vulkan_gpu_args takes (--gpus,
+/* Every option of corvid-render but those cv_env_vulkan_gpu_args takes (--gpus,
  * --virtual-gpus, --adapters), which it removes from argv first. */
 static const struct option_def {
     const char *name;
@@ -625,7 +626,7 @@ static double now_ms(void) {
 
 int main(int argc, char **argv) {
     cv_vulkan_gpu_config gpu_config = { 0 };
-    if (cv_vulkan_gpu_args(&argc, argv, &gpu_config) != CV_OK) {
+    if (cv_env_vulkan_gpu_args(&argc, argv, &gpu_config) != CV_OK) {
         fprintf(stderr, "corvid-render: %s (see --help)\n", cv_last_error());
         return 2;
     }
@@ -720,6 +721,8 @@ int main(int argc, char **argv) {
         if (r == CV_OK && !o.quiet)
             fprintf(stderr, "reference: %u samples per pixel in %.1f s\n", o.reference, (now_ms() - t0) / 1e3);
     }
+    if (r == CV_OK && !o.nodes && !o.reference)
+        r = cv_env_vulkan_gpu_config(&gpu_config); /* the environment only where the table is used */
     if (r == CV_OK && !o.nodes && !o.reference)
         r = cv_vulkan_gpu_table_build(&gpu_config, &table);
     if (r == CV_OK && table.count > CV_MAX_DEVICES)

@@ -230,7 +230,7 @@ static cv_result load_entry_points(cv_backend_device *bd, bool calibrated) {
             snprintf(bd->cross_missing, sizeof(bd->cross_missing), "vkGetSemaphoreFdKHR/vkImportSemaphoreFdKHR");
             if (bd->cross_required)
                 return cv_error(CV_ERROR_UNSUPPORTED,
-                                "device '%s': cross_wait 'import' needs %s, which it lacks (use bridge or auto)",
+                                "device '%s': cross_wait import needs %s, which it lacks (use bridge or auto)",
                                 bd->label, bd->cross_missing);
         }
     }
@@ -312,7 +312,7 @@ static void read_properties(cv_backend_device *bd) {
 }
 
 /* The subsystems over the VkDevice, in order (vk_device_destroy stops them). */
-static cv_result start_subsystems(cv_backend_device *bd) {
+static cv_result start_subsystems(cv_backend_device *bd, const cv_vulkan_device_options *o) {
     vk_memory_init(&bd->memory, bd->device, bd->adapter.physical);
     bd->memory.device_address = true;
     if (bd->external_host && vk_resources_host_import_ok(bd))
@@ -325,10 +325,22 @@ static cv_result start_subsystems(cv_backend_device *bd) {
     if (r == CV_OK)
         r = vk_bridge_init(bd);
     if (r == CV_OK)
-        r = vk_trace_init(bd);
+        r = vk_trace_init(bd, o->trace_path);
     if (r == CV_OK)
         r = vk_indirect_init(bd);
     return r;
+}
+
+/* Every option within its enum (trace_path: vk_trace_init). */
+static cv_result check_options(const cv_device_desc *desc, const cv_vulkan_device_options *o) {
+    const char *bad = o->vgpu_device > CV_VULKAN_VGPU_SHARED               ? "vgpu_device"
+                      : o->cross_wait > CV_VULKAN_CROSS_WAIT_IMPORT        ? "cross_wait"
+                      : o->link_queue > CV_VULKAN_LINK_QUEUE_COPY          ? "link_queue"
+                      : o->sync_validation > CV_VULKAN_SYNC_VALIDATION_OFF ? "sync_validation"
+                                                                           : NULL;
+    return bad ? cv_error(CV_ERROR_INVALID_ARGUMENT, "device '%s': cv_vulkan_device_options.%s out of its enum",
+                          desc->label, bad)
+               : CV_OK;
 }
 
 cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out) {
@@ -337,15 +349,16 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: device");
     if (memchr(desc->label, '\0', CV_LABEL_MAX))
         snprintf(bd->label, sizeof(bd->label), "%s", desc->label);
-    vk_vgpu_mode vgpu_mode;
-    cv_result r = vk_shared_parse(getenv("CORVID_VGPU_DEVICE"), &vgpu_mode);
-    if (r == CV_OK)
-        r = vk_link_queue_parse(getenv("CORVID_LINK_QUEUE"), &bd->link_queue);
+    static const cv_vulkan_device_options defaults = { 0 };
+    const cv_vulkan_device_options *o = desc->backend_options ? desc->backend_options : &defaults;
+    cv_result r = check_options(desc, o);
     if (r != CV_OK) {
         free(bd);
-        return cv_error(r, "device '%s': %s", desc->label, cv_last_error());
+        return r;
     }
-    r = vk_instance_acquire(desc->validation, &bd->instance);
+    static const cv_queue_type link_queues[] = { CV_QUEUE_COMPUTE, CV_QUEUE_GRAPHICS, CV_QUEUE_COPY };
+    bd->link_queue = link_queues[o->link_queue];
+    r = vk_instance_acquire(desc->validation, o->sync_validation, &bd->instance);
     if (r != CV_OK) {
         free(bd);
         return r;
@@ -353,18 +366,18 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     vk_layer_enter(bd->instance); /* every call below on the layer; left at the end */
     r = pick_adapter(bd->instance, desc->adapter, &bd->adapter);
     if (r == CV_OK) {
-        bd->vgpu_shared = vgpu_mode == VK_VGPU_SHARED ||
-                          (vgpu_mode == VK_VGPU_AUTO &&
+        bd->vgpu_shared = o->vgpu_device == CV_VULKAN_VGPU_SHARED ||
+                          (o->vgpu_device == CV_VULKAN_VGPU_AUTO &&
                            vk_shared_auto_choice(bd->adapter.physical, bd->adapter.graphics_family));
         read_properties(bd);
         if (!bd->label[0])
             snprintf(bd->label, sizeof(bd->label), "vulkan:%u", bd->adapter.info.index);
-        r = vk_cross_wait_setup(bd);
+        r = vk_cross_wait_setup(bd, o->cross_wait);
     }
     if (r == CV_OK)
         r = create_vk_device(bd);
     if (r == CV_OK)
-        r = start_subsystems(bd);
+        r = start_subsystems(bd, o);
     vk_instance *inst = bd->instance;
     if (r != CV_OK) {
         vk_device_destroy(bd);

@@ -14,7 +14,8 @@
  * render, would meet; creating one also costs a loader scan and a layer load.
  * Devices and everything else are still destroyed with their last user.
  *
- * CORVID_VK_SYNC_VALIDATION=0/1 turns synchronization validation off/on. It is
+ * cv_vulkan_device_options.sync_validation turns synchronization validation
+ * off/on (the first validated device's choice, since the instance is kept). It is
  * on by default except in sanitizer builds: the 1.3.239 layer leaks about 3 KB
  * per command buffer with it, which LeakSanitizer would report against us (the
  * plain build's tests still run everything under it). */
@@ -129,10 +130,9 @@ static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlag
     return VK_FALSE;
 }
 
-static bool sync_validation_wanted(void) {
-    const char *env = getenv("CORVID_VK_SYNC_VALIDATION");
-    if (env && *env)
-        return strcmp(env, "0") != 0;
+static bool sync_validation_wanted(cv_vulkan_sync_validation sync) {
+    if (sync != CV_VULKAN_SYNC_VALIDATION_DEFAULT)
+        return sync == CV_VULKAN_SYNC_VALIDATION_ON;
 #ifdef CORVID_VK_SANITIZER_BUILD
     return false;
 #else
@@ -155,7 +155,7 @@ static bool layer_present(const char *name) {
     return false;
 }
 
-static cv_result create_instance(vk_instance *inst, bool validation) {
+static cv_result create_instance(vk_instance *inst, bool validation, cv_vulkan_sync_validation sync) {
     if (validation && !layer_present(VALIDATION_LAYER))
         return cv_error(CV_ERROR_UNSUPPORTED,
                         "vulkan: validation requested but %s is not installed (Debian: vulkan-validationlayers)",
@@ -178,7 +178,7 @@ static cv_result create_instance(vk_instance *inst, bool validation) {
     VkValidationFeaturesEXT features = {
         .sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT,
         .pNext = &messenger_info,
-        .enabledValidationFeatureCount = sync_validation_wanted() ? 1u : 0u,
+        .enabledValidationFeatureCount = sync_validation_wanted(sync) ? 1u : 0u,
         .pEnabledValidationFeatures = enables,
     };
     const char *layers[] = { VALIDATION_LAYER };
@@ -217,12 +217,12 @@ static cv_result create_instance(vk_instance *inst, bool validation) {
     return CV_OK;
 }
 
-cv_result vk_instance_acquire(bool validation, vk_instance **out) {
+cv_result vk_instance_acquire(bool validation, cv_vulkan_sync_validation sync, vk_instance **out) {
     pthread_mutex_lock(&instances_lock);
     vk_instance *inst = &instances[validation ? 1 : 0];
     cv_result r = CV_OK;
     if (!inst->instance)
-        r = create_instance(inst, validation);
+        r = create_instance(inst, validation, sync);
     if (r == CV_OK) {
         inst->refs++;
         *out = inst;

@@ -42,7 +42,7 @@ void vk_link_caps(cv_backend_device *bd, cv_link_caps *out) {
     out->wait_import_required = bd->cross_required;
     if (!bd->cross_import)
         snprintf(out->wait_missing, sizeof(out->wait_missing), "%s",
-                 bd->cross_missing[0] ? bd->cross_missing : "CORVID_CROSS_WAIT=bridge");
+                 bd->cross_missing[0] ? bd->cross_missing : "the cross_wait option bridge");
 }
 
 static void staging_free(cv_backend_device *bd, vk_staging *s) {

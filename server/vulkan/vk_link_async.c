@@ -3,7 +3,6 @@
 
 #include "vk_bridge.h"
 #include "vk_cross_wait.h"
-#include "vk_env.h"
 #include "vk_host_transfer.h"
 #include "vk_immediate.h"
 #include "vk_link.h"
@@ -22,15 +21,6 @@ void vk_link_async_finish(cv_backend_device *bd) {
     bd->async_pool = VK_NULL_HANDLE;
     bd->async_cmds = NULL;
     bd->async_count = 0;
-}
-
-cv_result vk_link_queue_parse(const char *value, cv_queue_type *queue) {
-    static const char *const words[] = { "compute", "graphics", "copy" };
-    static const cv_queue_type types[] = { CV_QUEUE_COMPUTE, CV_QUEUE_GRAPHICS, CV_QUEUE_COPY };
-    uint32_t k;
-    cv_result r = vk_env_choice("CORVID_LINK_QUEUE", value, words, 3, &k);
-    *queue = types[k];
-    return r;
 }
 
 /* A command buffer no submitted work uses (one of the pool's, or a new one). */

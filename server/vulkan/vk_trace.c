@@ -62,29 +62,20 @@ const char *cv_vulkan_trace_path_name(cv_vulkan_trace_path path) {
 
 /* ---- the tracer ---------------------------------------------------------------- */
 
-static cv_result mode_from_environment(const cv_backend_device *bd, cv_vulkan_trace_path *mode) {
-    const char *env = getenv("CORVID_TRACE_PATH");
-    *mode = CV_VULKAN_TRACE_AUTO;
-    if (!env || !env[0] || strcmp(env, "auto") == 0)
-        return CV_OK;
-    if (strcmp(env, "compute") == 0) {
-        *mode = CV_VULKAN_TRACE_COMPUTE;
-        return CV_OK;
-    }
-    if (strcmp(env, "pipeline") != 0)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_TRACE_PATH='%s': expected compute, pipeline or auto", env);
-    if (!bd->ray_tracing)
+static cv_result check_mode(const cv_backend_device *bd, cv_vulkan_trace_path mode) {
+    if (mode > CV_VULKAN_TRACE_PIPELINE)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "device '%s': trace_path %d is not a cv_vulkan_trace_path",
+                        bd->label, (int)mode);
+    if (mode == CV_VULKAN_TRACE_PIPELINE && !bd->ray_tracing)
         return cv_error(CV_ERROR_UNSUPPORTED,
-                        "CORVID_TRACE_PATH=pipeline: adapter '%s' has no ray-tracing pipeline "
+                        "device '%s': trace_path pipeline: adapter '%s' has no ray-tracing pipeline "
                         "(VK_KHR_ray_tracing_pipeline with VK_KHR_acceleration_structure)",
-                        bd->adapter.info.name);
-    *mode = CV_VULKAN_TRACE_PIPELINE;
+                        bd->label, bd->adapter.info.name);
     return CV_OK;
 }
 
-cv_result vk_trace_init(cv_backend_device *bd) {
-    cv_vulkan_trace_path mode;
-    cv_result r = mode_from_environment(bd, &mode);
+cv_result vk_trace_init(cv_backend_device *bd, cv_vulkan_trace_path mode) {
+    cv_result r = check_mode(bd, mode);
     if (r != CV_OK)
         return r;
     vk_tracer *t = calloc(1, sizeof(*t));

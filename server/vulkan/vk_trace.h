@@ -8,7 +8,7 @@
  *    are built at the accel write unless the device is set to the compute
  *    path, else when a list first traces the accel on the pipeline path.
  *
- * The choice: the mode comes from CORVID_TRACE_PATH at device creation or from
+ * The choice: the mode comes from the device options at creation or from
  * cv_vulkan_set_trace_path; in AUTO mode the adapter's measurement decides
  * (vk_trace_calibrate.h), taken at the first accel write on that adapter in
  * this process. Every kernel reads its data through buffer device addresses,
@@ -19,9 +19,9 @@
 #include "vk_pipelines.h"
 #include "vk_trace_job.h"
 
-/* At device creation: the mode from CORVID_TRACE_PATH (CV_ERROR_INVALID_ARGUMENT
- * for an unknown value, CV_ERROR_UNSUPPORTED for "pipeline" where not offered). */
-cv_result vk_trace_init(cv_backend_device *bd);
+/* At device creation: the mode of the device options (CV_ERROR_INVALID_ARGUMENT
+ * for an unknown value, CV_ERROR_UNSUPPORTED for PIPELINE where not offered). */
+cv_result vk_trace_init(cv_backend_device *bd, cv_vulkan_trace_path mode);
 /* Releases the trace pipelines (the device is idle). NULL tracer is allowed. */
 void vk_trace_finish(cv_backend_device *bd);
 /* The path lists compiled now would use. */

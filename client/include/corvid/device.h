@@ -27,6 +27,9 @@ typedef struct cv_device_desc {
     bool validation;          /* enable API validation where the backend has it */
     char label[CV_LABEL_MAX]; /* e.g. "gpu0"; shown in messages */
     const char *endpoint;     /* proxy backend: "host:port" of a corvid-node */
+    /* The backend's own options (vulkan: a const cv_vulkan_device_options *,
+     * vulkan.h); NULL = its defaults. Read during cv_device_create only. */
+    const void *backend_options;
 } cv_device_desc;
 
 typedef struct cv_device_info {
