@@ -29,11 +29,14 @@
 
 static const char VALIDATION_LAYER[] = "VK_LAYER_KHRONOS_validation";
 
+/* process-wide: the plain and the validated VkInstance, made once and kept
+ * (above: vkCreateInstance fails after a few cycles on the H200s); every
+ * device of every context shares them. */
 static pthread_mutex_t instances_lock = PTHREAD_MUTEX_INITIALIZER;
 static vk_instance instances[2]; /* [validation] */
 
-/* The lock around the validation layer's process-wide map (vk_instance.h):
- * process-wide because that map is. Readers share it; a writer (a device being
+/* The lock around the validation layer's process-wide map (vk_instance.h).
+ * Readers share it; a writer (a device being
  * created or destroyed) waits for them to leave, and readers that arrive while
  * a writer waits wait behind it, so threads polling a device cannot keep
  * devices from being created. Only a thread marked urgent (a bridge thread,
@@ -41,13 +44,14 @@ static vk_instance instances[2]; /* [validation] */
  * exclusive section pass a waiting writer: another device's pending work may
  * need a bridge thread's signal before a reader holding the lock (in a host
  * wait) can leave, and a device being destroyed joins its bridge thread while
- * holding its share. */
+ * holding its share. process-wide: because the layer's map is. */
 static pthread_mutex_t layer_mutex = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t layer_changed = PTHREAD_COND_INITIALIZER;
 static uint32_t layer_readers, layer_writers_waiting;
 static bool layer_writer;
-/* This thread's depth in vk_layer_enter (only the outermost takes a share, and
- * exclusive_begin gives it up meanwhile), and whether it is urgent (above). */
+/* process-wide (per thread): this thread's depth in vk_layer_enter (only the
+ * outermost takes a share, and exclusive_begin gives it up meanwhile), and
+ * whether it is urgent (above); a thread's share spans every device it calls. */
 static _Thread_local uint32_t layer_depth;
 static _Thread_local bool layer_urgent;
 
@@ -103,6 +107,9 @@ void vk_layer_exclusive_end(const vk_instance *inst) {
         take_share(true);
 }
 
+/* process-wide: the validation layer's messages, counted for
+ * cv_vulkan_get_message_counts; the layer reports them per instance, and the
+ * instances are the process's. */
 static atomic_uint message_errors;
 static atomic_uint message_warnings;
 

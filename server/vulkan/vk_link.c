@@ -22,6 +22,8 @@ typedef struct vk_staging {
     bool owned; /* the caller's (cv_staging_desc.owned): never cached, freed by vk_link_release */
 } vk_staging;
 
+/* process-wide: exported stagings' keys (backend.h: cv_staging_desc.key) must
+ * be unique in the process, since importers on any device cache by them. */
 static atomic_uint_fast64_t next_key = 1;
 
 static const VkBufferUsageFlags usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;

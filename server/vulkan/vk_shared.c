@@ -4,7 +4,7 @@
 #include "vk_instance.h"
 #include "vk_shared.h"
 
-/* Process-wide, like vk_instance.c's instances and for the same reason: the
+/* process-wide: like vk_instance.c's instances and for the same reason: the
  * instances of one adapter are created by independent cv_device_create calls
  * (possibly from several contexts and threads), so the only place they can
  * find the VkDevice they share is state of the process. Guarded by

@@ -34,6 +34,7 @@ typedef struct adapter_measurement {
     vk_trace_calibration figures;
 } adapter_measurement;
 
+/* process-wide: the measurement above, one per adapter for every device. */
 static pthread_mutex_t measurements_lock = PTHREAD_MUTEX_INITIALIZER;
 static adapter_measurement measurements[MEASURED_ADAPTERS];
 
