@@ -20,9 +20,11 @@
 #include <sys/stat.h>
 
 #include "corvid/file_util.h"
+#include "corvid/log.h"
 #include "corvid/parse.h"
 #include "corvid/rpc.h"
 #include "corvid/vulkan.h"
+#include "env_log.h"
 #include "env_vulkan.h"
 #include "metrics.h"
 #include "node.h"
@@ -342,7 +344,19 @@ static int start_metrics(cv_node *node, const node_metrics_options *mo, char *to
     return 0;
 }
 
+/* The node's session log keeps its "corvid-node: " lines on stderr (deployments read them); other
+ * libraries' messages read "corvid <origin>: ...". */
+static void log_to_stderr(cv_log_level level, const char *origin, const char *message, void *user) {
+    (void)level;
+    (void)user;
+    if (strcmp(origin, "node") == 0)
+        fprintf(stderr, "corvid-node: %s\n", message);
+    else
+        fprintf(stderr, "corvid %s: %s\n", origin, message);
+}
+
 int main(int argc, char **argv) {
+    cv_log_set_sink(log_to_stderr, NULL, env_log_level());
     cv_vulkan_gpu_config gpus = { 0 };
     if (cv_env_vulkan_gpu_args(&argc, argv, &gpus) != CV_OK || cv_env_vulkan_gpu_config(&gpus) != CV_OK) {
         fprintf(stderr, "corvid-node: %s (see --help)\n", cv_last_error());

@@ -6,9 +6,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 
+#include "corvid/clock.h"
 #include "corvid/endpoint.h"
 #include "corvid/image_exr.h"
 #include "corvid/image_files.h"
@@ -21,6 +21,7 @@
 #include "corvid/scene_procedural.h"
 #include "corvid/tonemap.h"
 #include "corvid/vulkan.h"
+#include "env_log.h"
 #include "env_vulkan.h"
 #include "render_exr.h"
 #include "render_outputs.h"
@@ -472,15 +473,14 @@ typedef struct render_progress {
     double last_try[CV_MAX_DEVICES];
 } render_progress;
 
-static double now_ms(void);
-
 static void rejoin_lost(render_progress *rp, uint32_t frame) {
     for (uint32_t d = 1; rp->renderer && d < rp->count; d++) {
         cv_device *lost = rp->devices[d];
-        if (!cv_device_is_lost(lost) || rp->tries[d] >= REJOIN_TRIES || now_ms() - rp->last_try[d] < REJOIN_EVERY_MS)
+        if (!cv_device_is_lost(lost) || rp->tries[d] >= REJOIN_TRIES ||
+            cv_now_ms() - rp->last_try[d] < REJOIN_EVERY_MS)
             continue;
         rp->tries[d]++;
-        rp->last_try[d] = now_ms();
+        rp->last_try[d] = cv_now_ms();
         cv_endpoint nodes[CV_MAX_NODES];
         uint32_t node_count = 0, node = 0, gpu = 0;
         char adapter[16];
@@ -618,13 +618,8 @@ static cv_result create_node_devices(cv_context *ctx, const char *list, cv_devic
     return r;
 }
 
-static double now_ms(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
-
 int main(int argc, char **argv) {
+    env_log_apply();
     cv_vulkan_gpu_config gpu_config = { 0 };
     if (cv_env_vulkan_gpu_args(&argc, argv, &gpu_config) != CV_OK) {
         fprintf(stderr, "corvid-render: %s (see --help)\n", cv_last_error());
@@ -678,7 +673,7 @@ int main(int argc, char **argv) {
         return 2;
     }
 
-    double t0 = now_ms();
+    double t0 = cv_now_ms();
     cv_scene *scene = NULL;
     cv_bvh *bvh = NULL;
     cv_context *ctx = NULL;
@@ -712,14 +707,14 @@ int main(int argc, char **argv) {
         if (r != CV_OK)
             r = cv_error(r, "--scene %s: %s", o.scene, cv_last_error());
     }
-    double t_bvh = now_ms();
+    double t_bvh = cv_now_ms();
     if (r == CV_OK)
         r = cv_bvh_build_flat(scene, NULL, &bvh);
-    t_bvh = now_ms() - t_bvh;
+    t_bvh = cv_now_ms() - t_bvh;
     if (r == CV_OK && o.reference) {
         r = cv_render_reference(scene, bvh, &o.settings, o.reference, 2, &image);
         if (r == CV_OK && !o.quiet)
-            fprintf(stderr, "reference: %u samples per pixel in %.1f s\n", o.reference, (now_ms() - t0) / 1e3);
+            fprintf(stderr, "reference: %u samples per pixel in %.1f s\n", o.reference, (cv_now_ms() - t0) / 1e3);
     }
     if (r == CV_OK && !o.nodes && !o.reference)
         r = cv_env_vulkan_gpu_config(&gpu_config); /* the environment only where the table is used */
@@ -796,7 +791,7 @@ int main(int argc, char **argv) {
             printf("  alpha mask: %llu ray slots re-traced past cut points (not in the rays above)\n",
                    (unsigned long long)stats.alpha_rays);
         printf("transfers between devices: %.1f MB in %.1f ms; total %.1f s\n", stats.transfer_bytes / 1e6,
-               stats.transfer_ms, (now_ms() - t0) / 1e3);
+               stats.transfer_ms, (cv_now_ms() - t0) / 1e3);
         if (o.stats || o.trace)
             printf("wrote%s%s%s%s (%u frames)\n", o.stats ? " stats " : "", o.stats ? o.stats : "",
                    o.trace ? " trace " : "", o.trace ? o.trace : "", cv_render_log_frame_count(log));

@@ -5,16 +5,13 @@
 #include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
+
+#include "corvid/clock.h"
 
 #define MAX_THREADS 256
 
-double bench_now(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
-}
+double bench_now(void) { return (double)cv_now_ns() * 1e-9; }
 
 typedef struct loop {
     bench_range_fn fn;

@@ -24,6 +24,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "corvid/clock.h"
+
 #define READ_BYTES (64u << 10)
 
 typedef struct chunk {
@@ -59,12 +61,6 @@ struct tcp_relay {
     tcp_relay_stats stats;
     conn conns[TCP_RELAY_MAX_CONNECTIONS];
 };
-
-static uint64_t now_ns(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
 
 static void set_nonblocking(int fd) {
     int flags = fcntl(fd, F_GETFL);
@@ -181,7 +177,7 @@ static bool fill_dir(tcp_relay *r, conn *c, int d, uint8_t *buf) {
         if (!k)
             return false;
         k->next = NULL;
-        k->release_ns = now_ns() + (uint64_t)atomic_load(&r->delay_us) * 1000u;
+        k->release_ns = cv_now_ns() + (uint64_t)atomic_load(&r->delay_us) * 1000u;
         k->len = (size_t)n;
         k->off = 0;
         memcpy(k->data, buf, (size_t)n);
@@ -209,7 +205,7 @@ static void *relay_main(void *arg) {
                 break; /* stop */
             continue;
         }
-        uint64_t now = now_ns();
+        uint64_t now = cv_now_ns();
         uint64_t next_release = UINT64_MAX;
         nfds_t n = 0;
         pfd[n++] = (struct pollfd){ .fd = r->wake[0], .events = POLLIN };

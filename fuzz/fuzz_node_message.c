@@ -1,7 +1,7 @@
 /* libFuzzer target: one corvid-node session fed untrusted client messages.
  *
- * The session code is the node's own (server/node/session.c, handle_map.c,
- * metrics.c, compiled in); only the gRPC stream under it is replaced by the
+ * The session code is the node's own (server/node/session.c and metrics.c,
+ * compiled in); only the gRPC stream under it is replaced by the
  * input (fuzz_input.h), so everything the node does with a client's bytes runs:
  * corvid.ClientMessage unpacking into the size-limited arena, the per-message
  * checks, handle translation, content-store uploads, command-list decoding, the

@@ -14,9 +14,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "corvid/backend.h"
+#include "corvid/clock.h"
 #include "corvid/texel.h"
 
 typedef struct mock_object {
@@ -201,12 +201,6 @@ static void mock_list_release(cv_backend_device *bd, void *compiled) {
 
 static mock_object *obj_of(cv_device *dev, uint64_t id) { return cv_device_lookup(dev, id)->obj; }
 
-static double now_ms(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
-
 /* Runs the data-movement commands of a validated list on host memory. */
 static void emulate(cv_device *dev, const cv_command_list *l, const cv_command *c) {
     switch (c->type) {
@@ -292,14 +286,14 @@ static cv_result mock_submit(cv_backend_device *bd, void *compiled, uint64_t tic
     if (markers && !(mc->timings = calloc(markers, sizeof(cv_pass_timing))))
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "mock timings");
     uint32_t stack[64], depth = 0;
-    double start = now_ms();
+    double start = cv_now_ms();
     for (uint32_t i = 0; i < l->count; i++) {
         const cv_command *c = &l->commands[i];
         if (c->type == CV_CMD_BEGIN_MARKER || c->type == CV_CMD_TIMESTAMP) {
             cv_pass_timing *t = &mc->timings[mc->timing_count];
             cv_span label = c->type == CV_CMD_TIMESTAMP ? c->u.timestamp.label : c->u.begin_marker.label;
             cv_list_string(l, label, t->label, sizeof(t->label));
-            double now = now_ms();
+            double now = cv_now_ms();
             t->start_ms = now - start;
             t->host_ms = now; /* the mock runs lists on the host: its clock is the host's */
             if (c->type == CV_CMD_BEGIN_MARKER && depth < 64)
@@ -307,7 +301,7 @@ static cv_result mock_submit(cv_backend_device *bd, void *compiled, uint64_t tic
             mc->timing_count++;
         } else if (c->type == CV_CMD_END_MARKER && depth) {
             cv_pass_timing *t = &mc->timings[stack[--depth]];
-            t->duration_ms = now_ms() - start - t->start_ms;
+            t->duration_ms = cv_now_ms() - start - t->start_ms;
         } else if (c->type == CV_CMD_DISPATCH_INDIRECT) {
             check_indirect(bd, mc, i, ticket);
         } else {

@@ -12,8 +12,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "corvid/clock.h"
 #include "device_internal.h"
 #include "transfer_job.h"
 #include "transfer_link.h"
@@ -21,12 +21,6 @@
 
 #define CHUNK_BYTES (4u << 20) /* bench_transfer measures this size (bench/README.md) */
 _Static_assert((uint64_t)CV_MAX_TEXTURE_DIM * 16 <= CHUNK_BYTES, "a texture row fits one staging slot");
-
-static double now_ms(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
 
 /* Staging slots are kept between transfers (a few, process-wide): freeing
  * them let glibc hand the pages back to the kernel, and faulting them in again
@@ -82,10 +76,10 @@ static void *reader(void *arg) {
         pthread_mutex_unlock(&p->lock);
         if (stop)
             return NULL;
-        double t0 = now_ms();
+        double t0 = cv_now_ms();
         cv_result r = p->io(p->job, i, (uint32_t)(i % 2), true);
         pthread_mutex_lock(&p->lock);
-        p->read_ms += now_ms() - t0;
+        p->read_ms += cv_now_ms() - t0;
         if (r != CV_OK) {
             p->read_result = r;
             snprintf(p->read_error, sizeof(p->read_error), "%s", cv_last_error());
@@ -103,15 +97,15 @@ static void *reader(void *arg) {
 /* Each chunk fits one staging slot of the path. */
 static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transfer_stats *st) {
     pipeline p = { .io = io, .job = job, .chunks = chunks };
-    double t0 = now_ms(), write_ms = 0.0;
+    double t0 = cv_now_ms(), write_ms = 0.0;
     cv_result r = CV_OK;
     if (chunks == 1) { /* nothing to overlap */
         r = io(job, 0, 0, true);
-        double t1 = now_ms();
+        double t1 = cv_now_ms();
         p.read_ms = t1 - t0;
         if (r == CV_OK)
             r = io(job, 0, 0, false);
-        write_ms = now_ms() - t1;
+        write_ms = cv_now_ms() - t1;
     } else {
         pthread_mutex_init(&p.lock, NULL);
         pthread_cond_init(&p.changed, NULL);
@@ -129,9 +123,9 @@ static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transf
                     r = cv_error(read_result, "%s", p.read_error);
                     break;
                 }
-                double tw = now_ms();
+                double tw = cv_now_ms();
                 r = io(job, i, (uint32_t)(i % 2), false);
-                write_ms += now_ms() - tw;
+                write_ms += cv_now_ms() - tw;
                 pthread_mutex_lock(&p.lock);
                 p.emptied = i + 1;
                 p.stop = r != CV_OK;
@@ -146,7 +140,7 @@ static cv_result run_pipeline(chunk_io io, void *job, uint64_t chunks, cv_transf
     if (r == CV_OK && st) {
         st->read_ms = p.read_ms;
         st->write_ms = write_ms;
-        st->total_ms = now_ms() - t0;
+        st->total_ms = cv_now_ms() - t0;
     }
     return r;
 }
@@ -212,12 +206,12 @@ static cv_result run_job(transfer_job *j, cv_transfer_stats *stats) {
                                     stats);
     cv_transfer_stats st = { .bytes = j->size, .path = path };
     if (path == CV_TRANSFER_DEVICE) { /* one GPU copy between instances of one device, then a host wait */
-        double start = now_ms();
+        double start = cv_now_ms();
         uint64_t ts, td;
         r = transfer_job_device(j, &ts, &td);
         if (r == CV_OK)
             r = cv_device_wait(j->dst, td, UINT64_MAX);
-        st.total_ms = st.write_ms = now_ms() - start;
+        st.total_ms = st.write_ms = cv_now_ms() - start;
         if (r == CV_OK && stats)
             *stats = st;
         return r;

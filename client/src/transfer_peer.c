@@ -4,8 +4,8 @@
 
 #include <stdatomic.h>
 #include <string.h>
-#include <time.h>
 
+#include "corvid/clock.h"
 #include "device_internal.h"
 
 /* Process-wide on purpose: one backend (the proxy) registers its table once, from any thread that creates one
@@ -30,12 +30,10 @@ cv_result cv_transfer_peer_run(const cv_transfer_peer_region *region, cv_transfe
     if (!ops || !cv_transfer_peer_pair(region->src, region->dst))
         return cv_error(CV_ERROR_UNSUPPORTED, "transfer from device '%s' to device '%s': no peer path between them",
                         cv_device_label(region->src), cv_device_label(region->dst));
-    struct timespec t0, t1;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
+    double start = cv_now_ms();
     cv_result r = ops->move(region, atomic_fetch_add(&next_transfer_id, 1) + 1);
-    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double ms = cv_now_ms() - start;
     if (r == CV_OK && stats) {
-        double ms = (t1.tv_sec - t0.tv_sec) * 1e3 + (t1.tv_nsec - t0.tv_nsec) / 1e6;
         *stats = (cv_transfer_stats){ .bytes = region->size, .path = CV_TRANSFER_PEER, .total_ms = ms };
     }
     return r;

@@ -1,9 +1,10 @@
 /* The content-addressed upload cache (see content_store.h).
  *
  * Index: every blob stored or being uploaded has an entry, found by its hash
- * in an open-addressing table (linear probing, backward-shift deletion, keyed
- * by a per-store random seed so that clients choosing hashes cannot pile them
- * onto one probe run). Stored entries are also on a doubly linked LRU list,
+ * in a cv_hash_map from the hash's first 8 bytes (seeded per store at random
+ * so that clients choosing hashes cannot pile them onto one probe run); the
+ * rare hashes that share those bytes are chained from the entry the map
+ * holds, and compared in full. Stored entries are also on a doubly linked LRU list,
  * newest first. An entry leaves the table when its blob is evicted, dropped
  * or its uploads end without storing it; a dropped entry that is still pinned
  * (or that a late second upload refers to) lives on, outside the table, until
@@ -21,11 +22,13 @@
 #include <string.h>
 #include <sys/file.h>
 #include <sys/mman.h>
-#include <sys/random.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
+#include "corvid/clock.h"
+#include "corvid/hash_map.h"
+#include "corvid/log.h"
 #include "corvid/sha256.h"
 
 #define OBJECT_NAME_SIZE (3 + CV_SHA256_HEX_SIZE) /* "xx/" + 64 digits + NUL */
@@ -51,6 +54,7 @@ typedef struct entry {
     dev_t dev;
     ino_t ino;
     struct entry *newer, *older; /* LRU list */
+    struct entry *same_key;      /* the next entry whose hash starts with the same 8 bytes */
 } entry;
 
 struct cv_content_store {
@@ -60,9 +64,7 @@ struct cv_content_store {
     int dir_fd, objects_fd, tmp_fd, lock_fd;
     uint64_t max_bytes;
     uint64_t reserved; /* sizes of uploads in progress */
-    uint64_t seed;
-    entry **table; /* table_capacity slots, a power of two */
-    size_t table_capacity, table_count;
+    cv_hash_map table; /* the first 8 bytes of a hash -> entry * (the head of its same_key chain) */
     entry *newest, *oldest;
     struct timespec last_stamp; /* uses get strictly increasing times */
     uint64_t temp_counter;
@@ -105,69 +107,42 @@ static bool is_lower_hex(const char *s, size_t n) {
 
 /* ---- hash table ---- */
 
-static size_t home_slot(const cv_content_store *s, const uint8_t sha[32]) {
+static uint64_t table_key(const uint8_t sha[32]) {
     uint64_t k;
     memcpy(&k, sha, sizeof k);
-    k ^= s->seed;
-    k *= UINT64_C(0x9e3779b97f4a7c15);
-    k ^= k >> 29;
-    return (size_t)k & (s->table_capacity - 1);
+    return k;
+}
+
+static entry *table_head(const cv_content_store *s, uint64_t key) {
+    uint64_t value;
+    return cv_hash_map_get(&s->table, key, &value) ? (entry *)(uintptr_t)value : NULL;
 }
 
 static entry *table_find(const cv_content_store *s, const uint8_t sha[32]) {
-    size_t mask = s->table_capacity - 1;
-    for (size_t i = home_slot(s, sha); s->table[i]; i = (i + 1) & mask) {
-        if (memcmp(s->table[i]->sha, sha, 32) == 0)
-            return s->table[i];
-    }
-    return NULL;
+    entry *e = table_head(s, table_key(sha));
+    while (e && memcmp(e->sha, sha, 32) != 0)
+        e = e->same_key;
+    return e;
 }
 
-static void table_place(cv_content_store *s, entry *e) {
-    size_t mask = s->table_capacity - 1, i = home_slot(s, e->sha);
-    while (s->table[i])
-        i = (i + 1) & mask;
-    s->table[i] = e;
-}
-
-/* Keeps the load at most one half. False when out of memory (nothing changed). */
+/* False when out of memory (nothing changed). */
 static bool table_insert(cv_content_store *s, entry *e) {
-    if ((s->table_count + 1) * 2 > s->table_capacity) {
-        size_t old_capacity = s->table_capacity;
-        entry **old = s->table, **grown = calloc(old_capacity * 2, sizeof *grown);
-        if (grown == NULL)
-            return false;
-        s->table = grown;
-        s->table_capacity = old_capacity * 2;
-        for (size_t i = 0; i < old_capacity; i++) {
-            if (old[i])
-                table_place(s, old[i]);
-        }
-        free(old);
-    }
-    table_place(s, e);
-    s->table_count++;
-    return true;
+    uint64_t key = table_key(e->sha);
+    e->same_key = table_head(s, key);
+    return cv_hash_map_put(&s->table, key, (uint64_t)(uintptr_t)e) == CV_OK;
 }
 
-/* Backward-shift deletion: later members of the probe run move up so that
- * every entry stays reachable from its home slot without tombstones. */
-static void table_remove(cv_content_store *s, const entry *e) {
-    size_t mask = s->table_capacity - 1, hole = home_slot(s, e->sha);
-    while (s->table[hole] != e)
-        hole = (hole + 1) & mask;
-    s->table[hole] = NULL;
-    for (size_t j = (hole + 1) & mask; s->table[j]; j = (j + 1) & mask) {
-        size_t home = home_slot(s, s->table[j]->sha);
-        /* Leave the entry if its home lies cyclically in (hole, j]. */
-        bool stays = hole < j ? (home > hole && home <= j) : (home > hole || home <= j);
-        if (!stays) {
-            s->table[hole] = s->table[j];
-            s->table[j] = NULL;
-            hole = j;
-        }
-    }
-    s->table_count--;
+static void table_remove(cv_content_store *s, entry *e) {
+    uint64_t key = table_key(e->sha);
+    entry *head = table_head(s, key);
+    if (head == e && e->same_key)
+        cv_hash_map_put(&s->table, key, (uint64_t)(uintptr_t)e->same_key); /* a present key: cannot fail */
+    else if (head == e)
+        cv_hash_map_remove(&s->table, key, NULL);
+    for (entry *at = head; at && at != e; at = at->same_key)
+        if (at->same_key == e)
+            at->same_key = e->same_key;
+    e->same_key = NULL;
 }
 
 /* ---- LRU list and use times ---- */
@@ -600,9 +575,15 @@ static cv_result index_objects(cv_content_store *s, const char *dir) {
 }
 
 static void free_store(cv_content_store *s) {
-    for (size_t i = 0; s->table && i < s->table_capacity; i++)
-        free(s->table[i]);
-    free(s->table);
+    uint32_t cursor = 0;
+    uint64_t value;
+    while (cv_hash_map_next(&s->table, &cursor, NULL, &value)) {
+        for (entry *e = (entry *)(uintptr_t)value, *next; e; e = next) {
+            next = e->same_key;
+            free(e);
+        }
+    }
+    cv_hash_map_finish(&s->table);
     int fds[] = { s->tmp_fd, s->objects_fd, s->dir_fd, s->lock_fd }; /* closing lock_fd unlocks */
     for (size_t i = 0; i < sizeof fds / sizeof fds[0]; i++) {
         if (fds[i] >= 0)
@@ -668,29 +649,15 @@ cv_result cv_content_store_open(const char *dir, uint64_t max_bytes, cv_content_
     if (dir == NULL || dir[0] == '\0' || out == NULL)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "content store: open needs a directory and an out pointer");
     cv_content_store *s = calloc(1, sizeof *s);
-    entry **table = calloc(64, sizeof *table);
-    if (s == NULL || table == NULL) {
-        free(s);
-        free(table);
+    if (s == NULL)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "content store '%s'", dir);
-    }
     pthread_mutex_init(&s->lock, NULL);
-    pthread_condattr_t attr;
-    pthread_condattr_init(&attr);
-    pthread_condattr_setclock(&attr, CLOCK_MONOTONIC); /* waits must not jump with the wall clock */
-    pthread_cond_init(&s->upload_ended, &attr);
-    pthread_condattr_destroy(&attr);
+    cv_cond_init(&s->upload_ended); /* waits must not jump with the wall clock */
     s->upload_wait_ms = CV_CONTENT_STORE_DEFAULT_UPLOAD_WAIT_MS;
-    s->table = table;
-    s->table_capacity = 64;
     s->dir_fd = s->objects_fd = s->tmp_fd = s->lock_fd = -1;
     s->max_bytes = max_bytes ? max_bytes : CV_CONTENT_STORE_DEFAULT_MAX_BYTES;
     s->stats.max_bytes = s->max_bytes;
-    if (getrandom(&s->seed, sizeof s->seed, GRND_NONBLOCK) != (ssize_t)sizeof s->seed) {
-        struct timespec now;
-        clock_gettime(CLOCK_MONOTONIC, &now);
-        s->seed = (uint64_t)now.tv_nsec * UINT64_C(0x2545f4914f6cdd1d) ^ (uint64_t)(uintptr_t)s;
-    }
+    cv_hash_map_init(&s->table, cv_hash_map_random_seed());
 
     /* Steps: folders and the lock; discard unfinished uploads; index the blobs
      * (oldest use first); shrink to the limit; start use times after the newest. */
@@ -713,8 +680,8 @@ void cv_content_store_close(cv_content_store *s) {
     if (s == NULL)
         return;
     if (s->live_uploads || s->live_blobs)
-        fprintf(stderr, "corvid: content store closed with %u uploads and %u pinned blobs still open\n",
-                s->live_uploads, s->live_blobs);
+        cv_log(CV_LOG_WARNING, "node", "content store closed with %u uploads and %u pinned blobs still open",
+               s->live_uploads, s->live_blobs);
     for (entry *e = s->newest; e; e = e->older) {
         if (e->used.tv_sec != e->used_on_disk.tv_sec || e->used.tv_nsec != e->used_on_disk.tv_nsec)
             stamp_file(s, e);
@@ -849,18 +816,6 @@ void cv_content_store_set_upload_wait(cv_content_store *s, uint32_t wait_ms) {
     pthread_mutex_unlock(&s->lock);
 }
 
-static struct timespec monotonic_after(uint32_t ms) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    t.tv_sec += ms / 1000;
-    t.tv_nsec += (long)(ms % 1000) * 1000000L;
-    if (t.tv_nsec >= 1000000000L) {
-        t.tv_sec++;
-        t.tv_nsec -= 1000000000L;
-    }
-    return t;
-}
-
 /* Lock held: makes an upload of `size` bytes of fresh->sha an uploader of
  * the blob's entry (`fresh`, put in the table, if it has none). While another
  * upload receives the blob this waits, up to upload_wait_ms in all: for it to
@@ -870,7 +825,7 @@ static struct timespec monotonic_after(uint32_t ms) {
  * first upload delays the others, it never fails them. */
 static cv_result claim_blob(cv_content_store *s, entry *fresh, uint64_t size, const char *hex, entry **out) {
     bool waiting = false, gave_up = false;
-    struct timespec deadline;
+    uint64_t deadline = 0;
     for (;;) {
         entry *e = table_find(s, fresh->sha);
         if (e && e->state == ENTRY_STORED) {
@@ -881,9 +836,9 @@ static cv_result claim_blob(cv_content_store *s, entry *fresh, uint64_t size, co
             if (!waiting) {
                 waiting = true;
                 s->stats.waits++;
-                deadline = monotonic_after(s->upload_wait_ms);
+                deadline = cv_deadline_after_ms(s->upload_wait_ms);
             }
-            gave_up = pthread_cond_timedwait(&s->upload_ended, &s->lock, &deadline) == ETIMEDOUT;
+            gave_up = cv_cond_wait_until(&s->upload_ended, &s->lock, deadline) == ETIMEDOUT;
             continue; /* look again: stored, ended, or still going */
         }
         if (!make_room(s, size)) {

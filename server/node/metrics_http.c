@@ -18,8 +18,8 @@
 #include <string.h>
 #include <strings.h>
 #include <sys/socket.h>
-#include <time.h>
 
+#include "corvid/clock.h"
 #include "corvid/sha256.h"
 #include "metrics.h"
 
@@ -32,7 +32,7 @@
 typedef struct watched {
     struct watched *next, *prev;
     MHD_socket fd;
-    struct timespec started;
+    uint64_t started_ns;
     bool cut;
 } watched;
 
@@ -153,7 +153,7 @@ static void on_connection(void *cls, struct MHD_Connection *conn, void **socket_
         if (!w)
             return; /* out of memory: this one goes unwatched (libmicrohttpd's idle timeout still applies) */
         w->fd = info->connect_fd;
-        clock_gettime(CLOCK_MONOTONIC, &w->started);
+        w->started_ns = cv_now_ns();
         pthread_mutex_lock(&server->lock);
         w->next = server->live;
         if (server->live)
@@ -182,21 +182,13 @@ static void *reaper_main(void *arg) {
     cv_metrics_server *server = arg;
     pthread_mutex_lock(&server->lock);
     while (!server->stopping) {
-        struct timespec now;
-        clock_gettime(CLOCK_MONOTONIC, &now);
+        uint64_t now = cv_now_ns();
         for (watched *w = server->live; w; w = w->next)
-            if (!w->cut && (now.tv_sec - w->started.tv_sec) * 1000 + (now.tv_nsec - w->started.tv_nsec) / 1000000 >=
-                               (long)server->deadline_ms) {
+            if (!w->cut && (now - w->started_ns) / 1000000u >= server->deadline_ms) {
                 shutdown(w->fd, SHUT_RDWR);
                 w->cut = true;
             }
-        struct timespec until = now;
-        until.tv_nsec += 100 * 1000 * 1000;
-        if (until.tv_nsec >= 1000000000L) {
-            until.tv_sec++;
-            until.tv_nsec -= 1000000000L;
-        }
-        pthread_cond_timedwait(&server->wake, &server->lock, &until);
+        cv_cond_wait_until(&server->wake, &server->lock, cv_deadline_after_ms(100));
     }
     pthread_mutex_unlock(&server->lock);
     return NULL;
@@ -258,11 +250,7 @@ cv_result cv_metrics_server_start(cv_node *node, const cv_metrics_server_config 
     s->node = node;
     s->deadline_ms = config->deadline_ms ? config->deadline_ms : METRICS_DEADLINE_MS;
     pthread_mutex_init(&s->lock, NULL);
-    pthread_condattr_t attr;
-    pthread_condattr_init(&attr);
-    pthread_condattr_setclock(&attr, CLOCK_MONOTONIC);
-    pthread_cond_init(&s->wake, &attr);
-    pthread_condattr_destroy(&attr);
+    cv_cond_init(&s->wake);
     if (config->token) {
         s->has_token = true;
         r = cv_sha256(config->token, strlen(config->token), s->token_sha);

@@ -83,7 +83,7 @@ typedef struct cv_node_config {
     bool log_sessions;     /* one line per session start/end, per error and per refused call on stderr */
     /* Where those lines go: each line without its newline, escaped (client-supplied text cannot forge a line or
        send terminal escapes) and rate-limited per kind (node_log.h). Called from session threads, so it must be
-       thread-safe. NULL = stderr. */
+       thread-safe. NULL = the process's log (corvid/log.h), origin "node", level CV_LOG_INFO. */
     void (*log_sink)(const char *line, void *user);
     void *log_user;
 

@@ -6,9 +6,13 @@
 #include <stdbool.h>
 #include <stdio.h>
 #include <string.h>
-#include <time.h>
 
+#include "corvid/clock.h"
+#include "corvid/log.h"
 #include "node_internal.h"
+
+/* The longest escaped text of a line: every byte of a 1023-byte message may take 4. */
+#define NODE_LOG_LINE_MAX (4 * 1024)
 
 static const char *const kind_names[NODE_LOG_KIND_COUNT] = {
     [NODE_LOG_ALWAYS] = "log",
@@ -85,24 +89,22 @@ void node_log_init(node_log_state *state) {
 
 void node_log_finish(node_log_state *state) { pthread_mutex_destroy(&state->lock); }
 
-static uint64_t now_ms(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (uint64_t)t.tv_sec * 1000u + (uint64_t)t.tv_nsec / 1000000u;
-}
-
-/* One line, escaped already, to the sink. */
-static void emit(cv_node *node, const char *line) {
-    if (node->config.log_sink)
-        node->config.log_sink(line, node->config.log_user);
-    else
-        fprintf(stderr, "%s\n", line);
+/* One line's text, escaped already: to the node's own sink as "corvid-node: <text>", else to the
+ * process's log (corvid/log.h) with origin "node". */
+static void emit(cv_node *node, const char *text) {
+    if (!node->config.log_sink) {
+        cv_log(CV_LOG_INFO, "node", "%s", text);
+        return;
+    }
+    char line[NODE_LOG_LINE_MAX + 16];
+    snprintf(line, sizeof(line), "corvid-node: %s", text);
+    node->config.log_sink(line, node->config.log_user);
 }
 
 static void emit_summary(cv_node *node, node_log_kind kind, uint64_t count) {
-    char line[128];
-    snprintf(line, sizeof(line), "corvid-node: (%" PRIu64 " more %s lines suppressed)", count, kind_names[kind]);
-    emit(node, line);
+    char text[128];
+    snprintf(text, sizeof(text), "(%" PRIu64 " more %s lines suppressed)", count, kind_names[kind]);
+    emit(node, text);
 }
 
 /* Whether a line of `kind` may go now; *summary gets the count of lines suppressed before it, to report first. */
@@ -110,7 +112,7 @@ static bool admit(node_log_state *st, node_log_kind kind, uint64_t *summary) {
     *summary = 0;
     if (kind == NODE_LOG_ALWAYS)
         return true;
-    uint64_t now = now_ms();
+    uint64_t now = cv_now_ns() / 1000000u;
     pthread_mutex_lock(&st->lock);
     if (now - st->window_start_ms[kind] >= 1000 || !st->window_start_ms[kind]) {
         *summary = st->suppressed[kind];
@@ -136,15 +138,14 @@ void node_log(cv_node *node, node_log_kind kind, const char *fmt, ...) {
         emit_summary(node, kind, summary);
     if (!ok)
         return;
-    char text[1024];
+    char raw[1024];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(text, sizeof(text), fmt, ap);
+    vsnprintf(raw, sizeof(raw), fmt, ap);
     va_end(ap);
-    char line[4 * sizeof(text) + 16];
-    size_t n = (size_t)snprintf(line, sizeof(line), "corvid-node: ");
-    cv_log_escape(line + n, sizeof(line) - n, text);
-    emit(node, line);
+    char text[NODE_LOG_LINE_MAX];
+    cv_log_escape(text, sizeof(text), raw);
+    emit(node, text);
 }
 
 void node_log_flush(cv_node *node) {

@@ -1,6 +1,7 @@
 /* corvid-node's log: every line the node writes about its sessions and callers
  * goes through node_log, which escapes it and hands it to the configured sink
- * (cv_node_config.log_sink, stderr by default).
+ * (cv_node_config.log_sink), or by default to the process's log (corvid/log.h,
+ * origin "node", level CV_LOG_INFO).
  *
  * Most of what the node logs comes from clients: Hello.client_name, resource and
  * pass labels, pipeline names, endpoints, peers' messages. Written raw, a

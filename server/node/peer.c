@@ -9,9 +9,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include <zstd.h>
 
+#include "corvid/clock.h"
 #include "node_internal.h"
 #include "peer_members.h"
 
@@ -84,7 +84,7 @@ cv_result peer_inbox_open(cv_node *node, uint8_t key[CV_NODE_SESSION_KEY_BYTES],
         free(in);
         return cv_error(CV_ERROR_BACKEND, "session: no random bytes for the session key");
     }
-    pthread_cond_init(&in->arrived, NULL);
+    cv_cond_init(&in->arrived);
     memcpy(key, in->key, CV_NODE_SESSION_KEY_BYTES);
     peer_state *ps = node->peer;
     in->ps = ps;
@@ -120,16 +120,6 @@ void peer_inbox_close(cv_node *node, peer_inbox *in) {
     free(in);
 }
 
-static void deadline_after(struct timespec *ts, uint32_t ms) {
-    clock_gettime(CLOCK_REALTIME, ts);
-    ts->tv_sec += ms / 1000;
-    ts->tv_nsec += (long)(ms % 1000) * 1000000L;
-    if (ts->tv_nsec >= 1000000000L) {
-        ts->tv_sec++;
-        ts->tv_nsec -= 1000000000L;
-    }
-}
-
 static bool is_aborted(const peer_inbox *in, uint64_t transfer_id) {
     for (uint32_t i = 0; i < 16; i++)
         if (in->aborted[i] == transfer_id)
@@ -148,8 +138,7 @@ cv_result peer_inbox_take(peer_inbox *in, uint64_t transfer_id, uint64_t raw_byt
                           uint8_t **data, size_t *size) {
     *data = NULL;
     *size = 0;
-    struct timespec deadline;
-    deadline_after(&deadline, deadline_ms);
+    uint64_t deadline = cv_deadline_after_ms(deadline_ms);
     pthread_mutex_t *lock = &in->ps->lock;
     pthread_mutex_lock(lock);
     if (transfer_id < in->refuse_below) {
@@ -180,7 +169,7 @@ cv_result peer_inbox_take(peer_inbox *in, uint64_t transfer_id, uint64_t raw_byt
                          transfer_id);
             break;
         }
-        if (pthread_cond_timedwait(&in->arrived, lock, &deadline) != 0) {
+        if (cv_cond_wait_until(&in->arrived, lock, deadline) != 0) {
             e = find_entry(in, transfer_id);
             r = cv_error(CV_ERROR_TIMEOUT,
                          "transfer %" PRIu64 " from a peer node: %" PRIu64 " of %" PRIu64

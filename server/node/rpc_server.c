@@ -12,7 +12,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
+
+#include "corvid/clock.h"
+#include "corvid/log.h"
 
 #define ACCEPT_SLOTS 4         /* calls requested at once */
 #define REFUSE_TIMEOUT_MS 1000 /* a refusal's status must be out by then, or the call is cancelled */
@@ -180,7 +182,7 @@ static bool request_call(cv_rpc_server *s, accept_slot *slot) {
     grpc_call_error e = grpc_server_request_call(s->server, &slot->call, &slot->details, &slot->metadata, slot->cq,
                                                  s->cq, slot);
     if (e != GRPC_CALL_OK) {
-        fprintf(stderr, "corvid rpc: server request_call: %s\n", grpc_call_error_to_string(e));
+        cv_log(CV_LOG_ERROR, "rpc", "server request_call: %s", grpc_call_error_to_string(e));
         grpc_call_details_destroy(&slot->details);
         grpc_metadata_array_destroy(&slot->metadata);
         cv_rpc_cq_drain_and_destroy(slot->cq);
@@ -243,7 +245,7 @@ static void *stream_main(void *arg) {
         cv_rpc_stream_finish(h->stream, GRPC_STATUS_OK, "");
         cv_rpc_stream_wait_ended(h->stream);
     } else {
-        fprintf(stderr, "corvid rpc: stream '%s': %s\n", h->method, cv_last_error());
+        cv_log(CV_LOG_WARNING, "rpc", "stream '%s': %s", h->method, cv_last_error());
     }
     /* Out of the handler under the lock first: cv_rpc_server_finish_streams may be looking at it. */
     pthread_mutex_lock(&s->mu);
@@ -398,7 +400,7 @@ static void dispatch(cv_rpc_server *s, accept_slot *slot) {
         h->has_thread = true;
         return;
     }
-    fprintf(stderr, "corvid rpc: cannot start a handler for '%s'\n", h->method);
+    cv_log(CV_LOG_ERROR, "rpc", "cannot start a handler for '%s'", h->method);
     if (h->stream)
         cv_rpc_stream_teardown(h->stream); /* cancels the call */
     if (call)
@@ -481,11 +483,7 @@ cv_result cv_rpc_server_start(const cv_rpc_server_config *config, cv_rpc_server 
     if (!s)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "cv_rpc_server_start");
     pthread_mutex_init(&s->mu, NULL);
-    pthread_condattr_t attr;
-    pthread_condattr_init(&attr);
-    pthread_condattr_setclock(&attr, CLOCK_MONOTONIC);
-    pthread_cond_init(&s->cond, &attr);
-    pthread_condattr_destroy(&attr);
+    cv_cond_init(&s->cond);
     bool ok = true;
     s->stream_methods = copy_methods(config->stream_methods, &ok);
     s->unary_methods = copy_methods(config->unary_methods, &ok);
@@ -573,15 +571,8 @@ uint32_t cv_rpc_server_active_streams(const cv_rpc_server *s) {
 
 /* Waits on s->cond (s->mu held) until no stream runs or the deadline timeout_ms from now passes. */
 static void wait_streams_locked(cv_rpc_server *s, uint32_t timeout_ms) {
-    struct timespec deadline;
-    clock_gettime(CLOCK_MONOTONIC, &deadline);
-    deadline.tv_sec += timeout_ms / 1000;
-    deadline.tv_nsec += (long)(timeout_ms % 1000) * 1000000L;
-    if (deadline.tv_nsec >= 1000000000L) {
-        deadline.tv_sec++;
-        deadline.tv_nsec -= 1000000000L;
-    }
-    while (s->active_streams > 0 && timeout_ms > 0 && pthread_cond_timedwait(&s->cond, &s->mu, &deadline) == 0) {
+    uint64_t deadline = cv_deadline_after_ms(timeout_ms);
+    while (s->active_streams > 0 && timeout_ms > 0 && cv_cond_wait_until(&s->cond, &s->mu, deadline) == 0) {
     }
 }
 

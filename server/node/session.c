@@ -24,11 +24,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "corvid/clock.h"
 #include "corvid/command_codec.h"
+#include "corvid/hash_map.h"
 #include "corvid/sha256.h"
-#include "handle_map.h"
 #include "node_internal.h"
 #include "peer.h"
 #include "proto_arena.h"
@@ -62,7 +62,7 @@ typedef struct session {
     cv_context *ctx;
     cv_device *dev;
     uint32_t device_index;
-    cv_handle_map map;
+    cv_hash_map map; /* the client's handle ids -> the node's own (a client reaches only what it made) */
     proto_arena arena;
 
     /* The blob being received, if any. */
@@ -195,12 +195,6 @@ static void send_completed(session *s, const pending_submit *p) {
     send_node_message(s, &m);
 }
 
-static uint64_t now_ns(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
-
 static uint32_t submit_budget_ms(const cv_node *node) {
     return node->config.submit_timeout_ms ? node->config.submit_timeout_ms : CV_NODE_DEFAULT_SUBMIT_TIMEOUT_MS;
 }
@@ -232,11 +226,11 @@ static void give_up(session *s, pending_submit *p) {
  * a long frame. Returns false when the watcher must stop: the session is
  * abandoned, or the watchdog fired. */
 static bool wait_submission(session *s, pending_submit *p) {
-    uint64_t started = now_ns(), budget_ns = submit_budget_ms(s->node) * 1000000ull;
+    uint64_t deadline = cv_deadline_after_ms(submit_budget_ms(s->node));
     cv_result r;
     do {
         r = cv_device_wait(s->dev, p->node_ticket, 100ull * 1000 * 1000);
-        if (r == CV_ERROR_TIMEOUT && now_ns() - started >= budget_ns) {
+        if (r == CV_ERROR_TIMEOUT && cv_deadline_passed(deadline)) {
             give_up(s, p);
             return false;
         }
@@ -303,8 +297,8 @@ static cv_result translate(session *s, uint64_t client_id, cv_handle_type type, 
     if (type != CV_HANDLE_NONE && cv_handle_type_of(client_id) != type)
         return cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "%s: needs a %s handle, got a %s handle (0x%016" PRIx64 ")", what,
                         cv_handle_type_name(type), cv_handle_type_name(cv_handle_type_of(client_id)), client_id);
-    uint64_t id = cv_handle_map_get(&s->map, client_id);
-    if (!id)
+    uint64_t id;
+    if (!cv_hash_map_get(&s->map, client_id, &id))
         return cv_error(CV_ERROR_INVALID_HANDLE,
                         "%s: %s handle 0x%016" PRIx64
                         " is unknown in this session "
@@ -323,8 +317,8 @@ typedef struct map_state {
 
 static uint64_t map_list_handle(uint64_t client_id, void *user) {
     map_state *st = user;
-    uint64_t id = cv_handle_map_get(&st->s->map, client_id);
-    if (!id && st->result == CV_OK) {
+    uint64_t id = 0;
+    if (!cv_hash_map_get(&st->s->map, client_id, &id) && st->result == CV_OK) {
         st->result = CV_ERROR_INVALID_HANDLE;
         snprintf(st->message, sizeof(st->message),
                  "command %u: %s handle 0x%016" PRIx64
@@ -371,7 +365,9 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
     cv_result r = cv_node_desc_from_msg(m, &desc);
     if (r != CV_OK)
         return r;
-    if (cv_handle_map_get(&s->map, m->id))
+    if (m->id == 0)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "create: handle 0 is the null handle");
+    if (cv_hash_map_get(&s->map, m->id, NULL))
         return cv_error(CV_ERROR_ALREADY_LOADED, "create: handle 0x%016" PRIx64 " already exists in this session",
                         m->id);
     const cv_node_quota *q = &s->node->quota;
@@ -407,7 +403,7 @@ static cv_result do_create(session *s, const Corvid__CreateResource *m) {
     if (desc.type != CV_HANDLE_CMDLIST)
         r = cv_device_load(s->dev, h);
     if (r == CV_OK)
-        r = cv_handle_map_put(&s->map, m->id, h.id);
+        r = cv_hash_map_put(&s->map, m->id, h.id);
     if (r != CV_OK) {
         char why[512];
         snprintf(why, sizeof(why), "%s", cv_last_error());
@@ -428,7 +424,7 @@ static cv_result do_destroy(session *s, const Corvid__DestroyResource *m) {
     if (r == CV_OK)
         r = cv_destroy(s->ctx, (cv_handle){ id });
     if (r == CV_OK) {
-        cv_handle_map_remove(&s->map, m->id);
+        cv_hash_map_remove(&s->map, m->id, NULL);
         track_bytes(s, &desc, -1);
     }
     return r;
@@ -1077,7 +1073,7 @@ static void session_finish(session *s) {
     else if (s->ctx)
         cv_node_keep_abandoned(s->ctx);
     cv_node_memory_release(s->node, s->memory_bytes);
-    cv_handle_map_finish(&s->map);
+    cv_hash_map_finish(&s->map);
     proto_arena_finish(&s->arena);
     free(s->pending);
     pthread_cond_destroy(&s->cond);
@@ -1100,7 +1096,7 @@ void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
     snprintf(s->peer, sizeof(s->peer), "%s", cv_rpc_stream_peer(stream) ? cv_rpc_stream_peer(stream) : "?");
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->cond, NULL);
-    cv_handle_map_init(&s->map);
+    cv_hash_map_init(&s->map, cv_hash_map_random_seed()); /* the client chooses the keys */
     proto_arena_init(&s->arena);
     atomic_fetch_add(&node->sessions_started, 1);
     atomic_fetch_add(&node->sessions_active, 1);

@@ -26,6 +26,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "corvid/clock.h"
 #include "corvid/proxy.h"
 #include "corvid/renderer.h"
 #include "corvid/scene_procedural.h"
@@ -46,12 +47,6 @@ static cv_render_settings settings(uint32_t frames) {
 static const char *test_adapter(void) {
     const char *env = getenv("CORVID_TEST_ADAPTER");
     return env && env[0] ? env : "llvmpipe";
-}
-
-static double now_ms(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
 }
 
 static bool same_image(const cv_render_output *a, const cv_render_output *b) {
@@ -161,13 +156,13 @@ typedef struct kill_plan {
 static void on_frame(uint32_t frame, uint32_t frames, void *user) {
     (void)frames;
     kill_plan *plan = user;
-    double t = now_ms();
+    double t = cv_now_ms();
     if (frame - 1 < 16)
         plan->frame_ms[frame - 1] = t - plan->last_ms;
     plan->frames_seen = frame;
     if (frame == plan->after_frame)
         scratch_process_node_kill(plan->victim); /* SIGKILL: the next frame's sends meet a dead node */
-    plan->last_ms = now_ms();
+    plan->last_ms = cv_now_ms();
 }
 
 static void node_killed(const char *node_binary, const cv_scene *scene, const cv_bvh *bvh) {
@@ -195,7 +190,7 @@ static void node_killed(const char *node_binary, const cv_scene *scene, const cv
         cv_render_stats stats;
         cv_render_settings s = settings(frames);
         CHECK_OK(cv_renderer_create(devices, 3, scene, bvh, &r));
-        kill_plan plan = { .victim = &nodes[2], .after_frame = 2, .last_ms = now_ms() };
+        kill_plan plan = { .victim = &nodes[2], .after_frame = 2, .last_ms = cv_now_ms() };
         CHECK_OK(cv_renderer_render(r, &s, &out, &stats, on_frame, &plan));
         CHECK(same_image(&local, &out));
         CHECK_EQ_INT(stats.devices_lost, 1);
@@ -245,9 +240,9 @@ static void stall_after(uint32_t frame, uint32_t frames, void *user) {
     stall_plan *plan = user;
     if (frame == plan->after_frame) {
         tcp_relay_set_stall(plan->relay, true);
-        plan->stalled_at = now_ms();
+        plan->stalled_at = cv_now_ms();
     } else if (frame == plan->after_frame + 1) {
-        plan->resumed_at = now_ms(); /* the frame after the stall completed, on the survivors */
+        plan->resumed_at = cv_now_ms(); /* the frame after the stall completed, on the survivors */
     }
 }
 

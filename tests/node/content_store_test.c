@@ -2,8 +2,8 @@
  * hashes, aborts, LRU eviction around pinned blobs, the size limit, restarts
  * (blobs and their order kept), damaged and stray files on disk, file modes,
  * blobs changed on disk while open, eight threads on overlapping hashes and
- * on one hash, a waiter whose first uploader aborts or stalls, and the
- * counters after each of those. Every
+ * on one hash, a waiter whose first uploader aborts or stalls, hashes that
+ * share the index's key, and the counters after each of those. Every
  * test works in its own mkdtemp directory and removes it. */
 #include <dirent.h>
 #include <ftw.h>
@@ -851,6 +851,38 @@ static void test_waiter_after_abort_and_stall(void) {
     remove_dir(dir);
 }
 
+/* Hashes that share their first 8 bytes (the index's key) live side by side: uploads of two such
+ * made-up hashes beside a stored blob, ended in every order, leave the blob found and whole. */
+static void test_shared_key(void) {
+    char dir[64];
+    make_dir(dir);
+    cv_content_store *s;
+    CHECK_OK(cv_content_store_open(dir, 0, &s));
+    blob a = make_blob(11, 1000);
+    CHECK_OK(upload(s, &a, 1000));
+    uint8_t x[32], y[32];
+    memcpy(x, a.sha, 32);
+    memcpy(y, a.sha, 32);
+    x[31] ^= 1;
+    y[20] ^= 1;
+    cv_content_upload *ux, *uy;
+    CHECK_OK(cv_content_upload_begin(s, x, 10, &ux));
+    CHECK_OK(cv_content_upload_begin(s, y, 10, &uy));
+    CHECK(cv_content_store_has(s, a.sha) && !cv_content_store_has(s, x) && !cv_content_store_has(s, y));
+    cv_content_upload_abort(ux); /* the middle of the three */
+    CHECK(get_matches(s, &a));
+    CHECK_OK(cv_content_upload_begin(s, x, 10, &ux));
+    CHECK_OK(cv_content_upload_write(uy, 0, a.data, 10));
+    CHECK_RESULT(cv_content_upload_finish(uy), CV_ERROR_HASH_MISMATCH); /* the middle again */
+    cv_content_upload_abort(ux);                                        /* the first, the blob after it */
+    CHECK(get_matches(s, &a));
+    CHECK_RESULT(cv_content_upload_begin(s, a.sha, a.size, &ux), CV_ERROR_ALREADY_EXISTS);
+    CHECK_EQ_INT(cv_content_store_stats(s).entries, 1);
+    cv_content_store_close(s);
+    free_blob(&a);
+    remove_dir(dir);
+}
+
 int main(void) {
     test_upload_and_get();
     test_rejected_uploads();
@@ -861,5 +893,6 @@ int main(void) {
     test_threads();
     test_same_blob_threads();
     test_waiter_after_abort_and_stall();
+    test_shared_key();
     return check_report("content_store");
 }

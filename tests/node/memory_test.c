@@ -11,6 +11,7 @@
 #include <time.h>
 
 #include "check.h"
+#include "corvid/clock.h"
 #include "corvid/handle.h"
 #include "raw_node_client.h"
 #include "scratch_node.h"
@@ -29,12 +30,6 @@
 #endif
 #define BUF_ID(i) cv_handle_pack(CV_HANDLE_BUFFER, 1, 1, (i))
 #define MIB (1ull << 20)
-
-static double now_s(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
-}
 
 /* VmRSS of a process, in bytes (0 if unknown). */
 static unsigned long long rss_of(int pid) {
@@ -176,7 +171,7 @@ int main(int argc, char **argv) {
     unsigned long long idle = rss_of(n.pid);
     printf("idle: %.1f MB\n", idle / 1048576.0);
     for (int round = 1; round <= 2; round++) {
-        double t0 = now_s();
+        double t0 = cv_now_ms() / 1e3;
         burst(n.endpoint);
         wait_no_sessions(n.endpoint);
         /* The node trims after a session's thread has counted it ended: give the last trim time to finish. */
@@ -186,7 +181,7 @@ int main(int argc, char **argv) {
             after = rss_of(n.pid);
         }
         printf("after burst %d of %u sessions (%.1f s): %.1f MB (idle %.1f MB, bound %.1f MB)\n", round, SESSIONS,
-               now_s() - t0, after / 1048576.0, idle / 1048576.0, (idle + RSS_SLACK) / 1048576.0);
+               cv_now_ms() / 1e3 - t0, after / 1048576.0, idle / 1048576.0, (idle + RSS_SLACK) / 1048576.0);
         CHECK(idle > 0 && (!RSS_CHECKED || after <= idle + RSS_SLACK));
     }
     scratch_process_node_stop(&n);

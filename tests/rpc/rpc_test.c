@@ -2,6 +2,7 @@
  * and every test ends with nothing left (server streams back to 0, every object destroyed).
  * `rpc_test NAME` runs one test. */
 #include "check.h"
+#include "corvid/clock.h"
 #include "corvid/rpc.h"
 
 #include <arpa/inet.h>
@@ -14,19 +15,12 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
-#include <time.h>
 #include <unistd.h>
 
 #define ECHO "/test.Echo/Stream"   /* echoes; at end of stream finishes OK "echoed N" */
 #define REJECT "/test.Echo/Reject" /* finishes INVALID_ARGUMENT at once */
 #define META "/test.Echo/Meta"     /* sends the "corvid-session" metadata value, returns */
 #define UNARY "/test.Echo/Unary"   /* echoes; "fail" -> INVALID_ARGUMENT */
-
-static double now_s(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
-}
 
 typedef struct echo_state {
     atomic_int streams_seen, eofs_seen;
@@ -107,8 +101,8 @@ static cv_rpc_client *connect_to(cv_rpc_server *server) {
 
 /* Streams end asynchronously on the server after the client goes: wait (bounded) for the count to fall. */
 static bool wait_idle(cv_rpc_server *s, double seconds) {
-    double end = now_s() + seconds;
-    while (cv_rpc_server_active_streams(s) != 0 && now_s() < end)
+    double end = cv_now_ms() / 1e3 + seconds;
+    while (cv_rpc_server_active_streams(s) != 0 && cv_now_ms() / 1e3 < end)
         usleep(2000);
     return cv_rpc_server_active_streams(s) == 0;
 }
@@ -375,7 +369,7 @@ static void *wait_in_recv(void *arg) {
     uint8_t *m = NULL;
     size_t n;
     w->result = cv_rpc_stream_recv(w->stream, 20000, &m, &n);
-    w->returned_at = now_s();
+    w->returned_at = cv_now_ms() / 1e3;
     free(m);
     return NULL;
 }
@@ -391,7 +385,7 @@ static void test_server_killed(void) {
     pthread_t t;
     pthread_create(&t, NULL, wait_in_recv, &w);
     usleep(100000);
-    double killed_at = now_s();
+    double killed_at = cv_now_ms() / 1e3;
     cv_rpc_server_destroy(server, 0);
     pthread_join(t, NULL);
     CHECK_RESULT(w.result, CV_ERROR_CONNECTION);
@@ -413,22 +407,22 @@ static void test_nothing_listens(void) {
     cv_rpc_client_config cfg = { .connect_timeout_ms = 2000 };
     cv_rpc_client *c = NULL;
     CHECK_OK(cv_rpc_client_create(target, &cfg, &c));
-    double t0 = now_s();
+    double t0 = cv_now_ms() / 1e3;
     cv_rpc_stream *s = NULL;
     CHECK_OK(cv_rpc_client_open(c, ECHO, NULL, 0, &s));
     uint8_t *m = NULL;
     size_t n;
     CHECK_RESULT(cv_rpc_stream_recv(s, 10000, &m, &n), CV_ERROR_CONNECTION);
-    CHECK(now_s() - t0 < 2.5);
+    CHECK(cv_now_ms() / 1e3 - t0 < 2.5);
     CHECK_EQ_INT(cv_rpc_stream_status(s, NULL, 0), CV_RPC_STATUS_UNAVAILABLE);
     cv_rpc_stream_destroy(s);
     void *resp = NULL;
     size_t resp_size = 0;
     int status = 0;
-    t0 = now_s();
+    t0 = cv_now_ms() / 1e3;
     CHECK_RESULT(cv_rpc_client_unary(c, UNARY, "x", 1, 5000, &resp, &resp_size, &status), CV_ERROR_CONNECTION);
     CHECK_EQ_INT(status, CV_RPC_STATUS_UNAVAILABLE);
-    CHECK(now_s() - t0 < 2.5);
+    CHECK(cv_now_ms() / 1e3 - t0 < 2.5);
     cv_rpc_client_destroy(c);
 }
 
@@ -503,11 +497,11 @@ static void test_recv_timeout(void) {
     cv_rpc_client *c = connect_to(server);
     cv_rpc_stream *s = NULL;
     CHECK_OK(cv_rpc_client_open(c, ECHO, NULL, 0, &s));
-    double t0 = now_s();
+    double t0 = cv_now_ms() / 1e3;
     uint8_t *m = NULL;
     size_t n;
     CHECK_RESULT(cv_rpc_stream_recv(s, 100, &m, &n), CV_ERROR_TIMEOUT);
-    double dt = now_s() - t0;
+    double dt = cv_now_ms() / 1e3 - t0;
     CHECK(dt >= 0.09 && dt < 1.0);
     round_trip(s, "after a timeout");
     close_and_expect(s, 1);
@@ -602,11 +596,11 @@ static void test_silent_peer(void) {
     CHECK_OK(cv_rpc_client_open(c, ECHO, NULL, 0, &s));
     round_trip(s, "through the proxy");
     atomic_store(&p.frozen, true);
-    double t0 = now_s();
+    double t0 = cv_now_ms() / 1e3;
     uint8_t *m = NULL;
     size_t n;
     CHECK_RESULT(cv_rpc_stream_recv(s, 10000, &m, &n), CV_ERROR_CONNECTION);
-    double dt = now_s() - t0;
+    double dt = cv_now_ms() / 1e3 - t0;
     if (dt > 3.0)
         fprintf(stderr, "silent peer noticed after %.2f s\n", dt);
     CHECK(dt < 3.0); /* keepalive 0.5 s + timeout 0.5 s, with slack */
@@ -642,10 +636,10 @@ int main(int argc, char **argv) {
         if (argc > 1 && strcmp(argv[1], tests[i].name) != 0)
             continue;
         int before = check_failures;
-        double t0 = now_s();
+        double t0 = cv_now_ms() / 1e3;
         tests[i].fn();
         fprintf(stderr, "%-22s %s (%.2f s)\n", tests[i].name, check_failures == before ? "ok" : "FAILED",
-                now_s() - t0);
+                cv_now_ms() / 1e3 - t0);
     }
     return check_report("rpc");
 }

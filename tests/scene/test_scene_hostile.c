@@ -12,10 +12,10 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 #include "check.h"
+#include "corvid/clock.h"
 #include "corvid/scene_import.h"
 #include "scene_test_util.h"
 
@@ -29,18 +29,12 @@ static const char *path_of(const char *name) {
     return path[slot];
 }
 
-static double now_s(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec / 1e9;
-}
-
 /* Import must fail with `code`, within a second, naming the file and `what`. */
 static void expect_rejected(const char *path, cv_result code, const char *what) {
     cv_scene *s = NULL;
-    double t = now_s();
+    double t = cv_now_ms() / 1e3;
     CHECK_RESULT(cv_scene_import(path, &s), code);
-    t = now_s() - t;
+    t = cv_now_ms() / 1e3 - t;
     CHECK(t < 1.0);
     CHECK(s == NULL);
     CHECK(strstr(cv_last_error(), path) != NULL);

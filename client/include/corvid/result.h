@@ -67,7 +67,8 @@ void cv_clear_error(void);
 
 /* Records a formatted message for this thread and returns `code`, so an error
  * path reads `return cv_error(CV_ERROR_OUT_OF_RANGE, "copy of %u bytes ...", n);`.
- * If CORVID_LOG_ERRORS is set in the environment, also prints it to stderr. */
+ * Also logs it at CV_LOG_DEBUG with origin "error" (corvid/log.h; programs turn that on for
+ * CORVID_LOG_ERRORS=1). */
 cv_result cv_error(cv_result code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 cv_result cv_verror(cv_result code, const char *fmt, va_list ap);
 

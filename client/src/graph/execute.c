@@ -10,20 +10,14 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "corvid/clock.h"
 #include "corvid/transfer.h"
 #include "device_internal.h"
 #include "graph_internal.h"
 
 #define MAX_RECORD_THREADS 8u
 #define INSTANCES_PER_THREAD 4u
-
-static double now_ms(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
 
 typedef struct recorder {
     cv_graph *g;
@@ -162,7 +156,7 @@ static cv_result run_transfer(cv_graph *g, const graph_step *st, double *start_m
                               uint64_t *last) {
     const graph_resource *r = &g->resources[st->resource];
     cv_handle h = graph_handle_of(g, st->resource, false);
-    double start = now_ms();
+    double start = cv_now_ms();
     *start_ms = start;
     cv_result res = CV_OK;
     *bytes = 0;
@@ -196,7 +190,7 @@ static cv_result run_transfer(cv_graph *g, const graph_step *st, double *start_m
             res = cv_error(res, "graph: transfer of '%s' after pass '%s' (device %u -> %u): %s", r->name,
                            g->passes[st->pass].name, cp->src_device, cp->dst_device, cv_last_error());
     }
-    *ms = now_ms() - start;
+    *ms = cv_now_ms() - start;
     return res;
 }
 
@@ -300,9 +294,9 @@ static cv_result evaluate(cv_graph *g, bool wait, cv_graph_timing *timings, uint
                 .transfer = true, .pass = st->pass, .resource = st->resource, .device = st->plan.copies[0].src_device
             };
             if (st->zero_copy) { /* shared memory: the primary waits on the GPU, no byte moves */
-                e.host_ms = now_ms();
+                e.host_ms = cv_now_ms();
                 res = graph_zero_copy_handover(g, st, fr, fr->last);
-                e.ms = now_ms() - e.host_ms;
+                e.ms = cv_now_ms() - e.host_ms;
             } else {
                 res = run_transfer(g, st, &e.host_ms, &e.ms, &e.bytes, fr->last);
             }

@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <time.h>
 
+#include "corvid/clock.h"
 #include "corvid/command_codec.h"
 #include "corvid/parse.h"
 #include "corvid/sha256.h"
@@ -113,7 +113,7 @@ static cv_result proxy_device_create(const cv_device_desc *desc, cv_device_info 
         return r;
     }
     pthread_mutex_init(&p->lock, NULL);
-    pthread_cond_init(&p->cond, NULL);
+    cv_cond_init(&p->cond);
     proxy_peer_register(p);
     r = proxy_session_open(p, info);
     if (r != CV_OK) {
@@ -497,17 +497,7 @@ static cv_result proxy_submit(cv_backend_device *p, void *obj, uint64_t ticket) 
 }
 
 static cv_result proxy_wait(cv_backend_device *p, uint64_t ticket, uint64_t timeout_ns) {
-    struct timespec deadline;
-    clock_gettime(CLOCK_REALTIME, &deadline);
-    bool forever = timeout_ns == UINT64_MAX;
-    if (!forever) {
-        deadline.tv_sec += (time_t)(timeout_ns / 1000000000ull);
-        deadline.tv_nsec += (long)(timeout_ns % 1000000000ull);
-        if (deadline.tv_nsec >= 1000000000L) {
-            deadline.tv_sec++;
-            deadline.tv_nsec -= 1000000000L;
-        }
-    }
+    uint64_t deadline = cv_deadline_after_ns(timeout_ns); /* UINT64_MAX: CV_DEADLINE_NEVER */
     pthread_mutex_lock(&p->lock);
     cv_result r = CV_OK;
     if (p->completed < ticket && p->dead == CV_OK)
@@ -519,16 +509,9 @@ static cv_result proxy_wait(cv_backend_device *p, uint64_t ticket, uint64_t time
         pthread_mutex_lock(&p->lock);
         if (p->completed >= ticket || p->dead != CV_OK)
             break;
-        struct timespec slice;
-        clock_gettime(CLOCK_REALTIME, &slice);
-        slice.tv_nsec += 100L * 1000 * 1000;
-        if (slice.tv_nsec >= 1000000000L) {
-            slice.tv_sec++;
-            slice.tv_nsec -= 1000000000L;
-        }
-        bool last = !forever && (slice.tv_sec > deadline.tv_sec ||
-                                 (slice.tv_sec == deadline.tv_sec && slice.tv_nsec >= deadline.tv_nsec));
-        if (pthread_cond_timedwait(&p->cond, &p->lock, last ? &deadline : &slice) != 0 && last &&
+        uint64_t slice = cv_deadline_after_ms(100);
+        bool last = slice >= deadline;
+        if (cv_cond_wait_until(&p->cond, &p->lock, cv_deadline_min(slice, deadline)) != 0 && last &&
             p->completed < ticket && p->dead == CV_OK) {
             r = cv_error(CV_ERROR_TIMEOUT, "node '%s': ticket %" PRIu64 " not finished in time", p->endpoint, ticket);
             break;

@@ -4,8 +4,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "corvid/clock.h"
 #include "corvid/parse.h"
 #include "proxy_internal.h"
 
@@ -60,16 +60,6 @@ cv_result proxy_send_now(proxy_device *p, Corvid__ClientMessage *m) {
     return r == CV_OK ? CV_OK : cv_error(CV_ERROR_CONNECTION, "node '%s': %s", p->endpoint, p->dead_message);
 }
 
-static void deadline_after(struct timespec *ts, uint32_t ms) {
-    clock_gettime(CLOCK_REALTIME, ts);
-    ts->tv_sec += ms / 1000;
-    ts->tv_nsec += (long)(ms % 1000) * 1000000L;
-    if (ts->tv_nsec >= 1000000000L) {
-        ts->tv_sec++;
-        ts->tv_nsec -= 1000000000L;
-    }
-}
-
 cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending) {
     m->seq = atomic_fetch_add(&p->next_seq, 1) + 1;
     pthread_mutex_lock(&p->lock);
@@ -83,10 +73,9 @@ cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending
     cv_result r = proxy_send(p, m);
     pthread_mutex_lock(&p->lock);
     if (r == CV_OK) {
-        struct timespec deadline;
-        deadline_after(&deadline, p->timeout_ms);
+        uint64_t deadline = cv_deadline_after_ms(p->timeout_ms);
         while (!p->pending.done && p->dead == CV_OK)
-            if (pthread_cond_timedwait(&p->cond, &p->lock, &deadline) != 0)
+            if (cv_cond_wait_until(&p->cond, &p->lock, deadline) != 0)
                 break;
         if (p->pending.done)
             r = p->pending.result == CV_OK
@@ -398,10 +387,9 @@ void proxy_session_close(proxy_device *p) {
         cv_rpc_stream_close_send(p->stream);
         if (p->receiver_started) {
             pthread_mutex_lock(&p->lock);
-            struct timespec deadline;
-            deadline_after(&deadline, p->timeout_ms);
+            uint64_t deadline = cv_deadline_after_ms(p->timeout_ms);
             while (p->dead == CV_OK)
-                if (pthread_cond_timedwait(&p->cond, &p->lock, &deadline) != 0)
+                if (cv_cond_wait_until(&p->cond, &p->lock, deadline) != 0)
                     break;
             pthread_mutex_unlock(&p->lock);
         }

@@ -2,6 +2,7 @@
 #include "rpc_internal.h"
 
 #include "corvid/file_util.h"
+#include "corvid/log.h"
 
 #include <assert.h>
 #include <errno.h>
@@ -142,7 +143,7 @@ void cv_rpc_client_destroy(cv_rpc_client *c) {
         return;
     unsigned open = atomic_load(&c->streams);
     if (open)
-        fprintf(stderr, "corvid rpc: client '%s' destroyed with %u streams open\n", c->target, open);
+        cv_log(CV_LOG_ERROR, "rpc", "client '%s' destroyed with %u streams open", c->target, open);
     assert(open == 0 && "destroy the client's streams first");
     grpc_channel_destroy(c->channel);
     grpc_shutdown();

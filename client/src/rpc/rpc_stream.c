@@ -8,7 +8,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
+
+#include "corvid/clock.h"
+#include "corvid/log.h"
 
 typedef enum stream_tag {
     TAG_INITIAL_SENT = 1, /* SEND_INITIAL_METADATA */
@@ -102,11 +104,7 @@ cv_result cv_rpc_stream_create(grpc_call *call, grpc_completion_queue *cq, bool 
     cv_rpc_stream *s = calloc(1, sizeof *s);
     if (!s)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "rpc: stream");
-    pthread_condattr_t attr;
-    pthread_condattr_init(&attr);
-    pthread_condattr_setclock(&attr, CLOCK_MONOTONIC);
-    pthread_cond_init(&s->cond, &attr);
-    pthread_condattr_destroy(&attr);
+    cv_cond_init(&s->cond);
     pthread_mutex_init(&s->mu, NULL);
     s->is_server = is_server;
     s->call = call;
@@ -160,7 +158,7 @@ static bool start_locked(cv_rpc_stream *s, const grpc_op *ops, size_t n, stream_
         return false;
     grpc_call_error e = grpc_call_start_batch(s->call, ops, n, TAG(tag), NULL);
     if (e != GRPC_CALL_OK) {
-        fprintf(stderr, "corvid rpc: start_batch (tag %d) failed: %s\n", (int)tag, grpc_call_error_to_string(e));
+        cv_log(CV_LOG_ERROR, "rpc", "start_batch (tag %d) failed: %s", (int)tag, grpc_call_error_to_string(e));
         fail_locked(s);
         return false;
     }
@@ -227,7 +225,7 @@ static void on_recv(cv_rpc_stream *s, bool success) {
     s->recv_buffer = NULL;
     if (r != CV_OK) {
         free(m);
-        fprintf(stderr, "corvid rpc: dropping stream from %s: %s\n", s->peer, cv_last_error());
+        cv_log(CV_LOG_WARNING, "rpc", "dropping stream from %s: %s", s->peer, cv_last_error());
         grpc_call_cancel(s->call, NULL);
         fail_locked(s);
         return;
@@ -346,26 +344,6 @@ cv_result cv_rpc_stream_begin(cv_rpc_stream *s, const cv_rpc_metadata *md, uint3
 
 /* ---- operations ---- */
 
-static int remaining_wait(pthread_cond_t *cond, pthread_mutex_t *mu, const struct timespec *deadline) {
-    if (!deadline) {
-        pthread_cond_wait(cond, mu);
-        return 0;
-    }
-    return pthread_cond_timedwait(cond, mu, deadline);
-}
-
-static struct timespec deadline_after(uint32_t ms) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    t.tv_sec += ms / 1000;
-    t.tv_nsec += (long)(ms % 1000) * 1000000L;
-    if (t.tv_nsec >= 1000000000L) {
-        t.tv_sec++;
-        t.tv_nsec -= 1000000000L;
-    }
-    return t;
-}
-
 /* Why a call is over, for cv_error: "status UNAVAILABLE (14): failed to connect" or "cancelled". */
 static cv_result call_error_locked(cv_rpc_stream *s) {
     if (!s->is_server && s->status_set)
@@ -384,7 +362,7 @@ cv_result cv_rpc_stream_recv(cv_rpc_stream *s, uint32_t timeout_ms, uint8_t **da
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_rpc_stream_recv: null stream or output");
     *data = NULL;
     *size = 0;
-    struct timespec deadline = timeout_ms == CV_RPC_FOREVER ? (struct timespec){ 0 } : deadline_after(timeout_ms);
+    uint64_t deadline = timeout_ms == CV_RPC_FOREVER ? CV_DEADLINE_NEVER : cv_deadline_after_ms(timeout_ms);
     cv_result r = CV_OK;
     bool timed_out = false;
     pthread_mutex_lock(&s->mu);
@@ -418,7 +396,7 @@ cv_result cv_rpc_stream_recv(cv_rpc_stream *s, uint32_t timeout_ms, uint8_t **da
                          s->peer, timeout_ms);
             break;
         }
-        if (remaining_wait(&s->cond, &s->mu, timeout_ms == CV_RPC_FOREVER ? NULL : &deadline) == ETIMEDOUT)
+        if (cv_cond_wait_until(&s->cond, &s->mu, deadline) == ETIMEDOUT)
             timed_out = true; /* one more look at the state before giving up */
     }
     pthread_mutex_unlock(&s->mu);

@@ -1,10 +1,13 @@
 /* Result names, descriptions and the per-thread error message. */
 #include "corvid/result.h"
 
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "corvid/log.h"
+
+/* process-wide: one message per thread, the C library's errno's way: a failing call returns a code, and
+ * the words stay with the thread that made the call until its next failure. */
 static _Thread_local char last_error[CV_ERROR_MESSAGE_MAX];
 
 const char *cv_result_name(cv_result r) {
@@ -60,16 +63,8 @@ cv_result cv_verror(cv_result code, const char *fmt, va_list ap) {
         snprintf(last_error, sizeof(last_error), "%s", message);
     }
     va_end(again);
-    /* Process-wide on purpose: the environment is the process's. Read once,
-     * lazily; an atomic because errors are reported from many threads. */
-    static atomic_int log_errors = -1;
-    int log = atomic_load_explicit(&log_errors, memory_order_relaxed);
-    if (log < 0) {
-        log = getenv("CORVID_LOG_ERRORS") != NULL;
-        atomic_store_explicit(&log_errors, log, memory_order_relaxed);
-    }
-    if (log)
-        fprintf(stderr, "corvid: %s: %s\n", cv_result_name(code), last_error);
+    if (cv_log_enabled(CV_LOG_DEBUG))
+        cv_log(CV_LOG_DEBUG, "error", "%s: %s", cv_result_name(code), last_error);
     return code;
 }
 
