@@ -3,8 +3,8 @@
  * Validation is an instance-level choice, so the process keeps at most two
  * instances: a plain one and one with VK_LAYER_KHRONOS_validation (with
  * synchronization validation, to catch missing or wrong barriers). Its debug
- * messenger prints every warning and error and counts them, so a test can
- * assert that a run was clean.
+ * messenger hands every warning and error to the log sink (corvid/log.h,
+ * origin "vulkan") and counts them, so a test can assert that a run was clean.
  *
  * An instance, once made, is kept for the rest of the process (the last
  * release does not destroy it): on the NVIDIA H200 machines vkCreateInstance
@@ -21,10 +21,10 @@
  * plain build's tests still run everything under it). */
 #include <pthread.h>
 #include <stdatomic.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "corvid/log.h"
 #include "vk_instance.h"
 
 static const char VALIDATION_LAYER[] = "VK_LAYER_KHRONOS_validation";
@@ -132,8 +132,8 @@ static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlag
                    (VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT);
     if (counted)
         atomic_fetch_add(error ? &message_errors : &message_warnings, 1u);
-    fprintf(stderr, "corvid vulkan %s%s: %s\n", error ? "error" : "warning", counted ? "" : " (loader)",
-            data->pMessage ? data->pMessage : "");
+    cv_log(error ? CV_LOG_ERROR : CV_LOG_WARNING, "vulkan", "%s%s", counted ? "" : "(loader) ",
+           data->pMessage ? data->pMessage : "");
     return VK_FALSE;
 }
 
