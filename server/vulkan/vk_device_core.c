@@ -4,18 +4,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "corvid/clock.h"
 #include "vk_device_core.h"
 
 /* With validation: one slice of a host wait under the host lock. */
 #define HOST_SLICE_NS (200ull * 1000)
-
-uint64_t vk_now_ns(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
 
 void vk_device_core_init(cv_backend_device *bd, pthread_mutex_t *shared_host_lock) {
     pthread_mutex_init(&bd->host_lock, NULL);
@@ -34,9 +28,9 @@ void vk_device_core_finish(cv_backend_device *bd) {
 VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, uint64_t timeout_ns) {
     if (!bd->serialize)
         return vkWaitSemaphores(bd->device, info, timeout_ns);
-    uint64_t start = vk_now_ns();
+    uint64_t start = cv_now_ns();
     for (;;) {
-        uint64_t spent = vk_now_ns() - start;
+        uint64_t spent = cv_now_ns() - start;
         uint64_t left = spent >= timeout_ns ? 0 : timeout_ns - spent;
         vk_layer_enter(bd->instance); /* slice by slice, so a device's creation can come between */
         pthread_mutex_lock(bd->host);

@@ -137,9 +137,6 @@ VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, ui
 uint64_t vk_host_counter(cv_backend_device *bd, VkSemaphore semaphore);
 void vk_host_signal(cv_backend_device *bd, const VkSemaphoreSignalInfo *signal);
 
-/* CLOCK_MONOTONIC in nanoseconds: the host's clock for waits and stats. */
-uint64_t vk_now_ns(void);
-
 /* Whether a and b are instances of one shared VkDevice (they may wait on each other's semaphores). */
 bool vk_device_same(const cv_backend_device *a, const cv_backend_device *b);
 /* Whether the physical device offers the device extension `name`. */

@@ -3,6 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "corvid/clock.h"
 #include "vk_immediate.h"
 #include "vk_objects.h"
 #include "vk_shared.h"
@@ -127,7 +128,7 @@ static void record_zeroes(cv_backend_device *bd, VkCommandBuffer cmd) {
     }
     if (bytes) {
         atomic_fetch_add(&bd->zeroed_bytes, bytes);
-        bd->imm->zero_started_ns = vk_now_ns();
+        bd->imm->zero_started_ns = cv_now_ns();
     }
 }
 
@@ -227,7 +228,7 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
                                       .pValues = &bd->immediate_value };
     vr = vk_host_wait(bd, &wait_info, UINT64_MAX);
     if (bd->imm->zero_started_ns) {
-        atomic_fetch_add(&bd->zero_ns, vk_now_ns() - bd->imm->zero_started_ns);
+        atomic_fetch_add(&bd->zero_ns, cv_now_ns() - bd->imm->zero_started_ns);
         bd->imm->zero_started_ns = 0;
     }
     return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkWaitSemaphores (immediate, device '%s')", bd->label);
@@ -278,11 +279,11 @@ cv_result vk_immediate_zero_buffer(cv_backend_device *bd, vk_buffer *buf) {
     if (buf->memory.zeroed)
         return CV_OK; /* fresh pages (vk_memory.h) */
     if (buf->memory.mapped) {
-        uint64_t start = vk_now_ns();
+        uint64_t start = cv_now_ns();
         memset(buf->memory.mapped, 0, buf->size);
         vk_memory_flush(&bd->memory, &buf->memory, 0, buf->size);
         atomic_fetch_add(&bd->zeroed_bytes, buf->size);
-        atomic_fetch_add(&bd->zero_ns, vk_now_ns() - start);
+        atomic_fetch_add(&bd->zero_ns, cv_now_ns() - start);
         return CV_OK;
     }
     cv_result r = add_pending(bd, (struct vk_pending_init){ .buffer = buf });

@@ -1,9 +1,9 @@
 /* Measuring the two trace paths on one accel (see vk_trace_calibrate.h). */
 #include <math.h>
 #include <stdlib.h>
-#include <time.h>
 
 #include "corvid/bvh_gpu.h"
+#include "corvid/clock.h"
 #include "vk_host_transfer.h"
 #include "vk_immediate.h"
 #include "vk_resources.h"
@@ -57,11 +57,7 @@ static void make_rays(const cv_bvh_tri *tris, uint32_t tri_count, cv_ray *rays, 
     }
 }
 
-static double host_seconds(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
-}
+static double host_seconds(void) { return (double)cv_now_ns() * 1e-9; }
 
 typedef struct measurement {
     VkQueryPool pool; /* two timestamps, or VK_NULL_HANDLE: host clock */
