@@ -269,7 +269,7 @@ static void ring_textures(cv_context *ctx, cv_device *a, cv_device *b) {
     free(back);
 }
 
-/* CORVID_LINK_QUEUE (read at device creation, vk_device.h's link_slot). */
+/* CORVID_LINK_QUEUE, through vkt_device as a program reads it (the link_queue option: vk_device_core.h's link_slot). */
 static void link_queue(cv_context *ctx) {
     cv_device *d[2] = { 0 };
     setenv("CORVID_LINK_QUEUE", "gpu", 1);
