@@ -33,6 +33,7 @@ typedef struct vk_shared_device vk_shared_device;
 /* The subsystems' own states, each defined in its module. */
 typedef struct vk_bridge vk_bridge;
 typedef struct vk_immediate vk_immediate;
+typedef struct vk_link_async vk_link_async;
 
 /* Hardware queues a device may use; command queue types map onto these. */
 typedef enum vk_queue_slot {
@@ -114,11 +115,9 @@ struct cv_backend_device {
     struct vk_import *imports; /* vk_cross_wait.c: per source device, on this (the waiting) device */
     uint32_t import_count;
     struct vk_staging *links; /* vk_link.c: cached stagings, linked */
-    VkCommandPool async_pool; /* vk_link_async.c: command buffers, each free once its ticket finished */
-    struct vk_async_cmd *async_cmds;
-    uint32_t async_count;
-    vk_tracer *tracer;     /* vk_trace.c: the trace paths and the choice between them */
-    vk_indirect *indirect; /* vk_indirect.c: the bound on dispatch_indirect's group counts */
+    vk_link_async *async;     /* vk_link_async.c: its command buffers; NULL until the first copy */
+    vk_tracer *tracer;        /* vk_trace.c: the trace paths and the choice between them */
+    vk_indirect *indirect;    /* vk_indirect.c: the bound on dispatch_indirect's group counts */
 
     atomic_uint buffers, images, samplers, pipelines; /* live objects, for stats */
     /* New resources zeroed (vk_immediate.h) and the host time it took; atomic
