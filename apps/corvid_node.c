@@ -26,6 +26,7 @@
 #include "corvid/vulkan.h"
 #include "env_log.h"
 #include "env_client.h"
+#include "env_vulkan.h"
 #include "metrics_http.h"
 #include "node.h"
 #include "node_metrics_args.h"
@@ -332,7 +333,7 @@ static cv_result make_devices(const options *o, const cv_vulkan_gpu_config *gpus
     if (r != CV_OK)
         return r;
     for (uint32_t i = 0; i < table.count; i++) {
-        out[i] = (cv_node_device_spec){ .backend = cv_vulkan_backend() };
+        out[i] = (cv_node_device_spec){ .backend = cv_vulkan_backend(), .backend_options = &gpus->device };
         snprintf(out[i].adapter, sizeof(out[i].adapter), "%u", table.gpus[i].adapter);
         snprintf(out[i].label, sizeof(out[i].label), "gpu%u", i);
     }
@@ -480,7 +481,7 @@ static int announce(cv_node *node, const options *o, const cv_node_config *confi
 int main(int argc, char **argv) {
     cv_log_set_sink(log_to_stderr, NULL, env_log_level());
     cv_vulkan_gpu_config gpus = { 0 };
-    if (cv_vulkan_gpu_args(&argc, argv, &gpus) != CV_OK) {
+    if (cv_env_vulkan_gpu_args(&argc, argv, &gpus) != CV_OK || cv_env_vulkan_gpu_config(&gpus) != CV_OK) {
         fprintf(stderr, "corvid-node: %s (see --help)\n", cv_last_error());
         return 2;
     }

@@ -11,6 +11,7 @@
 #include "env_client.h"
 #include "env_graph.h"
 #include "env_log.h"
+#include "env_vulkan.h"
 #include "corvid/image_exr.h"
 #include "corvid/image_files.h"
 #include "corvid/image_png.h"
@@ -132,7 +133,10 @@ static cv_result prepare(render_run *run) {
 static cv_result create_devices(render_run *run) {
     const options *o = &run->o;
     cv_vulkan_gpu_table *table = &run->table;
-    cv_result r = o->nodes ? CV_OK : cv_vulkan_gpu_table_build(&run->gpu_config, table);
+    /* The Vulkan variables (apps/common/env_vulkan.h) only where the table is used. */
+    cv_result r = o->nodes ? CV_OK : cv_env_vulkan_gpu_config(&run->gpu_config);
+    if (r == CV_OK && !o->nodes)
+        r = cv_vulkan_gpu_table_build(&run->gpu_config, table);
     if (r == CV_OK && table->count > CV_MAX_DEVICES)
         r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "%u devices requested; the renderer takes at most %u", table->count,
                      CV_MAX_DEVICES);
@@ -314,7 +318,7 @@ static int read_environment(cv_render_settings *settings) {
 
 int main(int argc, char **argv) {
     render_run run = { 0 };
-    if (cv_vulkan_gpu_args(&argc, argv, &run.gpu_config) != CV_OK) {
+    if (cv_env_vulkan_gpu_args(&argc, argv, &run.gpu_config) != CV_OK) {
         fprintf(stderr, "corvid-render: %s (see --help)\n", cv_last_error());
         return 2;
     }

@@ -18,7 +18,7 @@ struct program_option;
  * value and the accepted range) and returns false. */
 typedef bool (*option_fn)(options *o, const struct program_option *def, const char *value);
 
-/* A row: an option (set NULL: taken before, by cv_vulkan_gpu_args; help NULL:
+/* A row: an option (set NULL: taken before, by cv_env_vulkan_gpu_args; help NULL:
  * not in the help), or, with name NULL, a heading of the help (help NULL too:
  * the settings options go here). */
 typedef struct program_option {

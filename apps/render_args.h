@@ -2,7 +2,7 @@
  * settings table, corvid/render_options.h) and the program's own options
  * (scene, outputs, devices, records), parsed into one `options`, and --help.
  * --gpus, --virtual-gpus and --adapters are taken out of argv before, by
- * cv_vulkan_gpu_args; their help is here. */
+ * cv_env_vulkan_gpu_args; their help is here. */
 #ifndef CORVID_APPS_RENDER_ARGS_H
 #define CORVID_APPS_RENDER_ARGS_H
 

@@ -24,6 +24,7 @@
 #include "corvid/scene.h"
 #include "corvid/scene_procedural.h"
 #include "corvid/vulkan.h"
+#include "env_vulkan.h"
 
 #define MAX_SIZES 8
 
@@ -127,7 +128,7 @@ static bool measure(cv_device **devices, uint32_t count, const cv_scene *scene, 
 
 int main(int argc, char **argv) {
     cv_vulkan_gpu_config gpu_config = { .total = 1 };
-    if (cv_vulkan_gpu_args(&argc, argv, &gpu_config) != CV_OK) {
+    if (cv_env_vulkan_gpu_args(&argc, argv, &gpu_config) != CV_OK || cv_env_vulkan_gpu_config(&gpu_config) != CV_OK) {
         fprintf(stderr, "bench_fresh: %s\n", cv_last_error());
         return 2;
     }

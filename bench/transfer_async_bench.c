@@ -20,6 +20,7 @@
 #include "bench_util.h"
 #include "corvid/corvid.h"
 #include "corvid/vulkan.h"
+#include "env_vulkan.h"
 
 #define BATCH 8
 #define MAX_ROUNDS 4096
@@ -105,7 +106,7 @@ static bool row(cv_context *ctx, cv_device *src, cv_device *dst, cv_transfer_pat
 
 int main(int argc, char **argv) {
     cv_vulkan_gpu_config config = { 0 };
-    if (cv_vulkan_gpu_args(&argc, argv, &config) != CV_OK) {
+    if (cv_env_vulkan_gpu_args(&argc, argv, &config) != CV_OK || cv_env_vulkan_gpu_config(&config) != CV_OK) {
         fprintf(stderr, "bench_transfer_async: %s\n", cv_last_error());
         return 2;
     }

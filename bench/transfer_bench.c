@@ -29,6 +29,7 @@
 #include "bench_util.h"
 #include "corvid/corvid.h"
 #include "corvid/vulkan.h"
+#include "env_vulkan.h"
 
 #define MAX_SIZES 24
 #define MAX_REPS 20000
@@ -586,7 +587,7 @@ static bool print_table(const bench *b) {
 
 int main(int argc, char **argv) {
     cv_vulkan_gpu_config gpu_config = { 0 };
-    if (cv_vulkan_gpu_args(&argc, argv, &gpu_config) != CV_OK) {
+    if (cv_env_vulkan_gpu_args(&argc, argv, &gpu_config) != CV_OK || cv_env_vulkan_gpu_config(&gpu_config) != CV_OK) {
         fprintf(stderr, "bench_transfer: %s (see --help)\n", cv_last_error());
         return 2;
     }

@@ -1,5 +1,5 @@
 // The data of the trace_rays command as its kernels see it: the GPU layouts of
-// scene/include/corvid/bvh_gpu.h declared member for member (std430, so the C
+// client/include/corvid/bvh_gpu.h declared member for member (std430, so the C
 // and GLSL offsets agree), reached through buffer device addresses passed in
 // push constants, so no array is limited by the storage buffer range.
 #extension GL_EXT_buffer_reference : require

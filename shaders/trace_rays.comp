@@ -1,6 +1,6 @@
 // The Vulkan backend's compute path for the trace_rays command: one ray per
 // invocation against a flat BVH in the two-child layout of
-// scene/include/corvid/bvh_gpu.h, with a stack and the nearer child first. It
+// client/include/corvid/bvh_gpu.h, with a stack and the nearer child first. It
 // is the loop of tris_node2() in scene/src/trace_cpu.c, statement for
 // statement, with the same ray-box and ray-triangle rules; every expression is
 // `precise` so no multiply-add is fused and the arithmetic rounds as C's does.

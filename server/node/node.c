@@ -310,7 +310,9 @@ static cv_result probe_devices(cv_node *node) {
     cv_context *ctx;
     cv_result r = cv_context_create(NULL, &ctx);
     for (uint32_t i = 0; r == CV_OK && i < node->config.device_count; i++) {
-        cv_device_desc desc = { .adapter = node->devices[i].adapter, .validation = node->config.validation };
+        cv_device_desc desc = { .adapter = node->devices[i].adapter,
+                                .validation = node->config.validation,
+                                .backend_options = node->devices[i].backend_options };
         snprintf(desc.label, sizeof(desc.label), "%s", node->devices[i].label);
         cv_device *dev;
         r = cv_device_create(ctx, node->devices[i].backend, &desc, &dev);

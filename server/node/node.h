@@ -40,8 +40,9 @@ typedef struct cv_node cv_node;
 /* One device the node serves: a backend and the adapter to open on it. */
 typedef struct cv_node_device_spec {
     const cv_backend *backend;
-    char adapter[64];         /* as cv_device_desc.adapter ("" = backend default) */
-    char label[CV_LABEL_MAX]; /* the node's name for it ("gpu0") */
+    char adapter[64];            /* as cv_device_desc.adapter ("" = backend default) */
+    char label[CV_LABEL_MAX];    /* the node's name for it ("gpu0") */
+    const void *backend_options; /* as cv_device_desc.backend_options; kept by the caller while the node runs */
 } cv_node_device_spec;
 
 /* What one session may hold at once (docs/node.md, "Security"). A request past a quota is refused with

@@ -901,7 +901,9 @@ static cv_result do_hello(session *s, uint64_t seq, const Corvid__Hello *m, int 
     }
     const cv_node_device_spec *spec = &node->devices[m->device];
     cv_result r = cv_context_create(NULL, &s->ctx);
-    cv_device_desc desc = { .adapter = spec->adapter, .validation = node->config.validation };
+    cv_device_desc desc = { .adapter = spec->adapter,
+                            .validation = node->config.validation,
+                            .backend_options = spec->backend_options };
     /* "<device>/s<session>", the device label cut to leave room for the session number. */
     snprintf(desc.label, sizeof(desc.label), "%.24s/s%" PRIu64, spec->label, s->id % UINT64_C(1000000000000));
     if (r == CV_OK)

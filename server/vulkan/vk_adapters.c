@@ -243,7 +243,7 @@ cv_result vk_adapters_resolve(const vk_adapter *adapters, uint32_t count, const 
 /* ---- public queries (on the plain instance) -------------------------------- */
 
 static cv_result with_adapters(vk_instance **inst, vk_adapter **adapters, uint32_t *count) {
-    cv_result r = vk_instance_acquire(false, inst);
+    cv_result r = vk_instance_acquire(false, CV_VULKAN_SYNC_VALIDATION_DEFAULT, inst);
     if (r != CV_OK)
         return r;
     r = vk_adapters_enumerate(*inst, adapters, count);

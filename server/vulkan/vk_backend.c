@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "vk_compile.h"
+#include "vk_device.h"
 #include "vk_host_transfer.h"
 #include "vk_link.h"
 #include "vk_pipelines.h"

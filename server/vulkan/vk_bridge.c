@@ -1,54 +1,32 @@
 /* Cross-device GPU waits through a host thread (see vk_bridge.h). */
-#include <sched.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "vk_instance.h"
-#include "vk_shared.h"
 
 #include "vk_bridge.h"
 
 /* A bridge thread re-checks a closing device this often while it waits. */
 #define WATCH_POLL_NS (50ull * 1000 * 1000)
-/* With validation: one slice of a host wait under the host lock. */
-#define HOST_SLICE_NS (200ull * 1000)
 
-uint64_t vk_now_ns(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
+/* The bridge of one device: its semaphore, its own watch and the request ring. */
+typedef struct vk_bridge_request_item {
+    vk_watch *watch; /* a reference */
+    uint64_t ticket; /* wait until the watched device reached it */
+    uint64_t value;  /* then signal this */
+} vk_bridge_request_item;
 
-VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, uint64_t timeout_ns) {
-    if (!bd->bridge.serialize)
-        return vkWaitSemaphores(bd->device, info, timeout_ns);
-    uint64_t start = vk_now_ns();
-    for (;;) {
-        uint64_t spent = vk_now_ns() - start;
-        uint64_t left = spent >= timeout_ns ? 0 : timeout_ns - spent;
-        vk_layer_enter(bd->instance); /* slice by slice, so a device's creation can come between */
-        pthread_mutex_lock(bd->bridge.host);
-        VkResult vr = vkWaitSemaphores(bd->device, info, left < HOST_SLICE_NS ? left : HOST_SLICE_NS);
-        pthread_mutex_unlock(bd->bridge.host);
-        vk_layer_leave(bd->instance);
-        if (vr != VK_TIMEOUT || left <= HOST_SLICE_NS)
-            return vr;
-        sched_yield(); /* let a bridge thread take the lock */
-    }
-}
-
-uint64_t vk_host_counter(cv_backend_device *bd, VkSemaphore semaphore) {
-    uint64_t value = 0;
-    vk_layer_enter(bd->instance);
-    if (bd->bridge.serialize)
-        pthread_mutex_lock(bd->bridge.host);
-    vkGetSemaphoreCounterValue(bd->device, semaphore, &value);
-    if (bd->bridge.serialize)
-        pthread_mutex_unlock(bd->bridge.host);
-    vk_layer_leave(bd->instance);
-    return value;
-}
+struct vk_bridge {
+    VkSemaphore semaphore; /* timeline, on this device */
+    vk_watch *watch;       /* this device's own ticket semaphore, for other bridges */
+    pthread_mutex_t lock;
+    pthread_cond_t changed;
+    pthread_t thread;
+    bool started, stop;
+    uint64_t value; /* the last value handed out (under lock) */
+    vk_bridge_request_item *queue;
+    uint32_t head, count, capacity; /* a ring */
+};
 
 struct vk_watch {
     atomic_uint refs;
@@ -111,7 +89,7 @@ static void watch_wait(vk_watch *w, uint64_t ticket, const bool *stop, pthread_m
 
 static void *bridge_thread(void *arg) {
     cv_backend_device *bd = arg;
-    vk_bridge *b = &bd->bridge;
+    vk_bridge *b = bd->bridge;
     vk_layer_urgent_thread();
     for (;;) {
         pthread_mutex_lock(&b->lock);
@@ -130,13 +108,7 @@ static void *bridge_thread(void *arg) {
         VkSemaphoreSignalInfo signal = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_SIGNAL_INFO,
                                          .semaphore = b->semaphore,
                                          .value = it.value };
-        vk_layer_enter(bd->instance);
-        if (b->serialize)
-            pthread_mutex_lock(b->host);
-        vkSignalSemaphore(bd->device, &signal); /* fails only with a lost device: nothing waits then */
-        if (b->serialize)
-            pthread_mutex_unlock(b->host);
-        vk_layer_leave(bd->instance);
+        vk_host_signal(bd, &signal);
         pthread_mutex_lock(&b->lock);
         b->head = (b->head + 1) % b->capacity;
         b->count--;
@@ -145,12 +117,16 @@ static void *bridge_thread(void *arg) {
 }
 
 cv_result vk_bridge_init(cv_backend_device *bd) {
-    vk_bridge *b = &bd->bridge;
+    vk_bridge *b = calloc(1, sizeof(*b));
     vk_watch *w = calloc(1, sizeof(*w));
-    if (!w)
+    if (!b || !w) {
+        free(b);
+        free(w);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "device '%s': bridge", bd->label);
-    cv_result r = vk_device_create_timeline(bd, &b->semaphore, "bridge");
+    }
+    cv_result r = vk_device_create_timeline(bd, &b->semaphore, "bridge", false);
     if (r != CV_OK) {
+        free(b);
         free(w);
         return r;
     }
@@ -162,15 +138,13 @@ cv_result vk_bridge_init(cv_backend_device *bd) {
     b->watch = w;
     pthread_mutex_init(&b->lock, NULL);
     pthread_cond_init(&b->changed, NULL);
-    pthread_mutex_init(&b->host_lock, NULL);
-    b->host = bd->shared ? &bd->shared->host_lock : &b->host_lock;
-    b->serialize = bd->instance->validation;
+    bd->bridge = b;
     return CV_OK;
 }
 
 void vk_bridge_finish(cv_backend_device *bd) {
-    vk_bridge *b = &bd->bridge;
-    if (!b->watch)
+    vk_bridge *b = bd->bridge;
+    if (!b)
         return;
     /* No bridge of another device may be inside a wait on us once we go. */
     pthread_mutex_lock(&b->watch->lock);
@@ -190,13 +164,13 @@ void vk_bridge_finish(cv_backend_device *bd) {
     free(b->queue);
     pthread_cond_destroy(&b->changed);
     pthread_mutex_destroy(&b->lock);
-    pthread_mutex_destroy(&b->host_lock);
     vkDestroySemaphore(bd->device, b->semaphore, NULL);
-    memset(b, 0, sizeof(*b));
+    free(b);
+    bd->bridge = NULL;
 }
 
 cv_result vk_bridge_request(cv_backend_device *bd, cv_backend_device *other, uint64_t ticket, uint64_t *value) {
-    vk_bridge *b = &bd->bridge;
+    vk_bridge *b = bd->bridge;
     pthread_mutex_lock(&b->lock);
     cv_result r = CV_OK;
     if (b->count == b->capacity) {
@@ -220,7 +194,7 @@ cv_result vk_bridge_request(cv_backend_device *bd, cv_backend_device *other, uin
             b->started = true;
     }
     if (r == CV_OK) {
-        vk_watch *w = other->bridge.watch;
+        vk_watch *w = other->bridge->watch;
         vk_watch_ref(w);
         *value = ++b->value;
         b->queue[(b->head + b->count) % b->capacity] = (vk_bridge_request_item){ w, ticket, *value };
@@ -230,3 +204,7 @@ cv_result vk_bridge_request(cv_backend_device *bd, cv_backend_device *other, uin
     pthread_mutex_unlock(&b->lock);
     return r;
 }
+
+vk_watch *vk_bridge_watch(const cv_backend_device *bd) { return bd->bridge->watch; }
+
+VkSemaphore vk_bridge_semaphore(const cv_backend_device *bd) { return bd->bridge->semaphore; }

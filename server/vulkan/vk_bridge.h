@@ -10,7 +10,7 @@
  *
  *     uint64_t value;
  *     vk_bridge_request(b_dev, a_dev, ticket, &value);   // B's bridge, A's ticket
- *     ... B's submission waits on b_dev->bridge.semaphore at `value` ...
+ *     ... B's submission waits on vk_bridge_semaphore(b_dev) at `value` ...
  *
  * A's side is a vk_watch: a reference-counted view of A's ticket semaphore
  * that outlives A's VkDevice. A's destroy marks it closing and waits until no
@@ -27,35 +27,28 @@
  * it (it times out after seconds with UNASSIGNED-VkSemaphore-state-timeout;
  * fixed upstream by Vulkan-ValidationLayers PR 8519). With validation on, every
  * host wait, query and signal of a device's semaphores therefore runs under
- * the device's bridge host_lock, waits polling in short slices
+ * the device's host lock (vk_device_core.h), waits polling in short slices
  * (vk_host_wait), so no wait can see progress whose host signal is still
  * being recorded. Without validation they run as plain Vulkan calls. */
 #ifndef CORVID_VK_BRIDGE_H
 #define CORVID_VK_BRIDGE_H
 
-#include "vk_device.h"
-
-/* vk_bridge and vk_bridge_request_item are in vk_device.h (the device embeds them). */
+#include "vk_device_core.h"
 
 cv_result vk_bridge_init(cv_backend_device *bd);
 /* Closes this device's watch, drains and joins the thread, destroys the semaphore. */
 void vk_bridge_finish(cv_backend_device *bd);
-/* A submission on bd that waits on bd->bridge.semaphore at *value runs once
+/* A submission on bd that waits on vk_bridge_semaphore(bd) at *value runs once
  * `other` reached `ticket`. Runs on bd's calling thread while both devices are alive. */
 cv_result vk_bridge_request(cv_backend_device *bd, cv_backend_device *other, uint64_t ticket, uint64_t *value);
 
-/* A device's watch (bd->bridge.watch), as other devices hold it: references,
+/* The bridge's timeline semaphore, and the device's watch. */
+VkSemaphore vk_bridge_semaphore(const cv_backend_device *bd);
+vk_watch *vk_bridge_watch(const cv_backend_device *bd);
+/* A device's watch, as other devices hold it: references,
  * and whether the device began destroying itself (its tickets are all done). */
 void vk_watch_ref(vk_watch *w);
 void vk_watch_unref(vk_watch *w);
 bool vk_watch_closing(vk_watch *w);
-
-/* vkWaitSemaphores / vkGetSemaphoreCounterValue on bd's semaphores, and
- * vkSignalSemaphore of them, as the paragraph above says. */
-VkResult vk_host_wait(cv_backend_device *bd, const VkSemaphoreWaitInfo *info, uint64_t timeout_ns);
-uint64_t vk_host_counter(cv_backend_device *bd, VkSemaphore semaphore);
-
-/* CLOCK_MONOTONIC in nanoseconds: the host's clock for waits and stats. */
-uint64_t vk_now_ns(void);
 
 #endif

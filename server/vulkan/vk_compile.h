@@ -10,7 +10,7 @@
 #ifndef CORVID_VK_COMPILE_H
 #define CORVID_VK_COMPILE_H
 
-#include "vk_device.h"
+#include "vk_device_core.h"
 #include "vk_indirect.h"
 #include "vk_timestamps.h"
 

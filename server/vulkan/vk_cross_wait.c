@@ -6,7 +6,6 @@
 
 #include "vk_bridge.h"
 #include "vk_cross_wait.h"
-#include "vk_env.h"
 
 /* One imported semaphore on the waiter (bd->imports). */
 typedef struct vk_import {
@@ -14,14 +13,6 @@ typedef struct vk_import {
     VkSemaphore semaphore; /* VK_NULL_HANDLE: the import failed (auto mode): this pair uses the bridge */
     uint64_t last_use;     /* the waiter's latest ticket that waits on it */
 } vk_import;
-
-cv_result vk_cross_wait_parse(const char *value, vk_cross_mode *out) {
-    static const char *const words[] = { "auto", "bridge", "import" }; /* vk_cross_mode's order */
-    uint32_t k;
-    cv_result r = vk_env_choice("CORVID_CROSS_WAIT", value, words, 3, &k);
-    *out = (vk_cross_mode)k;
-    return r;
-}
 
 bool vk_cross_wait_capable(bool has_extension, const VkExternalSemaphoreProperties *props, char *missing,
                            size_t missing_size) {
@@ -40,14 +31,14 @@ bool vk_cross_wait_capable(bool has_extension, const VkExternalSemaphoreProperti
     return lack == NULL;
 }
 
-cv_result vk_cross_wait_decide(vk_cross_mode mode, bool capable, const char *missing, const char *label,
+cv_result vk_cross_wait_decide(cv_vulkan_cross_wait mode, bool capable, const char *missing, const char *label,
                                bool *import) {
     *import = false;
-    if (mode == VK_CROSS_IMPORT && !capable)
+    if (mode == CV_VULKAN_CROSS_WAIT_IMPORT && !capable)
         return cv_error(CV_ERROR_UNSUPPORTED,
-                        "device '%s': CORVID_CROSS_WAIT=import needs %s, which it lacks (use bridge or auto)", label,
+                        "device '%s': cross_wait import needs %s, which it lacks (use bridge or auto)", label,
                         missing && missing[0] ? missing : "semaphore import");
-    *import = capable && mode != VK_CROSS_BRIDGE;
+    *import = capable && mode != CV_VULKAN_CROSS_WAIT_BRIDGE;
     return CV_OK;
 }
 
@@ -56,11 +47,7 @@ bool vk_cross_wait_same_device(const uint8_t driver_a[VK_UUID_SIZE], const uint8
     return memcmp(driver_a, driver_b, VK_UUID_SIZE) == 0 && memcmp(device_a, device_b, VK_UUID_SIZE) == 0;
 }
 
-cv_result vk_cross_wait_setup(cv_backend_device *bd) {
-    vk_cross_mode mode;
-    cv_result r = vk_cross_wait_parse(getenv("CORVID_CROSS_WAIT"), &mode);
-    if (r != CV_OK)
-        return cv_error(r, "device '%s': %s", bd->label, cv_last_error());
+cv_result vk_cross_wait_setup(cv_backend_device *bd, cv_vulkan_cross_wait mode) {
     bool extension = vk_device_offers(bd->adapter.physical, VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME);
     VkExternalSemaphoreProperties props = { .sType = VK_STRUCTURE_TYPE_EXTERNAL_SEMAPHORE_PROPERTIES };
     if (extension) {
@@ -79,14 +66,14 @@ cv_result vk_cross_wait_setup(cv_backend_device *bd) {
      * semaphore, so it believes every submission that waited on one is still
      * pending and reports each reuse of its command buffer and resources as
      * "in use" (thousands of false reports in a render; the pixels are exact).
-     * CORVID_CROSS_WAIT=import still forces it there. */
-    if (mode == VK_CROSS_AUTO && capable && bd->instance->validation) {
+     * The cross_wait option IMPORT still forces it there. */
+    if (mode == CV_VULKAN_CROSS_WAIT_AUTO && capable && bd->instance->validation) {
         capable = false;
         snprintf(bd->cross_missing, sizeof(bd->cross_missing),
                  "a device without the validation layer (it cannot follow imported semaphores)");
     }
-    r = vk_cross_wait_decide(mode, capable, bd->cross_missing, bd->label, &bd->cross_import);
-    bd->cross_required = mode == VK_CROSS_IMPORT;
+    cv_result r = vk_cross_wait_decide(mode, capable, bd->cross_missing, bd->label, &bd->cross_import);
+    bd->cross_required = mode == CV_VULKAN_CROSS_WAIT_IMPORT;
     return r;
 }
 
@@ -133,7 +120,7 @@ static cv_result import_ticket(cv_backend_device *bd, cv_backend_device *source,
         return vk_fail(vr, "vkGetSemaphoreFdKHR (the ticket semaphore of device '%s', for device '%s')",
                        source->label, bd->label);
     VkSemaphore s;
-    cv_result r = vk_device_create_timeline(bd, &s, "imported ticket");
+    cv_result r = vk_device_create_timeline(bd, &s, "imported ticket", false);
     if (r != CV_OK) {
         close(fd);
         return r;
@@ -157,7 +144,7 @@ static cv_result import_ticket(cv_backend_device *bd, cv_backend_device *source,
 cv_result vk_cross_wait_semaphore(cv_backend_device *bd, cv_backend_device *source, uint64_t use, VkSemaphore *out) {
     *out = VK_NULL_HANDLE;
     prune(bd);
-    vk_watch *w = source->bridge.watch;
+    vk_watch *w = vk_bridge_watch(source);
     for (uint32_t i = 0; i < bd->import_count; i++)
         if (bd->imports[i].watch == w) {
             if (bd->imports[i].semaphore)

@@ -8,7 +8,7 @@
  * semaphore of its own carrying the other's payload) and waits on it at the
  * ticket itself, on the GPU: no host thread, no host signal.
  *
- * The choice, per device at creation, from CORVID_CROSS_WAIT:
+ * The choice, per device at creation, from cv_vulkan_device_options.cross_wait:
  *   auto (default, or unset): import where the pair allows it, else the bridge;
  *   bridge: always the bridge;
  *   import: a device that cannot share its ticket semaphore fails to create
@@ -31,13 +31,7 @@
 
 #include <stddef.h>
 
-#include "vk_device.h"
-
-typedef enum vk_cross_mode { VK_CROSS_AUTO = 0, VK_CROSS_BRIDGE, VK_CROSS_IMPORT } vk_cross_mode;
-
-/* The mode a CORVID_CROSS_WAIT value asks for (NULL or "": auto).
- * CV_ERROR_INVALID_ARGUMENT for anything else; *out is AUTO then. */
-cv_result vk_cross_wait_parse(const char *value, vk_cross_mode *out);
+#include "vk_device_core.h"
 
 /* Whether a device can share its ticket semaphore, from what it offers: the
  * extension, and the external semaphore properties of opaque-fd timeline
@@ -48,16 +42,16 @@ bool vk_cross_wait_capable(bool has_extension, const VkExternalSemaphoreProperti
 /* The device's decision: *import whether it shares and imports tickets.
  * mode IMPORT and !capable: CV_ERROR_UNSUPPORTED naming `label` and `missing`
  * (*import false). Pure. */
-cv_result vk_cross_wait_decide(vk_cross_mode mode, bool capable, const char *missing, const char *label,
+cv_result vk_cross_wait_decide(cv_vulkan_cross_wait mode, bool capable, const char *missing, const char *label,
                                bool *import);
 
 /* Whether two devices' UUIDs (driver, device) say they may share payloads. Pure. */
 bool vk_cross_wait_same_device(const uint8_t driver_a[VK_UUID_SIZE], const uint8_t device_a[VK_UUID_SIZE],
                                const uint8_t driver_b[VK_UUID_SIZE], const uint8_t device_b[VK_UUID_SIZE]);
 
-/* Queries the adapter (before its VkDevice exists) and reads CORVID_CROSS_WAIT:
+/* Queries the adapter (before its VkDevice exists) and decides by `mode`:
  * sets bd->cross_import, bd->cross_required and bd->cross_missing. */
-cv_result vk_cross_wait_setup(cv_backend_device *bd);
+cv_result vk_cross_wait_setup(cv_backend_device *bd, cv_vulkan_cross_wait mode);
 
 /* Whether `waiter` waits for `source` through an imported semaphore. */
 bool vk_cross_wait_direct(const cv_backend_device *waiter, const cv_backend_device *source);

@@ -30,18 +30,6 @@ static cv_result pick_adapter(vk_instance *inst, const char *spec, vk_adapter *o
     return r;
 }
 
-bool vk_device_offers(VkPhysicalDevice physical, const char *name) {
-    uint32_t count = 0;
-    vkEnumerateDeviceExtensionProperties(physical, NULL, &count, NULL);
-    VkExtensionProperties *exts = calloc(count ? count : 1, sizeof(*exts));
-    bool found = false;
-    if (exts && vkEnumerateDeviceExtensionProperties(physical, NULL, &count, exts) >= 0)
-        for (uint32_t i = 0; i < count && !found; i++)
-            found = strcmp(exts[i].extensionName, name) == 0;
-    free(exts);
-    return found;
-}
-
 /* VK_EXT_calibrated_timestamps with both time domains the timings need: the
  * device's and CLOCK_MONOTONIC (the clock the graph and renderer use). */
 static bool calibration_offered(const cv_backend_device *bd) {
@@ -62,70 +50,85 @@ static bool calibration_offered(const cv_backend_device *bd) {
     return device && monotonic;
 }
 
-static cv_result create_vk_device(cv_backend_device *bd) {
-    const vk_adapter *a = &bd->adapter;
-    uint32_t families[VK_SLOT_COUNT] = { a->graphics_family, a->compute_family, a->copy_family };
-    uint32_t family_count = 0;
-    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &family_count, NULL);
+/* The queue families of the device's slots and their properties. */
+typedef struct device_queues {
+    uint32_t families[VK_SLOT_COUNT]; /* per slot; VK_NO_FAMILY: none */
+    uint32_t queues[VK_SLOT_COUNT];   /* queues created in the slot's family */
     VkQueueFamilyProperties props[32];
-    if (family_count > 32)
-        family_count = 32;
-    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &family_count, props);
+    uint32_t prop_count;
+    float priorities[VK_SHARED_MAX_QUEUES];
+    VkDeviceQueueCreateInfo infos[VK_SLOT_COUNT];
+    uint32_t info_count;
+} device_queues;
+
+static void plan_queues(const cv_backend_device *bd, device_queues *q) {
+    const vk_adapter *a = &bd->adapter;
+    *q = (device_queues){ .families = { a->graphics_family, a->compute_family, a->copy_family } };
+    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &q->prop_count, NULL);
+    if (q->prop_count > 32)
+        q->prop_count = 32;
+    vkGetPhysicalDeviceQueueFamilyProperties(a->physical, &q->prop_count, q->props);
     /* A shared VkDevice has every queue of each family it uses (up to
      * VK_SHARED_MAX_QUEUES), so its instances can spread over them. */
-    float priorities[VK_SHARED_MAX_QUEUES];
     for (uint32_t i = 0; i < VK_SHARED_MAX_QUEUES; i++)
-        priorities[i] = 1.0f;
-    VkDeviceQueueCreateInfo queue_infos[VK_SLOT_COUNT];
-    uint32_t queue_count = 0, family_queues[VK_SLOT_COUNT] = { 0 };
+        q->priorities[i] = 1.0f;
     for (int s = 0; s < VK_SLOT_COUNT; s++) {
-        if (families[s] == VK_NO_FAMILY)
+        if (q->families[s] == VK_NO_FAMILY)
             continue;
-        uint32_t n = families[s] < family_count ? props[families[s]].queueCount : 1;
-        family_queues[s] = !bd->vgpu_shared || n < 1 ? 1 : n > VK_SHARED_MAX_QUEUES ? VK_SHARED_MAX_QUEUES : n;
-        queue_infos[queue_count++] = (VkDeviceQueueCreateInfo){
+        uint32_t n = q->families[s] < q->prop_count ? q->props[q->families[s]].queueCount : 1;
+        q->queues[s] = !bd->vgpu_shared || n < 1 ? 1 : n > VK_SHARED_MAX_QUEUES ? VK_SHARED_MAX_QUEUES : n;
+        q->infos[q->info_count++] = (VkDeviceQueueCreateInfo){
             .sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO,
-            .queueFamilyIndex = families[s],
-            .queueCount = family_queues[s],
-            .pQueuePriorities = priorities,
+            .queueFamilyIndex = q->families[s],
+            .queueCount = q->queues[s],
+            .pQueuePriorities = q->priorities,
         };
     }
+}
 
-    /* Enable what the adapter has of what kernels may use; require only what we checked. */
+/* The features the device enables: what the adapter has of what kernels may
+ * use; required only what the adapter checks made sure of (vk_adapters.h). */
+typedef struct device_features {
+    VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt_pipeline;
+    VkPhysicalDeviceAccelerationStructureFeaturesKHR rt_accel;
+    VkPhysicalDeviceVulkan13Features f13;
+    VkPhysicalDeviceVulkan12Features f12;
+    VkPhysicalDeviceFeatures2 features;
+} device_features;
+
+static void plan_features(const cv_backend_device *bd, device_features *f) {
     VkPhysicalDeviceVulkan13Features have13 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES };
     VkPhysicalDeviceVulkan12Features have12 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES,
                                                 .pNext = &have13 };
     VkPhysicalDeviceFeatures2 have = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &have12 };
-    vkGetPhysicalDeviceFeatures2(a->physical, &have);
-
-    /* The driver's ray-tracing path, where offered (vk_trace_rt.h). */
-    bd->ray_tracing = vk_rt_offered(a->physical);
-    VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt_pipeline = {
+    vkGetPhysicalDeviceFeatures2(bd->adapter.physical, &have);
+    f->rt_pipeline = (VkPhysicalDeviceRayTracingPipelineFeaturesKHR){
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR,
         .rayTracingPipeline = VK_TRUE,
     };
-    VkPhysicalDeviceAccelerationStructureFeaturesKHR rt_accel = {
+    f->rt_accel = (VkPhysicalDeviceAccelerationStructureFeaturesKHR){
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR,
-        .pNext = &rt_pipeline,
+        .pNext = &f->rt_pipeline,
         .accelerationStructure = VK_TRUE,
     };
-    VkPhysicalDeviceVulkan13Features f13 = {
+    /* The driver's ray-tracing path, where offered (vk_trace_rt.h). */
+    f->f13 = (VkPhysicalDeviceVulkan13Features){
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES,
-        .pNext = bd->ray_tracing ? &rt_accel : NULL,
+        .pNext = bd->ray_tracing ? &f->rt_accel : NULL,
         .dynamicRendering = VK_TRUE,
         .synchronization2 = VK_TRUE,
         .maintenance4 = have13.maintenance4,
     };
-    VkPhysicalDeviceVulkan12Features f12 = {
+    f->f12 = (VkPhysicalDeviceVulkan12Features){
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES,
-        .pNext = &f13,
+        .pNext = &f->f13,
         .timelineSemaphore = VK_TRUE,
         .bufferDeviceAddress = VK_TRUE,
         .scalarBlockLayout = have12.scalarBlockLayout,
     };
-    VkPhysicalDeviceFeatures2 features = {
+    f->features = (VkPhysicalDeviceFeatures2){
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2,
-        .pNext = &f12,
+        .pNext = &f->f12,
         .features = {
             .shaderStorageImageReadWithoutFormat = have.features.shaderStorageImageReadWithoutFormat,
             .shaderStorageImageWriteWithoutFormat = have.features.shaderStorageImageWriteWithoutFormat,
@@ -134,124 +137,135 @@ static cv_result create_vk_device(cv_backend_device *bd) {
             .fragmentStoresAndAtomics = have.features.fragmentStoresAndAtomics,
         },
     };
-    const char *extensions[5 + VK_RT_EXTENSION_COUNT] = { VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME };
-    uint32_t extension_count = 1;
+}
+
+#define MAX_EXTENSIONS (5 + VK_RT_EXTENSION_COUNT)
+
+/* The extensions the subsystems use, where offered; sets what bd enables. */
+static uint32_t plan_extensions(cv_backend_device *bd, const char **extensions, bool *calibrated) {
+    VkPhysicalDevice physical = bd->adapter.physical;
+    uint32_t n = 0;
+    extensions[n++] = VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME;
+    bd->ray_tracing = vk_rt_offered(physical);
     for (uint32_t i = 0; bd->ray_tracing && i < VK_RT_EXTENSION_COUNT; i++)
-        extensions[extension_count++] = vk_rt_extensions[i];
+        extensions[n++] = vk_rt_extensions[i];
     /* Cross-device links, where offered (vk_link.h). */
-    bd->external_fd = vk_device_offers(a->physical, VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
-    bd->external_host = vk_device_offers(a->physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME);
+    bd->external_fd = vk_device_offers(physical, VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
+    bd->external_host = vk_device_offers(physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME);
     if (bd->external_fd)
-        extensions[extension_count++] = VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME;
+        extensions[n++] = VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME;
     if (bd->external_host)
-        extensions[extension_count++] = VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME;
+        extensions[n++] = VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME;
     /* Cross-device waits through imported semaphores, where chosen (vk_cross_wait.h). */
     if (bd->cross_import)
-        extensions[extension_count++] = VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME;
+        extensions[n++] = VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME;
     /* Pass starts on the host's clock (vk_timestamps.h), where the adapter can say. */
-    bool calibrated = calibration_offered(bd);
-    if (calibrated)
-        extensions[extension_count++] = VK_EXT_CALIBRATED_TIMESTAMPS_EXTENSION_NAME;
-    VkDeviceCreateInfo info = {
-        .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
-        .pNext = &features,
-        .queueCreateInfoCount = queue_count,
-        .pQueueCreateInfos = queue_infos,
-        .enabledExtensionCount = extension_count,
-        .ppEnabledExtensionNames = extensions,
-    };
-    VkResult vr = VK_SUCCESS;
-    if (bd->vgpu_shared) {
-        vk_shared_device *shared;
-        uint32_t slot;
-        cv_result r = vk_shared_acquire(bd, &info, &shared, &slot);
-        if (r != CV_OK)
-            return r;
-        bd->shared = shared;
-        bd->shared_slot = slot;
-        bd->device = shared->device;
-    } else {
-        vk_layer_exclusive_begin(bd->instance);
-        vr = vkCreateDevice(a->physical, &info, NULL, &bd->device);
-        vk_layer_exclusive_end(bd->instance);
-        if (vr != VK_SUCCESS)
-            return vk_fail(vr, "vkCreateDevice on adapter %u '%s'", a->info.index, a->info.name);
-    }
+    *calibrated = calibration_offered(bd);
+    if (*calibrated)
+        extensions[n++] = VK_EXT_CALIBRATED_TIMESTAMPS_EXTENSION_NAME;
+    return n;
+}
 
+/* The VkDevice: the adapter's own, or a slot of the shared one (vk_shared.h). */
+static cv_result open_device(cv_backend_device *bd, const VkDeviceCreateInfo *info) {
+    if (bd->vgpu_shared) {
+        cv_result r = vk_shared_acquire(bd, info, &bd->shared, &bd->shared_slot);
+        if (r == CV_OK)
+            bd->device = bd->shared->device;
+        return r;
+    }
+    vk_layer_exclusive_begin(bd->instance);
+    VkResult vr = vkCreateDevice(bd->adapter.physical, info, NULL, &bd->device);
+    vk_layer_exclusive_end(bd->instance);
+    return vr == VK_SUCCESS
+               ? CV_OK
+               : vk_fail(vr, "vkCreateDevice on adapter %u '%s'", bd->adapter.info.index, bd->adapter.info.name);
+}
+
+static cv_result get_queues(cv_backend_device *bd, const device_queues *dq) {
     for (int s = 0; s < VK_SLOT_COUNT; s++) {
-        if (families[s] == VK_NO_FAMILY)
+        uint32_t family = dq->families[s];
+        if (family == VK_NO_FAMILY)
             continue;
         vk_queue *q = &bd->queues[s];
         q->present = true;
-        q->family = families[s];
-        q->flags = props[families[s]].queueFlags;
-        uint32_t bits = props[families[s]].timestampValidBits;
+        q->family = family;
+        q->flags = dq->props[family].queueFlags;
+        uint32_t bits = dq->props[family].timestampValidBits;
         q->timestamp_mask = bits >= 64 ? UINT64_MAX : bits ? (1ull << bits) - 1 : 0;
         /* vk_shared.h's queue rule: slot k takes queue k % queueCount; every submit takes its mutex. */
-        q->index = bd->shared ? bd->shared_slot % family_queues[s] : 0;
+        q->index = bd->shared ? bd->shared_slot % dq->queues[s] : 0;
         q->lock = bd->shared ? &bd->shared->queue_locks[s][q->index] : NULL;
-        vkGetDeviceQueue(bd->device, families[s], q->index, &q->queue);
-        bd->families[bd->family_count++] = families[s];
+        vkGetDeviceQueue(bd->device, family, q->index, &q->queue);
+        bd->families[bd->family_count++] = family;
         VkCommandPoolCreateInfo pool_info = { .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
-                                              .queueFamilyIndex = families[s] };
-        vr = vkCreateCommandPool(bd->device, &pool_info, NULL, &q->pool);
+                                              .queueFamilyIndex = family };
+        VkResult vr = vkCreateCommandPool(bd->device, &pool_info, NULL, &q->pool);
         if (vr != VK_SUCCESS)
-            return vk_fail(vr, "vkCreateCommandPool for queue family %u", families[s]);
+            return vk_fail(vr, "vkCreateCommandPool for queue family %u", family);
     }
     bd->slot_of_type[CV_QUEUE_GRAPHICS] = VK_SLOT_GRAPHICS;
     bd->slot_of_type[CV_QUEUE_COMPUTE] = bd->queues[VK_SLOT_COMPUTE].present ? VK_SLOT_COMPUTE : VK_SLOT_GRAPHICS;
     bd->slot_of_type[CV_QUEUE_COPY] = bd->queues[VK_SLOT_COPY].present ? VK_SLOT_COPY : VK_SLOT_GRAPHICS;
     bd->link_slot = bd->slot_of_type[bd->link_queue];
+    return CV_OK;
+}
 
+#define DEVICE_PROC(bd, type, name) ((type)vkGetDeviceProcAddr((bd)->device, name))
+
+/* The enabled extensions' entry points; an extension without them counts as not enabled. */
+static cv_result load_entry_points(cv_backend_device *bd, bool calibrated) {
     if (bd->external_fd)
-        bd->get_memory_fd = (PFN_vkGetMemoryFdKHR)vkGetDeviceProcAddr(bd->device, "vkGetMemoryFdKHR");
+        bd->get_memory_fd = DEVICE_PROC(bd, PFN_vkGetMemoryFdKHR, "vkGetMemoryFdKHR");
     if (bd->external_host)
-        bd->get_host_pointer_properties = (PFN_vkGetMemoryHostPointerPropertiesEXT)
-            vkGetDeviceProcAddr(bd->device, "vkGetMemoryHostPointerPropertiesEXT");
+        bd->get_host_pointer_properties = DEVICE_PROC(bd, PFN_vkGetMemoryHostPointerPropertiesEXT,
+                                                      "vkGetMemoryHostPointerPropertiesEXT");
     bd->external_fd = bd->external_fd && bd->get_memory_fd;
     bd->external_host = bd->external_host && bd->get_host_pointer_properties;
     if (bd->cross_import) {
-        bd->get_semaphore_fd = (PFN_vkGetSemaphoreFdKHR)vkGetDeviceProcAddr(bd->device, "vkGetSemaphoreFdKHR");
-        bd->import_semaphore_fd = (PFN_vkImportSemaphoreFdKHR)vkGetDeviceProcAddr(bd->device,
-                                                                                  "vkImportSemaphoreFdKHR");
+        bd->get_semaphore_fd = DEVICE_PROC(bd, PFN_vkGetSemaphoreFdKHR, "vkGetSemaphoreFdKHR");
+        bd->import_semaphore_fd = DEVICE_PROC(bd, PFN_vkImportSemaphoreFdKHR, "vkImportSemaphoreFdKHR");
         if (!bd->get_semaphore_fd || !bd->import_semaphore_fd) {
             bd->cross_import = false;
             snprintf(bd->cross_missing, sizeof(bd->cross_missing), "vkGetSemaphoreFdKHR/vkImportSemaphoreFdKHR");
             if (bd->cross_required)
                 return cv_error(CV_ERROR_UNSUPPORTED,
-                                "device '%s': CORVID_CROSS_WAIT=import needs %s, which it lacks (use bridge or auto)",
+                                "device '%s': cross_wait import needs %s, which it lacks (use bridge or auto)",
                                 bd->label, bd->cross_missing);
         }
     }
-
     if (calibrated)
-        bd->get_calibrated_timestamps = (PFN_vkGetCalibratedTimestampsEXT)
-            vkGetDeviceProcAddr(bd->device, "vkGetCalibratedTimestampsEXT");
-
-    bd->cmd_push_descriptor_set = (PFN_vkCmdPushDescriptorSetKHR)vkGetDeviceProcAddr(bd->device,
-                                                                                     "vkCmdPushDescriptorSetKHR");
+        bd->get_calibrated_timestamps = DEVICE_PROC(bd, PFN_vkGetCalibratedTimestampsEXT,
+                                                    "vkGetCalibratedTimestampsEXT");
+    bd->cmd_push_descriptor_set = DEVICE_PROC(bd, PFN_vkCmdPushDescriptorSetKHR, "vkCmdPushDescriptorSetKHR");
     if (!bd->cmd_push_descriptor_set)
-        return cv_error(CV_ERROR_UNSUPPORTED, "vulkan: vkCmdPushDescriptorSetKHR missing on '%s'", a->info.name);
+        return cv_error(CV_ERROR_UNSUPPORTED, "vulkan: vkCmdPushDescriptorSetKHR missing on '%s'",
+                        bd->adapter.info.name);
     return CV_OK;
 }
 
-/* A timeline semaphore; `exportable`: as an opaque fd (VkExportSemaphoreCreateInfo). */
-static cv_result create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what, bool exportable) {
-    VkExportSemaphoreCreateInfo export = { .sType = VK_STRUCTURE_TYPE_EXPORT_SEMAPHORE_CREATE_INFO,
-                                           .handleTypes = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT };
-    VkSemaphoreTypeCreateInfo type = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_TYPE_CREATE_INFO,
-                                       .pNext = exportable ? &export : NULL,
-                                       .semaphoreType = VK_SEMAPHORE_TYPE_TIMELINE };
-    VkSemaphoreCreateInfo info = { .sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO, .pNext = &type };
-    *out = VK_NULL_HANDLE;
-    VkResult vr = vkCreateSemaphore(bd->device, &info, NULL, out);
-    return vr == VK_SUCCESS ? CV_OK
-                            : vk_fail(vr, "vkCreateSemaphore (%s timeline%s, device '%s')", what,
-                                      exportable ? ", exportable" : "", bd->label);
-}
-
-cv_result vk_device_create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what) {
-    return create_timeline(bd, out, what, false);
+static cv_result create_vk_device(cv_backend_device *bd) {
+    device_queues queues;
+    plan_queues(bd, &queues);
+    const char *extensions[MAX_EXTENSIONS];
+    bool calibrated;
+    uint32_t extension_count = plan_extensions(bd, extensions, &calibrated);
+    device_features features;
+    plan_features(bd, &features);
+    VkDeviceCreateInfo info = {
+        .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
+        .pNext = &features.features,
+        .queueCreateInfoCount = queues.info_count,
+        .pQueueCreateInfos = queues.infos,
+        .enabledExtensionCount = extension_count,
+        .ppEnabledExtensionNames = extensions,
+    };
+    cv_result r = open_device(bd, &info);
+    if (r == CV_OK)
+        vk_device_core_init(bd, bd->shared ? &bd->shared->host_lock : NULL);
+    if (r == CV_OK)
+        r = get_queues(bd, &queues);
+    return r == CV_OK ? load_entry_points(bd, calibrated) : r;
 }
 
 static void fill_info(const cv_backend_device *bd, cv_device_info *info) {
@@ -278,21 +292,73 @@ static void fill_info(const cv_backend_device *bd, cv_device_info *info) {
         info->max_dispatch[i] = bd->limits.maxComputeWorkGroupCount[i];
 }
 
+/* The adapter's limits, timestamp period, UUIDs and host import alignment. */
+static void read_properties(cv_backend_device *bd) {
+    VkPhysicalDeviceExternalMemoryHostPropertiesEXT host = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_MEMORY_HOST_PROPERTIES_EXT
+    };
+    VkPhysicalDeviceIDProperties ids = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES,
+        .pNext = vk_device_offers(bd->adapter.physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME) ? &host : NULL
+    };
+    VkPhysicalDeviceProperties2 props2 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &ids };
+    vkGetPhysicalDeviceProperties2(bd->adapter.physical, &props2);
+    const VkPhysicalDeviceProperties *props = &props2.properties;
+    bd->limits = props->limits;
+    bd->timestamp_period_ns = props->limits.timestampPeriod;
+    memcpy(bd->driver_uuid, ids.driverUUID, VK_UUID_SIZE);
+    memcpy(bd->device_uuid, ids.deviceUUID, VK_UUID_SIZE);
+    bd->host_import_alignment = host.minImportedHostPointerAlignment;
+}
+
+/* The subsystems over the VkDevice, in order (vk_device_destroy stops them). */
+static cv_result start_subsystems(cv_backend_device *bd, const cv_vulkan_device_options *o) {
+    vk_memory_init(&bd->memory, bd->device, bd->adapter.physical);
+    bd->memory.device_address = true;
+    if (bd->external_host && vk_resources_host_import_ok(bd))
+        vk_memory_enable_host_import(&bd->memory, bd->get_host_pointer_properties, bd->host_import_alignment);
+    cv_result r = vk_device_create_timeline(bd, &bd->ticket, "ticket", bd->cross_import);
+    if (r == CV_OK)
+        r = vk_device_create_timeline(bd, &bd->chain, "segment chain", false);
+    if (r == CV_OK)
+        r = vk_immediate_init(bd);
+    if (r == CV_OK)
+        r = vk_bridge_init(bd);
+    if (r == CV_OK)
+        r = vk_trace_init(bd, o->trace_path);
+    if (r == CV_OK)
+        r = vk_indirect_init(bd);
+    return r;
+}
+
+/* Every option within its enum (trace_path: vk_trace_init). */
+static cv_result check_options(const cv_device_desc *desc, const cv_vulkan_device_options *o) {
+    const char *bad = o->vgpu_device > CV_VULKAN_VGPU_SHARED               ? "vgpu_device"
+                      : o->cross_wait > CV_VULKAN_CROSS_WAIT_IMPORT        ? "cross_wait"
+                      : o->link_queue > CV_VULKAN_LINK_QUEUE_COPY          ? "link_queue"
+                      : o->sync_validation > CV_VULKAN_SYNC_VALIDATION_OFF ? "sync_validation"
+                                                                           : NULL;
+    return bad ? cv_error(CV_ERROR_INVALID_ARGUMENT, "device '%s': cv_vulkan_device_options.%s out of its enum",
+                          desc->label, bad)
+               : CV_OK;
+}
+
 cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out) {
     cv_backend_device *bd = calloc(1, sizeof(*bd));
     if (!bd)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: device");
     if (memchr(desc->label, '\0', CV_LABEL_MAX))
         snprintf(bd->label, sizeof(bd->label), "%s", desc->label);
-    vk_vgpu_mode vgpu_mode;
-    cv_result r = vk_shared_parse(getenv("CORVID_VGPU_DEVICE"), &vgpu_mode);
-    if (r == CV_OK)
-        r = vk_link_queue_parse(getenv("CORVID_LINK_QUEUE"), &bd->link_queue);
+    static const cv_vulkan_device_options defaults = { 0 };
+    const cv_vulkan_device_options *o = desc->backend_options ? desc->backend_options : &defaults;
+    cv_result r = check_options(desc, o);
     if (r != CV_OK) {
         free(bd);
-        return cv_error(r, "device '%s': %s", desc->label, cv_last_error());
+        return r;
     }
-    r = vk_instance_acquire(desc->validation, &bd->instance);
+    static const cv_queue_type link_queues[] = { CV_QUEUE_COMPUTE, CV_QUEUE_GRAPHICS, CV_QUEUE_COPY };
+    bd->link_queue = link_queues[o->link_queue];
+    r = vk_instance_acquire(desc->validation, o->sync_validation, &bd->instance);
     if (r != CV_OK) {
         free(bd);
         return r;
@@ -300,50 +366,19 @@ cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_
     vk_layer_enter(bd->instance); /* every call below on the layer; left at the end */
     r = pick_adapter(bd->instance, desc->adapter, &bd->adapter);
     if (r == CV_OK) {
-        bd->vgpu_shared = vgpu_mode == VK_VGPU_SHARED ||
-                          (vgpu_mode == VK_VGPU_AUTO &&
+        bd->vgpu_shared = o->vgpu_device == CV_VULKAN_VGPU_SHARED ||
+                          (o->vgpu_device == CV_VULKAN_VGPU_AUTO &&
                            vk_shared_auto_choice(bd->adapter.physical, bd->adapter.graphics_family));
-        VkPhysicalDeviceExternalMemoryHostPropertiesEXT host = {
-            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_MEMORY_HOST_PROPERTIES_EXT
-        };
-        VkPhysicalDeviceIDProperties ids = {
-            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES,
-            .pNext = vk_device_offers(bd->adapter.physical, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME) ? &host : NULL
-        };
-        VkPhysicalDeviceProperties2 props2 = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2,
-                                               .pNext = &ids };
-        vkGetPhysicalDeviceProperties2(bd->adapter.physical, &props2);
-        const VkPhysicalDeviceProperties *props = &props2.properties;
-        bd->limits = props->limits;
-        bd->timestamp_period_ns = props->limits.timestampPeriod;
-        memcpy(bd->driver_uuid, ids.driverUUID, VK_UUID_SIZE);
-        memcpy(bd->device_uuid, ids.deviceUUID, VK_UUID_SIZE);
-        bd->host_import_alignment = host.minImportedHostPointerAlignment;
+        read_properties(bd);
         if (!bd->label[0])
             snprintf(bd->label, sizeof(bd->label), "vulkan:%u", bd->adapter.info.index);
-        r = vk_cross_wait_setup(bd);
+        r = vk_cross_wait_setup(bd, o->cross_wait);
     }
-    if (r == CV_OK) {
+    if (r == CV_OK)
         r = create_vk_device(bd);
-    }
-    if (r == CV_OK) {
-        vk_memory_init(&bd->memory, bd->device, bd->adapter.physical);
-        bd->memory.device_address = true;
-        if (bd->external_host && vk_resources_host_import_ok(bd))
-            vk_memory_enable_host_import(&bd->memory, bd->get_host_pointer_properties, bd->host_import_alignment);
-        r = create_timeline(bd, &bd->ticket, "ticket", bd->cross_import);
-    }
     if (r == CV_OK)
-        r = vk_device_create_timeline(bd, &bd->chain, "segment chain");
-    if (r == CV_OK)
-        r = vk_immediate_init(bd);
-    if (r == CV_OK)
-        r = vk_bridge_init(bd);
-    if (r == CV_OK)
-        r = vk_trace_init(bd);
+        r = start_subsystems(bd, o);
     vk_instance *inst = bd->instance;
-    if (r == CV_OK)
-        r = vk_indirect_init(bd);
     if (r != CV_OK) {
         vk_device_destroy(bd);
         vk_layer_leave(inst);
@@ -375,29 +410,11 @@ static void wait_own_work(cv_backend_device *bd) {
                                  .pValues = values };
     if (!n)
         return;
-    bool serialize = bd->instance->validation;
-    if (serialize)
-        pthread_mutex_lock(&bd->shared->host_lock);
+    if (bd->serialize)
+        pthread_mutex_lock(bd->host);
     vkWaitSemaphores(bd->device, &info, UINT64_MAX); /* fails only with a lost device */
-    if (serialize)
-        pthread_mutex_unlock(&bd->shared->host_lock);
-}
-
-void vk_device_free_command_buffers(cv_backend_device *bd, VkCommandPool pool, uint32_t count,
-                                    const VkCommandBuffer *buffers) {
-    vk_layer_exclusive_begin(bd->instance);
-    vkFreeCommandBuffers(bd->device, pool, count, buffers);
-    vk_layer_exclusive_end(bd->instance);
-}
-
-void vk_device_destroy_command_pool(cv_backend_device *bd, VkCommandPool pool) {
-    vk_layer_exclusive_begin(bd->instance);
-    vkDestroyCommandPool(bd->device, pool, NULL);
-    vk_layer_exclusive_end(bd->instance);
-}
-
-bool vk_device_same(const cv_backend_device *a, const cv_backend_device *b) {
-    return a->shared && a->shared == b->shared;
+    if (bd->serialize)
+        pthread_mutex_unlock(bd->host);
 }
 
 void vk_device_destroy(cv_backend_device *bd) {
@@ -430,28 +447,9 @@ void vk_device_destroy(cv_backend_device *bd) {
             vkDestroyDevice(bd->device, NULL);
             vk_layer_exclusive_end(inst);
         }
+        vk_device_core_finish(bd);
     }
     vk_layer_leave(inst);
     vk_instance_release(inst);
     free(bd);
-}
-
-void vk_device_sharing(const cv_backend_device *bd, VkSharingMode *mode, uint32_t *family_count,
-                       const uint32_t **families) {
-    bool shared = bd->family_count > 1;
-    *mode = shared ? VK_SHARING_MODE_CONCURRENT : VK_SHARING_MODE_EXCLUSIVE;
-    *family_count = shared ? bd->family_count : 0;
-    *families = shared ? bd->families : NULL;
-}
-
-void vk_device_name(const cv_backend_device *bd, VkObjectType type, uint64_t handle, const char *label) {
-    if (!bd->instance->set_object_name || !label || !label[0])
-        return;
-    char name[CV_LABEL_MAX];
-    snprintf(name, sizeof(name), "%s", label);
-    VkDebugUtilsObjectNameInfoEXT info = { .sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT,
-                                           .objectType = type,
-                                           .objectHandle = handle,
-                                           .pObjectName = name };
-    bd->instance->set_object_name(bd->device, &info);
 }

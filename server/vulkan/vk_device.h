@@ -1,173 +1,32 @@
-/* The Vulkan device behind one cv_device: a VkDevice on an adapter, its
- * queues (graphics, and compute-only and transfer-only ones where the adapter
- * has such families), the timeline semaphore that carries the core's tickets,
- * the memory allocator and the immediate command buffer for host transfers.
+/* Starting and stopping the Vulkan device behind one cv_device. The backend is
+ * layered after Mesa's Vulkan runtime, top to bottom; a module includes only
+ * modules below it (tree_check.py graph finds no loop):
  *
- * Every backend call except wait() and refused() runs under the core's device lock, so the
- * members below need no lock of their own (the memory allocator has one for
- * cv_vulkan_get_memory_stats, which runs outside it). With
- * CORVID_VGPU_DEVICE=shared (auto's choice where the graphics family has
- * several queues) the VkDevice and its queues are shared with the
- * other instances of the adapter (vk_shared.h): every submit then takes the
- * queue's mutex (vk_queue_submit). */
+ *   vk_backend (the cv_backend table), vk_gpu_table (virtual GPU tables)
+ *   vk_device: creates the VkDevice with what the subsystems ask for, starts
+ *              and stops every subsystem in order (it includes all of them)
+ *   the subsystems, each owning its state behind its own module; one uses
+ *   only those listed after it:
+ *     vk_submit, vk_compile, vk_timestamps         lists: recording, submitting
+ *     vk_trace, vk_trace_calibrate, vk_trace_rt, vk_trace_job    trace_rays
+ *     vk_indirect, vk_pipelines                    kernels
+ *     vk_link_async, vk_link, vk_host_transfer     copies: device to device, host
+ *     vk_resources, vk_immediate, vk_objects       device objects, their first init
+ *     vk_cross_wait, vk_bridge, vk_shared          cross-device waits, virtual
+ *                                                  GPUs on one VkDevice
+ *   vk_device_core: the device's state and shared services (queues, timelines
+ *              and host waits, debug names, sharing modes, extension checks)
+ *   vk_instance, vk_adapters, vk_memory, vk_barriers, vk_spirv, vk_common
+ *
+ * Where a lower module must call back up (the trace measurement runs the
+ * tracer's paths), the upper one hands it the calls (vk_trace_paths). */
 #ifndef CORVID_VK_DEVICE_H
 #define CORVID_VK_DEVICE_H
 
-#include <pthread.h>
-#include <stdatomic.h>
+#include "vk_device_core.h"
 
-#include "vk_adapters.h"
-#include "vk_memory.h"
-
-typedef struct vk_texture vk_texture;
-typedef struct vk_buffer vk_buffer;
-typedef struct vk_watch vk_watch;
-
-/* vk_bridge.h's state, defined here because the device embeds it. */
-typedef struct vk_bridge_request_item {
-    vk_watch *watch; /* a reference */
-    uint64_t ticket; /* wait until the watched device reached it */
-    uint64_t value;  /* then signal this */
-} vk_bridge_request_item;
-
-typedef struct vk_bridge {
-    VkSemaphore semaphore; /* timeline, on this device */
-    vk_watch *watch;       /* this device's own ticket semaphore, for other bridges */
-    pthread_mutex_t lock;
-    pthread_cond_t changed;
-    pthread_t thread;
-    bool started, stop;
-    uint64_t value; /* the last value handed out (under lock) */
-    vk_bridge_request_item *queue;
-    uint32_t head, count, capacity; /* a ring */
-    /* With the validation layer: held around every host wait, query and
-     * signal of this device's semaphores (vk_bridge.h, vk_host_wait). `host`
-     * is &host_lock, or the shared VkDevice's lock (vk_shared.h). */
-    pthread_mutex_t host_lock;
-    pthread_mutex_t *host;
-    bool serialize;
-} vk_bridge;
-typedef struct vk_pipeline vk_pipeline;
-typedef struct vk_tracer vk_tracer;
-typedef struct vk_indirect vk_indirect;
-typedef struct vk_shared_device vk_shared_device;
-
-/* Hardware queues a device may use; command queue types map onto these. */
-typedef enum vk_queue_slot {
-    VK_SLOT_GRAPHICS = 0,
-    VK_SLOT_COMPUTE = 1,
-    VK_SLOT_COPY = 2,
-    VK_SLOT_COUNT
-} vk_queue_slot;
-
-typedef struct vk_queue {
-    bool present;
-    VkQueue queue;
-    uint32_t family;
-    VkQueueFlags flags;
-    uint64_t timestamp_mask; /* valid bits of timestamps; 0 = no timestamps */
-    VkCommandPool pool;      /* command buffers of compiled lists */
-    uint32_t index;          /* within the family (vk_shared.h's queue rule; 0 when not shared) */
-    pthread_mutex_t *lock;   /* around submits where the VkDevice is shared (vk_shared.h), else NULL */
-} vk_queue;
-
-struct cv_backend_device {
-    vk_instance *instance;
-    vk_adapter adapter;
-    VkPhysicalDeviceLimits limits;
-    VkDevice device;
-    /* CORVID_VGPU_DEVICE=shared: `device` belongs to the registry (vk_shared.h). */
-    bool vgpu_shared;
-    vk_shared_device *shared;
-    uint32_t shared_slot;
-    uint64_t last_ticket; /* the highest ticket submitted (a shared device's destroy waits for it) */
-    vk_queue queues[VK_SLOT_COUNT];
-    vk_queue_slot slot_of_type[CV_QUEUE_TYPE_COUNT];
-    uint32_t families[VK_SLOT_COUNT]; /* distinct families in use, for shared resources */
-    uint32_t family_count;
-
-    VkSemaphore ticket; /* timeline; its value is the highest finished ticket */
-    VkSemaphore chain;  /* timeline linking the segments of one submission */
-    uint64_t chain_value;
-
-    VkCommandPool immediate_pool;
-    VkCommandBuffer immediate_cmd;
-    VkSemaphore immediate;    /* timeline; value = immediate submissions finished */
-    uint64_t immediate_value; /* value of the latest immediate submission */
-    /* Created and not yet initialised (vk_immediate.h): images still in
-     * VK_IMAGE_LAYOUT_UNDEFINED, buffers the host cannot map not yet zeroed. */
-    struct vk_pending_init *pending;
-    uint32_t pending_count, pending_capacity;
-
-    vk_memory memory;
-    bool ray_tracing;      /* VK_KHR_ray_tracing_pipeline and acceleration structures enabled */
-    vk_tracer *tracer;     /* the trace paths and the choice between them (vk_trace.h) */
-    vk_indirect *indirect; /* the bound on dispatch_indirect's group counts (vk_indirect.h) */
-    PFN_vkCmdPushDescriptorSetKHR cmd_push_descriptor_set;
-    double timestamp_period_ns;
-    /* VK_EXT_calibrated_timestamps with the device and CLOCK_MONOTONIC domains
-     * (NULL otherwise): pass timings get their start on the host's clock. */
-    PFN_vkGetCalibratedTimestampsEXT get_calibrated_timestamps;
-    char label[CV_LABEL_MAX];
-
-    /* Cross-device links (vk_link.h): what the device enabled, and its stagings. */
-    bool external_fd;   /* VK_KHR_external_memory_fd */
-    bool external_host; /* VK_EXT_external_memory_host */
-    VkDeviceSize host_import_alignment;
-    uint8_t driver_uuid[VK_UUID_SIZE], device_uuid[VK_UUID_SIZE];
-    PFN_vkGetMemoryFdKHR get_memory_fd;
-    PFN_vkGetMemoryHostPointerPropertiesEXT get_host_pointer_properties;
-    struct vk_staging *links; /* cached stagings, linked */
-    /* Asynchronous link copies (vk_link_async.c): the queue they run on
-     * (CORVID_LINK_QUEUE, default compute: on the NVIDIA driver copies on the
-     * graphics queue ran at about 24 GB/s, docs/transfers.md), command
-     * buffers, each free once its ticket finished. */
-    cv_queue_type link_queue;
-    vk_queue_slot link_slot;
-    VkCommandPool async_pool;
-    struct vk_async_cmd *async_cmds;
-    uint32_t async_count;
-    vk_bridge bridge; /* GPU waits on other devices' tickets (vk_bridge.h) */
-    /* ... or through imported ticket semaphores (vk_cross_wait.h). */
-    bool cross_import;      /* the ticket semaphore is exportable; waits import the other's where the pair allows */
-    bool cross_required;    /* CORVID_CROSS_WAIT=import: pairs that cannot import are refused */
-    char cross_missing[96]; /* !capable: what the device lacks */
-    PFN_vkGetSemaphoreFdKHR get_semaphore_fd;
-    PFN_vkImportSemaphoreFdKHR import_semaphore_fd;
-    struct vk_import *imports; /* per source device, on this (the waiting) device */
-    uint32_t import_count;
-
-    atomic_uint buffers, images, samplers, pipelines; /* live objects, for stats */
-    /* New resources zeroed (vk_immediate.h) and the host time it took; atomic
-     * only so that stats may be read while the device works. */
-    atomic_uint_least64_t zeroed_bytes, zero_ns;
-    uint64_t zero_started_ns; /* the immediate submission being recorded zeroes something: its start */
-};
-
+/* The device of `desc` (backend.h: device_create). */
 cv_result vk_device_create(const cv_device_desc *desc, cv_device_info *info, cv_backend_device **out);
-/* Whether a and b are instances of one shared VkDevice (they may wait on each other's semaphores). */
-bool vk_device_same(const cv_backend_device *a, const cv_backend_device *b);
-/* Whether the physical device offers the device extension `name`. */
-bool vk_device_offers(VkPhysicalDevice physical, const char *name);
 void vk_device_destroy(cv_backend_device *bd);
-
-/* vkFreeCommandBuffers and vkDestroyCommandPool, alone on the validation layer
- * (vk_layer_exclusive_begin): the layer (1.3.239) erases a freed buffer's
- * debug labels from a map shared by every device of the instance without the
- * lock it takes to add them (vkCmdBeginDebugUtilsLabelEXT), so a free racing
- * another device's recording crashed in vkFreeCommandBuffers. */
-void vk_device_free_command_buffers(cv_backend_device *bd, VkCommandPool pool, uint32_t count,
-                                    const VkCommandBuffer *buffers);
-void vk_device_destroy_command_pool(cv_backend_device *bd, VkCommandPool pool);
-
-cv_result vk_device_create_timeline(cv_backend_device *bd, VkSemaphore *out, const char *what);
-
-/* Sharing mode for new buffers and images: CONCURRENT across every family in
- * use when there is more than one, so segments on different queues can use
- * the same resource without ownership transfers. */
-void vk_device_sharing(const cv_backend_device *bd, VkSharingMode *mode, uint32_t *family_count,
-                       const uint32_t **families);
-/* Gives an object a debug name (shown in validation messages); no-op without validation. */
-void vk_device_name(const cv_backend_device *bd, VkObjectType type, uint64_t handle, const char *label);
 
 #endif

@@ -6,76 +6,11 @@
  * (or on lavapipe). The instances of one adapter run concurrently from several
  * threads; on a CPU adapter they share its cores, so they test correctness,
  * not speed-up. Several real adapters use the same table. */
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "corvid/parse.h"
 #include "vk_adapters.h"
-
-#define ENV_VIRTUAL_GPUS "CORVID_VIRTUAL_GPUS"
-
-/* A device count in 1..CV_MAX_DEVICES, plain digits ("+2" and " 2" refused, as
- * every count of every program: corvid/parse.h). */
-static cv_result parse_count(const char *text, const char *what, uint32_t *out) {
-    uint64_t v;
-    if (!cv_parse_uint(text, 1, CV_MAX_DEVICES, &v))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s: '%.64s' is not a count in 1..%u (the device limit)", what,
-                        text ? text : "", CV_MAX_DEVICES);
-    *out = (uint32_t)v;
-    return CV_OK;
-}
-
-/* Matches "--name value" and "--name=value"; *value points into argv. */
-static bool match_flag(int argc, char **argv, int i, const char *name, const char **value, int *used) {
-    size_t n = strlen(name);
-    if (strncmp(argv[i], name, n) != 0)
-        return false;
-    if (argv[i][n] == '=') {
-        *value = argv[i] + n + 1;
-        *used = 1;
-        return true;
-    }
-    if (argv[i][n] != '\0')
-        return false;
-    *value = i + 1 < argc ? argv[i + 1] : NULL;
-    *used = i + 1 < argc ? 2 : 1;
-    return true;
-}
-
-cv_result cv_vulkan_gpu_args(int *argc, char **argv, cv_vulkan_gpu_config *config) {
-    if (!argc || !argv || !config)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_vulkan_gpu_args: NULL argument");
-    cv_vulkan_gpu_config c = *config;
-    int kept = 0;
-    for (int i = 0; i < *argc;) {
-        const char *value = NULL;
-        int used = 0;
-        cv_result r = CV_OK;
-        if (match_flag(*argc, argv, i, "--virtual-gpus", &value, &used))
-            r = parse_count(value, "--virtual-gpus", &c.virtual_per_adapter);
-        else if (match_flag(*argc, argv, i, "--gpus", &value, &used))
-            r = parse_count(value, "--gpus", &c.total);
-        else if (match_flag(*argc, argv, i, "--adapters", &value, &used))
-            c.adapters = value;
-        if (r != CV_OK)
-            return r;
-        if (used && !value)
-            return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s needs a value", argv[i]);
-        if (!used) {
-            argv[kept++] = argv[i];
-            used = 1;
-        }
-        i += used;
-    }
-    /* argv is compacted only once everything parsed, so a failure changes nothing. */
-    for (int i = kept; i < *argc; i++)
-        argv[i] = NULL;
-    *argc = kept;
-    *config = c;
-    return CV_OK;
-}
 
 /* The adapters the table spreads over: the listed ones, or every usable
  * adapter of the best type present. */
@@ -118,17 +53,10 @@ cv_result cv_vulkan_gpu_table_build(const cv_vulkan_gpu_config *config, cv_vulka
     if (!out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_vulkan_gpu_table_build: NULL table");
     cv_vulkan_gpu_config c = config ? *config : (cv_vulkan_gpu_config){ 0 };
-    if (c.virtual_per_adapter == 0) {
-        const char *env = getenv(ENV_VIRTUAL_GPUS);
+    if (c.virtual_per_adapter == 0)
         c.virtual_per_adapter = 1;
-        if (env && *env) {
-            cv_result r = parse_count(env, ENV_VIRTUAL_GPUS, &c.virtual_per_adapter);
-            if (r != CV_OK)
-                return r;
-        }
-    }
     vk_instance *inst;
-    cv_result r = vk_instance_acquire(false, &inst);
+    cv_result r = vk_instance_acquire(false, CV_VULKAN_SYNC_VALIDATION_DEFAULT, &inst);
     if (r != CV_OK)
         return r;
     vk_adapter *adapters = NULL;
@@ -145,7 +73,7 @@ cv_result cv_vulkan_gpu_table_build(const cv_vulkan_gpu_config *config, cv_vulka
     if (total > CV_MAX_DEVICES)
         return cv_error(CV_ERROR_LIMIT_EXCEEDED, "vulkan: %u adapters x %u virtual GPUs exceeds %u devices",
                         chosen_count, c.virtual_per_adapter, CV_MAX_DEVICES);
-    cv_vulkan_gpu_table table = { .count = total };
+    cv_vulkan_gpu_table table = { .count = total, .options = c.device };
     for (uint32_t i = 0; i < total; i++) {
         /* Explicit totals go round-robin over adapters; otherwise each
          * adapter's instances are adjacent (gpu0..N-1 on the first adapter). */
@@ -166,7 +94,7 @@ cv_result cv_vulkan_create_devices(cv_context *ctx, const cv_vulkan_gpu_table *t
     for (uint32_t i = 0; i < table->count; i++) {
         char adapter[16];
         snprintf(adapter, sizeof(adapter), "%u", table->gpus[i].adapter);
-        cv_device_desc desc = { .adapter = adapter, .validation = validation };
+        cv_device_desc desc = { .adapter = adapter, .validation = validation, .backend_options = &table->options };
         snprintf(desc.label, sizeof(desc.label), "gpu%u", i);
         cv_result r = cv_device_create(ctx, cv_vulkan_backend(), &desc, &out[i]);
         if (r != CV_OK) {

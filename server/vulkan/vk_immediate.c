@@ -3,43 +3,61 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "vk_bridge.h"
+#include "corvid/clock.h"
 #include "vk_immediate.h"
-#include "vk_resources.h"
+#include "vk_objects.h"
 #include "vk_shared.h"
-
-cv_result vk_immediate_init(cv_backend_device *bd) {
-    VkCommandPoolCreateInfo pool_info = {
-        .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
-        .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT,
-        .queueFamilyIndex = bd->queues[VK_SLOT_GRAPHICS].family,
-    };
-    VkResult vr = vkCreateCommandPool(bd->device, &pool_info, NULL, &bd->immediate_pool);
-    if (vr != VK_SUCCESS)
-        return vk_fail(vr, "vkCreateCommandPool (immediate)");
-    VkCommandBufferAllocateInfo alloc = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
-                                          .commandPool = bd->immediate_pool,
-                                          .level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
-                                          .commandBufferCount = 1 };
-    vr = vkAllocateCommandBuffers(bd->device, &alloc, &bd->immediate_cmd);
-    if (vr != VK_SUCCESS)
-        return vk_fail(vr, "vkAllocateCommandBuffers (immediate)");
-    return vk_device_create_timeline(bd, &bd->immediate, "immediate");
-}
-
-void vk_immediate_finish(cv_backend_device *bd) {
-    vkDestroySemaphore(bd->device, bd->immediate, NULL);
-    vk_device_destroy_command_pool(bd, bd->immediate_pool);
-    free(bd->pending);
-    bd->pending = NULL;
-    bd->pending_count = bd->pending_capacity = 0;
-}
 
 /* One object awaiting its initialisation: an image or a buffer. */
 struct vk_pending_init {
     vk_texture *image;
     vk_buffer *buffer;
 };
+
+/* The immediate command buffer, and the objects created and not yet
+ * initialised: images still in VK_IMAGE_LAYOUT_UNDEFINED, buffers the host
+ * cannot map not yet zeroed. */
+struct vk_immediate {
+    VkCommandPool pool;
+    VkCommandBuffer cmd;
+    struct vk_pending_init *pending;
+    uint32_t pending_count, pending_capacity;
+    uint64_t zero_started_ns; /* the submission being recorded zeroes something: its start */
+};
+
+cv_result vk_immediate_init(cv_backend_device *bd) {
+    bd->imm = calloc(1, sizeof(*bd->imm));
+    if (!bd->imm)
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "device '%s': immediate command buffer", bd->label);
+    VkCommandPoolCreateInfo pool_info = {
+        .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
+        .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT,
+        .queueFamilyIndex = bd->queues[VK_SLOT_GRAPHICS].family,
+    };
+    VkResult vr = vkCreateCommandPool(bd->device, &pool_info, NULL, &bd->imm->pool);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkCreateCommandPool (immediate)");
+    VkCommandBufferAllocateInfo alloc = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
+                                          .commandPool = bd->imm->pool,
+                                          .level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
+                                          .commandBufferCount = 1 };
+    vr = vkAllocateCommandBuffers(bd->device, &alloc, &bd->imm->cmd);
+    if (vr != VK_SUCCESS)
+        return vk_fail(vr, "vkAllocateCommandBuffers (immediate)");
+    return vk_device_create_timeline(bd, &bd->immediate, "immediate", false);
+}
+
+void vk_immediate_finish(cv_backend_device *bd) {
+    vkDestroySemaphore(bd->device, bd->immediate, NULL);
+    bd->immediate = VK_NULL_HANDLE;
+    if (!bd->imm)
+        return;
+    if (bd->imm->pool)
+        vk_device_destroy_command_pool(bd, bd->imm->pool);
+    free(bd->imm->pending);
+    free(bd->imm);
+    bd->imm = NULL;
+}
 
 /* Image barriers recorded in batches of 64, with an optional memory barrier. */
 typedef struct barrier_batch {
@@ -75,8 +93,8 @@ static void batch_add(VkCommandBuffer cmd, barrier_batch *b, const vk_texture *t
  * the clear does). */
 static void record_layouts(cv_backend_device *bd, VkCommandBuffer cmd) {
     barrier_batch batch = { .count = 0 };
-    for (uint32_t i = 0; i < bd->pending_count; i++) {
-        const vk_texture *t = bd->pending[i].image;
+    for (uint32_t i = 0; i < bd->imm->pending_count; i++) {
+        const vk_texture *t = bd->imm->pending[i].image;
         if (t && t->clear)
             batch_add(cmd, &batch, t, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                       VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
@@ -91,11 +109,11 @@ static void record_layouts(cv_backend_device *bd, VkCommandBuffer cmd) {
 /* Zero clears of new images and fills of new buffers (after record_layouts). */
 static void record_zeroes(cv_backend_device *bd, VkCommandBuffer cmd) {
     uint64_t bytes = 0;
-    for (uint32_t i = 0; i < bd->pending_count; i++) {
-        const vk_texture *t = bd->pending[i].image;
-        if (bd->pending[i].buffer) {
-            vkCmdFillBuffer(cmd, bd->pending[i].buffer->buffer, 0, VK_WHOLE_SIZE, 0);
-            bytes += bd->pending[i].buffer->size;
+    for (uint32_t i = 0; i < bd->imm->pending_count; i++) {
+        const vk_texture *t = bd->imm->pending[i].image;
+        if (bd->imm->pending[i].buffer) {
+            vkCmdFillBuffer(cmd, bd->imm->pending[i].buffer->buffer, 0, VK_WHOLE_SIZE, 0);
+            bytes += bd->imm->pending[i].buffer->size;
             continue;
         }
         if (!t->clear)
@@ -110,7 +128,7 @@ static void record_zeroes(cv_backend_device *bd, VkCommandBuffer cmd) {
     }
     if (bytes) {
         atomic_fetch_add(&bd->zeroed_bytes, bytes);
-        bd->zero_started_ns = vk_now_ns();
+        bd->imm->zero_started_ns = cv_now_ns();
     }
 }
 
@@ -119,9 +137,9 @@ static void record_zeroes(cv_backend_device *bd, VkCommandBuffer cmd) {
 static void record_zeroed(cv_backend_device *bd, VkCommandBuffer cmd) {
     barrier_batch batch = { .count = 0 };
     bool buffers = false;
-    for (uint32_t i = 0; i < bd->pending_count; i++) {
-        vk_texture *t = bd->pending[i].image;
-        vk_buffer *b = bd->pending[i].buffer;
+    for (uint32_t i = 0; i < bd->imm->pending_count; i++) {
+        vk_texture *t = bd->imm->pending[i].image;
+        vk_buffer *b = bd->imm->pending[i].buffer;
         if (b) {
             b->pending = false;
             buffers = true;
@@ -147,20 +165,20 @@ static void record_pending(cv_backend_device *bd, VkCommandBuffer cmd) {
     record_layouts(bd, cmd);
     record_zeroes(bd, cmd);
     record_zeroed(bd, cmd);
-    bd->pending_count = 0;
+    bd->imm->pending_count = 0;
 }
 
 cv_result vk_immediate_begin(cv_backend_device *bd, VkCommandBuffer *out) {
-    VkResult vr = vkResetCommandBuffer(bd->immediate_cmd, 0);
+    VkResult vr = vkResetCommandBuffer(bd->imm->cmd, 0);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkResetCommandBuffer (immediate)");
     VkCommandBufferBeginInfo begin = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
                                        .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT };
-    vr = vkBeginCommandBuffer(bd->immediate_cmd, &begin);
+    vr = vkBeginCommandBuffer(bd->imm->cmd, &begin);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkBeginCommandBuffer (immediate)");
-    record_pending(bd, bd->immediate_cmd);
-    *out = bd->immediate_cmd;
+    record_pending(bd, bd->imm->cmd);
+    *out = bd->imm->cmd;
     return CV_OK;
 }
 
@@ -176,8 +194,8 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
     VkDependencyInfo dep = { .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
                              .memoryBarrierCount = 1,
                              .pMemoryBarriers = &to_host };
-    vkCmdPipelineBarrier2(bd->immediate_cmd, &dep);
-    VkResult vr = vkEndCommandBuffer(bd->immediate_cmd);
+    vkCmdPipelineBarrier2(bd->imm->cmd, &dep);
+    VkResult vr = vkEndCommandBuffer(bd->imm->cmd);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkEndCommandBuffer (immediate)");
     /* Waiting on the ticket value already reached costs nothing but orders this
@@ -192,7 +210,7 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
                                      .value = bd->immediate_value + 1,
                                      .stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT };
     VkCommandBufferSubmitInfo cmd_info = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO,
-                                           .commandBuffer = bd->immediate_cmd };
+                                           .commandBuffer = bd->imm->cmd };
     VkSubmitInfo2 submit = { .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2,
                              .waitSemaphoreInfoCount = 1,
                              .pWaitSemaphoreInfos = &wait,
@@ -209,15 +227,15 @@ cv_result vk_immediate_end(cv_backend_device *bd) {
                                       .pSemaphores = &bd->immediate,
                                       .pValues = &bd->immediate_value };
     vr = vk_host_wait(bd, &wait_info, UINT64_MAX);
-    if (bd->zero_started_ns) {
-        atomic_fetch_add(&bd->zero_ns, vk_now_ns() - bd->zero_started_ns);
-        bd->zero_started_ns = 0;
+    if (bd->imm->zero_started_ns) {
+        atomic_fetch_add(&bd->zero_ns, cv_now_ns() - bd->imm->zero_started_ns);
+        bd->imm->zero_started_ns = 0;
     }
     return vr == VK_SUCCESS ? CV_OK : vk_fail(vr, "vkWaitSemaphores (immediate, device '%s')", bd->label);
 }
 
 cv_result vk_immediate_flush(cv_backend_device *bd) {
-    if (!bd->pending_count)
+    if (!bd->imm->pending_count)
         return CV_OK;
     VkCommandBuffer cmd;
     cv_result r = vk_immediate_begin(bd, &cmd);
@@ -225,22 +243,22 @@ cv_result vk_immediate_flush(cv_backend_device *bd) {
 }
 
 static cv_result add_pending(cv_backend_device *bd, struct vk_pending_init item) {
-    if (bd->pending_count == bd->pending_capacity) {
-        uint32_t cap = bd->pending_capacity ? bd->pending_capacity * 2 : 64;
-        struct vk_pending_init *grown = realloc(bd->pending, cap * sizeof(*grown));
+    if (bd->imm->pending_count == bd->imm->pending_capacity) {
+        uint32_t cap = bd->imm->pending_capacity ? bd->imm->pending_capacity * 2 : 64;
+        struct vk_pending_init *grown = realloc(bd->imm->pending, cap * sizeof(*grown));
         if (!grown)
             return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: pending initialisation list of %u", cap);
-        bd->pending = grown;
-        bd->pending_capacity = cap;
+        bd->imm->pending = grown;
+        bd->imm->pending_capacity = cap;
     }
-    bd->pending[bd->pending_count++] = item;
+    bd->imm->pending[bd->imm->pending_count++] = item;
     return CV_OK;
 }
 
 static void forget_pending(cv_backend_device *bd, const void *object) {
-    for (uint32_t i = bd->pending_count; i-- > 0;)
-        if ((const void *)bd->pending[i].image == object || (const void *)bd->pending[i].buffer == object) {
-            bd->pending[i] = bd->pending[--bd->pending_count];
+    for (uint32_t i = bd->imm->pending_count; i-- > 0;)
+        if ((const void *)bd->imm->pending[i].image == object || (const void *)bd->imm->pending[i].buffer == object) {
+            bd->imm->pending[i] = bd->imm->pending[--bd->imm->pending_count];
             return;
         }
 }
@@ -261,11 +279,11 @@ cv_result vk_immediate_zero_buffer(cv_backend_device *bd, vk_buffer *buf) {
     if (buf->memory.zeroed)
         return CV_OK; /* fresh pages (vk_memory.h) */
     if (buf->memory.mapped) {
-        uint64_t start = vk_now_ns();
+        uint64_t start = cv_now_ns();
         memset(buf->memory.mapped, 0, buf->size);
         vk_memory_flush(&bd->memory, &buf->memory, 0, buf->size);
         atomic_fetch_add(&bd->zeroed_bytes, buf->size);
-        atomic_fetch_add(&bd->zero_ns, vk_now_ns() - start);
+        atomic_fetch_add(&bd->zero_ns, cv_now_ns() - start);
         return CV_OK;
     }
     cv_result r = add_pending(bd, (struct vk_pending_init){ .buffer = buf });

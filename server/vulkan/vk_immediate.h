@@ -3,7 +3,7 @@
 #ifndef CORVID_VK_IMMEDIATE_H
 #define CORVID_VK_IMMEDIATE_H
 
-#include "vk_device.h"
+#include "vk_device_core.h"
 
 cv_result vk_immediate_init(cv_backend_device *bd);
 void vk_immediate_finish(cv_backend_device *bd);

@@ -3,8 +3,8 @@
  * Validation is an instance-level choice, so the process keeps at most two
  * instances: a plain one and one with VK_LAYER_KHRONOS_validation (with
  * synchronization validation, to catch missing or wrong barriers). Its debug
- * messenger prints every warning and error and counts them, so a test can
- * assert that a run was clean.
+ * messenger hands every warning and error to the log sink (corvid/log.h,
+ * origin "vulkan") and counts them, so a test can assert that a run was clean.
  *
  * An instance, once made, is kept for the rest of the process (the last
  * release does not destroy it): on the NVIDIA H200 machines vkCreateInstance
@@ -14,25 +14,29 @@
  * render, would meet; creating one also costs a loader scan and a layer load.
  * Devices and everything else are still destroyed with their last user.
  *
- * CORVID_VK_SYNC_VALIDATION=0/1 turns synchronization validation off/on. It is
+ * cv_vulkan_device_options.sync_validation turns synchronization validation
+ * off/on (the first validated device's choice, since the instance is kept). It is
  * on by default except in sanitizer builds: the 1.3.239 layer leaks about 3 KB
  * per command buffer with it, which LeakSanitizer would report against us (the
  * plain build's tests still run everything under it). */
 #include <pthread.h>
 #include <stdatomic.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "corvid/log.h"
 #include "vk_instance.h"
 
 static const char VALIDATION_LAYER[] = "VK_LAYER_KHRONOS_validation";
 
+/* process-wide: the plain and the validated VkInstance, made once and kept
+ * (above: vkCreateInstance fails after a few cycles on the H200s); every
+ * device of every context shares them. */
 static pthread_mutex_t instances_lock = PTHREAD_MUTEX_INITIALIZER;
 static vk_instance instances[2]; /* [validation] */
 
-/* The lock around the validation layer's process-wide map (vk_instance.h):
- * process-wide because that map is. Readers share it; a writer (a device being
+/* The lock around the validation layer's process-wide map (vk_instance.h).
+ * Readers share it; a writer (a device being
  * created or destroyed) waits for them to leave, and readers that arrive while
  * a writer waits wait behind it, so threads polling a device cannot keep
  * devices from being created. Only a thread marked urgent (a bridge thread,
@@ -40,13 +44,14 @@ static vk_instance instances[2]; /* [validation] */
  * exclusive section pass a waiting writer: another device's pending work may
  * need a bridge thread's signal before a reader holding the lock (in a host
  * wait) can leave, and a device being destroyed joins its bridge thread while
- * holding its share. */
+ * holding its share. process-wide: because the layer's map is. */
 static pthread_mutex_t layer_mutex = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t layer_changed = PTHREAD_COND_INITIALIZER;
 static uint32_t layer_readers, layer_writers_waiting;
 static bool layer_writer;
-/* This thread's depth in vk_layer_enter (only the outermost takes a share, and
- * exclusive_begin gives it up meanwhile), and whether it is urgent (above). */
+/* process-wide (per thread): this thread's depth in vk_layer_enter (only the
+ * outermost takes a share, and exclusive_begin gives it up meanwhile), and
+ * whether it is urgent (above); a thread's share spans every device it calls. */
 static _Thread_local uint32_t layer_depth;
 static _Thread_local bool layer_urgent;
 
@@ -102,6 +107,9 @@ void vk_layer_exclusive_end(const vk_instance *inst) {
         take_share(true);
 }
 
+/* process-wide: the validation layer's messages, counted for
+ * cv_vulkan_get_message_counts; the layer reports them per instance, and the
+ * instances are the process's. */
 static atomic_uint message_errors;
 static atomic_uint message_warnings;
 
@@ -124,15 +132,14 @@ static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlag
                    (VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT);
     if (counted)
         atomic_fetch_add(error ? &message_errors : &message_warnings, 1u);
-    fprintf(stderr, "corvid vulkan %s%s: %s\n", error ? "error" : "warning", counted ? "" : " (loader)",
-            data->pMessage ? data->pMessage : "");
+    cv_log(error ? CV_LOG_ERROR : CV_LOG_WARNING, "vulkan", "%s%s", counted ? "" : "(loader) ",
+           data->pMessage ? data->pMessage : "");
     return VK_FALSE;
 }
 
-static bool sync_validation_wanted(void) {
-    const char *env = getenv("CORVID_VK_SYNC_VALIDATION");
-    if (env && *env)
-        return strcmp(env, "0") != 0;
+static bool sync_validation_wanted(cv_vulkan_sync_validation sync) {
+    if (sync != CV_VULKAN_SYNC_VALIDATION_DEFAULT)
+        return sync == CV_VULKAN_SYNC_VALIDATION_ON;
 #ifdef CORVID_VK_SANITIZER_BUILD
     return false;
 #else
@@ -155,7 +162,7 @@ static bool layer_present(const char *name) {
     return false;
 }
 
-static cv_result create_instance(vk_instance *inst, bool validation) {
+static cv_result create_instance(vk_instance *inst, bool validation, cv_vulkan_sync_validation sync) {
     if (validation && !layer_present(VALIDATION_LAYER))
         return cv_error(CV_ERROR_UNSUPPORTED,
                         "vulkan: validation requested but %s is not installed (Debian: vulkan-validationlayers)",
@@ -178,7 +185,7 @@ static cv_result create_instance(vk_instance *inst, bool validation) {
     VkValidationFeaturesEXT features = {
         .sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT,
         .pNext = &messenger_info,
-        .enabledValidationFeatureCount = sync_validation_wanted() ? 1u : 0u,
+        .enabledValidationFeatureCount = sync_validation_wanted(sync) ? 1u : 0u,
         .pEnabledValidationFeatures = enables,
     };
     const char *layers[] = { VALIDATION_LAYER };
@@ -217,12 +224,12 @@ static cv_result create_instance(vk_instance *inst, bool validation) {
     return CV_OK;
 }
 
-cv_result vk_instance_acquire(bool validation, vk_instance **out) {
+cv_result vk_instance_acquire(bool validation, cv_vulkan_sync_validation sync, vk_instance **out) {
     pthread_mutex_lock(&instances_lock);
     vk_instance *inst = &instances[validation ? 1 : 0];
     cv_result r = CV_OK;
     if (!inst->instance)
-        r = create_instance(inst, validation);
+        r = create_instance(inst, validation, sync);
     if (r == CV_OK) {
         inst->refs++;
         *out = inst;

@@ -16,7 +16,9 @@ typedef struct vk_instance {
     PFN_vkCmdEndDebugUtilsLabelEXT cmd_end_label;
 } vk_instance;
 
-cv_result vk_instance_acquire(bool validation, vk_instance **out);
+/* The process's plain or validated instance, made on first use; `sync`
+ * counts only when it makes the validated one. */
+cv_result vk_instance_acquire(bool validation, cv_vulkan_sync_validation sync, vk_instance **out);
 void vk_instance_release(vk_instance *inst);
 
 /* The validation layer (1.3.239) finds its state for a call in one map for the

@@ -22,6 +22,8 @@ typedef struct vk_staging {
     bool owned; /* the caller's (cv_staging_desc.owned): never cached, freed by vk_link_release */
 } vk_staging;
 
+/* process-wide: exported stagings' keys (backend.h: cv_staging_desc.key) must
+ * be unique in the process, since importers on any device cache by them. */
 static atomic_uint_fast64_t next_key = 1;
 
 static const VkBufferUsageFlags usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
@@ -42,7 +44,7 @@ void vk_link_caps(cv_backend_device *bd, cv_link_caps *out) {
     out->wait_import_required = bd->cross_required;
     if (!bd->cross_import)
         snprintf(out->wait_missing, sizeof(out->wait_missing), "%s",
-                 bd->cross_missing[0] ? bd->cross_missing : "CORVID_CROSS_WAIT=bridge");
+                 bd->cross_missing[0] ? bd->cross_missing : "the cross_wait option bridge");
 }
 
 static void staging_free(cv_backend_device *bd, vk_staging *s) {

@@ -21,7 +21,7 @@
  *
  * Asynchronous copies (vk_link_async.c, backend.h's link_copy_async) record
  * the same commands into a command buffer of their own, submitted with the
- * next ticket on the device's link queue (CORVID_LINK_QUEUE: compute by
+ * next ticket on the device's link queue (the link_queue option: compute by
  * default, where the passes that write and read the copied resources run): they wait for the previous ticket (so
  * they follow everything submitted before, as a list does), for the latest
  * immediate submission, and, when asked, for another device's ticket through
@@ -59,8 +59,6 @@ cv_result vk_link_in_range(const cv_backend_device *bd, void *staging, uint64_t 
 void vk_link_record(const cv_backend_device *bd, VkCommandBuffer cmd, vk_queue_slot slot, void *staging,
                     uint64_t staging_offset, cv_handle_type type, void *obj, uint64_t offset, uint64_t size,
                     cv_rect rect, bool to_staging);
-/* CORVID_LINK_QUEUE: compute (also unset or empty), graphics or copy. */
-cv_result vk_link_queue_parse(const char *value, cv_queue_type *queue);
 /* Frees the asynchronous copies' command buffers (the device idle). */
 void vk_link_async_finish(cv_backend_device *bd);
 /* Frees every staging (at device destruction, the device idle). */

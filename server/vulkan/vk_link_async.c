@@ -3,7 +3,6 @@
 
 #include "vk_bridge.h"
 #include "vk_cross_wait.h"
-#include "vk_env.h"
 #include "vk_host_transfer.h"
 #include "vk_immediate.h"
 #include "vk_link.h"
@@ -15,54 +14,58 @@ typedef struct vk_async_cmd {
     uint64_t ticket;
 } vk_async_cmd;
 
-void vk_link_async_finish(cv_backend_device *bd) {
-    if (bd->async_pool)
-        vk_device_destroy_command_pool(bd, bd->async_pool);
-    free(bd->async_cmds);
-    bd->async_pool = VK_NULL_HANDLE;
-    bd->async_cmds = NULL;
-    bd->async_count = 0;
-}
+/* The device's asynchronous copies: their pool, made at the first copy, and
+ * command buffers, each free once its ticket finished. */
+struct vk_link_async {
+    VkCommandPool pool;
+    vk_async_cmd *cmds;
+    uint32_t count;
+};
 
-cv_result vk_link_queue_parse(const char *value, cv_queue_type *queue) {
-    static const char *const words[] = { "compute", "graphics", "copy" };
-    static const cv_queue_type types[] = { CV_QUEUE_COMPUTE, CV_QUEUE_GRAPHICS, CV_QUEUE_COPY };
-    uint32_t k;
-    cv_result r = vk_env_choice("CORVID_LINK_QUEUE", value, words, 3, &k);
-    *queue = types[k];
-    return r;
+void vk_link_async_finish(cv_backend_device *bd) {
+    vk_link_async *a = bd->async;
+    if (!a)
+        return;
+    if (a->pool)
+        vk_device_destroy_command_pool(bd, a->pool);
+    free(a->cmds);
+    free(a);
+    bd->async = NULL;
 }
 
 /* A command buffer no submitted work uses (one of the pool's, or a new one). */
 static cv_result take_cmd(cv_backend_device *bd, vk_async_cmd **out) {
-    if (!bd->async_pool) {
+    if (!bd->async && !(bd->async = calloc(1, sizeof(*bd->async))))
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "device '%s': asynchronous transfers", bd->label);
+    vk_link_async *a = bd->async;
+    if (!a->pool) {
         VkCommandPoolCreateInfo info = { .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
                                          .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
                                          .queueFamilyIndex = bd->queues[bd->link_slot].family };
-        VkResult vr = vkCreateCommandPool(bd->device, &info, NULL, &bd->async_pool);
+        VkResult vr = vkCreateCommandPool(bd->device, &info, NULL, &a->pool);
         if (vr != VK_SUCCESS)
             return vk_fail(vr, "vkCreateCommandPool (asynchronous transfers, device '%s')", bd->label);
     }
     uint64_t done = vk_host_counter(bd, bd->ticket);
-    for (uint32_t i = 0; i < bd->async_count; i++)
-        if (bd->async_cmds[i].ticket <= done) {
-            *out = &bd->async_cmds[i];
+    for (uint32_t i = 0; i < a->count; i++)
+        if (a->cmds[i].ticket <= done) {
+            *out = &a->cmds[i];
             return CV_OK;
         }
-    vk_async_cmd *grown = realloc(bd->async_cmds, (bd->async_count + 1) * sizeof(*grown));
+    vk_async_cmd *grown = realloc(a->cmds, (a->count + 1) * sizeof(*grown));
     if (!grown)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "device '%s': asynchronous transfer command buffers", bd->label);
-    bd->async_cmds = grown;
+    a->cmds = grown;
     VkCommandBufferAllocateInfo alloc = { .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
-                                          .commandPool = bd->async_pool,
+                                          .commandPool = a->pool,
                                           .level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
                                           .commandBufferCount = 1 };
-    vk_async_cmd *c = &bd->async_cmds[bd->async_count];
+    vk_async_cmd *c = &a->cmds[a->count];
     VkResult vr = vkAllocateCommandBuffers(bd->device, &alloc, &c->cmd);
     if (vr != VK_SUCCESS)
         return vk_fail(vr, "vkAllocateCommandBuffers (asynchronous transfers, device '%s')", bd->label);
     c->ticket = 0;
-    bd->async_count++;
+    a->count++;
     *out = c;
     return CV_OK;
 }
@@ -111,7 +114,7 @@ static cv_result cross_wait(cv_backend_device *bd, const cv_link_wait *wait, uin
         r = vk_bridge_request(bd, wait->device, wait->ticket, &value);
     if (r == CV_OK)
         waits[(*count)++] = imported ? semaphore_info(imported, wait->ticket)
-                                     : semaphore_info(bd->bridge.semaphore, value);
+                                     : semaphore_info(vk_bridge_semaphore(bd), value);
     return r;
 }
 

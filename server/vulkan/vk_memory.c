@@ -36,6 +36,8 @@ struct vk_block {
     uint32_t range_count, range_capacity;
 };
 
+/* process-wide: cv_vulkan_live_memory_blocks counts the VkDeviceMemory blocks
+ * of every device, so leak checks see what a destroyed device left. */
 static atomic_uint live_blocks;
 
 uint32_t cv_vulkan_live_memory_blocks(void) { return atomic_load(&live_blocks); }

@@ -5,7 +5,7 @@
 #ifndef CORVID_VK_PIPELINES_H
 #define CORVID_VK_PIPELINES_H
 
-#include "vk_device.h"
+#include "vk_device_core.h"
 
 /* How the pipeline's shaders use one binding slot (from SPIR-V reflection). */
 typedef struct vk_binding_use {

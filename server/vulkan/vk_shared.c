@@ -3,23 +3,14 @@
 
 #include "vk_instance.h"
 #include "vk_shared.h"
-#include "vk_env.h"
 
-/* Process-wide, like vk_instance.c's instances and for the same reason: the
+/* process-wide: like vk_instance.c's instances and for the same reason: the
  * instances of one adapter are created by independent cv_device_create calls
  * (possibly from several contexts and threads), so the only place they can
  * find the VkDevice they share is state of the process. Guarded by
  * registry_lock; entries live while an instance holds them. */
 static pthread_mutex_t registry_lock = PTHREAD_MUTEX_INITIALIZER;
 static vk_shared_device *registry;
-
-cv_result vk_shared_parse(const char *value, vk_vgpu_mode *mode) {
-    static const char *const words[] = { "auto", "separate", "shared" }; /* vk_vgpu_mode's order */
-    uint32_t k;
-    cv_result r = vk_env_choice("CORVID_VGPU_DEVICE", value, words, 3, &k);
-    *mode = (vk_vgpu_mode)k;
-    return r;
-}
 
 bool vk_shared_auto_choice(VkPhysicalDevice physical, uint32_t graphics_family) {
     uint32_t count = 0;

@@ -1,4 +1,4 @@
-/* Virtual GPUs that share one VkDevice (CORVID_VGPU_DEVICE=shared).
+/* Virtual GPUs that share one VkDevice (cv_vulkan_device_options.vgpu_device SHARED).
  *
  * By default every cv_device is its own VkDevice, so the virtual GPUs of one
  * adapter are separate contexts, which a GPU like the H200 time-slices (they
@@ -45,7 +45,7 @@
 
 #include <pthread.h>
 
-#include "vk_device.h"
+#include "vk_device_core.h"
 
 #define VK_SHARED_MAX_QUEUES 16u
 
@@ -73,14 +73,7 @@ struct vk_shared_device {
     uint32_t retired_count;
 };
 
-/* CORVID_VGPU_DEVICE: "shared", "separate", or "auto" (also unset or ""):
- * shared where the adapter's graphics family has more than one queue (the
- * instances then run concurrently on their own queues: NVIDIA has 16), else
- * separate (lavapipe has one queue; separate VkDevices bring their own
- * llvmpipe threads). CV_ERROR_INVALID_ARGUMENT for anything else. */
-typedef enum vk_vgpu_mode { VK_VGPU_AUTO = 0, VK_VGPU_SEPARATE, VK_VGPU_SHARED } vk_vgpu_mode;
-cv_result vk_shared_parse(const char *value, vk_vgpu_mode *mode);
-/* Auto's choice for an adapter: its graphics family has more than one queue. */
+/* CV_VULKAN_VGPU_AUTO's choice (vulkan.h) for an adapter: its graphics family has more than one queue. */
 bool vk_shared_auto_choice(VkPhysicalDevice physical, uint32_t graphics_family);
 
 /* Finds the shared VkDevice for bd's instance, adapter and info's extensions,

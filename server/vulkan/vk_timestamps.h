@@ -4,7 +4,7 @@
 #ifndef CORVID_VK_TIMESTAMPS_H
 #define CORVID_VK_TIMESTAMPS_H
 
-#include "vk_device.h"
+#include "vk_device_core.h"
 
 #define VK_NO_QUERY UINT32_MAX
 

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "vk_host_transfer.h"
+#include "vk_trace.h"
 #include "vk_trace_calibrate.h"
 #include "vk_trace_rt.h"
 
@@ -33,6 +34,7 @@ typedef struct adapter_measurement {
     vk_trace_calibration figures;
 } adapter_measurement;
 
+/* process-wide: the measurement above, one per adapter for every device. */
 static pthread_mutex_t measurements_lock = PTHREAD_MUTEX_INITIALIZER;
 static adapter_measurement measurements[MEASURED_ADAPTERS];
 
@@ -61,29 +63,20 @@ const char *cv_vulkan_trace_path_name(cv_vulkan_trace_path path) {
 
 /* ---- the tracer ---------------------------------------------------------------- */
 
-static cv_result mode_from_environment(const cv_backend_device *bd, cv_vulkan_trace_path *mode) {
-    const char *env = getenv("CORVID_TRACE_PATH");
-    *mode = CV_VULKAN_TRACE_AUTO;
-    if (!env || !env[0] || strcmp(env, "auto") == 0)
-        return CV_OK;
-    if (strcmp(env, "compute") == 0) {
-        *mode = CV_VULKAN_TRACE_COMPUTE;
-        return CV_OK;
-    }
-    if (strcmp(env, "pipeline") != 0)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "CORVID_TRACE_PATH='%s': expected compute, pipeline or auto", env);
-    if (!bd->ray_tracing)
+static cv_result check_mode(const cv_backend_device *bd, cv_vulkan_trace_path mode) {
+    if (mode > CV_VULKAN_TRACE_PIPELINE)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "device '%s': trace_path %d is not a cv_vulkan_trace_path",
+                        bd->label, (int)mode);
+    if (mode == CV_VULKAN_TRACE_PIPELINE && !bd->ray_tracing)
         return cv_error(CV_ERROR_UNSUPPORTED,
-                        "CORVID_TRACE_PATH=pipeline: adapter '%s' has no ray-tracing pipeline "
+                        "device '%s': trace_path pipeline: adapter '%s' has no ray-tracing pipeline "
                         "(VK_KHR_ray_tracing_pipeline with VK_KHR_acceleration_structure)",
-                        bd->adapter.info.name);
-    *mode = CV_VULKAN_TRACE_PIPELINE;
+                        bd->label, bd->adapter.info.name);
     return CV_OK;
 }
 
-cv_result vk_trace_init(cv_backend_device *bd) {
-    cv_vulkan_trace_path mode;
-    cv_result r = mode_from_environment(bd, &mode);
+cv_result vk_trace_init(cv_backend_device *bd, cv_vulkan_trace_path mode) {
+    cv_result r = check_mode(bd, mode);
     if (r != CV_OK)
         return r;
     vk_tracer *t = calloc(1, sizeof(*t));
@@ -242,7 +235,8 @@ static cv_result measure_if_needed(cv_backend_device *bd, vk_accel *a, const voi
     cv_result r = CV_OK;
     adapter_measurement *m = &measurements[index];
     if (!m->measured) {
-        r = vk_trace_calibrate(bd, a, triangles, &m->figures);
+        static const vk_trace_paths paths = { vk_trace_ready, vk_trace_prepare_accel, vk_trace_record };
+        r = vk_trace_calibrate(bd, &paths, a, triangles, &m->figures);
         if (r == CV_OK) {
             m->measured = true;
             m->faster = m->figures.pipeline_mrays > m->figures.compute_mrays ? CV_VULKAN_TRACE_PIPELINE

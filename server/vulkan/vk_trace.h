@@ -8,7 +8,7 @@
  *    are built at the accel write unless the device is set to the compute
  *    path, else when a list first traces the accel on the pipeline path.
  *
- * The choice: the mode comes from CORVID_TRACE_PATH at device creation or from
+ * The choice: the mode comes from the device options at creation or from
  * cv_vulkan_set_trace_path; in AUTO mode the adapter's measurement decides
  * (vk_trace_calibrate.h), taken at the first accel write on that adapter in
  * this process. Every kernel reads its data through buffer device addresses,
@@ -16,40 +16,12 @@
 #ifndef CORVID_VK_TRACE_H
 #define CORVID_VK_TRACE_H
 
-#include "vk_barriers.h"
 #include "vk_pipelines.h"
-#include "vk_resources.h"
+#include "vk_trace_job.h"
 
-typedef struct vk_rt_accel vk_rt_accel;
-
-typedef struct vk_accel {
-    vk_buffer *nodes;     /* node_count cv_bvh_node2 */
-    vk_buffer *triangles; /* triangle_count cv_bvh_tri */
-    uint32_t node_count, triangle_count;
-    char label[CV_LABEL_MAX];
-    vk_rt_accel *rt; /* the driver's structures; NULL until first needed */
-    bool rt_stale;   /* rt does not hold the latest triangles */
-} vk_accel;
-
-/* One trace_rays command as the paths record it. The keys name the buffers to
- * the barrier tracker (resource handles, or any ids unique within a recording). */
-typedef struct vk_trace_job {
-    vk_accel *accel;
-    uint64_t accel_key;
-    const vk_buffer *rays, *hits;
-    uint64_t rays_key, hits_key;
-    uint64_t rays_offset, hits_offset;
-    uint32_t count, flags;
-} vk_trace_job;
-
-/* Where the compute kernel's 2D grid of 64-ray groups, and the ray-generation
- * grid of the pipeline path, wrap (both linearise x + y * width). */
-#define VK_TRACE_GROUP_SIZE 64u
-#define VK_TRACE_LAUNCH_WIDTH 32768u
-
-/* At device creation: the mode from CORVID_TRACE_PATH (CV_ERROR_INVALID_ARGUMENT
- * for an unknown value, CV_ERROR_UNSUPPORTED for "pipeline" where not offered). */
-cv_result vk_trace_init(cv_backend_device *bd);
+/* At device creation: the mode of the device options (CV_ERROR_INVALID_ARGUMENT
+ * for an unknown value, CV_ERROR_UNSUPPORTED for PIPELINE where not offered). */
+cv_result vk_trace_init(cv_backend_device *bd, cv_vulkan_trace_path mode);
 /* Releases the trace pipelines (the device is idle). NULL tracer is allowed. */
 void vk_trace_finish(cv_backend_device *bd);
 /* The path lists compiled now would use. */

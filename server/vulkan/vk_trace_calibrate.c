@@ -1,11 +1,12 @@
 /* Measuring the two trace paths on one accel (see vk_trace_calibrate.h). */
 #include <math.h>
 #include <stdlib.h>
-#include <time.h>
 
 #include "corvid/bvh_gpu.h"
+#include "corvid/clock.h"
 #include "vk_host_transfer.h"
 #include "vk_immediate.h"
+#include "vk_resources.h"
 #include "vk_trace_calibrate.h"
 
 /* Rays per query: enough to fill a GPU; on a CPU device few enough that the
@@ -56,15 +57,12 @@ static void make_rays(const cv_bvh_tri *tris, uint32_t tri_count, cv_ray *rays, 
     }
 }
 
-static double host_seconds(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
-}
+static double host_seconds(void) { return (double)cv_now_ns() * 1e-9; }
 
 typedef struct measurement {
     VkQueryPool pool; /* two timestamps, or VK_NULL_HANDLE: host clock */
     vk_trace_job job;
+    const vk_trace_paths *paths;
 } measurement;
 
 /* One round of one path: a closest-hit and an any-hit trace of all rays. */
@@ -91,7 +89,7 @@ static cv_result run_round(cv_backend_device *bd, measurement *m, cv_vulkan_trac
     const uint32_t flags[2] = { 0, CV_TRACE_ANY_HIT };
     for (int i = 0; i < 2; i++) {
         m->job.flags = flags[i];
-        vk_trace_record(bd, path, &tracker, cmd, &m->job);
+        m->paths->record(bd, path, &tracker, cmd, &m->job);
     }
     r = vk_tracker_status(&tracker);
     vk_tracker_finish(&tracker);
@@ -136,14 +134,16 @@ static cv_result measure(cv_backend_device *bd, measurement *m, vk_trace_calibra
     return CV_OK;
 }
 
-cv_result vk_trace_calibrate(cv_backend_device *bd, vk_accel *a, const void *triangles, vk_trace_calibration *out) {
+cv_result vk_trace_calibrate(cv_backend_device *bd, const vk_trace_paths *paths, vk_accel *a, const void *triangles,
+                             vk_trace_calibration *out) {
     uint32_t count = bd->adapter.info.type == CV_VULKAN_ADAPTER_CPU ? CPU_RAYS : GPU_RAYS;
     cv_ray *rays = malloc((size_t)count * sizeof(*rays));
     if (!rays)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "vulkan: %u rays to measure the trace paths", count);
     make_rays(triangles, a->triangle_count, rays, count);
     measurement m = {
-        .job = { .accel = a, .accel_key = KEY_ACCEL, .rays_key = KEY_RAYS, .hits_key = KEY_HITS, .count = count }
+        .job = { .accel = a, .accel_key = KEY_ACCEL, .rays_key = KEY_RAYS, .hits_key = KEY_HITS, .count = count },
+        .paths = paths,
     };
     vk_buffer *ray_buffer = NULL, *hit_buffer = NULL;
     cv_result r = vk_buffer_create(bd,
@@ -163,11 +163,11 @@ cv_result vk_trace_calibrate(cv_backend_device *bd, vk_accel *a, const void *tri
     m.job.rays = ray_buffer;
     m.job.hits = hit_buffer;
     if (r == CV_OK)
-        r = vk_trace_ready(bd, CV_VULKAN_TRACE_COMPUTE);
+        r = paths->ready(bd, CV_VULKAN_TRACE_COMPUTE);
     if (r == CV_OK)
-        r = vk_trace_ready(bd, CV_VULKAN_TRACE_PIPELINE);
+        r = paths->ready(bd, CV_VULKAN_TRACE_PIPELINE);
     if (r == CV_OK)
-        r = vk_trace_prepare_accel(bd, a);
+        r = paths->prepare_accel(bd, a);
     if (r == CV_OK && bd->queues[VK_SLOT_GRAPHICS].timestamp_mask && bd->timestamp_period_ns > 0) {
         VkQueryPoolCreateInfo info = { .sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
                                        .queryType = VK_QUERY_TYPE_TIMESTAMP,

@@ -12,15 +12,27 @@
 #ifndef CORVID_VK_TRACE_CALIBRATE_H
 #define CORVID_VK_TRACE_CALIBRATE_H
 
-#include "vk_trace.h"
+#include "vk_device_core.h"
+#include "vk_trace_job.h"
 
 typedef struct vk_trace_calibration {
     uint32_t rays; /* per query */
     double compute_mrays, pipeline_mrays;
 } vk_trace_calibration;
 
+/* The tracer's calls the measurement drives (vk_trace.h's vk_trace_ready,
+ * vk_trace_prepare_accel and vk_trace_record): handed in by the tracer, which
+ * runs the measurement, so that this module sits below it. */
+typedef struct vk_trace_paths {
+    cv_result (*ready)(cv_backend_device *bd, cv_vulkan_trace_path path);
+    cv_result (*prepare_accel)(cv_backend_device *bd, vk_accel *a);
+    void (*record)(cv_backend_device *bd, cv_vulkan_trace_path path, vk_tracker *tracker, VkCommandBuffer cmd,
+                   const vk_trace_job *job);
+} vk_trace_paths;
+
 /* `a` was written from `triangles` (its cv_bvh_tri array) and its driver
  * structures are built; both paths' pipelines are built here. */
-cv_result vk_trace_calibrate(cv_backend_device *bd, vk_accel *a, const void *triangles, vk_trace_calibration *out);
+cv_result vk_trace_calibrate(cv_backend_device *bd, const vk_trace_paths *paths, vk_accel *a, const void *triangles,
+                             vk_trace_calibration *out);
 
 #endif

@@ -8,6 +8,7 @@
 #include "corvid/shaders.h"
 #include "vk_host_transfer.h"
 #include "vk_immediate.h"
+#include "vk_pipelines.h"
 #include "vk_trace_rt.h"
 
 const char *const vk_rt_extensions[VK_RT_EXTENSION_COUNT] = {

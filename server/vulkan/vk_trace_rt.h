@@ -21,7 +21,8 @@
 #ifndef CORVID_VK_TRACE_RT_H
 #define CORVID_VK_TRACE_RT_H
 
-#include "vk_trace.h"
+#include "vk_device_core.h"
+#include "vk_trace_job.h"
 
 typedef struct vk_rt vk_rt;
 typedef struct vk_rt_accel vk_rt_accel;

@@ -24,7 +24,7 @@ static cv_result make_pipeline(world *w, const char *name, cv_pipeline *out) {
     return r == CV_OK ? cv_device_load(w->dev, cv_any(*out)) : r;
 }
 
-/* A flat BVH of one triangle in the layout of scene/include/corvid/bvh_gpu.h:
+/* A flat BVH of one triangle in the layout of client/include/corvid/bvh_gpu.h:
  * one two-child node whose first child is a leaf of triangle 0. */
 static cv_result make_accel(world *w, bool write, const char *label, cv_accel *out) {
     cv_accel_desc d = { .triangle_count = 1, .node_count = 1 };

@@ -168,8 +168,7 @@ int main(int argc, char **argv) {
     copy_work(ctx, c, 0xbeef);
     copy_work(ctx, b, 0xcafe);
     CHECK(log_has(&node, "its device abandoned"));
-    CHECK(!log_has(&node, "corvid vulkan error")); /* the validation layer (--validation) stayed quiet */
-    CHECK(!log_has(&node, "corvid vulkan warning"));
+    CHECK(!log_has(&node, "corvid vulkan: "));          /* the validation layer (--validation) stayed quiet */
     CHECK(!log_has(&node, "WARNING: ThreadSanitizer")); /* the node process, in the TSan build */
 
     cv_device_destroy(a);

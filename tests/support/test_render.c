@@ -2,6 +2,7 @@
 #include "test_render.h"
 
 #include "corvid/vulkan.h"
+#include "env_vulkan.h"
 #include "test_adapter.h"
 
 cv_result cv_test_gpus_open(uint32_t count, cv_test_gpus *out) {
@@ -12,7 +13,11 @@ cv_result cv_test_gpus_open(uint32_t count, cv_test_gpus *out) {
     cv_result res = cv_context_create(NULL, &out->ctx);
     if (res != CV_OK)
         return res;
-    res = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .total = count, .adapters = cv_test_adapter() }, &table);
+    /* The device options from the environment, as a program's (renderer_transfer_paths_shared: CORVID_VGPU_DEVICE). */
+    cv_vulkan_gpu_config config = { .total = count, .adapters = cv_test_adapter() };
+    res = cv_env_vulkan_options(&config.device);
+    if (res == CV_OK)
+        res = cv_vulkan_gpu_table_build(&config, &table);
     if (res == CV_OK)
         res = cv_vulkan_create_devices(out->ctx, &table, true, out->devices);
     if (res != CV_OK) {

@@ -298,17 +298,18 @@ static void check_scene(rig *g, scene_case *s) {
 
 /* ---- path selection ------------------------------------------------------------------ */
 
-static cv_device *device_with_env(cv_context *ctx, const char *value, cv_result expected) {
-    setenv("CORVID_TRACE_PATH", value, 1);
+static cv_device *device_with_path(cv_context *ctx, cv_vulkan_trace_path path, cv_result expected) {
+    cv_vulkan_device_options options = { .trace_path = path };
     cv_device *dev = NULL;
-    cv_device_desc desc = { .adapter = cv_test_adapter(), .validation = true, .label = "env" };
+    cv_device_desc desc = {
+        .adapter = cv_test_adapter(), .validation = true, .label = "option", .backend_options = &options
+    };
     CHECK_RESULT(cv_device_create(ctx, cv_vulkan_backend(), &desc, &dev), expected);
-    unsetenv("CORVID_TRACE_PATH");
     return dev;
 }
 
 static void check_selection(cv_context *ctx, rig *g) {
-    cv_device *dev = device_with_env(ctx, "compute", CV_OK);
+    cv_device *dev = device_with_path(ctx, CV_VULKAN_TRACE_COMPUTE, CV_OK);
     if (dev) {
         CHECK(strcmp(cv_device_get_info(dev)->trace_path, "compute") == 0);
         cv_vulkan_trace_status st;
@@ -316,12 +317,12 @@ static void check_selection(cv_context *ctx, rig *g) {
         CHECK_EQ_INT(st.mode, CV_VULKAN_TRACE_COMPUTE);
         cv_device_destroy(dev);
     }
-    dev = device_with_env(ctx, "pipeline", g->pipeline_offered ? CV_OK : CV_ERROR_UNSUPPORTED);
+    dev = device_with_path(ctx, CV_VULKAN_TRACE_PIPELINE, g->pipeline_offered ? CV_OK : CV_ERROR_UNSUPPORTED);
     if (dev) {
         CHECK(strcmp(cv_device_get_info(dev)->trace_path, "pipeline") == 0);
         cv_device_destroy(dev);
     }
-    CHECK(device_with_env(ctx, "fastest", CV_ERROR_INVALID_ARGUMENT) == NULL);
+    CHECK(device_with_path(ctx, (cv_vulkan_trace_path)7, CV_ERROR_INVALID_ARGUMENT) == NULL);
     CHECK_RESULT(cv_vulkan_set_trace_path(g->dev, (cv_vulkan_trace_path)7), CV_ERROR_INVALID_ARGUMENT);
     if (!g->pipeline_offered)
         CHECK_RESULT(cv_vulkan_set_trace_path(g->dev, CV_VULKAN_TRACE_PIPELINE), CV_ERROR_UNSUPPORTED);
@@ -346,7 +347,6 @@ static void check_measured(rig *g) {
 }
 
 int main(void) {
-    unsetenv("CORVID_TRACE_PATH");
     rig g = { 0 };
     CHECK_OK(cv_context_create(NULL, &g.ctx));
     cv_device_desc desc = { .adapter = cv_test_adapter(), .validation = true, .label = "trace" };

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "env_vulkan.h"
 #include "vk_test.h"
 
 static void test_adapters(void) {
@@ -97,7 +98,7 @@ static void test_gpu_args(void) {
     char *argv[] = { a0, a1, a2, a3, a4, a5, a6, a7, NULL };
     int argc = 8;
     cv_vulkan_gpu_config config = { 0 };
-    CHECK_OK(cv_vulkan_gpu_args(&argc, argv, &config));
+    CHECK_OK(cv_env_vulkan_gpu_args(&argc, argv, &config));
     CHECK_EQ_INT(argc, 3);
     CHECK(strcmp(argv[0], "app") == 0 && strcmp(argv[1], "--keep") == 0 && strcmp(argv[2], "scene.gltf") == 0);
     CHECK(argv[3] == NULL);
@@ -109,12 +110,12 @@ static void test_gpu_args(void) {
     char *bad[] = { a0, b1, b2, NULL };
     int bad_argc = 3;
     cv_vulkan_gpu_config unchanged = { .virtual_per_adapter = 2 };
-    CHECK_RESULT(cv_vulkan_gpu_args(&bad_argc, bad, &unchanged), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_env_vulkan_gpu_args(&bad_argc, bad, &unchanged), CV_ERROR_INVALID_ARGUMENT);
     CHECK_EQ_INT(bad_argc, 3);
     CHECK_EQ_INT(unchanged.virtual_per_adapter, 2);
     char *missing[] = { a0, a1, NULL };
     int missing_argc = 2;
-    CHECK_RESULT(cv_vulkan_gpu_args(&missing_argc, missing, &unchanged), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_env_vulkan_gpu_args(&missing_argc, missing, &unchanged), CV_ERROR_INVALID_ARGUMENT);
 }
 
 static void test_gpu_table(void) {
@@ -136,15 +137,69 @@ static void test_gpu_table(void) {
     CHECK_RESULT(cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .adapters = two }, &t), CV_ERROR_NOT_FOUND);
     CHECK_RESULT(cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 65 }, &t),
                  CV_ERROR_LIMIT_EXCEEDED);
-    /* The environment is read when the config leaves the count at 0. */
+    /* The table carries the config's device options to every device it makes. */
+    CHECK_OK(
+        cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .device = { .link_queue = CV_VULKAN_LINK_QUEUE_COPY } },
+                                  &t));
+    CHECK_EQ_INT(t.options.link_queue, CV_VULKAN_LINK_QUEUE_COPY);
+    /* The library never reads the environment; a program maps it onto the config (env_vulkan.h). */
     setenv("CORVID_VIRTUAL_GPUS", "2", 1);
-    CHECK_OK(cv_vulkan_gpu_table_build(NULL, &t));
+    cv_vulkan_gpu_config c = { 0 };
+    CHECK_OK(cv_vulkan_gpu_table_build(&c, &t));
+    CHECK_EQ_INT(t.count, 1);
+    CHECK_OK(cv_env_vulkan_gpu_config(&c));
+    CHECK_OK(cv_vulkan_gpu_table_build(&c, &t));
     CHECK_EQ_INT(t.count, 2);
     setenv("CORVID_VIRTUAL_GPUS", "two", 1);
-    CHECK_RESULT(cv_vulkan_gpu_table_build(NULL, &t), CV_ERROR_INVALID_ARGUMENT);
+    cv_vulkan_gpu_config fresh = { 0 };
+    CHECK_RESULT(cv_env_vulkan_gpu_config(&fresh), CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "CORVID_VIRTUAL_GPUS: 'two'") != NULL);
+    CHECK_EQ_INT(fresh.virtual_per_adapter, 0);
+    fresh.total = 3; /* an explicit count wins: the variable is not even read */
+    CHECK_OK(cv_env_vulkan_gpu_config(&fresh));
+    CHECK_EQ_INT(fresh.virtual_per_adapter, 0);
     unsetenv("CORVID_VIRTUAL_GPUS");
-    CHECK_OK(cv_vulkan_gpu_table_build(NULL, &t));
-    CHECK_EQ_INT(t.count, 1);
+}
+
+/* The device options' variables (env_vulkan.h): words into enums, a bad one named and nothing changed. */
+static void test_env_options(void) {
+    setenv("CORVID_VGPU_DEVICE", "shared", 1);
+    setenv("CORVID_CROSS_WAIT", "bridge", 1);
+    setenv("CORVID_LINK_QUEUE", "graphics", 1);
+    setenv("CORVID_TRACE_PATH", "compute", 1);
+    setenv("CORVID_VK_SYNC_VALIDATION", "0", 1);
+    cv_vulkan_device_options o = { 0 };
+    CHECK_OK(cv_env_vulkan_options(&o));
+    CHECK_EQ_INT(o.vgpu_device, CV_VULKAN_VGPU_SHARED);
+    CHECK_EQ_INT(o.cross_wait, CV_VULKAN_CROSS_WAIT_BRIDGE);
+    CHECK_EQ_INT(o.link_queue, CV_VULKAN_LINK_QUEUE_GRAPHICS);
+    CHECK_EQ_INT(o.trace_path, CV_VULKAN_TRACE_COMPUTE);
+    CHECK_EQ_INT(o.sync_validation, CV_VULKAN_SYNC_VALIDATION_OFF);
+    setenv("CORVID_LINK_QUEUE", "gpu", 1);
+    cv_vulkan_device_options unchanged = { 0 };
+    CHECK_RESULT(cv_env_vulkan_options(&unchanged), CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "CORVID_LINK_QUEUE='gpu': expected compute, graphics or copy") != NULL);
+    CHECK_EQ_INT(unchanged.vgpu_device, CV_VULKAN_VGPU_AUTO);
+    const char *names[] = { "CORVID_VGPU_DEVICE", "CORVID_CROSS_WAIT", "CORVID_LINK_QUEUE", "CORVID_TRACE_PATH",
+                            "CORVID_VK_SYNC_VALIDATION" };
+    for (int i = 0; i < 5; i++)
+        unsetenv(names[i]);
+    /* Unset: the fields stay as the program set them. */
+    o = (cv_vulkan_device_options){ .cross_wait = CV_VULKAN_CROSS_WAIT_IMPORT };
+    CHECK_OK(cv_env_vulkan_options(&o));
+    CHECK_EQ_INT(o.cross_wait, CV_VULKAN_CROSS_WAIT_IMPORT);
+    /* A value outside its enum fails device creation, naming the field. */
+    cv_context *ctx;
+    CHECK_OK(cv_context_create(NULL, &ctx));
+    cv_vulkan_device_options bad = { .vgpu_device = (cv_vulkan_vgpu_device)7 };
+    cv_device *dev = NULL;
+    CHECK_RESULT(cv_device_create(ctx, cv_vulkan_backend(),
+                                  &(cv_device_desc){
+                                      .adapter = vkt_adapter(), .label = "bad", .backend_options = &bad },
+                                  &dev),
+                 CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "vgpu_device") != NULL && dev == NULL);
+    cv_context_destroy(ctx);
 }
 
 int main(void) {
@@ -152,5 +207,6 @@ int main(void) {
     test_devices();
     test_gpu_args();
     test_gpu_table();
+    test_env_options();
     return vkt_report("vk_adapter");
 }

@@ -6,7 +6,7 @@
  * merged into one barrier call; the epilogue returns images to GENERAL. */
 #include "corvid/backend.h"
 #include "vk_barriers.h"
-#include "vk_device.h"
+#include "vk_device_core.h"
 #include "vk_resources.h"
 #include "vk_test.h"
 

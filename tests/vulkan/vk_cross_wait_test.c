@@ -1,11 +1,11 @@
 /* How a GPU waits for another device's ticket (vk_cross_wait.h): through an
  * imported semaphore where the pair allows it, else through the bridge.
- *   - the decision as pure functions of fabricated properties: the
- *     CORVID_CROSS_WAIT values, which external semaphore properties make a
- *     device capable (and what a lacking one reports), the per-device choice,
- *     the per-pair UUID check; vk_env_choice, which parses it and the
- *     backend's other switches (the default, the message listing the words);
- *   - on the adapter: CORVID_CROSS_WAIT=import where the device cannot import
+ *   - the decision as pure functions of fabricated properties: which
+ *     external semaphore properties make a device capable (and what a lacking
+ *     one reports), the per-device choice, the per-pair UUID check;
+ *     cv_parse_word_named, with which programs read the backend's switches
+ *     (the message listing the words);
+ *   - on the adapter: the cross_wait option IMPORT where the device cannot import
  *     (lavapipe lacks VK_KHR_external_semaphore_fd) fails with
  *     CV_ERROR_UNSUPPORTED naming the device and what it lacks, and changes
  *     nothing (no device is left, the next creation works); a bad value is
@@ -19,36 +19,21 @@
 
 #include "corvid/transfer.h"
 #include "vk_cross_wait.h"
-#include "vk_env.h"
+#include "corvid/parse.h"
 #include "vk_test.h"
 
 static void pure_decisions(void) {
-    vk_cross_mode m = VK_CROSS_IMPORT;
-    CHECK_OK(vk_cross_wait_parse(NULL, &m));
-    CHECK_EQ_INT(m, VK_CROSS_AUTO);
-    CHECK_OK(vk_cross_wait_parse("", &m));
-    CHECK_EQ_INT(m, VK_CROSS_AUTO);
-    CHECK_OK(vk_cross_wait_parse("auto", &m));
-    CHECK_EQ_INT(m, VK_CROSS_AUTO);
-    CHECK_OK(vk_cross_wait_parse("bridge", &m));
-    CHECK_EQ_INT(m, VK_CROSS_BRIDGE);
-    CHECK_OK(vk_cross_wait_parse("import", &m));
-    CHECK_EQ_INT(m, VK_CROSS_IMPORT);
-    CHECK_RESULT(vk_cross_wait_parse("imports", &m), CV_ERROR_INVALID_ARGUMENT);
-    CHECK_EQ_INT(m, VK_CROSS_AUTO);
-    CHECK(strstr(cv_last_error(), "CORVID_CROSS_WAIT='imports': expected auto, bridge or import") != NULL);
-    /* vk_env_choice (vk_env.h), which the backend's switches share: the first word is the default. */
+    /* cv_parse_word_named (corvid/parse.h), with which programs read the backend's switches. */
     static const char *const one[] = { "on" }, *const two[] = { "a", "b" };
     uint32_t k = 7;
-    CHECK_OK(vk_env_choice("X", NULL, two, 2, &k));
-    CHECK_EQ_INT(k, 0);
-    CHECK_OK(vk_env_choice("X", "b", two, 2, &k));
+    CHECK_OK(cv_parse_word_named("X", "b", two, 2, &k));
     CHECK_EQ_INT(k, 1);
-    CHECK_RESULT(vk_env_choice("CORVID_ONE", "off", one, 1, &k), CV_ERROR_INVALID_ARGUMENT);
-    CHECK_EQ_INT(k, 0);
+    CHECK_RESULT(cv_parse_word_named("CORVID_ONE", "off", one, 1, &k), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(k, 1);
     CHECK(strcmp(cv_last_error(), "CORVID_ONE='off': expected on") == 0);
-    CHECK_RESULT(vk_env_choice("X", "c", two, 2, &k), CV_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(cv_parse_word_named("X", "c", two, 2, &k), CV_ERROR_INVALID_ARGUMENT);
     CHECK(strcmp(cv_last_error(), "X='c': expected a or b") == 0);
+    CHECK_RESULT(cv_parse_word_named("X", NULL, two, 2, &k), CV_ERROR_INVALID_ARGUMENT);
 
     const VkExternalSemaphoreHandleTypeFlags fd = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT;
     const VkExternalSemaphoreFeatureFlags ex = VK_EXTERNAL_SEMAPHORE_FEATURE_EXPORTABLE_BIT,
@@ -80,16 +65,17 @@ static void pure_decisions(void) {
     CHECK(!vk_cross_wait_capable(true, &p, missing, sizeof(missing)));
 
     bool import = true;
-    CHECK_OK(vk_cross_wait_decide(VK_CROSS_AUTO, true, "", "g0", &import));
+    CHECK_OK(vk_cross_wait_decide(CV_VULKAN_CROSS_WAIT_AUTO, true, "", "g0", &import));
     CHECK(import);
-    CHECK_OK(vk_cross_wait_decide(VK_CROSS_BRIDGE, true, "", "g0", &import));
+    CHECK_OK(vk_cross_wait_decide(CV_VULKAN_CROSS_WAIT_BRIDGE, true, "", "g0", &import));
     CHECK(!import);
     import = true;
-    CHECK_OK(vk_cross_wait_decide(VK_CROSS_AUTO, false, "VK_KHR_external_semaphore_fd", "g0", &import));
+    CHECK_OK(vk_cross_wait_decide(CV_VULKAN_CROSS_WAIT_AUTO, false, "VK_KHR_external_semaphore_fd", "g0", &import));
     CHECK(!import);
-    CHECK_OK(vk_cross_wait_decide(VK_CROSS_IMPORT, true, "", "g0", &import));
+    CHECK_OK(vk_cross_wait_decide(CV_VULKAN_CROSS_WAIT_IMPORT, true, "", "g0", &import));
     CHECK(import);
-    CHECK_RESULT(vk_cross_wait_decide(VK_CROSS_IMPORT, false, "VK_KHR_external_semaphore_fd", "g0", &import),
+    CHECK_RESULT(vk_cross_wait_decide(CV_VULKAN_CROSS_WAIT_IMPORT, false, "VK_KHR_external_semaphore_fd", "g0",
+                                      &import),
                  CV_ERROR_UNSUPPORTED);
     CHECK(!import);
     CHECK(strstr(cv_last_error(), "device 'g0'") != NULL);
@@ -113,15 +99,19 @@ static void pure_decisions(void) {
  * another VkDevice signal an imported semaphore and reports the submissions
  * that waited on one as pending forever (vk_cross_wait.c), so the import
  * ping-pong runs without it and proves itself by its bytes. */
-static cv_result two_gpus_validated(cv_context *ctx, cv_device *gpu[2], bool validation) {
+static cv_result two_gpus_validated(cv_context *ctx, cv_device *gpu[2], bool validation, cv_vulkan_cross_wait mode) {
+    /* The waits between separate VkDevices (auto would share one VkDevice on
+     * a GPU with several queues: vk_shared_device tests that). */
+    cv_vulkan_device_options options = { .vgpu_device = CV_VULKAN_VGPU_SEPARATE, .cross_wait = mode };
     cv_vulkan_gpu_table table;
-    cv_result r = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 2,
-                                                                     .adapters = vkt_adapter() },
-                                            &table);
+    cv_result r = cv_vulkan_gpu_table_build(
+        &(cv_vulkan_gpu_config){ .virtual_per_adapter = 2, .adapters = vkt_adapter(), .device = options }, &table);
     return r == CV_OK ? cv_vulkan_create_devices(ctx, &table, validation, gpu) : r;
 }
 
-static cv_result two_gpus(cv_context *ctx, cv_device *gpu[2]) { return two_gpus_validated(ctx, gpu, true); }
+static cv_result two_gpus(cv_context *ctx, cv_device *gpu[2], cv_vulkan_cross_wait mode) {
+    return two_gpus_validated(ctx, gpu, true, mode);
+}
 
 enum { SIZE = 40000, ROUNDS = 12 };
 
@@ -163,27 +153,22 @@ static void ping_pong(cv_context *ctx, cv_device *a, cv_device *b, const char *e
 
 int main(void) {
     unsetenv("CORVID_TRANSFER_PATH");
-    /* The waits between separate VkDevices (auto, the default, would share one
-     * VkDevice on a GPU with several queues: vk_shared_device tests that). */
-    setenv("CORVID_VGPU_DEVICE", "separate", 1);
     pure_decisions();
     cv_context *ctx;
     CHECK_OK(cv_context_create(NULL, &ctx));
     cv_device *gpu[2] = { NULL, NULL };
 
     /* A bad value: refused, nothing made. */
-    setenv("CORVID_CROSS_WAIT", "sometimes", 1);
-    CHECK_RESULT(two_gpus(ctx, gpu), CV_ERROR_INVALID_ARGUMENT);
-    CHECK(strstr(cv_last_error(), "CORVID_CROSS_WAIT") != NULL);
+    CHECK_RESULT(two_gpus(ctx, gpu, (cv_vulkan_cross_wait)9), CV_ERROR_INVALID_ARGUMENT);
+    CHECK(strstr(cv_last_error(), "cross_wait") != NULL);
     CHECK(!gpu[0] && !gpu[1]);
     CHECK_EQ_INT(cv_live_devices(), 0);
 
     /* import: either every device can (a GPU with the extension), or creation fails cleanly. */
-    setenv("CORVID_CROSS_WAIT", "import", 1);
-    cv_result r = two_gpus_validated(ctx, gpu, vkt_is_lavapipe());
+    cv_result r = two_gpus_validated(ctx, gpu, vkt_is_lavapipe(), CV_VULKAN_CROSS_WAIT_IMPORT);
     if (vkt_is_lavapipe()) {
         CHECK_EQ_INT(r, CV_ERROR_UNSUPPORTED);
-        CHECK(strstr(cv_last_error(), "CORVID_CROSS_WAIT=import") != NULL);
+        CHECK(strstr(cv_last_error(), "cross_wait import") != NULL);
         CHECK(strstr(cv_last_error(), "VK_KHR_external_semaphore_fd") != NULL);
         CHECK(strstr(cv_last_error(), "device '") != NULL);
     }
@@ -200,10 +185,9 @@ int main(void) {
     }
 
     /* bridge, then auto (the default): the same bytes. */
-    const char *modes[] = { "bridge", "auto" };
+    const cv_vulkan_cross_wait modes[] = { CV_VULKAN_CROSS_WAIT_BRIDGE, CV_VULKAN_CROSS_WAIT_AUTO };
     for (int m = 0; m < 2; m++) {
-        setenv("CORVID_CROSS_WAIT", modes[m], 1);
-        CHECK_OK(two_gpus(ctx, gpu));
+        CHECK_OK(two_gpus(ctx, gpu, modes[m]));
         if (gpu[0] && gpu[1]) {
             /* (auto under the validation layer is the bridge everywhere: vk_cross_wait.c) */
             const char *expect = "bridge";
@@ -213,7 +197,6 @@ int main(void) {
         cv_device_destroy(gpu[1]);
         gpu[0] = gpu[1] = NULL;
     }
-    unsetenv("CORVID_CROSS_WAIT");
     cv_context_destroy(ctx);
     CHECK_NOTHING_LIVE();
     return vkt_report("vk_cross_wait");

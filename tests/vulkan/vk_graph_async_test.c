@@ -14,6 +14,7 @@
 
 #include "corvid/graph.h"
 #include "corvid/transfer.h"
+#include "env_vulkan.h"
 #include "vk_test.h"
 
 enum { COLUMNS = 96, FRAMES = 20, DEVICES = 3 };
@@ -34,9 +35,9 @@ static void run(cv_transfer_path path) {
     cv_context *ctx;
     CHECK_OK(cv_context_create(NULL, &ctx));
     cv_vulkan_gpu_table table;
-    CHECK_OK(cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = DEVICES,
-                                                                .adapters = vkt_adapter() },
-                                       &table));
+    cv_vulkan_gpu_config config = { .virtual_per_adapter = DEVICES, .adapters = vkt_adapter() };
+    CHECK_OK(cv_env_vulkan_options(&config.device)); /* vk_graph_async_shared: CORVID_VGPU_DEVICE=shared */
+    CHECK_OK(cv_vulkan_gpu_table_build(&config, &table));
     cv_device *gpu[DEVICES] = { NULL };
     CHECK_OK(cv_vulkan_create_devices(ctx, &table, true, gpu));
     cv_graph *g = NULL;

@@ -269,7 +269,7 @@ static void ring_textures(cv_context *ctx, cv_device *a, cv_device *b) {
     free(back);
 }
 
-/* CORVID_LINK_QUEUE (read at device creation, vk_device.h's link_slot). */
+/* CORVID_LINK_QUEUE, through vkt_device as a program reads it (the link_queue option: vk_device_core.h's link_slot). */
 static void link_queue(cv_context *ctx) {
     cv_device *d[2] = { 0 };
     setenv("CORVID_LINK_QUEUE", "gpu", 1);
@@ -396,12 +396,12 @@ int main(void) {
         CHECK_EQ_INT(bd->shared_slot, i);
         CHECK_EQ_INT(bd->queues[VK_SLOT_GRAPHICS].index, (uint32_t)i % queues);
         CHECK(bd->queues[VK_SLOT_GRAPHICS].lock == &s->queue_locks[VK_SLOT_GRAPHICS][i % queues]);
-        CHECK(bd->bridge.host == &s->host_lock);
+        CHECK(bd->host == &s->host_lock);
         CHECK(strcmp(cv_device_get_info(d[i])->cross_wait, "device") == 0);
         for (int j = 0; j < i; j++) {
             cv_backend_device *o = bd_of(d[j]);
             CHECK(bd->ticket != o->ticket && bd->chain != o->chain && bd->immediate != o->immediate);
-            CHECK(bd->immediate_pool != o->immediate_pool && bd->queues[0].pool != o->queues[0].pool);
+            CHECK(bd->imm != o->imm && bd->queues[0].pool != o->queues[0].pool);
             CHECK(&bd->memory != &o->memory);
             CHECK_EQ_INT(vk_device_same(bd, o), 1);
         }

@@ -2,6 +2,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "env_vulkan.h"
 #include "vk_test.h"
 
 #include <stdio.h>
@@ -14,9 +15,15 @@ const char *vkt_adapter(void) {
 bool vkt_is_lavapipe(void) { return strcmp(vkt_adapter(), "llvmpipe") == 0; }
 
 cv_result vkt_device(cv_context *ctx, const char *adapter, const char *label, cv_device **out) {
-    cv_device_desc desc = { .adapter = adapter ? adapter : vkt_adapter(), .validation = true };
+    /* The device options from the environment, as a program's (env_vulkan.h): the *_shared variants of the tests run
+     * with CORVID_VGPU_DEVICE=shared. */
+    cv_vulkan_device_options options = { 0 };
+    cv_result r = cv_env_vulkan_options(&options);
+    cv_device_desc desc = { .adapter = adapter ? adapter : vkt_adapter(),
+                            .validation = true,
+                            .backend_options = &options };
     snprintf(desc.label, sizeof(desc.label), "%s", label);
-    return cv_device_create(ctx, cv_vulkan_backend(), &desc, out);
+    return r == CV_OK ? cv_device_create(ctx, cv_vulkan_backend(), &desc, out) : r;
 }
 
 cv_buffer vkt_buffer(cv_context *ctx, cv_device *dev, uint64_t size, uint32_t usage, const char *label) {
@@ -55,9 +62,10 @@ cv_pipeline vkt_pipeline(cv_context *ctx, cv_device *dev, const char *name) {
 cv_result vkt_two_virtual_gpus(cv_context *ctx, cv_device *out[2]) {
     out[0] = out[1] = NULL;
     cv_vulkan_gpu_table table;
-    cv_result r = cv_vulkan_gpu_table_build(&(cv_vulkan_gpu_config){ .virtual_per_adapter = 2,
-                                                                     .adapters = vkt_adapter() },
-                                            &table);
+    cv_vulkan_gpu_config config = { .virtual_per_adapter = 2, .adapters = vkt_adapter() };
+    cv_result r = cv_env_vulkan_options(&config.device); /* as vkt_device */
+    if (r == CV_OK)
+        r = cv_vulkan_gpu_table_build(&config, &table);
     return r == CV_OK ? cv_vulkan_create_devices(ctx, &table, true, out) : r;
 }
 

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "corvid/backend.h"
+#include "env_vulkan.h"
 #include "vk_test.h"
 
 enum { N = 2048, ROUNDS = 20, W = 40, H = 24 };
@@ -122,8 +123,10 @@ static void *work(void *arg) {
 int main(void) {
     const char *env = getenv("CORVID_VIRTUAL_GPUS");
     CHECK(env && strcmp(env, "3") == 0);
+    cv_vulkan_gpu_config config = { 0 };
+    CHECK_OK(cv_env_vulkan_gpu_config(&config)); /* as a program: CORVID_VIRTUAL_GPUS, CORVID_VGPU_DEVICE */
     cv_vulkan_gpu_table table;
-    CHECK_OK(cv_vulkan_gpu_table_build(NULL, &table));
+    CHECK_OK(cv_vulkan_gpu_table_build(&config, &table));
     CHECK_EQ_INT(table.count, 3);
     uint32_t lavapipe = UINT32_MAX;
     CHECK_OK(cv_vulkan_find_adapter(vkt_adapter(), &lavapipe));

@@ -23,6 +23,9 @@ typedef struct cv_device_desc {
     bool validation;          /* enable API validation where the backend has it */
     char label[CV_LABEL_MAX]; /* e.g. "gpu0"; shown in messages */
     const char *endpoint;     /* proxy backend: "host:port" of a corvid-node */
+    /* The backend's own options (vulkan: a const cv_vulkan_device_options *,
+     * vulkan.h); NULL = its defaults. Read during cv_device_create only. */
+    const void *backend_options;
 } cv_device_desc;
 
 typedef struct cv_device_info {
@@ -37,7 +40,7 @@ typedef struct cv_device_info {
     char trace_path[16];         /* path trace_rays uses: "compute", "pipeline", "none" */
     char cross_wait[16];         /* vulkan: how GPU waits on another device's work run: "import" (its
                                     semaphore imported, where the pair allows), "bridge" (a host thread),
-                                    or "device" (CORVID_VGPU_DEVICE=shared: on the semaphore itself between
+                                    or "device" (vgpu_device shared: on the semaphore itself between
                                     instances of one VkDevice; import or bridge to others) */
     bool gpu_timestamps;         /* pass timings come from the GPU */
     uint64_t max_storage_buffer_range;

@@ -12,6 +12,13 @@
  *       fprintf(stderr, "prog: --gpus: '%s' is not a whole number in 1..64\n", text);
  *   cv_result r = cv_parse_uint_named("CORVID_NODE_TIMEOUT_MS", getenv("CORVID_NODE_TIMEOUT_MS"),
  *                                     1, 86400000, &n); // CV_ERROR_INVALID_ARGUMENT naming the variable
+ *
+ * Words from a fixed list, the same strict way (exact, case-sensitive):
+ *
+ *   static const char *const words[] = { "auto", "bridge", "import" };
+ *   uint32_t k;
+ *   cv_result r = cv_parse_word_named("CORVID_CROSS_WAIT", text, words, 3, &k);
+ *   // "x": CV_ERROR_INVALID_ARGUMENT, "CORVID_CROSS_WAIT='x': expected auto, bridge or import"
  */
 #ifndef CORVID_PARSE_H
 #define CORVID_PARSE_H
@@ -29,5 +36,10 @@ bool cv_parse_uint(const char *text, uint64_t min, uint64_t max, uint64_t *out);
  * "<what>: '<text>' is not a whole number in <min>..<max>" (text cut to 64
  * characters in the message). */
 cv_result cv_parse_uint_named(const char *what, const char *text, uint64_t min, uint64_t max, uint64_t *out);
+/* *index = the position of `text` among `words`; otherwise (NULL text too)
+ * CV_ERROR_INVALID_ARGUMENT "<what>='<text>': expected <w0>, <w1> or <w2>"
+ * (text cut to 32 characters) and *index unchanged. */
+cv_result cv_parse_word_named(const char *what, const char *text, const char *const *words, uint32_t count,
+                              uint32_t *index);
 
 #endif

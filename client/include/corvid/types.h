@@ -106,7 +106,7 @@ typedef struct cv_pipeline_desc {
 
 /* An acceleration structure over triangles, for the trace_rays command.
  * Its data (cv_device_write_accel) is a flat BVH in the GPU layout of
- * scene/include/corvid/bvh_gpu.h: node_count cv_bvh_node2 (64 bytes each, root
+ * client/include/corvid/bvh_gpu.h: node_count cv_bvh_node2 (64 bytes each, root
  * first) and triangle_count cv_bvh_tri (48 bytes each, in leaf order). Each
  * device builds what its trace paths need from it (its own traversal kernels
  * read it as is; the driver's ray-tracing pipeline gets an acceleration

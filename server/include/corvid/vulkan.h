@@ -10,8 +10,17 @@
  * Virtual multi-GPU: a GPU table maps virtual device indices to adapters. With
  * N virtual GPUs per adapter, each adapter gets N independent VkDevice
  * instances; on a one-GPU (or CPU-only) machine this exercises every multi-GPU
- * path, transfers included. N comes from the config struct, the command line
- * (cv_vulkan_gpu_args) or the environment variable CORVID_VIRTUAL_GPUS.
+ * path, transfers included. N comes from the config struct (programs fill it
+ * from --virtual-gpus or CORVID_VIRTUAL_GPUS: apps/common/env_vulkan.h).
+ *
+ * Device options (cv_vulkan_device_options): how virtual GPUs share a
+ * VkDevice, which queue carries copies between devices, how devices wait on
+ * each other, the trace path, synchronization validation. A device takes them
+ * from cv_device_desc.backend_options (NULL: the defaults, all zero), devices
+ * of a GPU table from cv_vulkan_gpu_config.device. The library reads no
+ * environment; programs map CORVID_VGPU_DEVICE, CORVID_LINK_QUEUE,
+ * CORVID_CROSS_WAIT, CORVID_TRACE_PATH and CORVID_VK_SYNC_VALIDATION onto
+ * these fields (apps/common/env_vulkan.h).
  *
  * Requirements on an adapter: Vulkan 1.3 (dynamic rendering, synchronization2,
  * timeline semaphores, buffer device addresses) and VK_KHR_push_descriptor. */
@@ -109,7 +118,7 @@ uint32_t cv_vulkan_live_memory_blocks(void);
  * In AUTO mode (the default) the first accel write on an adapter measures both
  * paths on rays between that accel's own triangles and keeps the faster; every
  * device of the adapter in this process then uses that choice, so virtual GPUs
- * of one adapter always agree. CORVID_TRACE_PATH=compute|pipeline|auto at device
+ * of one adapter always agree. cv_vulkan_device_options.trace_path at device
  * creation, or cv_vulkan_set_trace_path, overrides it. A list traces on the path
  * in use when it is compiled (a later accel write recompiles it).
  * cv_device_info.trace_path is the path at device creation ("compute" in AUTO
@@ -139,10 +148,61 @@ cv_result cv_vulkan_get_trace_status(cv_device *dev, cv_vulkan_trace_status *out
  * AUTO uses the adapter's measurement, or measures at the next accel write. */
 cv_result cv_vulkan_set_trace_path(cv_device *dev, cv_vulkan_trace_path mode);
 
+/* ---- device options ---------------------------------------------------------- */
+
+/* Virtual GPUs of one adapter: one VkDevice each, or instances of one VkDevice
+ * each on its own queue where the family has several (docs/transfers.md).
+ * AUTO: shared where the adapter's graphics family has more than one queue
+ * (NVIDIA has 16), else separate (lavapipe has one queue; separate VkDevices
+ * bring their own llvmpipe threads). */
+typedef enum cv_vulkan_vgpu_device {
+    CV_VULKAN_VGPU_AUTO = 0,
+    CV_VULKAN_VGPU_SEPARATE = 1,
+    CV_VULKAN_VGPU_SHARED = 2,
+} cv_vulkan_vgpu_device;
+
+/* How a device's submission waits on another device's ticket: AUTO imports the
+ * other's timeline semaphore where the pair allows it (one physical device,
+ * VK_KHR_external_semaphore_fd, no validation layer), else the host bridge
+ * thread; IMPORT refuses devices and pairs that cannot import. */
+typedef enum cv_vulkan_cross_wait {
+    CV_VULKAN_CROSS_WAIT_AUTO = 0,
+    CV_VULKAN_CROSS_WAIT_BRIDGE = 1,
+    CV_VULKAN_CROSS_WAIT_IMPORT = 2,
+} cv_vulkan_cross_wait;
+
+/* The queue of asynchronous copies between devices (compute by default: on the
+ * NVIDIA driver copies on the graphics queue ran at about 24 GB/s). */
+typedef enum cv_vulkan_link_queue {
+    CV_VULKAN_LINK_QUEUE_COMPUTE = 0,
+    CV_VULKAN_LINK_QUEUE_GRAPHICS = 1,
+    CV_VULKAN_LINK_QUEUE_COPY = 2,
+} cv_vulkan_link_queue;
+
+/* Synchronization validation on validated devices: on by default, except in
+ * sanitizer builds (the 1.3.239 layer leaks about 3 KB per command buffer with
+ * it). An instance-level choice: the first validated device of the process
+ * makes it, and every later one shares that instance. */
+typedef enum cv_vulkan_sync_validation {
+    CV_VULKAN_SYNC_VALIDATION_DEFAULT = 0,
+    CV_VULKAN_SYNC_VALIDATION_ON = 1,
+    CV_VULKAN_SYNC_VALIDATION_OFF = 2,
+} cv_vulkan_sync_validation;
+
+/* All zero: every default. A value outside its enum fails device creation
+ * with CV_ERROR_INVALID_ARGUMENT naming the field. */
+typedef struct cv_vulkan_device_options {
+    cv_vulkan_vgpu_device vgpu_device;
+    cv_vulkan_cross_wait cross_wait;
+    cv_vulkan_link_queue link_queue;
+    cv_vulkan_trace_path trace_path; /* PIPELINE where not offered: CV_ERROR_UNSUPPORTED */
+    cv_vulkan_sync_validation sync_validation;
+} cv_vulkan_device_options;
+
 /* ---- virtual GPU table ---------------------------------------------------- */
 
 typedef struct cv_vulkan_gpu_config {
-    /* Device instances per adapter; 0 = CORVID_VIRTUAL_GPUS from the environment, else 1. */
+    /* Device instances per adapter; 0 = 1. */
     uint32_t virtual_per_adapter;
     /* Total devices; 0 = adapters x virtual_per_adapter. Otherwise exactly this
      * many, assigned to the adapters round-robin (overrides virtual_per_adapter). */
@@ -150,6 +210,7 @@ typedef struct cv_vulkan_gpu_config {
     /* Comma-separated adapter specs (see cv_vulkan_find_adapter); NULL or "" =
      * every usable adapter of the best type present (GPUs before lavapipe). */
     const char *adapters;
+    cv_vulkan_device_options device; /* for every device of the table */
 } cv_vulkan_gpu_config;
 
 typedef struct cv_vulkan_gpu {
@@ -161,16 +222,12 @@ typedef struct cv_vulkan_gpu {
 typedef struct cv_vulkan_gpu_table {
     uint32_t count;
     cv_vulkan_gpu gpus[CV_MAX_DEVICES];
+    cv_vulkan_device_options options; /* the config's `device` */
 } cv_vulkan_gpu_table;
 
-/* Takes "--virtual-gpus N" (instances per adapter), "--gpus N" (total devices)
- * and "--adapters LIST" out of argv (both "--flag N" and "--flag=N"), updating
- * *argc and the config (config->adapters then points into argv); other
- * arguments are kept in order. On a bad value nothing changes. */
-cv_result cv_vulkan_gpu_args(int *argc, char **argv, cv_vulkan_gpu_config *config);
 cv_result cv_vulkan_gpu_table_build(const cv_vulkan_gpu_config *config, cv_vulkan_gpu_table *out);
-/* Creates one device per table entry, labelled "gpu0", "gpu1", ...; out must
- * hold table->count pointers. On failure no device is left created. */
+/* Creates one device per table entry, labelled "gpu0", "gpu1", ..., with the
+ * table's options; out must hold table->count pointers. On failure no device is left created. */
 cv_result cv_vulkan_create_devices(cv_context *ctx, const cv_vulkan_gpu_table *table, bool validation,
                                    cv_device **out);
 

@@ -1,6 +1,8 @@
 /* The BVH as the GPU reads it: std430-compatible structs, shared by the CPU
  * builder (bvh.h), the CPU reference traversal (trace_cpu.h) and the GLSL
- * compute kernels, which declare the same structs member for member.
+ * compute kernels, which declare the same structs member for member. A wire
+ * contract: accel data crosses the API (cv_accel_write) and the node protocol
+ * in these layouts, so it lives with the client's data contracts (DESIGN.md).
  *
  * Every struct below is made of 16-byte rows "vec3 + 4-byte scalar" (std430
  * packs a scalar right after a vec3), or of scalars only, so the C layout and
