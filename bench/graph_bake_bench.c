@@ -112,7 +112,8 @@ static void end(frame_builder *f, cv_graph_builder *b, cv_graph_pass *out) {
 
 /* One hybrid frame; *debug its last pass (culled: it reaches no output). */
 static void add_frame(frame_builder *f, cv_graph_resource vertices, cv_graph_pass *debug) {
-    cv_graph_resource position, normal, depth, rays, visibility, accumulated, history, ping[4], radiance, view;
+    cv_graph_resource position = { 0 }, normal = { 0 }, depth = { 0 }, rays = { 0 }, visibility = { 0 },
+                      accumulated = { 0 }, history = { 0 }, ping[4] = { { 0 } }, radiance = { 0 }, view = { 0 };
     cv_texture_desc d = texture(f, "accumulated", CV_FORMAT_RGBA16F);
     cv_result res = cv_graph_create_texture(f->g, &d, &accumulated);
     if (res == CV_OK)
