@@ -5,7 +5,7 @@
 #include "vk_barriers.h"
 
 struct vk_track {
-    uint64_t id; /* 0 = empty slot */
+    uint64_t id;
     VkBuffer buffer;
     VkImage image;
     VkImageAspectFlags aspect;
@@ -21,7 +21,8 @@ struct vk_track {
 void vk_tracker_init(vk_tracker *t) { memset(t, 0, sizeof(*t)); }
 
 void vk_tracker_finish(vk_tracker *t) {
-    free(t->slots);
+    free(t->tracks);
+    cv_hash_map_finish(&t->index);
     free(t->uses);
     free(t->buffer_barriers);
     free(t->image_barriers);
@@ -48,43 +49,9 @@ static bool reserve(vk_tracker *t, void **array, uint32_t count, uint32_t *capac
     return true;
 }
 
-static uint32_t hash_id(uint64_t id) {
-    id ^= id >> 33;
-    id *= 0xff51afd7ed558ccdull;
-    id ^= id >> 33;
-    return (uint32_t)id;
-}
-
 static vk_track *find(const vk_tracker *t, uint64_t id) {
-    if (!t->capacity)
-        return NULL;
-    for (uint32_t i = hash_id(id) & (t->capacity - 1);; i = (i + 1) & (t->capacity - 1)) {
-        if (t->slots[i].id == id)
-            return &t->slots[i];
-        if (t->slots[i].id == 0)
-            return NULL;
-    }
-}
-
-static bool grow_table(vk_tracker *t) {
-    uint32_t cap = t->capacity ? t->capacity * 2 : 64;
-    vk_track *slots = calloc(cap, sizeof(*slots));
-    if (!slots) {
-        t->out_of_memory = true;
-        return false;
-    }
-    for (uint32_t i = 0; i < t->capacity; i++) {
-        if (!t->slots[i].id)
-            continue;
-        uint32_t j = hash_id(t->slots[i].id) & (cap - 1);
-        while (slots[j].id)
-            j = (j + 1) & (cap - 1);
-        slots[j] = t->slots[i];
-    }
-    free(t->slots);
-    t->slots = slots;
-    t->capacity = cap;
-    return true;
+    uint64_t index;
+    return cv_hash_map_get(&t->index, id, &index) ? &t->tracks[index] : NULL;
 }
 
 /* The state of a resource, created (untouched, in GENERAL) on first sight. */
@@ -92,12 +59,13 @@ static vk_track *state_of(vk_tracker *t, const vk_use *u) {
     vk_track *s = find(t, u->id);
     if (s)
         return s;
-    if ((t->count + 1) * 4 > t->capacity * 3 && !grow_table(t))
+    if (!reserve(t, (void **)&t->tracks, t->count, &t->capacity, sizeof(*t->tracks)))
         return NULL;
-    uint32_t i = hash_id(u->id) & (t->capacity - 1);
-    while (t->slots[i].id)
-        i = (i + 1) & (t->capacity - 1);
-    s = &t->slots[i];
+    if (cv_hash_map_put(&t->index, u->id, t->count) != CV_OK) {
+        t->out_of_memory = true;
+        return NULL;
+    }
+    s = &t->tracks[t->count];
     *s = (vk_track){
         .id = u->id, .buffer = u->buffer, .image = u->image, .aspect = u->aspect, .layout = VK_IMAGE_LAYOUT_GENERAL
     };
@@ -260,9 +228,8 @@ void vk_tracker_barrier(vk_tracker *t, VkCommandBuffer cmd, uint64_t id) {
         .dstAccessMask = VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
     };
     if (id == 0) {
-        for (uint32_t i = 0; i < t->capacity; i++)
-            if (t->slots[i].id)
-                settle(&t->slots[i]);
+        for (uint32_t i = 0; i < t->count; i++)
+            settle(&t->tracks[i]);
         flush_barriers(t, cmd, &all);
         return;
     }
@@ -276,9 +243,9 @@ void vk_tracker_barrier(vk_tracker *t, VkCommandBuffer cmd, uint64_t id) {
 }
 
 void vk_tracker_end_segment(vk_tracker *t, VkCommandBuffer cmd, bool to_host) {
-    for (uint32_t i = 0; i < t->capacity; i++) {
-        vk_track *s = &t->slots[i];
-        if (s->id && s->image && s->layout != VK_IMAGE_LAYOUT_GENERAL)
+    for (uint32_t i = 0; i < t->count; i++) {
+        vk_track *s = &t->tracks[i];
+        if (s->image && s->layout != VK_IMAGE_LAYOUT_GENERAL)
             add_barrier(t, s, s->write_stages | s->read_stages, s->write_access, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
                         0, VK_IMAGE_LAYOUT_GENERAL);
     }
@@ -305,8 +272,7 @@ void vk_tracker_record_prologue(vk_tracker *t, VkCommandBuffer cmd) {
 }
 
 void vk_tracker_reset(vk_tracker *t) {
-    if (t->capacity)
-        memset(t->slots, 0, t->capacity * sizeof(*t->slots));
+    cv_hash_map_clear(&t->index);
     t->count = 0;
     t->use_count = 0;
     t->prologue_count = 0;

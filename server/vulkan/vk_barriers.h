@@ -16,6 +16,7 @@
 #ifndef CORVID_VK_BARRIERS_H
 #define CORVID_VK_BARRIERS_H
 
+#include "corvid/hash_map.h"
 #include "vk_common.h"
 
 typedef struct vk_use {
@@ -31,8 +32,9 @@ typedef struct vk_use {
 typedef struct vk_track vk_track;
 
 typedef struct vk_tracker {
-    vk_track *slots; /* open addressing on id */
-    uint32_t capacity, count;
+    vk_track *tracks;  /* every resource seen since the last reset, in order of first sight */
+    uint32_t count, capacity;
+    cv_hash_map index; /* resource id -> its index in tracks */
     vk_use *uses; /* the current command's uses, one per resource */
     uint32_t use_count, use_capacity;
     VkBufferMemoryBarrier2 *buffer_barriers;

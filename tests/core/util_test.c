@@ -168,6 +168,28 @@ static void test_hash_map_tombstones(void) {
     cv_hash_map_finish(&m);
 }
 
+/* Clear empties the map and keeps its memory: the barrier tracker refills one map per list. */
+static void test_hash_map_clear(void) {
+    cv_hash_map m;
+    cv_hash_map_init(&m, 7);
+    for (uint64_t round = 0; round < 3; round++) {
+        for (uint64_t k = 0; k < 1000; k++)
+            CHECK_OK(cv_hash_map_put(&m, k * 3 + round, k));
+        CHECK_EQ_INT(cv_hash_map_count(&m), 1000);
+        uint32_t capacity = m.capacity;
+        cv_hash_map_clear(&m);
+        CHECK_EQ_INT(cv_hash_map_count(&m), 0);
+        CHECK_EQ_INT(m.capacity, capacity);
+        CHECK(!cv_hash_map_get(&m, 3 + round, NULL));
+        uint32_t cursor = 0;
+        CHECK(!cv_hash_map_next(&m, &cursor, NULL, NULL));
+    }
+    CHECK_OK(cv_hash_map_put(&m, 5, 6));
+    uint64_t v = 0;
+    CHECK(cv_hash_map_get(&m, 5, &v) && v == 6);
+    cv_hash_map_finish(&m);
+}
+
 typedef struct captured {
     int count;
     cv_log_level level;
@@ -276,6 +298,7 @@ int main(void) {
     test_deadlines();
     test_hash_map_random();
     test_hash_map_tombstones();
+    test_hash_map_clear();
     test_log_levels();
     test_log_stderr();
     test_log_threads();

@@ -53,6 +53,8 @@ uint64_t cv_hash_map_random_seed(void);
 void cv_hash_map_init(cv_hash_map *m, uint64_t seed);
 /* Frees the map's memory; the map is empty and usable again. */
 void cv_hash_map_finish(cv_hash_map *m);
+/* Removes every entry and keeps the memory (for a map refilled again and again). */
+void cv_hash_map_clear(cv_hash_map *m);
 /* Whether key is present; its value into *value (may be NULL). */
 bool cv_hash_map_get(const cv_hash_map *m, uint64_t key, uint64_t *value);
 /* Sets key -> value, adding the key or replacing its value. CV_ERROR_OUT_OF_MEMORY or

@@ -2,6 +2,7 @@
 #include "corvid/hash_map.h"
 
 #include <stdlib.h>
+#include <string.h>
 #include <sys/random.h>
 
 #include "corvid/clock.h"
@@ -34,6 +35,13 @@ void cv_hash_map_finish(cv_hash_map *m) {
     free(m->slots);
     free(m->states);
     *m = (cv_hash_map){ .seed = m->seed };
+}
+
+void cv_hash_map_clear(cv_hash_map *m) {
+    if (m->capacity)
+        memset(m->states, 0, m->capacity);
+    m->count = 0;
+    m->tombstones = 0;
 }
 
 /* The slot holding key, or UINT32_MAX. */
