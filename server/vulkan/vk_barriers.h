@@ -32,10 +32,10 @@ typedef struct vk_use {
 typedef struct vk_track vk_track;
 
 typedef struct vk_tracker {
-    vk_track *tracks;  /* every resource seen since the last reset, in order of first sight */
+    vk_track *tracks; /* every resource seen since the last reset, in order of first sight */
     uint32_t count, capacity;
     cv_hash_map index; /* resource id -> its index in tracks */
-    vk_use *uses; /* the current command's uses, one per resource */
+    vk_use *uses;      /* the current command's uses, one per resource */
     uint32_t use_count, use_capacity;
     VkBufferMemoryBarrier2 *buffer_barriers;
     uint32_t buffer_barrier_count, buffer_barrier_capacity;
