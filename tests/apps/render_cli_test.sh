@@ -41,7 +41,9 @@ check "--reflection-samples 2 reported" grep -q "reflections: 8192 rays with the
 
 # --dump-graph: the frame's render graph as text (and FILE.dot), naming the
 # passes and, on 2 devices, the G-buffer multicast and the visibility copy-back.
-"$render" --gpus 2 --adapters llvmpipe --size 64x32 --frames 2 --ao-samples 1 --quiet --out "$tmp/g/frame" \
+# One frame: its split is the even one; a second frame's comes from the first's
+# timings, and on a loaded machine 64 columns in tiles of 8 can leave dev1 none.
+"$render" --gpus 2 --adapters llvmpipe --size 64x32 --frames 1 --ao-samples 1 --quiet --out "$tmp/g/frame" \
   --dump-graph "$tmp/g/graph.txt" 2> "$tmp/err.txt"
 check "--dump-graph exits 0" test $? -eq 0
 for graph_pass in gbuffer trace accumulate filter composite; do
