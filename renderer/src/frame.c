@@ -261,6 +261,11 @@ void render_dispatch_pixels(const cv_render_frame *f, cv_command_list *l, cv_que
                                          .groups_z = 1 });
 }
 
+void render_bind_uses(const cv_graph_pass_context *pc, const cv_graph_use *uses, uint32_t count, cv_binding *b) {
+    for (uint32_t i = 0; i < count; i++)
+        b[i] = cv_graph_use_binding(pc, uses[i]);
+}
+
 void render_dispatch_image(const cv_render_frame *f, cv_command_list *l, cv_queue_type queue, int pipeline,
                            const cv_binding *b, uint32_t count, const void *push, uint32_t push_size) {
     render_dispatch_pixels(f, l, queue, pipeline, b, count, push, push_size, f->width, f->height);

@@ -191,24 +191,15 @@ static bool plane_uv(const render_vertex *v, const float *uv, const float o[3], 
     return isfinite(out[0]) && isfinite(out[1]);
 }
 
-/* The radiance a reflection ray brings back, as render.reflect_shadow and
- * render.reflect_shade: the sky on a miss; on a hit, base color * sun
- * (Lambertian, a shadow ray toward the sun's centre from the hit, offset
- * along its geometric normal) + emission. */
-static void reflected_radiance(const reference_job *j, const float o[3], const float d[3], float out[3]) {
-    static const float sky[3] = { 0.12f, 0.15f, 0.2f };
-    const render_scene_data *data = j->data;
-    cv_ray ray = { { o[0], o[1], o[2] }, 0.0f, { d[0], d[1], d[2] }, 1e30f };
-    cv_hit hit;
-    if (!secondary_trace(j, ray, CV_TRACE_CLOSEST, &hit)) {
-        memcpy(out, sky, sizeof(sky));
-        return;
-    }
-    const render_vertex *v = &data->vertices[j->first_vertex[hit.instance] + 3ull * hit.triangle];
-    float x[3], n[3], ng[3], e1[3], e2[3], w = 1.0f - hit.u - hit.v;
+/* The surface where ray (o, d) hit triangle v: the point x, the interpolated shading normal n and
+ * the geometric normal ng (first turned to agree with the vertex normals), both turned to the ray's
+ * side. Camera and reflection hits alike. */
+static void surface_at(const render_vertex *v, const float o[3], const float d[3], const cv_hit *hit, float x[3],
+                       float n[3], float ng[3]) {
+    float e1[3], e2[3], w = 1.0f - hit->u - hit->v;
     for (int k = 0; k < 3; k++) {
-        x[k] = o[k] + d[k] * hit.t;
-        n[k] = v[0].normal[k] * w + v[1].normal[k] * hit.u + v[2].normal[k] * hit.v;
+        x[k] = o[k] + d[k] * hit->t;
+        n[k] = v[0].normal[k] * w + v[1].normal[k] * hit->u + v[2].normal[k] * hit->v;
         e1[k] = v[1].position[k] - v[0].position[k];
         e2[k] = v[2].position[k] - v[0].position[k];
     }
@@ -224,6 +215,24 @@ static void reflected_radiance(const reference_job *j, const float o[3], const f
     if (dot3(ng, d) > 0.0f)
         for (int k = 0; k < 3; k++)
             ng[k] = -ng[k], n[k] = -n[k];
+}
+
+/* The radiance a reflection ray brings back, as render.reflect_shadow and
+ * render.reflect_shade: the sky on a miss; on a hit, base color * sun
+ * (Lambertian, a shadow ray toward the sun's centre from the hit, offset
+ * along its geometric normal) + emission. */
+static void reflected_radiance(const reference_job *j, const float o[3], const float d[3], float out[3]) {
+    static const float sky[3] = { 0.12f, 0.15f, 0.2f };
+    const render_scene_data *data = j->data;
+    cv_ray ray = { { o[0], o[1], o[2] }, 0.0f, { d[0], d[1], d[2] }, 1e30f };
+    cv_hit hit;
+    if (!secondary_trace(j, ray, CV_TRACE_CLOSEST, &hit)) {
+        memcpy(out, sky, sizeof(sky));
+        return;
+    }
+    const render_vertex *v = &data->vertices[j->first_vertex[hit.instance] + 3ull * hit.triangle];
+    float x[3], n[3], ng[3], w = 1.0f - hit.u - hit.v;
+    surface_at(v, o, d, &hit, x, n, ng);
     float to_sun[3] = { -data->sun_direction[0], -data->sun_direction[1], -data->sun_direction[2] }, origin[3];
     float bias = render_ray_offset(data);
     for (int k = 0; k < 3; k++)
@@ -379,25 +388,8 @@ static void shade_pixel(reference_job *j, uint32_t x, uint32_t y) {
         out->visibility[i] = 1.0f, out->visibility[i + 1] = 1.0f;
         return;
     }
-    float p[3], n[3], ng[3], e1[3], e2[3], w = 1.0f - h.hit.u - h.hit.v;
-    for (int k = 0; k < 3; k++) {
-        p[k] = cam->position[k] + d[k] * h.hit.t;
-        n[k] = w * v[0].normal[k] + h.hit.u * v[1].normal[k] + h.hit.v * v[2].normal[k];
-        e1[k] = v[1].position[k] - v[0].position[k];
-        e2[k] = v[2].position[k] - v[0].position[k];
-    }
-    normalize3(n);
-    cross3(e1, e2, ng);
-    normalize3(ng);
-    float nsum[3] = { v[0].normal[0] + v[1].normal[0] + v[2].normal[0],
-                      v[0].normal[1] + v[1].normal[1] + v[2].normal[1],
-                      v[0].normal[2] + v[1].normal[2] + v[2].normal[2] };
-    if (dot3(ng, nsum) < 0.0f)
-        for (int k = 0; k < 3; k++)
-            ng[k] = -ng[k];
-    if (dot3(ng, d) > 0.0f) /* the camera's side, as render.gbuffer */
-        for (int k = 0; k < 3; k++)
-            ng[k] = -ng[k], n[k] = -n[k];
+    float p[3], n[3], ng[3];
+    surface_at(v, cam->position, d, &h.hit, p, n, ng); /* facing the camera, as render.gbuffer */
     const cv_material *material = material_of(j, h.m);
     normal_image_apply(material, v, h.tri_uv, me.normal, n); /* the normal image, in the triangle's tangent frame */
     float bias = render_ray_offset(data), origin[3];

@@ -118,8 +118,7 @@ static void record(const cv_render_frame *f, const cv_graph_pass_context *pc, cv
               shadow_hits = cv_graph_use_buffer(pc, u[USE_SHADOW_HITS]),
               alpha_hits = cv_graph_use_buffer(pc, u[USE_ALPHA_HITS]);
     cv_binding b[USE_ALPHA_HITS];
-    for (int i = 0; i < USE_ALPHA_HITS; i++)
-        b[i] = cv_graph_use_binding(pc, u[i]);
+    render_bind_uses(pc, u, USE_ALPHA_HITS, b);
     cv_binding gen_b[5] = { b[USE_POSITION], b[USE_NORMAL], b[USE_MATERIAL], b[USE_RAYS], b[USE_BLUE_NOISE] };
     cv_binding shadow_b[5] = { b[USE_RAYS], b[USE_HITS], b[USE_VERTICES], b[USE_INSTANCES], b[USE_SHADOW_RAYS] };
     cv_binding shade_b[12] = { b[USE_POSITION],    b[USE_RAYS],     b[USE_HITS],        b[USE_SHADOW_RAYS],

@@ -45,8 +45,7 @@ static void record(const cv_render_frame *f, const cv_graph_pass_context *pc, cv
     float far_plane;
     render_view_proj(f, &f->previous_camera, push.prev_view_proj, &far_plane);
     cv_binding b[USE_COUNT];
-    for (int i = 0; i < USE_COUNT; i++)
-        b[i] = cv_graph_use_binding(pc, u[i]);
+    render_bind_uses(pc, u, USE_COUNT, b);
     render_dispatch_image(f, l, pc->queue, PIPE_REFLECT_REPROJECT, b, USE_COUNT, &push, sizeof(push));
 }
 
