@@ -8,7 +8,8 @@
  *
  *     cv_endpoint nodes[CV_MAX_NODES];
  *     uint32_t n;
- *     if (cv_endpoints_parse(getenv("CORVID_NODES"), "CORVID_NODES", nodes, CV_MAX_NODES, &n) != CV_OK)
+ *     // list: --nodes' value, or CORVID_NODES as the program read it
+ *     if (cv_endpoints_parse(list, "--nodes", nodes, CV_MAX_NODES, &n) != CV_OK)
  *         fprintf(stderr, "%s\n", cv_last_error());
  *     ... cv_device_desc desc = { .endpoint = nodes[0].text }; */
 #ifndef CORVID_ENDPOINT_H

@@ -1,6 +1,7 @@
 /* Whole numbers typed by people: every program option and environment
- * variable that takes a count, a size or a time in milliseconds reads it here,
- * one strict way, so that no program accepts what another refuses.
+ * variable that takes a count, a size or a time in milliseconds is parsed here,
+ * one strict way, so that no program accepts what another refuses. The library
+ * parses text it is given; reading the environment is the program's (apps/common/).
  *
  * Accepted: plain decimal digits, nothing else ("12"). Refused: a sign ("+2",
  * "-1": strtoul takes both, the second as 2^64-1), blanks (" 2"), hex ("0x10"),
@@ -10,8 +11,9 @@
  *   uint64_t n;
  *   if (!cv_parse_uint(text, 1, 64, &n))               // a program's own message
  *       fprintf(stderr, "prog: --gpus: '%s' is not a whole number in 1..64\n", text);
- *   cv_result r = cv_parse_uint_named("CORVID_NODE_TIMEOUT_MS", getenv("CORVID_NODE_TIMEOUT_MS"),
- *                                     1, 86400000, &n); // CV_ERROR_INVALID_ARGUMENT naming the variable
+ *   // text as a program read it (an option's value, or an environment variable in apps/common/)
+ *   cv_result r = cv_parse_uint_named("CORVID_NODE_TIMEOUT_MS", text, 1, 86400000, &n);
+ *   // CV_ERROR_INVALID_ARGUMENT naming the variable
  *
  * Words from a fixed list, the same strict way (exact, case-sensitive):
  *
