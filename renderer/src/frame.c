@@ -77,6 +77,20 @@ static cv_result upload_buffer(cv_render_frame *f, const void *data, uint64_t si
     return res;
 }
 
+/* Whether a buffer of `bytes` fits every device's storage buffer range; the
+ * message names the first device it does not fit, and ends with `hint`. */
+static cv_result fits_storage_range(const cv_render_frame *f, uint64_t bytes, const char *what, const char *hint) {
+    for (uint32_t d = 0; d < f->count; d++) {
+        uint64_t range = cv_device_get_info(f->devices[d])->max_storage_buffer_range;
+        if (bytes > range)
+            return cv_error(CV_ERROR_LIMIT_EXCEEDED,
+                            "renderer: %llu bytes of %s exceed device '%s''s storage buffer range of %llu bytes%s",
+                            (unsigned long long)bytes, what, cv_device_label(f->devices[d]),
+                            (unsigned long long)range, hint);
+    }
+    return CV_OK;
+}
+
 cv_result render_frame_upload_scene(cv_render_frame *f) {
     const cv_scene *scene = f->scene;
     const cv_bvh *bvh = f->bvh;
@@ -84,13 +98,8 @@ cv_result render_frame_upload_scene(cv_render_frame *f) {
     uint32_t device_count = f->count;
     cv_result res = render_scene_data_build(scene, &f->data);
     uint64_t vertex_bytes = f->data.vertex_count * sizeof(render_vertex);
-    for (uint32_t d = 0; d < device_count && res == CV_OK; d++)
-        if (vertex_bytes > cv_device_get_info(devices[d])->max_storage_buffer_range)
-            res = cv_error(CV_ERROR_LIMIT_EXCEEDED,
-                           "renderer: %llu bytes of vertices exceed device '%s''s storage "
-                           "buffer range of %llu bytes; use a smaller scene",
-                           (unsigned long long)vertex_bytes, cv_device_label(devices[d]),
-                           (unsigned long long)cv_device_get_info(devices[d])->max_storage_buffer_range);
+    if (res == CV_OK)
+        res = fits_storage_range(f, vertex_bytes, "vertices", "; use a smaller scene");
     if (res == CV_OK)
         res = upload_buffer(f, f->data.vertices, vertex_bytes, "scene vertices", &f->vertices);
     if (res == CV_OK)
@@ -100,13 +109,8 @@ cv_result render_frame_upload_scene(cv_render_frame *f) {
         res = upload_buffer(f, f->data.lights, (f->data.light_count + 1) * sizeof(render_light), "point lights",
                             &f->lights);
     uint64_t pool_bytes = f->data.image_texels * sizeof(uint32_t);
-    for (uint32_t d = 0; d < device_count && res == CV_OK; d++)
-        if (pool_bytes > cv_device_get_info(devices[d])->max_storage_buffer_range)
-            res = cv_error(CV_ERROR_LIMIT_EXCEEDED,
-                           "renderer: %llu bytes of texture images exceed device '%s''s storage buffer range of "
-                           "%llu bytes",
-                           (unsigned long long)pool_bytes, cv_device_label(devices[d]),
-                           (unsigned long long)cv_device_get_info(devices[d])->max_storage_buffer_range);
+    if (res == CV_OK)
+        res = fits_storage_range(f, pool_bytes, "texture images", "");
     if (res == CV_OK)
         res = upload_buffer(f, f->data.uvs, f->data.vertex_count * 2 * sizeof(float), "scene uvs", &f->uvs);
     if (res == CV_OK)
@@ -259,6 +263,12 @@ void render_dispatch_pixels(const cv_render_frame *f, cv_command_list *l, cv_que
                                          .groups_x = render_groups(width, 8),
                                          .groups_y = render_groups(height, 8),
                                          .groups_z = 1 });
+}
+
+cv_graph_use render_band_buffer(cv_graph_builder *b, const char *label, uint64_t bytes) {
+    cv_buffer_desc desc = { .size = bytes };
+    strncpy(desc.label, label, sizeof(desc.label) - 1);
+    return cv_graph_pass_create_buffer(b, &desc, 0, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO, NULL);
 }
 
 void render_bind_uses(const cv_graph_pass_context *pc, const cv_graph_use *uses, uint32_t count, cv_binding *b) {

@@ -200,6 +200,9 @@ void render_dispatch_pixels(const cv_render_frame *f, cv_command_list *l, cv_que
 /* The same over the whole image: the primary's per-pixel passes. */
 void render_dispatch_image(const cv_render_frame *f, cv_command_list *l, cv_queue_type queue, int pipeline,
                            const cv_binding *b, uint32_t count, const void *push, uint32_t push_size);
+/* A transient the declaring pass writes: one band of rays or hits of any
+ * window (render_band_capacity), on every device. */
+cv_graph_use render_band_buffer(cv_graph_builder *b, const char *label, uint64_t bytes);
 /* b[i] = the binding of uses[i] on the device being recorded, for i < count (a pass whose shader
  * binds its declarations in their order). */
 void render_bind_uses(const cv_graph_pass_context *pc, const cv_graph_use *uses, uint32_t count, cv_binding *b);

@@ -5,7 +5,6 @@
  * reflection ray brings back (render.reflect_shade) into the window of the
  * sample's image of the reflection samples. The graph copies the sample
  * windows back to the primary, which reconstructs and accumulates them. */
-#include <string.h>
 
 #include "passes.h"
 
@@ -30,12 +29,6 @@ enum {
 
 static bool present(const cv_render_frame *f) { return f->info.reflections; }
 
-static cv_graph_use create(cv_graph_builder *b, const char *label, uint64_t bytes) {
-    cv_buffer_desc desc = { .size = bytes };
-    strncpy(desc.label, label, sizeof(desc.label) - 1);
-    return cv_graph_pass_create_buffer(b, &desc, 0, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO, NULL);
-}
-
 static cv_result declare(const cv_render_frame *f, cv_graph_builder *b, cv_graph_use *u, void *user) {
     (void)user;
     static const int textures[3] = { TEX_POSITION, TEX_NORMAL, TEX_MATERIAL };
@@ -50,10 +43,10 @@ static cv_result declare(const cv_render_frame *f, cv_graph_builder *b, cv_graph
                                            "reflect shadow hits" };
     uint64_t rays = f->graph_reflect_rays;
     for (int k = 0; k < 4; k++)
-        u[USE_RAYS + k] = create(b, labels[k], rays * (k % 2 ? CV_HIT_BYTES : CV_RAY_BYTES));
+        u[USE_RAYS + k] = render_band_buffer(b, labels[k], rays * (k % 2 ? CV_HIT_BYTES : CV_RAY_BYTES));
     u[USE_SAMPLES] = cv_graph_pass_write(b, f->tex[TEX_REFLECT], CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO);
     if (f->alpha_mask)
-        u[USE_ALPHA_HITS] = create(b, "reflect alpha hits", rays * CV_HIT_BYTES);
+        u[USE_ALPHA_HITS] = render_band_buffer(b, "reflect alpha hits", rays * CV_HIT_BYTES);
     return CV_OK;
 }
 

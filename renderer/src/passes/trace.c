@@ -2,8 +2,6 @@
  * window, ray generation, trace (the alpha-mask rule's rounds in a masked
  * scene), resolve into visibility. The primary's accumulate reads the
  * visibility, so the graph copies the secondaries' windows back. */
-#include <string.h>
-
 #include "passes.h"
 
 enum {
@@ -22,22 +20,14 @@ enum {
     USE_ALPHA_HITS,
 };
 
-/* A transient of the pass: one band of rays (or hits) of any window
- * (render_band_capacity), on every device. */
-static cv_graph_use create(cv_graph_builder *b, const char *label, uint64_t bytes) {
-    cv_buffer_desc desc = { .size = bytes };
-    strncpy(desc.label, label, sizeof(desc.label) - 1);
-    return cv_graph_pass_create_buffer(b, &desc, 0, CV_GRAPH_STORAGE_WRITE, CV_GRAPH_TRANSFER_AUTO, NULL);
-}
-
 static cv_result declare(const cv_render_frame *f, cv_graph_builder *b, cv_graph_use *u, void *user) {
     (void)user;
     u[USE_POSITION] = cv_graph_pass_read(b, f->tex[TEX_POSITION], CV_GRAPH_STORAGE_READ);
     u[USE_NORMAL] = cv_graph_pass_read(b, f->tex[TEX_NORMAL], CV_GRAPH_STORAGE_READ);
     u[USE_BLUE_NOISE] = cv_graph_pass_read(b, f->buf[BUF_BLUE_NOISE], CV_GRAPH_STORAGE_READ);
     uint64_t rays = f->graph_rays;
-    u[USE_RAYS] = create(b, "rays", rays * CV_RAY_BYTES);
-    u[USE_HITS] = create(b, "hits", rays * CV_HIT_BYTES);
+    u[USE_RAYS] = render_band_buffer(b, "rays", rays * CV_RAY_BYTES);
+    u[USE_HITS] = render_band_buffer(b, "hits", rays * CV_HIT_BYTES);
     u[USE_VISIBILITY] = cv_graph_pass_write(b, f->tex[TEX_VISIBILITY], CV_GRAPH_STORAGE_WRITE,
                                             CV_GRAPH_TRANSFER_AUTO);
     if (f->alpha_mask) {
@@ -45,7 +35,7 @@ static cv_result declare(const cv_render_frame *f, cv_graph_builder *b, cv_graph
                                       BUF_MATERIALS, BUF_IMAGE_TABLE, BUF_IMAGE_POOL };
         for (int i = 0; i < 6; i++)
             u[USE_VERTICES + i] = cv_graph_pass_read(b, f->buf[scene[i]], CV_GRAPH_STORAGE_READ);
-        u[USE_ALPHA_HITS] = create(b, "alpha hits", rays * CV_HIT_BYTES);
+        u[USE_ALPHA_HITS] = render_band_buffer(b, "alpha hits", rays * CV_HIT_BYTES);
     }
     return CV_OK;
 }
