@@ -12,6 +12,8 @@ packages=(
   libgrpc-dev libprotobuf-c-dev protobuf-c-compiler libmicrohttpd-dev
   libopenexr-dev libpng-dev libjpeg-dev libzstd-dev libssl-dev openssl
   libassimp-dev assimp-testmodels libembree-dev libcjson-dev
+  libturbojpeg0-dev libopenh264-dev libwebsockets-dev   # live view: JPEG, H.264, HTTP + WebSocket
+  chromium chromium-driver   # tests/web: the viewer page in a real (headless) browser
   python3-yaml   # tests/apps/deploy_test.sh parses deploy/*.yaml
   python3-grpcio python3-grpc-tools   # tests/apps/proto_python_test.sh: a Python client from proto/ alone
 )
