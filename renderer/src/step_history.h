@@ -8,8 +8,8 @@
 #include "corvid/render_settings.h"
 
 /* Whether resolved settings `next` continue the history of `history`: every
- * setting of the table equal but frames and first_frame (the observer is no
- * setting). Equal as stored: a float's -0 is not its 0. */
+ * setting of the table equal but frames, first_frame and exposure (the
+ * observer is no setting). Equal as stored: a float's -0 is not its 0. */
 bool render_step_goes_on(const cv_render_settings *history, const cv_render_settings *next);
 
 #endif

@@ -123,8 +123,9 @@ typedef struct cv_render_step {
 /* Renders one more frame of a progressive image and presents it (filter,
  * composite and the tone-mapping pass 'present' run on every step). The
  * history goes on from the previous step while the settings are equal
- * (frames, first_frame and observer are ignored); any other change (camera,
- * sun, size, a setting) restarts it. Step k of a history (from 0) draws the
+ * (frames, first_frame and observer are ignored; exposure only changes the
+ * tone map of the history); any other change (camera, sun, size, a setting)
+ * restarts it. Step k of a history (from 0) draws the
  * sample set first_frame + k, first_frame as the restart's settings said, so
  * N steps of a still view give the image of cv_renderer_render with frames =
  * N. Submits and returns without waiting for the GPU where it can (one
