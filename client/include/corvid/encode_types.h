@@ -17,6 +17,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "corvid/result.h"
+#include "corvid/types.h"
+
 typedef enum cv_codec {
     CV_CODEC_RAW = 0,  /* texels as cv_device_read_texture gives them, uncompressed */
     CV_CODEC_JPEG = 1, /* RGBA8 texture -> baseline JPEG (libturbojpeg), 4:2:0 */
@@ -48,5 +51,23 @@ typedef struct cv_encoded {
 
 /* Frees data and zeroes *e; a zeroed one (or NULL) is fine. */
 void cv_encoded_free(cv_encoded *e);
+
+/* ---- the rules every encoder stream keeps (local or on a node) -------------------------- */
+
+#define CV_ENCODE_MAX_BITRATE_KBPS 1000000u /* bitrate_kbps: at most 1 Gbit/s */
+#define CV_ENCODE_MAX_FPS 240u
+#define CV_ENCODE_MIN_ZSTD_LEVEL (-7) /* zstd's fast levels */
+#define CV_ENCODE_MAX_ZSTD_LEVEL 19   /* above: zstd's "ultra" levels, hundreds of MiB each */
+
+/* A stream's codec and size: a codec of the enum (else CV_ERROR_INVALID_ARGUMENT), width and
+ * height not 0 (INVALID_ARGUMENT), even for H.264 (INVALID_ARGUMENT). Messages start with
+ * `what` ("frame reader", "open_encoder") and name the field. */
+cv_result cv_encode_check_stream(cv_codec codec, uint32_t width, uint32_t height, const char *what);
+/* One frame's parameters (NULL: all defaults): quality 0..100, bitrate_kbps and fps at most
+ * the limits above, zstd_level 0 or MIN..MAX; CV_ERROR_OUT_OF_RANGE naming the field. */
+cv_result cv_encode_check_params(const cv_encode_params *params, const char *what);
+/* Textures a codec reads: RGBA8_UNORM for JPEG, H264 and PNG; any format for RAW and ZSTD
+ * (else CV_ERROR_FORMAT_MISMATCH naming both). */
+cv_result cv_encode_check_format(cv_codec codec, cv_format format, const char *what);
 
 #endif
