@@ -58,22 +58,43 @@ static cv_result jpeg_encode(void *state, const uint8_t *pixels, size_t stride, 
     return CV_OK;
 }
 
+/* A decompressor that failed mid-header keeps that header's parsing state (libjpeg-turbo 2.1
+ * aborts it only on success), and would misread the next image: each failure replaces it. */
+typedef struct jpeg_decoder {
+    tjhandle tj;
+} jpeg_decoder;
+
 static cv_result jpeg_decoder_create(void **state) {
-    tjhandle tj = tjInitDecompress();
-    if (!tj)
+    jpeg_decoder *d = malloc(sizeof *d);
+    tjhandle tj = d ? tjInitDecompress() : NULL;
+    if (!tj) {
+        free(d);
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "jpeg decoder: no decompressor");
-    *state = tj;
+    }
+    d->tj = tj;
+    *state = d;
     return CV_OK;
+}
+
+/* The error of a failed call, with a fresh decompressor for the next (the old one kept if none is made). */
+static cv_result jpeg_failure(jpeg_decoder *d, cv_result code, const char *what, int w, int h) {
+    cv_result r = cv_error(code, "jpeg decoder: %s (%dx%d): %s", what, w, h, tjGetErrorStr2(d->tj));
+    tjhandle fresh = tjInitDecompress();
+    if (fresh) {
+        tjDestroy(d->tj);
+        d->tj = fresh;
+    }
+    return r;
 }
 
 static cv_result jpeg_decode(void *state, const uint8_t *data, size_t size, uint8_t **out, size_t *out_size,
                              uint32_t *width, uint32_t *height) {
-    tjhandle tj = state;
+    jpeg_decoder *d = state;
     if (size == 0 || size > (unsigned long)-1)
         return cv_error(CV_ERROR_MALFORMED, "jpeg decoder: %zu bytes are not a JPEG", size);
     int w = 0, h = 0, subsamp = 0, colorspace = 0;
-    if (tjDecompressHeader3(tj, data, (unsigned long)size, &w, &h, &subsamp, &colorspace) != 0)
-        return cv_error(CV_ERROR_MALFORMED, "jpeg decoder: not a JPEG header: %s", tjGetErrorStr2(tj));
+    if (tjDecompressHeader3(d->tj, data, (unsigned long)size, &w, &h, &subsamp, &colorspace) != 0)
+        return jpeg_failure(d, CV_ERROR_MALFORMED, "not a JPEG header", w, h);
     if (w <= 0 || h <= 0 || (uint32_t)w > CV_CODEC_MAX_SIDE || (uint32_t)h > CV_CODEC_MAX_SIDE)
         return cv_error(CV_ERROR_LIMIT_EXCEEDED, "jpeg decoder: a %dx%d image, over the limit of %u a side", w, h,
                         CV_CODEC_MAX_SIDE);
@@ -82,10 +103,9 @@ static cv_result jpeg_decode(void *state, const uint8_t *data, size_t size, uint
     if (!rgba)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "jpeg decoder: no memory for %dx%d pixels", w, h);
     /* A warning (data ending early, say) fails the frame too: a viewer shows no half-decoded picture. */
-    if (tjDecompress2(tj, data, (unsigned long)size, rgba, w, w * 4, h, TJPF_RGBA, TJFLAG_STOPONWARNING) != 0) {
-        cv_result r = cv_error(CV_ERROR_MALFORMED, "jpeg decoder: %dx%d: %s", w, h, tjGetErrorStr2(tj));
+    if (tjDecompress2(d->tj, data, (unsigned long)size, rgba, w, w * 4, h, TJPF_RGBA, TJFLAG_STOPONWARNING) != 0) {
         free(rgba);
-        return r;
+        return jpeg_failure(d, CV_ERROR_MALFORMED, "the image does not decode", w, h);
     }
     *out = rgba;
     *out_size = n;
@@ -94,7 +114,11 @@ static cv_result jpeg_decode(void *state, const uint8_t *data, size_t size, uint
     return CV_OK;
 }
 
-static void jpeg_decoder_destroy(void *state) { tjDestroy(state); }
+static void jpeg_decoder_destroy(void *state) {
+    jpeg_decoder *d = state;
+    tjDestroy(d->tj);
+    free(d);
+}
 
 const codec_ops cv_jpeg_codec_ops = {
     .encoder_create = jpeg_encoder_create,
