@@ -32,6 +32,7 @@
 #include "node_internal.h"
 #include "peer.h"
 #include "proto_arena.h"
+#include "session_encode.h"
 
 /* grpc status codes used here (grpc/status.h; the session does not include gRPC). */
 enum {
@@ -62,7 +63,8 @@ typedef struct session {
     cv_context *ctx;
     cv_device *dev;
     uint32_t device_index;
-    cv_hash_map map; /* the client's handle ids -> the node's own (a client reaches only what it made) */
+    session_encoders encoders; /* OpenEncoder's streams (session_encode.h) */
+    cv_hash_map map;           /* the client's handle ids -> the node's own (a client reaches only what it made) */
     proto_arena arena;
 
     /* The blob being received, if any. */
@@ -696,6 +698,19 @@ static cv_result do_read_texture(session *s, uint64_t seq, const Corvid__ReadTex
     return r;
 }
 
+/* The session's send and reply for its encode worker (session_encode.h). */
+static cv_result encode_send(void *user, const Corvid__NodeMessage *m) { return send_node_message(user, m); }
+static void encode_reply(void *user, uint64_t seq, cv_result result, const char *message) {
+    send_reply(user, seq, result, message);
+}
+
+/* Reads the texels here, in order; the worker encodes and sends them while the session goes on. */
+static cv_result do_read_encoded(session *s, uint64_t seq, const Corvid__ReadEncoded *m) {
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_TEXTURE, "read_encoded", &id);
+    return r == CV_OK ? session_encode_read(&s->encoders, s->dev, s->ctx, (cv_texture){ id }, seq, m) : r;
+}
+
 static cv_result do_compile(session *s, const Corvid__CompileList *m) {
     uint64_t id;
     cv_result r = translate(s, m->id, CV_HANDLE_CMDLIST, "compile", &id);
@@ -991,15 +1006,22 @@ static bool handle(session *s, const Corvid__ClientMessage *m, int *status) {
         return true;
     case CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER:
     case CORVID__CLIENT_MESSAGE__MSG_READ_TEXTURE:
+    case CORVID__CLIENT_MESSAGE__MSG_READ_ENCODED:
         if (s->failure) { /* what it would read lacks a partition */
             char why[800];
             snprintf(why, sizeof(why), "read refused: %s", s->failure_message);
             send_reply_failure(s, seq, s->failure_result, why, s->failure);
             return true;
         }
-        r = m->msg_case == CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER ? do_read_buffer(s, seq, m->read_buffer)
-                                                                   : do_read_texture(s, seq, m->read_texture);
+        r = m->msg_case == CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER    ? do_read_buffer(s, seq, m->read_buffer)
+            : m->msg_case == CORVID__CLIENT_MESSAGE__MSG_READ_TEXTURE ? do_read_texture(s, seq, m->read_texture)
+                                                                      : do_read_encoded(s, seq, m->read_encoded);
         break;
+    case CORVID__CLIENT_MESSAGE__MSG_OPEN_ENCODER:
+        r = session_encode_open(&s->encoders, m->open_encoder);
+        send_reply(s, seq, r, r == CV_OK ? "" : cv_last_error());
+        return true;
+    case CORVID__CLIENT_MESSAGE__MSG_CLOSE_ENCODER: r = session_encode_close(&s->encoders, m->close_encoder); break;
     case CORVID__CLIENT_MESSAGE__MSG_PUSH_TRANSFER: r = do_push(s, m->push_transfer); break;
     case CORVID__CLIENT_MESSAGE__MSG_AWAIT_TRANSFER:
         r = do_await(s, m->await_transfer);
@@ -1064,6 +1086,7 @@ static bool work_finished(session *s) {
 static void session_finish(session *s) {
     end_upload(s);
     stop_watcher(s, true);
+    session_encode_finish(&s->encoders);
     peer_inbox_close(s->node->peer, s->inbox);
     cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -(int64_t)s->memory_bytes);
     /* An abandoned device's GPU may still use its memory: the context and device are
@@ -1098,6 +1121,7 @@ void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
     pthread_cond_init(&s->cond, NULL);
     cv_hash_map_init(&s->map, cv_hash_map_random_seed()); /* the client chooses the keys */
     proto_arena_init(&s->arena);
+    session_encode_init(&s->encoders, &(session_encode_sink){ encode_send, encode_reply, s });
     atomic_fetch_add(&node->sessions_started, 1);
     atomic_fetch_add(&node->sessions_active, 1);
 
@@ -1141,6 +1165,7 @@ void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
         snprintf(why, sizeof(why), "%s", node->stop_reason);
     }
     stop_watcher(s, status != STATUS_OK);
+    session_encode_stop(&s->encoders); /* its last frame goes out before the stream ends */
     if (status > 0) {
         atomic_fetch_add(&node->errors, 1);
         log_line(s, NODE_LOG_ALWAYS, "ended with status %d: %s", status, why);

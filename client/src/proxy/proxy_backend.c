@@ -10,14 +10,10 @@
 #include "corvid/command_codec.h"
 #include "corvid/parse.h"
 #include "corvid/sha256.h"
+#include "proxy_encode.h"
 #include "proxy_options.h"
 #include "proxy_peer.h"
 #include "proxy_session.h"
-
-/* A loaded resource: the node knows it by the client's id. */
-typedef struct proxy_resource {
-    uint64_t id;
-} proxy_resource;
 
 static bool contains_nocase(const char *text, const char *needle) {
     size_t n = strlen(needle);
@@ -70,6 +66,7 @@ static cv_result resolve_device(const char *endpoint, const char *text, uint32_t
 
 static void free_device(proxy_device *p) {
     proxy_peer_unregister(p);
+    cv_encoded_free(&p->encode_frame); /* a frame half-received when the session died */
     free(p->known);
     free(p->lists);
     pthread_cond_destroy(&p->cond);
@@ -574,6 +571,10 @@ static const cv_backend proxy_backend = {
     .timings = proxy_timings,
     .peer_capable = proxy_peer_capable,
     .peer_move = proxy_peer_move,
+    .encoder_open = proxy_encoder_open,
+    .encoder_send = proxy_encoder_send,
+    .encoder_receive = proxy_encoder_receive,
+    .encoder_close = proxy_encoder_close,
 };
 
 const cv_backend *cv_proxy_backend(void) { return &proxy_backend; }

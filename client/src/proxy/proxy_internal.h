@@ -3,7 +3,8 @@
  *
  * One proxy device = one gRPC stream to one node device. The device's calls
  * come under the core's device lock, so at most one request waits for an answer
- * at a time (the `pending` slot); a receiver thread reads every node message,
+ * at a time (the `pending` slot), besides one encoded read, whose answer is
+ * waited for outside the lock (`encode_pending`); a receiver thread reads every node message,
  * fills the pending request's answer, records finished tickets and wakes
  * whoever waits. Requests that need no answer (writes, destroy, compile, submit)
  * are sent and forgotten; if the node refuses one anyway, its error is kept
@@ -24,6 +25,11 @@
 #define PROXY_INFLIGHT 1024u
 #define PROXY_AWAITS 64u
 
+/* A loaded resource: the node knows it by the client's id. */
+typedef struct proxy_resource {
+    uint64_t id;
+} proxy_resource;
+
 /* A list as compiled for the node: the node holds the list, this is its name. */
 typedef struct proxy_list {
     uint64_t id;
@@ -42,7 +48,9 @@ typedef struct proxy_pending {
     uint64_t session_id;
     uint8_t *read_into; /* reads: destination and its size */
     uint64_t read_size, read_received;
-    bool *present; /* blob queries: one flag per hash */
+    cv_encoded *encoded;                    /* encoded reads: the frame received (data malloc'd by the receiver) */
+    uint64_t encoded_max, encoded_received; /* the most bytes the frame may have; bytes so far */
+    bool *present;                          /* blob queries: one flag per hash */
     size_t present_count;
     uint8_t session_key[CV_NODE_SESSION_KEY_BYTES]; /* hello: the session's capability */
     bool has_session_key;
@@ -75,7 +83,9 @@ struct cv_backend_device {
     pthread_cond_t cond;
     atomic_uint_fast64_t next_seq;
     proxy_pending pending;
-    uint64_t completed;                      /* highest ticket the node finished */
+    proxy_pending encode_pending; /* an encoded read's answer, waited for without the device lock */
+    cv_encoded encode_frame;      /* ... the frame it brings (the receiver fills it; encoder_receive moves it out) */
+    uint64_t completed;           /* highest ticket the node finished */
     proxy_inflight inflight[PROXY_INFLIGHT]; /* submitted, not completed: ring by ticket */
     cv_result dead;                          /* CV_OK while the stream lives */
     char dead_message[512];
