@@ -35,7 +35,8 @@
  *
  * Errors: a step or read that fails (a lost device) ends the live: no more
  * frames, stats.error says what failed; every call still returns and
- * cv_live_stop joins. Calls other than start and stop may come from any thread.
+ * cv_live_stop joins. Calls other than start and stop may come from any thread,
+ * the frame callback's included (stop not: it joins that thread).
  *
  *     static void on_frame(const cv_live_frame *f, void *user) {
  *         send_to_viewer(user, f->data, f->size);  // copy: data is valid during the call only
@@ -103,8 +104,9 @@ cv_result cv_live_update(cv_live *l, const cv_render_settings *s, uint64_t seq);
  * rendered while there is none is spoiled (counted), never queued. */
 void cv_live_credit(cv_live *l, uint32_t n);
 
-/* JPEG or H264 from the next frame on (encode: its starting quality / bitrate;
- * keyframe = true asks for a keyframe without changing the codec). */
+/* JPEG or H264 from the next frame on (encode: its starting quality / bitrate,
+ * NULL = defaults; keyframe = true asks for a keyframe, with the same codec
+ * too). */
 cv_result cv_live_set_codec(cv_live *l, cv_codec codec, const cv_encode_params *encode);
 
 /* The consumer's measured link bandwidth (bytes/s) and display report (input seq shown,
@@ -112,8 +114,13 @@ cv_result cv_live_set_codec(cv_live *l, cv_codec codec, const cv_encode_params *
 void cv_live_report_link(cv_live *l, double bytes_per_s);
 void cv_live_report_display(cv_live *l, uint64_t input_seq, double motion_to_photon_ms);
 
-/* A lossless copy of the newest presented frame: CV_CODEC_PNG (8-bit display) or
- * CV_CODEC_ZSTD of the radiance (RGBA32F; *out's width/height set). Waits at most 10 s. */
+/* A lossless copy of the newest frame: CV_CODEC_PNG (8-bit display) or
+ * CV_CODEC_ZSTD of the radiance (RGBA32F; *out's width/height set). The newest
+ * step finished: on a still view the frame presented last, while the view
+ * moves possibly a step the consumer has not been sent yet (rendering holds
+ * while it is read, so its display and radiance are one frame's). Read on the
+ * primary's machine (a frame reader of its own). Waits at most 10 s for a
+ * step to finish. */
 cv_result cv_live_snapshot(cv_live *l, cv_codec codec, cv_encoded *out);
 
 typedef struct cv_live_stats {
@@ -128,8 +135,12 @@ typedef struct cv_live_stats {
     char passes[2048]; /* "gbuffer dev0 1.20 ms\ntrace dev1 3.40 ms\n..." of the last frame */
     /* Beyond the brief's figures: */
     cv_codec codec;
-    uint64_t input_seq;                     /* of the last presented frame */
-    double input_age_ms, input_age_max_ms;  /* server side m2p part: last, max */
+    uint32_t width, height;                /* of the last presented frame */
+    uint64_t input_seq;                    /* of the last presented frame */
+    uint64_t displayed_seq;                /* last reported by cv_live_report_display */
+    /* The server's part of motion-to-photon: input_age_ms of the first frame presented for each
+     * input (a still view's later frames are not counted), last and max. */
+    double input_age_ms, input_age_max_ms;
     bool failed;                            /* a step or read failed: the live renders no more */
     char error[256];                        /* what failed ("" while running) */
 } cv_live_stats;
