@@ -141,8 +141,9 @@ typedef struct cv_live_stats {
     /* The server's part of motion-to-photon: input_age_ms of the first frame presented for each
      * input (a still view's later frames are not counted), last and max. */
     double input_age_ms, input_age_max_ms;
-    bool failed;                            /* a step or read failed: the live renders no more */
-    char error[256];                        /* what failed ("" while running) */
+    bool still;  /* the view reached max_accumulate with no newer input: rendering waits for one */
+    bool failed; /* a step or read failed: the live renders no more */
+    char error[256]; /* what failed ("" while running) */
 } cv_live_stats;
 
 void cv_live_get_stats(cv_live *l, cv_live_stats *out);
