@@ -55,8 +55,9 @@ static cv_result check_local(cv_frame_reader *r, cv_texture t, cv_rect rect, con
                         cv_handle_type_name(desc.type));
     const cv_texture_desc *d = &desc.texture;
     if (rect.x > d->width || rect.width > d->width - rect.x || rect.y > d->height || rect.height > d->height - rect.y)
-        return cv_error(CV_ERROR_OUT_OF_RANGE, "texture '%s' (%ux%u): encoder read of %ux%u at (%u,%u) is out of range",
-                        d->label, d->width, d->height, rect.width, rect.height, rect.x, rect.y);
+        return cv_error(CV_ERROR_OUT_OF_RANGE,
+                        "texture '%s' (%ux%u): encoder read of %ux%u at (%u,%u) is out of range", d->label, d->width,
+                        d->height, rect.width, rect.height, rect.x, rect.y);
     if (rect.width != r->width || rect.height != r->height)
         return cv_error(CV_ERROR_FORMAT_MISMATCH,
                         "texture '%s': encoder read of %ux%u into a frame reader whose frames are %ux%u", d->label,

@@ -64,7 +64,7 @@ typedef struct session {
     cv_device *dev;
     uint32_t device_index;
     session_encoders encoders; /* OpenEncoder's streams (session_encode.h) */
-    cv_hash_map map; /* the client's handle ids -> the node's own (a client reaches only what it made) */
+    cv_hash_map map;           /* the client's handle ids -> the node's own (a client reaches only what it made) */
     proto_arena arena;
 
     /* The blob being received, if any. */

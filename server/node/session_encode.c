@@ -16,7 +16,8 @@ cv_result session_encode_open(session_encoders *e, cv_device *dev, const Corvid_
     if (m->stream == 0)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "open_encoder: stream 0 (a stream is numbered from 1)");
     if (find(e, m->stream))
-        return cv_error(CV_ERROR_ALREADY_EXISTS, "open_encoder: stream %u is already open in this session", m->stream);
+        return cv_error(CV_ERROR_ALREADY_EXISTS, "open_encoder: stream %u is already open in this session",
+                        m->stream);
     cv_result r = cv_encode_check_stream((cv_codec)m->codec, m->width, m->height, "open_encoder");
     if (r != CV_OK)
         return r;
@@ -32,7 +33,8 @@ cv_result session_encode_open(session_encoders *e, cv_device *dev, const Corvid_
             slot = &e->streams[i];
     if (!slot)
         return cv_error(CV_ERROR_LIMIT_EXCEEDED,
-                        "open_encoder: stream %u: the session holds %u streams, the most it may (MAX_ENCODER_STREAMS)",
+                        "open_encoder: stream %u: the session holds %u streams, the most it may "
+                        "(MAX_ENCODER_STREAMS)",
                         m->stream, CV_NODE_MAX_ENCODER_STREAMS);
     cv_frame_reader *reader;
     r = cv_frame_reader_create(dev, (cv_codec)m->codec, m->width, m->height, &reader);

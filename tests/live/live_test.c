@@ -42,12 +42,12 @@ typedef struct sink {
     pthread_mutex_t lock;
     pthread_cond_t cond;
     uint64_t frames;
-    bool index_ok;        /* every index was the one before plus 1 */
-    cv_live_frame last;   /* data: the copy below */
+    bool index_ok;      /* every index was the one before plus 1 */
+    cv_live_frame last; /* data: the copy below */
     uint8_t *data;
-    cv_decoder *h264;     /* set: every frame goes through it */
+    cv_decoder *h264; /* set: every frame goes through it */
     uint32_t h264_errors, keyframes;
-    uint8_t *picture;     /* the H.264 decoder's last picture (RGBA8) */
+    uint8_t *picture; /* the H.264 decoder's last picture (RGBA8) */
 } sink;
 
 static void on_frame(const cv_live_frame *f, void *user) {
@@ -118,9 +118,7 @@ static bool failed(const cv_live_stats *s, uint64_t n) {
 }
 
 /* Time for frames that must not come to come (a still view, no credit). */
-static void settle(void) {
-    nanosleep(&(struct timespec){ .tv_nsec = 300000000 }, NULL);
-}
+static void settle(void) { nanosleep(&(struct timespec){ .tv_nsec = 300000000 }, NULL); }
 
 static cv_render_settings base_settings(void) {
     return (cv_render_settings){
@@ -461,8 +459,7 @@ static void remote(const cv_scene *scene, const cv_bvh *bvh) {
         cv_device *local_dev = NULL;
         CHECK_OK(cv_context_create(NULL, &local_ctx));
         CHECK_OK(cv_device_create(local_ctx, cv_vulkan_backend(),
-                                  &(cv_device_desc){ .adapter = cv_test_adapter(), .validation = true },
-                                  &local_dev));
+                                  &(cv_device_desc){ .adapter = cv_test_adapter(), .validation = true }, &local_dev));
         uint8_t *display = malloc((size_t)W * H * 4);
         cv_render_settings base = base_settings();
         CHECK_OK(fresh_frame(local_dev, scene, bvh, &base, MAX_ACCUMULATE, display, NULL));
