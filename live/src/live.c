@@ -126,7 +126,8 @@ cv_result cv_live_update(cv_live *l, const cv_render_settings *s, uint64_t seq) 
     uint32_t w, h;
     settings_size(s, &w, &h);
     pthread_mutex_lock(&l->lock);
-    res = check_codec(l->codec, w, h);
+    res = l->failed ? cv_error(CV_ERROR_BAD_STATE, "the live has stopped after an error: %s", l->error)
+                    : check_codec(l->codec, w, h);
     if (res == CV_OK) {
         l->pending = *s;
         l->pending_seq = seq;

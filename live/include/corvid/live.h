@@ -34,8 +34,8 @@
  * end-to-end figure with cv_live_report_display.
  *
  * Errors: a step or read that fails (a lost device) ends the live: no more
- * frames, stats.error says what failed; every call still returns and
- * cv_live_stop joins. Calls other than start and stop may come from any thread,
+ * frames, stats.error says what failed, updates and snapshots return
+ * CV_ERROR_BAD_STATE with it; every call still returns and cv_live_stop joins. Calls other than start and stop may come from any thread,
  * the frame callback's included (stop not: it joins that thread).
  *
  *     static void on_frame(const cv_live_frame *f, void *user) {
