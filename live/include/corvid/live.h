@@ -35,8 +35,9 @@
  *
  * Errors: a step or read that fails (a lost device) ends the live: no more
  * frames, stats.error says what failed, updates and snapshots return
- * CV_ERROR_BAD_STATE with it; every call still returns and cv_live_stop joins. Calls other than start and stop may come from any thread,
- * the frame callback's included (stop not: it joins that thread).
+ * CV_ERROR_BAD_STATE with it; every call still returns and cv_live_stop joins.
+ * Calls other than start and stop may come from any thread, the frame
+ * callback's included (stop not: it joins that thread).
  *
  *     static void on_frame(const cv_live_frame *f, void *user) {
  *         send_to_viewer(user, f->data, f->size);  // copy: data is valid during the call only
