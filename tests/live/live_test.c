@@ -315,7 +315,7 @@ static void stats(cv_live *l, sink *k) {
     cv_live_stats s;
     cv_live_get_stats(l, &s);
     printf("passes of the last frame:\n%s", s.passes);
-    CHECK(strstr(s.passes, "gbuffer dev0 ") != NULL);
+    CHECK(strstr(s.passes, "composite dev0 ") != NULL);
     CHECK(s.bytes > 0 && s.codec == CV_CODEC_JPEG && s.width == W && s.height == H);
     CHECK_EQ_INT(s.quality, 90); /* no link reported: the starting quality */
     CHECK(s.input_age_ms > 0 && s.input_age_max_ms >= s.input_age_ms);
