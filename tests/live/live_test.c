@@ -71,7 +71,8 @@ static void on_frame(const cv_live_frame *f, void *user) {
         uint8_t *pic = NULL;
         size_t n = 0;
         uint32_t w = 0, h = 0;
-        if (cv_decoder_decode(k->h264, f->data, f->size, &pic, &n, &w, &h) != CV_OK || n != (size_t)W * H * 4) {
+        if (cv_decoder_decode(k->h264, f->data, f->size, &pic, &n, &w, &h) != CV_OK || w != f->width ||
+            h != f->height || n != (size_t)w * h * 4) {
             k->h264_errors++;
             free(pic);
         } else {
@@ -405,6 +406,20 @@ static void h264(cv_device *dev, const cv_scene *scene, const cv_bvh *bvh, cv_li
     }
     pthread_mutex_unlock(&k->lock);
     free(display);
+
+    /* A new size: a new stream, from a keyframe, still decodable by the same decoder. */
+    cv_render_settings small = s;
+    small.width = 96;
+    small.height = 54;
+    CHECK_OK(cv_live_update(l, &small, 17));
+    uint64_t before = sink_frames(k);
+    cv_live_credit(l, 1);
+    CHECK(wait_frames(k, before + 1));
+    pthread_mutex_lock(&k->lock);
+    CHECK(k->last.width == 96 && k->last.height == 54 && k->last.input_seq == 17 && k->last.keyframe);
+    CHECK_EQ_INT(k->h264_errors, 0);
+    CHECK_EQ_INT(k->keyframes, 3);
+    pthread_mutex_unlock(&k->lock);
 }
 
 static void local(const cv_scene *scene, const cv_bvh *bvh) {
