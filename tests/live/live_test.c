@@ -243,12 +243,29 @@ static void credits(cv_device *dev, const cv_scene *scene, const cv_bvh *bvh, cv
     free(display);
 }
 
+/* The caller's observer in the settings: called for every step (the live wraps it). */
+static pthread_mutex_t observed_lock = PTHREAD_MUTEX_INITIALIZER;
+static uint32_t observed;
+
+static void on_observed(const cv_render_frame_info *info, void *user) {
+    (void)info;
+    (void)user;
+    pthread_mutex_lock(&observed_lock);
+    observed++;
+    pthread_mutex_unlock(&observed_lock);
+}
+
 /* A new camera: a frame of its seq, the fresh renderer's image; a bad update changes nothing. */
 static void updates(cv_device *dev, const cv_scene *scene, const cv_bvh *bvh, cv_live *l, sink *k) {
     cv_render_settings moved = camera_settings(2.0f);
+    static const cv_render_observer counter = { .frame = on_observed };
+    moved.observer = &counter;
     CHECK_OK(cv_live_update(l, &moved, 5));
     cv_live_stats s = wait_stats(l, is_still, 0);
     CHECK_EQ_INT(s.rendered, 2 * MAX_ACCUMULATE);
+    pthread_mutex_lock(&observed_lock);
+    CHECK_EQ_INT(observed, MAX_ACCUMULATE);
+    pthread_mutex_unlock(&observed_lock);
     cv_live_credit(l, 1);
     CHECK(wait_frames(k, 2));
     CHECK_EQ_INT(k->last.input_seq, 5);

@@ -33,6 +33,11 @@
  * of its input_seq to its callback (the server's part); the viewer reports the
  * end-to-end figure with cv_live_report_display.
  *
+ * Stats (cv_live_get_stats): counts, rates and means over the last second,
+ * and the passes of the last measured frame: one step in 250 ms is measured
+ * (a measured step waits for its timings instead of pipelining), every step
+ * when the settings carry an observer of their own, which is still called.
+ *
  * Errors: a step or read that fails (a lost device) ends the live: no more
  * frames, stats.error says what failed, updates and snapshots return
  * CV_ERROR_BAD_STATE with it; every call still returns and cv_live_stop joins.
