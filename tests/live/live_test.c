@@ -390,9 +390,11 @@ static void h264(cv_device *dev, const cv_scene *scene, const cv_bvh *bvh, cv_li
     cv_render_settings s = base_settings();
     for (uint64_t i = 0; i < 6; i++) {
         s = camera_settings(1.0f + 0.25f * (float)i);
-        if (i == 3)
-            CHECK_OK(cv_live_set_codec(l, CV_CODEC_H264,
-                                       &(cv_encode_params){ .bitrate_kbps = H264_KBPS, .keyframe = true }));
+        if (i == 3) { /* a keyframe request alone keeps the bitrate */
+            CHECK_OK(cv_live_set_codec(l, CV_CODEC_H264, &(cv_encode_params){ .keyframe = true }));
+            cv_live_get_stats(l, &st);
+            CHECK_EQ_INT(st.bitrate_kbps, H264_KBPS);
+        }
         CHECK_OK(cv_live_update(l, &s, 11 + i));
         cv_live_credit(l, 1);
         CHECK(wait_frames(k, first + i));

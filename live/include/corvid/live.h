@@ -112,7 +112,8 @@ void cv_live_credit(cv_live *l, uint32_t n);
 
 /* JPEG or H264 from the next frame on (encode: its starting quality / bitrate,
  * NULL = defaults; keyframe = true asks for a keyframe, with the same codec
- * too). */
+ * too). The same codec with quality and bitrate 0 keeps what the adaptation
+ * chose (a keyframe request alone). */
 cv_result cv_live_set_codec(cv_live *l, cv_codec codec, const cv_encode_params *encode);
 
 /* The consumer's measured link bandwidth (bytes/s) and display report (input seq shown,
