@@ -166,13 +166,24 @@ static bool parse_size(const char *text, uint32_t *w, uint32_t *h) {
     return true;
 }
 
-static bool parse(int argc, char **argv, options *o) {
+/* false: print the usage (and exit 2, or 0 for --help). */
+static bool parse(int argc, char **argv, options *o, bool *help) {
     *o = (options){
         .widths = { 640, 1920 }, .heights = { 360, 1080 }, .size_count = 2, .frames = 20, .rate_mbit = 100
     };
+    *help = false;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         uint64_t n;
+        if (!strcmp(a, "--help")) {
+            *help = true;
+            return false;
+        }
+        if (!strcmp(a, "--quick")) { /* a smoke run: the small size, 3 frames */
+            o->size_count = 1;
+            o->frames = 3;
+            continue;
+        }
         if (!strcmp(a, "--frames") && cv_parse_uint(v, 2, MAX_FRAMES, &n)) {
             o->frames = (uint32_t)n;
         } else if (!strcmp(a, "--rate-mbit") && cv_parse_uint(v, 1, 1000000, &n)) {
@@ -199,12 +210,14 @@ static bool parse(int argc, char **argv, options *o) {
 
 int main(int argc, char **argv) {
     options o;
-    if (!parse(argc, argv, &o)) {
-        fprintf(stderr,
+    bool help;
+    if (!parse(argc, argv, &o, &help)) {
+        fprintf(help ? stdout : stderr,
                 "usage: bench_frame_codec [--sizes WxH,...] (even sides; default 640x360,1920x1080)\n"
-                "                         [--frames N] (2..%d, default 20) [--rate-mbit N] (default 100)\n",
+                "                         [--frames N] (2..%d, default 20) [--rate-mbit N] (default 100)\n"
+                "                         [--quick] (640x360, 3 frames)\n",
                 MAX_FRAMES);
-        return 2;
+        return help ? 0 : 2;
     }
     char machine[256];
     bench_machine(machine, sizeof machine);
