@@ -61,7 +61,7 @@
  *     cv_live_report_display(live, seq_shown, m2p_ms);
  *     ...
  *     cv_encoded png = { 0 };
- *     cv_live_snapshot(live, CV_CODEC_PNG, &png);  // the newest presented frame, lossless
+ *     cv_live_snapshot(live, CV_CODEC_PNG, &png);  // the newest frame, lossless
  *     cv_encoded_free(&png);
  *     cv_live_stop(live);
  */
@@ -90,7 +90,7 @@ typedef struct cv_live_frame {
 } cv_live_frame;
 
 typedef struct cv_live_desc {
-    cv_renderer *renderer;       /* the caller's; outlives the live */
+    cv_renderer *renderer;       /* the caller's; outlives the live, which alone steps it until stopped */
     cv_device *primary;          /* the renderer's devices[0] */
     cv_render_settings settings; /* the first frame's */
     cv_codec codec;              /* JPEG or H264 */
