@@ -44,26 +44,17 @@
 
 #include <stdint.h>
 
-#include "corvid/device.h"
+#include "corvid/gateway_types.h"
 #include "corvid/log.h"
 #include "corvid/result.h"
 #include "corvid/web_server.h"
 
-#define CV_GATEWAY_API_VERSION 1
-
 typedef struct cv_gateway cv_gateway;
-
-/* One job's devices: a context of its own and its devices (device 0 the primary). */
-typedef struct cv_gateway_devices {
-    cv_context *ctx;
-    cv_device *devices[CV_MAX_DEVICES];
-    uint32_t count;
-} cv_gateway_devices;
 
 typedef struct cv_gateway_desc {
     /* Opens the devices of one job into *out (called on the job's worker thread, so it may take time); on
      * failure it leaves nothing open, and the job fails with its error. Required. */
-    cv_result (*open_devices)(void *user, cv_gateway_devices *out);
+    cv_gateway_open_devices_fn open_devices;
     void *user;
     /* Where the devices are, for GET /api/v1/nodes: a node list ("host:port,...", corvid/endpoint.h), each
      * node polled with cv_proxy_query_node every health_interval_ms (0 = 5000) on a thread of the gateway's;
