@@ -138,7 +138,9 @@ enum {
       "1 = on (or the render fails), 2 = off (copies); programs read CORVID_ZERO_COPY into it") \
     X(sync_transfers, CV_SETTING_U32, 0, NULL, NULL, 0, 1, 0, "synchronous transfers", "", \
       "1: every transfer between devices synchronous on the host, as before transfer rings (for comparisons); " \
-      "programs read CORVID_TRANSFER_ASYNC=0 into it")
+      "programs read CORVID_TRANSFER_ASYNC=0 into it") \
+    X(exposure, CV_SETTING_F32, 0, NULL, NULL, -20, 20, 0, "exposure", "stops", \
+      "exposure of the presented image (pass 'present': ACES tone map of the radiance times 2^exposure, sRGB)")
 
 /* The fields' meanings are the table's help texts; their ranges and defaults
  * are the table's. */
@@ -167,6 +169,7 @@ typedef struct cv_render_settings {
     uint32_t reflection_samples;
     uint32_t zero_copy;      /* cv_graph_zero_copy (corvid/graph.h) */
     uint32_t sync_transfers; /* cv_graph_bake_desc.sync_transfers */
+    float exposure;          /* EV of the presented image (cv_renderer_step's display) */
 } cv_render_settings;
 
 /* A row of the table as data. */

@@ -91,6 +91,51 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
                              cv_render_stats *stats, void (*progress)(uint32_t frame, uint32_t frames, void *user),
                              void *user);
 
+/* Progressive, interactive rendering: one frame a call, presented.
+ *
+ *   cv_render_step step;
+ *   while (viewing) {
+ *       settings.camera_eye[0] = ...;  // a change restarts the history
+ *       if (cv_renderer_step(r, &settings, &step) != CV_OK) { ... cv_last_error() ... }
+ *       // step.display: RGBA8 on the primary, complete after step.ticket
+ *       cv_device_wait(primary, step.ticket, UINT64_MAX);
+ *       cv_device_read_texture(primary, step.display, (cv_rect){ 0, 0, step.width, step.height }, rgba8);
+ *   }
+ *
+ * The display textures form a ring of CV_RENDER_DISPLAY_SLOTS (step N writes
+ * slot N % CV_RENDER_DISPLAY_SLOTS), so a reader can encode one while the next
+ * frames render. */
+#define CV_RENDER_DISPLAY_SLOTS 3u
+
+typedef struct cv_render_step {
+    cv_texture display;   /* RGBA8_UNORM on the primary: tone-mapped (ACES, settings.exposure),
+                           * sRGB-encoded; one of CV_RENDER_DISPLAY_SLOTS textures, rewritten
+                           * CV_RENDER_DISPLAY_SLOTS steps later */
+    cv_texture radiance;  /* RGBA32F linear HDR on the primary (rewritten by the next step) */
+    uint32_t width, height;
+    uint32_t accumulated; /* frames in this image's history: 1 after a restart */
+    uint64_t ticket;      /* on the primary: the display and radiance are complete after it */
+    double frame_ms;      /* host time of the step */
+} cv_render_step;
+
+/* Renders one more frame of a progressive image and presents it (filter,
+ * composite and the tone-mapping pass 'present' run on every step). The
+ * history goes on from the previous step while the settings are equal
+ * (frames, first_frame and observer are ignored); any other change (camera,
+ * sun, size, a setting) restarts it. Step k of a history (from 0) draws the
+ * sample set first_frame + k, first_frame as the restart's settings said, so
+ * N steps of a still view give the image of cv_renderer_render with frames =
+ * N. Submits and returns without waiting for the GPU where it can (one
+ * device; with several it waits for the frame, as a render's last frame
+ * does); the ticket says when it is done, and a reader of `display` waits for
+ * it. Settings are checked first: a bad one changes nothing. A render
+ * (cv_renderer_render) between steps restarts the history. */
+cv_result cv_renderer_step(cv_renderer *r, const cv_render_settings *settings, cv_render_step *out);
+
+/* The last step's (or render's) frame as planes, as cv_renderer_render gives
+ * them (waits for the frame). */
+cv_result cv_renderer_read_output(cv_renderer *r, cv_render_output *out);
+
 /* The renderer's frame as its render graph (corvid/graph.h) sees it, after a
  * render: every pass (the first frame of a one-frame render) over the last
  * frame's columns, as text (cv_graph_dump_text) and/or Graphviz dot; either
