@@ -46,7 +46,10 @@ static void settings_size(const cv_render_settings *s, uint32_t *width, uint32_t
 static cv_result check_desc(const cv_live_desc *d) {
     if (!d || !d->renderer || !d->primary || !d->frame)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "live: start: NULL %s",
-                        !d ? "desc" : !d->renderer ? "renderer" : !d->primary ? "primary" : "frame callback");
+                        !d             ? "desc"
+                        : !d->renderer ? "renderer"
+                        : !d->primary  ? "primary"
+                                       : "frame callback");
     cv_result res = cv_render_settings_check(&d->settings);
     if (res != CV_OK)
         return cv_error(res, "live: start: %s", cv_last_error());
@@ -123,7 +126,8 @@ cv_result cv_live_update(cv_live *l, const cv_render_settings *s, uint64_t seq) 
     uint32_t w, h;
     settings_size(s, &w, &h);
     pthread_mutex_lock(&l->lock);
-    res = check_codec(l->codec, w, h);
+    res = l->failed ? cv_error(CV_ERROR_BAD_STATE, "the live has stopped after an error: %s", l->error)
+                    : check_codec(l->codec, w, h);
     if (res == CV_OK) {
         l->pending = *s;
         l->pending_seq = seq;

@@ -42,7 +42,7 @@ void live_rate_jpeg_frame(live_rate *r, size_t bytes, double fps) {
         double step = ceil((ratio - 1.0) * 20.0);
         step = step < 2 ? 2 : step > 20 ? 20 : step;
         r->quality = r->quality > CV_LIVE_QUALITY_MIN + (uint32_t)step ? r->quality - (uint32_t)step
-                                                                     : CV_LIVE_QUALITY_MIN;
+                                                                       : CV_LIVE_QUALITY_MIN;
     } else if (ratio < 0.6 && r->quality < CV_LIVE_QUALITY_MAX) {
         r->quality++;
     }

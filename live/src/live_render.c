@@ -15,7 +15,7 @@ typedef struct live_render {
     uint64_t seq, good_seq;
     double input_ms, good_input_ms;
     const cv_render_observer *good_observer;
-    bool unproven; /* settings not yet rendered by a step */
+    bool unproven;          /* settings not yet rendered by a step */
     uint32_t width, height; /* of the last good step; 0: none yet */
 } live_render;
 

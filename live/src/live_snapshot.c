@@ -35,7 +35,7 @@ cv_result cv_live_snapshot(cv_live *l, cv_codec codec, cv_encoded *out) {
                         cv_codec_name(codec));
     pthread_mutex_lock(&l->lock);
     l->hold++;
-    cv_render_step step;
+    cv_render_step step = { 0 };
     cv_result res = hold_newest(l, &step);
     pthread_mutex_unlock(&l->lock);
     cv_frame_reader *reader = NULL;
@@ -44,8 +44,8 @@ cv_result cv_live_snapshot(cv_live *l, cv_codec codec, cv_encoded *out) {
         res = cv_frame_reader_create(l->desc.primary, codec, step.width, step.height, &reader);
     if (res == CV_OK) {
         cv_texture t = codec == CV_CODEC_PNG ? step.display : step.radiance;
-        res = cv_frame_reader_read(reader, t, (cv_rect){ 0, 0, step.width, step.height },
-                                   &(cv_encode_params){ 0 }, &e);
+        res = cv_frame_reader_read(reader, t, (cv_rect){ 0, 0, step.width, step.height }, &(cv_encode_params){ 0 },
+                                   &e);
     }
     cv_frame_reader_destroy(reader);
     pthread_mutex_lock(&l->lock);

@@ -40,6 +40,7 @@ void cv_live_get_stats(cv_live *l, cv_live_stats *out) {
     out->input_age_max_ms = l->input_age_max_ms;
     out->width = l->frame_width;
     out->height = l->frame_height;
+    out->still = l->still && !l->has_pending;
     out->failed = l->failed;
     memcpy(out->error, l->error, sizeof(out->error));
     pthread_mutex_unlock(&l->lock);

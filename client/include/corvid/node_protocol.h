@@ -53,10 +53,12 @@
 #define CV_NODE_UNPACK_BUDGET(bytes) (2u * (size_t)(bytes) + CV_NODE_UNPACK_BUDGET_BASE_BYTES)
 /* Hashes in one BlobQuery, at most. */
 #define CV_NODE_MAX_BLOB_QUERY 4096u
-/* Encoder streams (OpenEncoder) one session holds open at most, and the largest
- * side of their frames: what a session may make the node allocate for them. */
+/* Encoder streams (OpenEncoder) one session holds open at most, the largest side
+ * of their frames and the most pixels (4096x2160): what a session may make the
+ * node allocate for them. */
 #define CV_NODE_MAX_ENCODER_STREAMS 4u
 #define CV_NODE_MAX_ENCODE_SIDE 8192u
+#define CV_NODE_MAX_ENCODE_PIXELS 8847360u
 
 /* A PushTransfer / AwaitTransfer region checked against the resource it names
  * (desc): a texture rect (width, height not 0) or a buffer range (size not 0,

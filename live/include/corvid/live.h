@@ -34,9 +34,10 @@
  * end-to-end figure with cv_live_report_display.
  *
  * Errors: a step or read that fails (a lost device) ends the live: no more
- * frames, stats.error says what failed; every call still returns and
- * cv_live_stop joins. Calls other than start and stop may come from any thread,
- * the frame callback's included (stop not: it joins that thread).
+ * frames, stats.error says what failed, updates and snapshots return
+ * CV_ERROR_BAD_STATE with it; every call still returns and cv_live_stop joins.
+ * Calls other than start and stop may come from any thread, the frame
+ * callback's included (stop not: it joins that thread).
  *
  *     static void on_frame(const cv_live_frame *f, void *user) {
  *         send_to_viewer(user, f->data, f->size);  // copy: data is valid during the call only
@@ -80,7 +81,7 @@ typedef struct cv_live_frame {
     const uint8_t *data; /* valid during the callback */
     size_t size;
     double render_ms, read_ms, encode_ms; /* this frame's: step, device read, encode */
-    double input_age_ms; /* from the cv_live_update of input_seq to now (server side m2p part) */
+    double input_age_ms;                  /* from the cv_live_update of input_seq to now (server side m2p part) */
 } cv_live_frame;
 
 typedef struct cv_live_desc {
@@ -125,24 +126,25 @@ cv_result cv_live_snapshot(cv_live *l, cv_codec codec, cv_encoded *out);
 
 typedef struct cv_live_stats {
     uint64_t rendered, presented, spoiled;
-    double fps;                           /* presented per second, last second */
-    double render_ms, read_ms, encode_ms; /* means over the last second */
-    uint64_t bytes;                       /* encoded bytes presented, total */
-    double link_bytes_per_s;              /* last reported */
+    double fps;                                          /* presented per second, last second */
+    double render_ms, read_ms, encode_ms;                /* means over the last second */
+    uint64_t bytes;                                      /* encoded bytes presented, total */
+    double link_bytes_per_s;                             /* last reported */
     double motion_to_photon_ms, motion_to_photon_max_ms; /* last, max reported */
     uint32_t quality, bitrate_kbps;                      /* what the adaptation chose */
     uint32_t accumulated;
     char passes[2048]; /* "gbuffer dev0 1.20 ms\ntrace dev1 3.40 ms\n..." of the last frame */
     /* Beyond the brief's figures: */
     cv_codec codec;
-    uint32_t width, height;                /* of the last presented frame */
-    uint64_t input_seq;                    /* of the last presented frame */
-    uint64_t displayed_seq;                /* last reported by cv_live_report_display */
+    uint32_t width, height; /* of the last presented frame */
+    uint64_t input_seq;     /* of the last presented frame */
+    uint64_t displayed_seq; /* last reported by cv_live_report_display */
     /* The server's part of motion-to-photon: input_age_ms of the first frame presented for each
      * input (a still view's later frames are not counted), last and max. */
     double input_age_ms, input_age_max_ms;
-    bool failed;                            /* a step or read failed: the live renders no more */
-    char error[256];                        /* what failed ("" while running) */
+    bool still;      /* the view reached max_accumulate with no newer input: rendering waits for one */
+    bool failed;     /* a step or read failed: the live renders no more */
+    char error[256]; /* what failed ("" while running) */
 } cv_live_stats;
 
 void cv_live_get_stats(cv_live *l, cv_live_stats *out);

@@ -30,6 +30,8 @@
 #define CV_CODEC_MAX_SIDE 16384u
 /* The most bytes a decoder gives out for one frame (ZSTD and RAW frames claiming more are refused). */
 #define CV_CODEC_MAX_DECODED_BYTES (1ull << 30)
+/* The highest H.264 bitrate taken (2 Gbit/s: openh264 counts bits per second in an int). */
+#define CV_CODEC_MAX_BITRATE_KBPS 2000000u
 
 typedef struct cv_encoder cv_encoder; /* one stream; H.264 keeps state between frames */
 
@@ -47,7 +49,7 @@ typedef struct cv_decoder cv_decoder; /* for tests, tools and benchmarks */
 cv_result cv_decoder_create(cv_codec codec, cv_decoder **out);
 /* JPEG/H264/PNG -> RGBA8 (alpha 255), ZSTD/RAW -> the bytes; *out malloc'd.
  * H.264: one access unit per call (what one encode gave); 0 bytes out = no picture yet.
- * width/height: the picture's (JPEG/H264/PNG); ZSTD/RAW give out_size x 1.
+ * width/height: the picture's (JPEG/H264/PNG); 0 for ZSTD/RAW (bytes carry no size).
  * Hostile bytes give an error (CV_ERROR_MALFORMED, or LIMIT_EXCEEDED over the limits above). */
 cv_result cv_decoder_decode(cv_decoder *d, const uint8_t *data, size_t size, uint8_t **out, size_t *out_size,
                             uint32_t *width, uint32_t *height);
