@@ -50,8 +50,9 @@ static int check_choices(view_run *run) {
     if (!run->o.nodes && !local_choice && env_nodes && env_nodes[0])
         run->o.nodes = env_nodes;
     if (run->o.nodes && local_choice) {
-        fprintf(stderr, "corvid-view: --nodes renders on the nodes' devices; --gpus, --virtual-gpus and "
-                        "--adapters choose local ones: give one or the other\n");
+        fprintf(stderr,
+                "corvid-view: --nodes renders on the nodes' devices; --gpus, --virtual-gpus and "
+                "--adapters choose local ones: give one or the other\n");
         return 2;
     }
     if (!run->o.nodes && !local_choice)
@@ -64,7 +65,7 @@ static int check_choices(view_run *run) {
 /* The environment (log, client, graph) and the token file: 0, or 1 after a message. */
 static int read_environment(view_run *run) {
     env_log_apply();
-    cv_graph_bake_desc graph_env = {0};
+    cv_graph_bake_desc graph_env = { 0 };
     cv_result r = cv_env_client_configure(CV_ENV_CLIENT_ALL);
     if (r == CV_OK)
         r = cv_env_graph_bake(&graph_env);
@@ -87,8 +88,9 @@ static int read_environment(view_run *run) {
     run->token[strcspn(run->token, "\r\n")] = 0;
     if (!run->token[0] || strspn(run->token, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-._~") !=
                               strlen(run->token)) {
-        fprintf(stderr, "corvid-view: --token-file %s: the first line must be a token of letters, digits and -._~ "
-                        "(it goes into the URL)\n",
+        fprintf(stderr,
+                "corvid-view: --token-file %s: the first line must be a token of letters, digits and -._~ "
+                "(it goes into the URL)\n",
                 run->o.token_file);
         return 1;
     }
@@ -97,9 +99,9 @@ static int read_environment(view_run *run) {
 
 static cv_result load_scene(view_run *run) {
     const view_options *o = &run->o;
-    cv_result r = !strcmp(o->scene, "room")   ? cv_scene_make_room(o->seed, &run->scene)
-                  : o->stress_triangles       ? cv_scene_make_stress(o->seed, o->stress_triangles, &run->scene)
-                                              : cv_scene_import(o->scene, &run->scene);
+    cv_result r = !strcmp(o->scene, "room") ? cv_scene_make_room(o->seed, &run->scene)
+                  : o->stress_triangles     ? cv_scene_make_stress(o->seed, o->stress_triangles, &run->scene)
+                                            : cv_scene_import(o->scene, &run->scene);
     if (r == CV_OK && cv_scene_camera_count(run->scene) == 0) {
         r = cv_scene_check_framing(run->scene);
         if (r != CV_OK)
@@ -112,7 +114,7 @@ static cv_result load_scene(view_run *run) {
 
 /* The local devices or the nodes', each named on stderr; then the renderer. */
 static cv_result create_renderer(view_run *run) {
-    cv_vulkan_gpu_table table = {0};
+    cv_vulkan_gpu_table table = { 0 };
     const char *nodes = run->o.nodes;
     cv_result r = nodes ? CV_OK : cv_env_vulkan_gpu_config(&run->gpu_config);
     if (r == CV_OK && !nodes)
@@ -141,31 +143,31 @@ static cv_result start_serving(view_run *run) {
     const view_options *o = &run->o;
     view_session_init(&run->session, &o->settings, run->scene, o->codec);
     run->session_ready = true;
-    cv_live_desc live = {.renderer = run->renderer,
-                         .primary = run->devices[0],
-                         .settings = o->settings,
-                         .codec = o->codec,
-                         .encode = {.quality = o->quality, .bitrate_kbps = o->bitrate_kbps},
-                         .max_accumulate = o->max_accumulate,
-                         .frame = view_session_frame,
-                         .user = &run->session};
+    cv_live_desc live = { .renderer = run->renderer,
+                          .primary = run->devices[0],
+                          .settings = o->settings,
+                          .codec = o->codec,
+                          .encode = { .quality = o->quality, .bitrate_kbps = o->bitrate_kbps },
+                          .max_accumulate = o->max_accumulate,
+                          .frame = view_session_frame,
+                          .user = &run->session };
     cv_result r = cv_live_start(&live, &run->live);
     if (r != CV_OK)
         return r;
     view_session_attach(&run->session, run->live);
-    cv_web_desc web = {.host = o->host,
-                       .port = (uint16_t)o->port,
-                       .token = run->token[0] ? run->token : NULL,
-                       .tls_cert = o->tls_cert,
-                       .tls_key = o->tls_key,
-                       .assets = cv_viewer_page,
-                       .asset_count = cv_viewer_page_count,
-                       .api = view_api_handle,
-                       .api_user = &run->session,
-                       .ws_open = view_session_open,
-                       .ws_text = view_session_text,
-                       .ws_close = view_session_close,
-                       .ws_user = &run->session};
+    cv_web_desc web = { .host = o->host,
+                        .port = (uint16_t)o->port,
+                        .token = run->token[0] ? run->token : NULL,
+                        .tls_cert = o->tls_cert,
+                        .tls_key = o->tls_key,
+                        .assets = cv_viewer_page,
+                        .asset_count = cv_viewer_page_count,
+                        .api = view_api_handle,
+                        .api_user = &run->session,
+                        .ws_open = view_session_open,
+                        .ws_text = view_session_text,
+                        .ws_close = view_session_close,
+                        .ws_user = &run->session };
     return cv_web_server_start(&web, &run->server);
 }
 
@@ -176,7 +178,7 @@ static void serve_until_signal(view_run *run, const sigset_t *stop) {
            cv_web_server_port(run->server), run->token[0] ? "?token=" : "", run->token);
     fflush(stdout);
     for (;;) {
-        struct timespec quarter = {.tv_sec = 0, .tv_nsec = 250 * 1000 * 1000};
+        struct timespec quarter = { .tv_sec = 0, .tv_nsec = 250 * 1000 * 1000 };
         int sig = sigtimedwait(stop, NULL, &quarter);
         if (sig == SIGINT || sig == SIGTERM)
             break;
@@ -188,7 +190,7 @@ static void serve_until_signal(view_run *run, const sigset_t *stop) {
 
 static int finish(view_run *run, cv_result r) {
     cv_web_server_stop(run->server); /* first: no input reaches the live any more */
-    cv_live_stats st = {0};
+    cv_live_stats st = { 0 };
     if (run->live)
         cv_live_get_stats(run->live, &st);
     cv_live_stop(run->live);
@@ -209,7 +211,7 @@ static int finish(view_run *run, cv_result r) {
 }
 
 int main(int argc, char **argv) {
-    view_run run = {0};
+    view_run run = { 0 };
     /* Before any thread starts, so that every thread inherits the mask and only
      * serve_until_signal takes the signals. */
     sigset_t stop;

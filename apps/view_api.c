@@ -31,11 +31,16 @@ static cv_result exr_bytes(const cv_encoded *z, uint8_t **out, size_t *out_size)
     if (r == CV_OK && !made)
         r = cv_error(CV_ERROR_IO, "snapshot.exr: temporary directory: %s", strerror(errno));
     snprintf(path, sizeof path, "%s/snapshot.exr", dir);
-    cv_exr_layer layer = {.channel_count = 4, .channels = {"R", "G", "B", "A"}, .type = CV_EXR_HALF,
-                          .interleaved = (const float *)rgba};
+    cv_exr_layer layer = { .channel_count = 4,
+                           .channels = { "R", "G", "B", "A" },
+                           .type = CV_EXR_HALF,
+                           .interleaved = (const float *)rgba };
     if (r == CV_OK)
-        r = cv_exr_write(path, &(cv_exr_desc){.width = z->width, .height = z->height, .compression = CV_EXR_PIZ,
-                                              .layer_count = 1, .layers = &layer});
+        r = cv_exr_write(path, &(cv_exr_desc){ .width = z->width,
+                                               .height = z->height,
+                                               .compression = CV_EXR_PIZ,
+                                               .layer_count = 1,
+                                               .layers = &layer });
     free(rgba);
     FILE *f = r == CV_OK ? fopen(path, "rb") : NULL;
     if (r == CV_OK && !f)
@@ -61,7 +66,7 @@ static cv_result exr_bytes(const cv_encoded *z, uint8_t **out, size_t *out_size)
 }
 
 static void snapshot(view_session *s, cv_codec codec, cv_http_response *resp) {
-    cv_encoded e = {0};
+    cv_encoded e = { 0 };
     pthread_mutex_lock(&s->lock);
     cv_live *live = s->live;
     pthread_mutex_unlock(&s->lock);
@@ -80,7 +85,8 @@ static void snapshot(view_session *s, cv_codec codec, cv_http_response *resp) {
     }
     resp->status = 200;
     const char *ext = codec == CV_CODEC_PNG ? "png" : "exr";
-    snprintf(resp->content_type, sizeof resp->content_type, "%s", codec == CV_CODEC_PNG ? "image/png" : "image/x-exr");
+    snprintf(resp->content_type, sizeof resp->content_type, "%s",
+             codec == CV_CODEC_PNG ? "image/png" : "image/x-exr");
     snprintf(resp->content_disposition, sizeof resp->content_disposition, "attachment; filename=\"corvid-view.%s\"",
              ext);
 }
@@ -99,14 +105,14 @@ void view_api_handle(void *user, const cv_http_request *req, cv_http_response *r
         snapshot(s, png ? CV_CODEC_PNG : CV_CODEC_ZSTD, resp);
         return;
     }
-    cv_live_stats ls = {0};
-    cv_web_stats ws = {0};
+    cv_live_stats ls = { 0 };
+    cv_web_stats ws = { 0 };
     pthread_mutex_lock(&s->lock);
     if (s->live)
         cv_live_get_stats(s->live, &ls);
-    double rate = s->sent_bytes_per_s;
+    double sent = s->sent_bytes_per_s, received = s->page_bytes_per_s;
     pthread_mutex_unlock(&s->lock);
-    char *json = view_stats_json(&ls, &ws, rate);
+    char *json = view_stats_json(&ls, &ws, sent, received);
     if (json)
         cv_http_respond_json(resp, 200, json);
     free(json);

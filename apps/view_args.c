@@ -99,41 +99,42 @@ static bool opt_side(view_options *o, const view_option *def, const char *value)
 
 #define O(field) offsetof(view_options, field)
 static const view_option view_option_rows[] = {
-    {NULL, NULL, NULL, 0, 0, 0, NULL, "Server:"},
-    {"--port", "N", opt_u32, O(port), 0, 65535, "8080", "TCP port of the page (0: any free port, printed)"},
-    {"--host", "ADDR", opt_text, O(host), 0, 0, "127.0.0.1",
-     "address to listen on; other than loopback needs --token-file"},
-    {"--token-file", "FILE", opt_text, O(token_file), 0, 0, NULL,
-     "a file whose first line is the token the page and the API must present (the printed URL carries it)"},
-    {"--tls-cert", "FILE", opt_text, O(tls_cert), 0, 0, NULL, "serve HTTPS with this PEM certificate (and --tls-key)"},
-    {"--tls-key", "FILE", opt_text, O(tls_key), 0, 0, NULL, "the certificate's PEM private key"},
-    {NULL, NULL, NULL, 0, 0, 0, NULL, "Stream:"},
-    {"--codec", "jpeg|h264", opt_codec, 0, 0, 0, "jpeg",
-     "frames to the page as JPEG images or an H.264 stream (WebCodecs in the browser)"},
-    {"--quality", "N", opt_u32, O(quality), 1, 100, "85", "starting JPEG quality (then adapted to the link)"},
-    {"--bitrate", "KBPS", opt_u32, O(bitrate_kbps), 1, 1000000, NULL,
-     "starting H.264 bitrate (then adapted to the link; default about 0.12 bit per pixel)"},
-    {"--width", "N", opt_side, offsetof(cv_render_settings, width), 0, 0, "640", "image width in pixels"},
-    {"--height", "N", opt_side, offsetof(cv_render_settings, height), 0, 0, "360", "image height in pixels"},
-    {NULL, NULL, NULL, 0, 0, 0, NULL, "Scene:"},
-    {"--scene", "S", opt_scene, 0, 0, 0, "room", "room, stress:N (N triangles), or a model file (glTF, OBJ, ...)"},
-    {"--seed", "N", opt_u32, O(seed), 0, UINT32_MAX, "1", "seed of procedural scenes"},
-    {NULL, NULL, NULL, 0, 0, 0, NULL,
-     "Render settings of the first frame (the page changes them; --frames: a still view accumulates\n"
-     "  this many frames, then rests until the view changes; default 256):"},
-    {NULL, NULL, NULL, 0, 0, 0, NULL, NULL},
-    {NULL, NULL, NULL, 0, 0, 0, NULL, "Devices:"},
-    {"--gpus", "N", NULL, 0, 0, 0, "2", "total local devices (virtual GPUs are added to reach N)"},
-    {"--virtual-gpus", "N", NULL, 0, 0, 0, NULL, "device instances per adapter (or CORVID_VIRTUAL_GPUS=N)"},
-    {"--adapters", "LIST", NULL, 0, 0, 0, NULL, "comma-separated adapter names or indices (e.g. llvmpipe, 0)"},
-    {"--nodes", "LIST", opt_nodes, 0, 0, 0, NULL,
-     "render on the devices of remote corvid-nodes instead, HOST:PORT,... (or CORVID_NODES=LIST); frames are "
-     "encoded on the first node's first device, the primary"},
-    {"--validation", NULL, opt_flag, O(validation), 0, 0, NULL, "enable VK_LAYER_KHRONOS_validation"},
-    {NULL, NULL, NULL, 0, 0, 0, NULL, "Other:"},
-    {"--quiet", NULL, opt_flag, O(quiet), 0, 0, NULL, "print only the URL and errors"},
-    {"--help", NULL, opt_flag, O(help), 0, 0, NULL, "this text (also -h)"},
-    {"-h", NULL, opt_flag, O(help), 0, 0, NULL, NULL},
+    { NULL, NULL, NULL, 0, 0, 0, NULL, "Server:" },
+    { "--port", "N", opt_u32, O(port), 0, 65535, "8080", "TCP port of the page (0: any free port, printed)" },
+    { "--host", "ADDR", opt_text, O(host), 0, 0, "127.0.0.1",
+      "address to listen on; other than loopback needs --token-file" },
+    { "--token-file", "FILE", opt_text, O(token_file), 0, 0, NULL,
+      "a file whose first line is the token the page and the API must present (the printed URL carries it)" },
+    { "--tls-cert", "FILE", opt_text, O(tls_cert), 0, 0, NULL,
+      "serve HTTPS with this PEM certificate (and --tls-key)" },
+    { "--tls-key", "FILE", opt_text, O(tls_key), 0, 0, NULL, "the certificate's PEM private key" },
+    { NULL, NULL, NULL, 0, 0, 0, NULL, "Stream:" },
+    { "--codec", "jpeg|h264", opt_codec, 0, 0, 0, "jpeg",
+      "frames to the page as JPEG images or an H.264 stream (WebCodecs in the browser)" },
+    { "--quality", "N", opt_u32, O(quality), 1, 100, "85", "starting JPEG quality (then adapted to the link)" },
+    { "--bitrate", "KBPS", opt_u32, O(bitrate_kbps), 1, 1000000, NULL,
+      "starting H.264 bitrate (then adapted to the link; default about 0.12 bit per pixel)" },
+    { "--width", "N", opt_side, offsetof(cv_render_settings, width), 0, 0, "640", "image width in pixels" },
+    { "--height", "N", opt_side, offsetof(cv_render_settings, height), 0, 0, "360", "image height in pixels" },
+    { NULL, NULL, NULL, 0, 0, 0, NULL, "Scene:" },
+    { "--scene", "S", opt_scene, 0, 0, 0, "room", "room, stress:N (N triangles), or a model file (glTF, OBJ, ...)" },
+    { "--seed", "N", opt_u32, O(seed), 0, UINT32_MAX, "1", "seed of procedural scenes" },
+    { NULL, NULL, NULL, 0, 0, 0, NULL,
+      "Render settings of the first frame (the page changes them; --frames: a still view accumulates\n"
+      "  this many frames, then rests until the view changes; default 256):" },
+    { NULL, NULL, NULL, 0, 0, 0, NULL, NULL },
+    { NULL, NULL, NULL, 0, 0, 0, NULL, "Devices:" },
+    { "--gpus", "N", NULL, 0, 0, 0, "2", "total local devices (virtual GPUs are added to reach N)" },
+    { "--virtual-gpus", "N", NULL, 0, 0, 0, NULL, "device instances per adapter (or CORVID_VIRTUAL_GPUS=N)" },
+    { "--adapters", "LIST", NULL, 0, 0, 0, NULL, "comma-separated adapter names or indices (e.g. llvmpipe, 0)" },
+    { "--nodes", "LIST", opt_nodes, 0, 0, 0, NULL,
+      "render on the devices of remote corvid-nodes instead, HOST:PORT,... (or CORVID_NODES=LIST); frames are "
+      "encoded on the first node's first device, the primary" },
+    { "--validation", NULL, opt_flag, O(validation), 0, 0, NULL, "enable VK_LAYER_KHRONOS_validation" },
+    { NULL, NULL, NULL, 0, 0, 0, NULL, "Other:" },
+    { "--quiet", NULL, opt_flag, O(quiet), 0, 0, NULL, "print only the URL and errors" },
+    { "--help", NULL, opt_flag, O(help), 0, 0, NULL, "this text (also -h)" },
+    { "-h", NULL, opt_flag, O(help), 0, 0, NULL, NULL },
 };
 #undef O
 #define VIEW_OPTION_COUNT (sizeof view_option_rows / sizeof view_option_rows[0])
@@ -148,10 +149,11 @@ static const view_option *view_option_find(const char *name, size_t len) {
 }
 
 void view_args_usage(FILE *f) {
-    fprintf(f, "usage: corvid-view [options]   (--option VALUE or --option=VALUE)\n"
-               "Renders a scene live and serves it to a browser: open the printed URL, then orbit (drag),\n"
-               "pan (shift-drag or right-drag), zoom (wheel), move (WASD, arrows), change the sun and the\n"
-               "settings, and save the frame as PNG or EXR. The protocol is in docs/live-view.md.\n");
+    fprintf(f,
+            "usage: corvid-view [options]   (--option VALUE or --option=VALUE)\n"
+            "Renders a scene live and serves it to a browser: open the printed URL, then orbit (drag),\n"
+            "pan (shift-drag or right-drag), zoom (wheel), move (WASD, arrows), change the sun and the\n"
+            "settings, and save the frame as PNG or EXR. The protocol is in docs/live-view.md.\n");
     for (size_t k = 0; k < VIEW_OPTION_COUNT; k++) {
         const view_option *def = &view_option_rows[k];
         char name[64], text[1024];
@@ -186,7 +188,7 @@ static int apply(view_options *o, const view_option *def, const cv_render_settin
 }
 
 int view_args_parse(int argc, char **argv, view_options *o) {
-    *o = (view_options){.scene = "room", .seed = 1, .port = 8080, .codec = CV_CODEC_JPEG};
+    *o = (view_options){ .scene = "room", .seed = 1, .port = 8080, .codec = CV_CODEC_JPEG };
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i], *eq = strchr(arg, '=');
         size_t len = eq ? (size_t)(eq - arg) : strlen(arg);
@@ -218,8 +220,8 @@ int view_args_parse(int argc, char **argv, view_options *o) {
     if (!o->settings.height)
         o->settings.height = 360;
     if (o->codec == CV_CODEC_H264 && (o->settings.width % 2 || o->settings.height % 2)) {
-        fprintf(stderr, "corvid-view: --codec h264 needs an even width and height (%ux%u given)\n",
-                o->settings.width, o->settings.height);
+        fprintf(stderr, "corvid-view: --codec h264 needs an even width and height (%ux%u given)\n", o->settings.width,
+                o->settings.height);
         return 2;
     }
     if (!o->tls_cert != !o->tls_key) {

@@ -17,9 +17,9 @@ typedef struct view_options {
     const char *scene;
     uint64_t stress_triangles; /* > 0 for --scene stress:N */
     uint32_t seed;
-    const char *host;            /* NULL = 127.0.0.1 */
-    uint32_t port;               /* 0 = any free port */
-    const char *token_file;      /* its first line is the token */
+    const char *host;       /* NULL = 127.0.0.1 */
+    uint32_t port;          /* 0 = any free port */
+    const char *token_file; /* its first line is the token */
     const char *tls_cert, *tls_key;
     const char *nodes;           /* --nodes, or CORVID_NODES; NULL = local devices */
     cv_codec codec;              /* JPEG (default) or H264 */

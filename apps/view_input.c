@@ -170,7 +170,7 @@ static cv_result read_field(const cJSON *v, view_input *in) {
 }
 
 cv_result view_input_parse(const char *text, const cv_render_settings *current, view_input *out) {
-    *out = (view_input){.settings = *current};
+    *out = (view_input){ .settings = *current };
     cJSON *root = cJSON_Parse(text);
     if (!root)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "input: not JSON (near '%.20s')",

@@ -13,18 +13,18 @@
 
 typedef struct view_input {
     bool has_seq;
-    uint64_t seq;             /* the page's input event number */
-    bool changed;             /* camera, sun or settings given: `settings` is the result */
+    uint64_t seq; /* the page's input event number */
+    bool changed; /* camera, sun or settings given: `settings` is the result */
     cv_render_settings settings;
     bool has_ack;
-    uint64_t ack;             /* frames up to this index were displayed (or dropped) */
-    double bytes_per_s;       /* with ack: the page's measured receive rate; 0 = not given */
+    uint64_t ack;       /* frames up to this index were displayed (or dropped) */
+    double bytes_per_s; /* with ack: the page's receive rate (shown; 0 = not given) */
     bool has_shown;
-    uint64_t shown;           /* input seq of the frame displayed */
-    double m2p_ms;            /* its motion-to-photon */
+    uint64_t shown; /* input seq of the frame displayed */
+    double m2p_ms;  /* its motion-to-photon */
     bool has_codec;
-    cv_codec codec;           /* "codec": "jpeg" | "h264" */
-    bool keyframe;            /* "keyframe": true (an H.264 decoder starts over) */
+    cv_codec codec; /* "codec": "jpeg" | "h264" */
+    bool keyframe;  /* "keyframe": true (an H.264 decoder starts over) */
 } view_input;
 
 /* The settings the page may change by name in {"settings": {...}}. */

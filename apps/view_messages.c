@@ -8,7 +8,7 @@
 #include "view_input.h"
 
 static cJSON *vec3(const float v[3]) {
-    const double d[3] = {v[0], v[1], v[2]};
+    const double d[3] = { v[0], v[1], v[2] };
     return cJSON_CreateDoubleArray(d, 3);
 }
 
@@ -19,7 +19,7 @@ static void sun_toward(const cv_render_settings *s, const cv_scene *scene, float
         memcpy(out, s->sun_toward, sizeof(float) * 3);
         return;
     }
-    float dir[3] = {-0.3f, -1.0f, -0.2f};
+    float dir[3] = { -0.3f, -1.0f, -0.2f };
     for (uint32_t l = 0; l < cv_scene_light_count(scene); l++) {
         const cv_light *light = cv_scene_light(scene, l);
         if (light->type == CV_LIGHT_DIRECTIONAL) {
@@ -44,7 +44,9 @@ static cJSON *setting_json(const cv_render_settings *resolved, const cv_render_s
     else
         cJSON_AddNumberToObject(o, "value", value < 0 ? 0 : value); /* none: the option's 0 */
     cJSON_AddStringToObject(o, "kind",
-                            row->kind == CV_SETTING_ON_OFF ? "on_off" : row->kind == CV_SETTING_F32 ? "number" : "whole");
+                            row->kind == CV_SETTING_ON_OFF ? "on_off"
+                            : row->kind == CV_SETTING_F32  ? "number"
+                                                           : "whole");
     cJSON_AddNumberToObject(o, "min", row->min);
     /* An open-ended range (the AO radius, in scene units): a slider up to ten times the start. */
     cJSON_AddNumberToObject(o, "max", isfinite(row->max) ? row->max : fmax(1.0, 10.0 * value));
@@ -97,7 +99,8 @@ static cJSON *passes_json(const char *text) {
     return a;
 }
 
-char *view_stats_json(const cv_live_stats *ls, const cv_web_stats *ws, double sent_bytes_per_s) {
+char *view_stats_json(const cv_live_stats *ls, const cv_web_stats *ws, double sent_bytes_per_s,
+                      double received_bytes_per_s) {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "type", "stats");
     cJSON_AddNumberToObject(o, "fps", ls->fps);
@@ -111,6 +114,7 @@ char *view_stats_json(const cv_live_stats *ls, const cv_web_stats *ws, double se
     cJSON_AddItemToObject(o, "passes", passes_json(ls->passes));
     cJSON_AddNumberToObject(o, "link_bytes_per_s", ls->link_bytes_per_s);
     cJSON_AddNumberToObject(o, "sent_bytes_per_s", sent_bytes_per_s);
+    cJSON_AddNumberToObject(o, "received_bytes_per_s", received_bytes_per_s);
     cJSON_AddNumberToObject(o, "m2p_ms", ls->motion_to_photon_ms);
     cJSON_AddNumberToObject(o, "m2p_max_ms", ls->motion_to_photon_max_ms);
     cJSON_AddNumberToObject(o, "input_age_ms", ls->input_age_ms);

@@ -9,7 +9,10 @@
 #include "corvid/web_server.h"
 
 char *view_hello_json(const cv_render_settings *s, const cv_scene *scene, cv_codec codec);
-char *view_stats_json(const cv_live_stats *ls, const cv_web_stats *ws, double sent_bytes_per_s);
+/* sent: bytes/s the server wrote to the viewers' sockets; received: what the driving page
+ * says it received (0: not said). */
+char *view_stats_json(const cv_live_stats *ls, const cv_web_stats *ws, double sent_bytes_per_s,
+                      double received_bytes_per_s);
 char *view_error_json(const char *message);
 
 #endif

@@ -78,6 +78,10 @@ void view_session_frame(const cv_live_frame *f, void *user) {
     memcpy(buf + VIEW_FRAME_HEADER_BYTES, f->data, f->size);
     pthread_mutex_lock(&s->lock);
     s->last_frame = f->index;
+    uint32_t k = (uint32_t)(f->index % VIEW_SENT_MAP);
+    s->sent_index[k] = f->index;
+    s->sent_ms[k] = cv_now_ms();
+    s->sent_bytes[k] = n;
     for (view_peer *p = s->peers; p; p = p->next) {
         view_frame_header(buf, f, page_seq_of(p, f->input_seq));
         cv_web_send_binary(p->conn, buf, n); /* fails only while the connection closes */
@@ -112,12 +116,14 @@ void view_session_open(void *user, cv_web_conn *c) {
     s->peers = p; /* the newest page drives: earlier frames' acknowledgements are its no more */
     s->acked = s->last_frame;
     s->last_ack_ms = cv_now_ms();
+    s->rtt_count = s->rtt_head = 0; /* another page, another link */
+    s->link_bytes_per_s = s->page_bytes_per_s = 0;
     send_json(c, view_hello_json(&s->settings, s->scene, s->codec));
     if (s->live) {
         /* A new decoder starts at a keyframe; the same settings again make one more frame of a
          * still view (its history goes on), so the page has a picture at once. */
         if (s->codec == CV_CODEC_H264)
-            cv_live_set_codec(s->live, s->codec, &(cv_encode_params){.keyframe = true});
+            cv_live_set_codec(s->live, s->codec, &(cv_encode_params){ .keyframe = true });
         if (cv_live_update(s->live, &s->settings, s->seq + 1) == CV_OK)
             s->seq++;
         cv_live_credit(s->live, VIEW_START_CREDITS);
@@ -139,8 +145,30 @@ void view_session_close(void *user, cv_web_conn *c) {
     pthread_mutex_unlock(&s->lock);
 }
 
+/* The link's bandwidth from frame `index` acknowledged now: its bytes over its round trip less
+ * the shortest of the recent ones (what a frame of no size would take: latency, decode), at
+ * least 2 ms; smoothed. A fast link gives a high figure, a slow one its rate. */
+static void estimate_link(view_session *s, uint64_t index) {
+    uint32_t k = (uint32_t)(index % VIEW_SENT_MAP);
+    if (s->sent_index[k] != index)
+        return;
+    double rtt = cv_now_ms() - s->sent_ms[k], min = rtt;
+    s->rtt_ms[s->rtt_head] = rtt;
+    s->rtt_head = (s->rtt_head + 1) % VIEW_SENT_MAP;
+    if (s->rtt_count < VIEW_SENT_MAP)
+        s->rtt_count++;
+    for (uint32_t i = 0; i < s->rtt_count; i++)
+        if (s->rtt_ms[i] < min)
+            min = s->rtt_ms[i];
+    double transfer_ms = rtt - min > 2.0 ? rtt - min : 2.0;
+    double rate = (double)s->sent_bytes[k] * 1000.0 / transfer_ms;
+    s->link_bytes_per_s = s->link_bytes_per_s > 0 ? 0.75 * s->link_bytes_per_s + 0.25 * rate : rate;
+    cv_live_report_link(s->live, s->link_bytes_per_s);
+}
+
 /* Frames up to `ack` displayed: their credits back to the live (only the driving page's). */
 static void take_ack(view_session *s, uint64_t ack) {
+    estimate_link(s, ack);
     uint64_t upto = ack < s->last_frame ? ack : s->last_frame;
     if (upto > s->acked) {
         cv_live_credit(s->live, (uint32_t)(upto - s->acked));
@@ -153,7 +181,7 @@ static void take_ack(view_session *s, uint64_t ack) {
 static cv_result apply_input(view_session *s, view_peer *p, const view_input *in) {
     cv_result r = CV_OK;
     if (in->has_codec || in->keyframe)
-        r = cv_live_set_codec(s->live, in->has_codec ? in->codec : s->codec, &(cv_encode_params){.keyframe = true});
+        r = cv_live_set_codec(s->live, in->has_codec ? in->codec : s->codec, &(cv_encode_params){ .keyframe = true });
     if (r == CV_OK && in->has_codec)
         s->codec = in->codec;
     if (r == CV_OK && in->changed) {
@@ -168,7 +196,7 @@ static cv_result apply_input(view_session *s, view_peer *p, const view_input *in
     if (in->has_ack && drives)
         take_ack(s, in->ack);
     if (in->has_ack && drives && in->bytes_per_s > 0)
-        cv_live_report_link(s->live, in->bytes_per_s);
+        s->page_bytes_per_s = in->bytes_per_s;
     if (in->has_shown && drives)
         cv_live_report_display(s->live, live_seq_of(p, in->shown), in->m2p_ms);
     return r;
@@ -189,7 +217,7 @@ void view_session_text(void *user, cv_web_conn *c, const char *text, size_t size
 }
 
 void view_session_tick(view_session *s, cv_web_server *server) {
-    cv_live_stats ls = {0};
+    cv_live_stats ls = { 0 };
     cv_web_stats ws;
     cv_web_server_get_stats(server, &ws);
     pthread_mutex_lock(&s->lock);
@@ -198,11 +226,14 @@ void view_session_tick(view_session *s, cv_web_server *server) {
         s->sent_bytes_per_s = (double)(ws.bytes_sent - s->last_bytes) * 1000.0 / (now - s->last_tick_ms);
     s->last_bytes = ws.bytes_sent;
     s->last_tick_ms = now;
-    if (s->live && s->peers && s->last_frame > s->acked && now - s->last_ack_ms > VIEW_ACK_GIVE_UP_MS)
-        take_ack(s, s->last_frame);
+    if (s->live && s->peers && s->last_frame > s->acked && now - s->last_ack_ms > VIEW_ACK_GIVE_UP_MS) {
+        cv_live_credit(s->live, (uint32_t)(s->last_frame - s->acked));
+        s->acked = s->last_frame;
+        s->last_ack_ms = now;
+    }
     if (s->live)
         cv_live_get_stats(s->live, &ls);
-    char *json = s->peers ? view_stats_json(&ls, &ws, s->sent_bytes_per_s) : NULL;
+    char *json = s->peers ? view_stats_json(&ls, &ws, s->sent_bytes_per_s, s->page_bytes_per_s) : NULL;
     for (view_peer *p = s->peers; json && p; p = p->next)
         cv_web_send_text(p->conn, json);
     pthread_mutex_unlock(&s->lock);

@@ -27,6 +27,8 @@
 
 /* The page's seq of inputs, mapped to the live's (seqs of several pages never mix). */
 #define VIEW_SEQ_MAP 64u
+/* Frames sent, remembered for the link estimate from their acknowledgements. */
+#define VIEW_SENT_MAP 64u
 
 typedef struct view_peer {
     cv_web_conn *conn;
@@ -41,12 +43,21 @@ typedef struct view_session {
     const cv_scene *scene;
     cv_render_settings settings; /* as the live has them now */
     cv_codec codec;
-    uint64_t seq;           /* the live's input seq, one per accepted input */
-    view_peer *peers;       /* newest first: it drives the credits */
-    uint64_t last_frame;    /* index of the newest frame sent */
-    uint64_t acked;         /* frames up to here acknowledged (or given up) */
+    uint64_t seq;        /* the live's input seq, one per accepted input */
+    view_peer *peers;    /* newest first: it drives the credits */
+    uint64_t last_frame; /* index of the newest frame sent */
+    uint64_t acked;      /* frames up to here acknowledged (or given up) */
     double last_ack_ms;
-    uint64_t last_bytes;    /* cv_web_stats.bytes_sent at the last tick */
+    /* The link: each frame's send time and size; the round trip of its acknowledgement less
+     * the shortest recent one is its transfer time (docs/live-view.md). */
+    uint64_t sent_index[VIEW_SENT_MAP];
+    double sent_ms[VIEW_SENT_MAP];
+    size_t sent_bytes[VIEW_SENT_MAP];
+    double rtt_ms[VIEW_SENT_MAP]; /* recent round trips, for their minimum */
+    uint32_t rtt_count, rtt_head;
+    double link_bytes_per_s; /* the estimate reported to the live; 0 = none yet */
+    double page_bytes_per_s; /* what the driving page says it received (shown in the stats) */
+    uint64_t last_bytes;     /* cv_web_stats.bytes_sent at the last tick */
     double last_tick_ms;
     double sent_bytes_per_s;
 } view_session;

@@ -20,6 +20,8 @@
     seq: 0, m2p: 0, m2pMax: 0, errors: [], stats: null, hello: null, decoder: "none",
   };
   window.corvidView = view;
+  // A message as it is (the tests send a malformed one to see it refused).
+  view.sendRaw = (text) => ws && ws.readyState === WebSocket.OPEN && ws.send(text);
 
   let ws = null;
   let camera = null; // {eye, target, fov}
@@ -334,7 +336,8 @@
       `render ${s.render_ms.toFixed(1)} ms  read ${s.read_ms.toFixed(1)} ms  encode ${s.encode_ms.toFixed(1)} ms`,
     ];
     for (const p of s.passes) lines.push(`  ${p.pass.padEnd(12)} ${p.device.padEnd(10)} ${p.ms.toFixed(2)} ms`);
-    lines.push(`link ${kb(s.sent_bytes_per_s)} KiB/s sent, ${kb(s.link_bytes_per_s)} KiB/s measured`);
+    lines.push(`link ${kb(s.sent_bytes_per_s)} KiB/s sent, ${kb(s.received_bytes_per_s)} received, ` +
+      `${kb(s.link_bytes_per_s)} estimated`);
     lines.push(`motion-to-photon ${view.m2p.toFixed(1)} ms (max ${view.m2pMax.toFixed(1)}; server ${s.input_age_ms.toFixed(1)} ms)`);
     lines.push(`spoiled ${s.spoiled}  replaced ${s.replaced}  ` +
       (s.codec === "h264" ? `bitrate ${s.bitrate_kbps} kbit/s` : `quality ${s.quality}`));
