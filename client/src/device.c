@@ -161,6 +161,7 @@ void cv_device_destroy(cv_device *dev) {
                 dev->backend->resource_destroy(dev->bd, (cv_handle_type)t, tab->slots[i].obj);
         free(tab->slots);
     }
+    cv_device_close_encoders(dev);
     dev->backend->device_destroy(dev->bd);
     free(dev->compiled);
     free(dev->deferred);
@@ -314,9 +315,8 @@ uint32_t cv_device_loaded_count(cv_device *dev) {
 
 /* ---- host data ------------------------------------------------------------ */
 
-/* Waits until no submitted work uses the resource (lock held), in slices so
- * that cv_device_abandon can end it. */
-static cv_result wait_for_resource(cv_device *dev, cv_device_resource *s) {
+/* In slices, so that cv_device_abandon can end it. */
+cv_result cv_device_wait_for_resource(cv_device *dev, cv_device_resource *s) {
     if (dev->backend->orders_host_access || s->last_use <= dev->backend->completed(dev->bd))
         return CV_OK;
     for (;;) {
@@ -352,7 +352,7 @@ static cv_result buffer_access(cv_device *dev, cv_buffer b, uint64_t offset, uin
                      s->desc.buffer.label, (unsigned long long)s->desc.buffer.size, write ? "write" : "read",
                      (unsigned long long)size, (unsigned long long)offset);
     if (r == CV_OK)
-        r = wait_for_resource(dev, s);
+        r = cv_device_wait_for_resource(dev, s);
     if (r == CV_OK)
         r = write ? dev->backend->buffer_write(dev->bd, s->obj, offset, size, src)
                   : dev->backend->buffer_read(dev->bd, s->obj, offset, size, dst);
@@ -386,7 +386,7 @@ static cv_result texture_access(cv_device *dev, cv_texture t, cv_rect rect, bool
                          rect.y);
     }
     if (r == CV_OK)
-        r = wait_for_resource(dev, s);
+        r = cv_device_wait_for_resource(dev, s);
     if (r == CV_OK)
         r = write ? dev->backend->texture_write(dev->bd, s->obj, &s->desc.texture, rect, src)
                   : dev->backend->texture_read(dev->bd, s->obj, &s->desc.texture, rect, dst);
@@ -432,7 +432,7 @@ cv_result cv_device_link_copy(cv_device *dev, void *staging, uint64_t staging_of
                       : cv_error(CV_ERROR_WRONG_HANDLE_TYPE, "%s on device '%s': a %s handle", what, dev->label,
                                  cv_handle_type_name(type));
     if (r == CV_OK)
-        r = wait_for_resource(dev, s);
+        r = cv_device_wait_for_resource(dev, s);
     if (r == CV_OK)
         r = dev->backend->link_copy(dev->bd, staging, staging_offset, type, s->obj, offset, size, rect, to_staging);
     pthread_mutex_unlock(&dev->lock);
@@ -653,7 +653,7 @@ cv_result cv_device_write_accel(cv_device *dev, cv_accel accel, const void *node
         r = cv_error(CV_ERROR_UNSUPPORTED, "device '%s' (%s backend) cannot trace rays", dev->label,
                      dev->backend->name);
     if (r == CV_OK)
-        r = wait_for_resource(dev, s);
+        r = cv_device_wait_for_resource(dev, s);
     if (r == CV_OK) {
         s->ready = false; /* a failed rebuild leaves no half-built structure in use */
         r = dev->backend->accel_write(dev->bd, s->obj, &s->desc.accel, nodes, triangles);
@@ -770,7 +770,7 @@ cv_result cv_device_wait(cv_device *dev, uint64_t ticket, uint64_t timeout_ns) {
     if (r == CV_OK && dev->backend->refused)
         r = dev->backend->refused(dev->bd, ticket);
     /* Releasing what finished is opportunistic here: a thread may hold the lock
-     * in a host wait for work that never ends (wait_for_resource), and this
+     * in a host wait for work that never ends (cv_device_wait_for_resource), and this
      * wait must still return (a watchdog calls it). Submits collect too. */
     if (pthread_mutex_trylock(&dev->lock) == 0) {
         collect_finished(dev);

@@ -33,6 +33,13 @@ typedef struct deferred_release {
     uint64_t after;
 } deferred_release;
 
+/* An encoder stream open on the device's machine (device_encode.c). */
+typedef struct encoder_stream {
+    uint32_t id;
+    cv_codec codec;
+    uint32_t width, height;
+} encoder_stream;
+
 struct cv_device {
     pthread_mutex_t lock;
     cv_context *ctx;
@@ -57,7 +64,17 @@ struct cv_device {
     pthread_mutex_t slots_lock;
     void *slots[CV_DEVICE_CACHED_SLOTS];
     uint32_t slot_count;
+    /* Encoder streams open on the device's machine (under lock). */
+    encoder_stream *streams;
+    uint32_t stream_count, stream_capacity, last_stream;
 };
+
+/* Waits until no submitted work uses the resource (lock held), as host reads and
+ * writes do (backend.h: orders_host_access); CV_ERROR_DEVICE_LOST once abandoned. */
+cv_result cv_device_wait_for_resource(cv_device *dev, cv_device_resource *s);
+/* Closes the encoder streams still open (lock held; device_encode.c), before the
+ * backend's device goes. */
+void cv_device_close_encoders(cv_device *dev);
 
 /* Validates a list against this device's resources (lock held). validate.c */
 cv_result cv_validate_list(cv_device *dev, const cv_command_list *list);

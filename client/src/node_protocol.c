@@ -178,6 +178,28 @@ void cv_node_info_from_msg(const Corvid__DeviceInfo *msg, cv_device_info *out) {
     out->separate_copy_queue = msg->separate_copy_queue;
 }
 
+void cv_node_encode_params_to_msg(const cv_encode_params *params, Corvid__EncodeParams *msg) {
+    corvid__encode_params__init(msg);
+    if (!params)
+        return;
+    msg->quality = params->quality;
+    msg->bitrate_kbps = params->bitrate_kbps;
+    msg->fps = params->fps;
+    msg->keyframe = params->keyframe;
+    msg->zstd_level = params->zstd_level;
+}
+
+void cv_node_encode_params_from_msg(const Corvid__EncodeParams *msg, cv_encode_params *out) {
+    memset(out, 0, sizeof(*out));
+    if (!msg)
+        return;
+    out->quality = msg->quality;
+    out->bitrate_kbps = msg->bitrate_kbps;
+    out->fps = msg->fps;
+    out->keyframe = msg->keyframe;
+    out->zstd_level = msg->zstd_level;
+}
+
 cv_result cv_node_check_sha(ProtobufCBinaryData b, const char *field) {
     if (b.len != CV_SHA256_BYTES)
         return cv_error(CV_ERROR_MALFORMED, "%s: %zu bytes, a SHA-256 has %u", field, b.len, CV_SHA256_BYTES);

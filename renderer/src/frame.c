@@ -11,7 +11,7 @@ static const char *const pipeline_names[PIPE_COUNT] = {
     "render.gbuffer",         "render.raygen",         "render.resolve",        "render.accumulate",
     "render.filter",          "render.composite",      "render.reproject",      "render.reflect_raygen",
     "render.reflect_shadow",  "render.reflect_shade",  "render.reflect_filter", "render.reflect_reproject",
-    "render.reflect_denoise", "render.alpha_continue",
+    "render.reflect_denoise", "render.alpha_continue", "render.present",
 };
 
 const render_texture_info render_textures[TEX_COUNT] = {
@@ -54,7 +54,11 @@ const render_texture_info render_textures[TEX_COUNT] = {
                                         "reflection state reprojected" },
     [TEX_REFLECT_DENOISE_PING] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection denoise ping" },
     [TEX_REFLECT_DENOISE_PONG] = { CV_FORMAT_RGBA32F, CV_TEXTURE_USAGE_STORAGE, false, "reflection denoise pong" },
+    [TEX_DISPLAY] = { CV_FORMAT_RGBA8_UNORM, CV_TEXTURE_USAGE_STORAGE, false, "display 0" },
+    [TEX_DISPLAY + 1] = { CV_FORMAT_RGBA8_UNORM, CV_TEXTURE_USAGE_STORAGE, false, "display 1" },
+    [TEX_DISPLAY + 2] = { CV_FORMAT_RGBA8_UNORM, CV_TEXTURE_USAGE_STORAGE, false, "display 2" },
 };
+_Static_assert(RENDER_DISPLAY_SLOTS == 3, "render_textures names one display image per slot");
 
 static cv_result load_everywhere(cv_render_frame *f, cv_handle h) {
     for (uint32_t d = 0; d < f->count; d++) {

@@ -30,8 +30,14 @@ enum {
     PIPE_REFLECT_REPROJECT,
     PIPE_REFLECT_DENOISE,
     PIPE_ALPHA_CONTINUE, /* scenes with alpha-masked materials only */
+    PIPE_PRESENT,
     PIPE_COUNT
 };
+
+/* Images in the display ring of pass 'present': renderer.h's
+ * CV_RENDER_DISPLAY_SLOTS (renderer.c checks they agree; this header stays
+ * below renderer.h). */
+#define RENDER_DISPLAY_SLOTS 3u
 
 /* Size-dependent textures (render_texture_info: formats, labels, which are
  * loaded on every device). */
@@ -61,6 +67,8 @@ enum {
     TEX_REFLECT_STATE_REPROJECTED,
     TEX_REFLECT_DENOISE_PING, /* render.reflect_denoise's iterations (the last one is the reflection shown) */
     TEX_REFLECT_DENOISE_PONG,
+    TEX_DISPLAY, /* pass 'present': the ring of RENDER_DISPLAY_SLOTS RGBA8 images, TEX_DISPLAY + slot */
+    TEX_DISPLAY_LAST = TEX_DISPLAY + RENDER_DISPLAY_SLOTS - 1,
     TEX_COUNT
 };
 
@@ -148,6 +156,8 @@ struct cv_render_frame {
     cv_render_settings settings;
     cv_camera camera, previous_camera; /* this frame's and the previous frame's */
     float sun_direction[3];            /* unit, the way the light travels: the scene's or settings.sun_toward */
+    uint32_t display_slot;             /* the TEX_DISPLAY image pass 'present' writes this frame */
+    uint64_t presented;                /* frames presented so far (the display ring's position) */
 };
 
 /* Uploads the scene to every device of f (devices, count, ctx, scene and bvh

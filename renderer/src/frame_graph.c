@@ -57,26 +57,29 @@ static cv_result declare_pass(cv_render_frame *f, const cv_render_pass_module *m
 }
 
 /* What every frame carries to the next (the accumulations), and what the
- * last frame leaves for readback: outputs, so the passes writing them are
- * kept on frames without the composite. */
+ * last frame leaves for readback (the planes, the display images): outputs,
+ * so the passes writing them are kept on frames without the composite. */
 static cv_result add_outputs(cv_render_frame *f) {
     bool moving = f->info.moving, reflect = f->info.reflections;
     const struct {
         int texture;
         bool wanted;
-    } outputs[11] = { { TEX_HISTORY, true },
-                      { TEX_HISTORY_POSITION, moving },
-                      { TEX_HISTORY_NORMAL, moving },
-                      { TEX_MOTION, moving },
-                      { TEX_REFLECT_HISTORY, reflect },
-                      { TEX_REFLECT_OWN, reflect },
-                      { TEX_REFLECT_OUT, reflect },
-                      { render_reflect_shown_texture(), reflect },
-                      { TEX_REFLECT_STATE, reflect && moving },
-                      { TEX_RADIANCE, true },
-                      { TEX_ALBEDO, true } };
+    } outputs[11 + RENDER_DISPLAY_SLOTS] = { { TEX_HISTORY, true },
+                                             { TEX_HISTORY_POSITION, moving },
+                                             { TEX_HISTORY_NORMAL, moving },
+                                             { TEX_MOTION, moving },
+                                             { TEX_REFLECT_HISTORY, reflect },
+                                             { TEX_REFLECT_OWN, reflect },
+                                             { TEX_REFLECT_OUT, reflect },
+                                             { render_reflect_shown_texture(), reflect },
+                                             { TEX_REFLECT_STATE, reflect && moving },
+                                             { TEX_RADIANCE, true },
+                                             { TEX_ALBEDO, true },
+                                             { TEX_DISPLAY, true },
+                                             { TEX_DISPLAY + 1, true },
+                                             { TEX_DISPLAY + 2, true } };
     cv_result res = CV_OK;
-    for (int i = 0; i < 11 && res == CV_OK; i++)
+    for (size_t i = 0; i < sizeof(outputs) / sizeof(outputs[0]) && res == CV_OK; i++)
         if (outputs[i].wanted)
             res = cv_graph_output(f->graph, f->tex[outputs[i].texture]);
     return res;

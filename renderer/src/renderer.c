@@ -13,10 +13,14 @@
  * places barriers and balances the columns from the trace times; no pass sees
  * the device count.
  *
- * This file creates and destroys a renderer and runs a render's frame loop;
- * the shared frame state is frame.h's, the graph frame_graph.h's, readback
- * readback.h's, devices joining and leaving device_join.h's, the stats
- * frame_stats.h's. */
+ * The pass 'present' follows the composite: the radiance tone-mapped into a
+ * ring of display images (passes/present.c).
+ *
+ * This file creates and destroys a renderer and runs its renders and steps;
+ * the frame loop both share is frame_loop.h's, the shared frame state
+ * frame.h's, the graph frame_graph.h's, readback readback.h's, devices joining
+ * and leaving device_join.h's, the stats frame_stats.h's, which step goes on
+ * from which step_history.h's. */
 #include "corvid/renderer.h"
 
 #include <stdlib.h>
@@ -28,21 +32,25 @@
 #include "device_join.h"
 #include "frame.h"
 #include "frame_graph.h"
-#include "frame_observer.h"
-#include "frame_stats.h"
+#include "frame_loop.h"
 #include "readback.h"
+#include "step_history.h"
+
+_Static_assert(RENDER_DISPLAY_SLOTS == CV_RENDER_DISPLAY_SLOTS, "frame.h's display ring is renderer.h's");
 
 struct cv_renderer {
     cv_render_frame frame;
     double upload_ms;
     bool rendering; /* inside cv_renderer_render (a progress callback may add devices, not passes) */
+    bool has_frame; /* the textures hold a finished render's or step's frame (cv_renderer_read_output) */
+    /* The progressive image of cv_renderer_step: its frame loop (kept from
+     * step to step, made by the first), its settings (first_frame: its first
+     * step's) and the frames in it; 0 = none (none yet, or a render or a
+     * failed step since). */
+    render_loop *steps;
+    cv_render_settings history;
+    uint32_t accumulated;
 };
-
-/* Frames a single-device render keeps submitted ahead of the one it waits for:
- * enough to cover a round trip of tens of milliseconds to a remote device at
- * GPU frame times of a few milliseconds (an H200 renders 1280x720 in 2.9 ms;
- * 20 ms of latency needs 7 frames in flight). */
-#define IN_FLIGHT_FRAMES 16u
 
 cv_result cv_renderer_create(cv_device *const *devices, uint32_t device_count, const cv_scene *scene,
                              const cv_bvh *bvh, cv_renderer **out) {
@@ -78,6 +86,7 @@ void cv_renderer_destroy(cv_renderer *r) {
     for (uint32_t d = 0; d < r->frame.count; d++)
         cv_device_wait_idle(r->frame.devices[d]);
     render_frame_release(&r->frame);
+    free(r->steps);
     free(r);
 }
 
@@ -103,126 +112,27 @@ cv_result cv_renderer_dump_graph(cv_renderer *r, FILE *text, FILE *dot) {
     return render_graph_dump(&r->frame, text, dot);
 }
 
-/* Checks and resolves the settings, then readies the targets and the graph
- * for them. */
-static cv_result prepare(cv_renderer *r, const cv_render_settings *settings) {
+/* Resolves and checks the settings (nothing changes on a refusal). */
+static cv_result check_settings(const cv_render_frame *f, const cv_render_settings *in, cv_render_settings *out) {
+    *out = cv_render_settings_resolve(in, f->scene);
+    cv_result res = cv_render_settings_check(out);
+    return res == CV_OK ? cv_render_camera_check(out, f->scene) : res;
+}
+
+/* Readies the targets and the graph for checked settings `s` and bakes a
+ * new graph's first frame (render_loop_prebake: *setup_ms). */
+static cv_result apply_settings(cv_renderer *r, const cv_render_settings *s, double *setup_ms) {
     cv_render_frame *f = &r->frame;
-    cv_render_settings s = cv_render_settings_resolve(settings, f->scene);
-    cv_result res = cv_render_settings_check(&s);
+    r->has_frame = false;
+    render_sun_direction(s, f->data.sun_direction, f->sun_direction);
+    f->settings = *s;
+    cv_result res = render_frame_ensure_targets(f, s->width, s->height,
+                                                s->reflections == 1 ? s->reflection_samples : 1);
     if (res == CV_OK)
-        res = cv_render_camera_check(&s, f->scene);
-    if (res != CV_OK)
-        return res;
-    render_sun_direction(&s, f->data.sun_direction, f->sun_direction);
-    f->settings = s;
-    res = render_frame_ensure_targets(f, s.width, s.height, s.reflections == 1 ? s.reflection_samples : 1);
+        res = render_graph_build(f, render_band_capacity(f, s));
     if (res == CV_OK)
-        res = render_graph_build(f, render_band_capacity(f, &s));
+        res = render_loop_prebake(f, setup_ms);
     return res;
-}
-
-/* Several devices, a new graph: its first frame baked once before the clock
- * starts. The bake makes the transfer rings of the pairs it copies between
- * (graph.h, cv_graph_stats.rings), and making one costs time in proportion
- * to its memory (host-import pins and imports it: ~85 ms a ring on the H200),
- * so the first frames do not pay for them. Returns the time it took (0: no
- * bake). */
-static cv_result prebake(cv_render_frame *f, double *ms) {
-    double start = cv_now_ms();
-    *ms = 0.0;
-    if (f->count < 2 || f->graph_prebaked)
-        return CV_OK;
-    f->info.frame = 0;
-    f->info.first = true;
-    f->info.last = f->settings.frames == 1;
-    cv_graph_bake_desc bake = render_graph_bake_desc(f, NULL);
-    cv_result res = render_graph_enable_passes(f);
-    if (res == CV_OK)
-        res = cv_graph_bake(f->graph, &bake);
-    f->graph_prebaked = res == CV_OK;
-    *ms = cv_now_ms() - start;
-    return res;
-}
-
-/* A render's frames in flight: the primary's last ticket of recent frames,
- * the frames whose timings are still to collect, and the stats. */
-typedef struct render_loop {
-    cv_render_stats stats;
-    render_pending pending;
-    uint64_t accumulated[IN_FLIGHT_FRAMES];
-    uint32_t generation; /* of the graph the pending frames ran on */
-} render_loop;
-
-/* Submits frame `index` (executes it when it is the last or an observer
- * wants it), or fails with the devices as they were. Frames are pipelined
- * on any number of devices: up to IN_FLIGHT_FRAMES submitted ahead, so a
- * remote device's latency hides behind the work of the frames before, and
- * transfers between local devices are queued on the GPUs (graph.h). With
- * several devices the "last frame" whose trace times the balancer splits
- * from is the one CV_GRAPH_FRAMES_KEPT - 1 back (render_stats_collect:
- * lagged feedback; that frame has usually finished, so collecting it rarely
- * waits), which bounds the frames in flight to CV_GRAPH_FRAMES_KEPT. The last
- * frame collects every frame still pending, then executes. */
-static cv_result run_frame(cv_render_frame *f, render_loop *loop, uint32_t index) {
-    const cv_render_settings *s = &f->settings;
-    bool last = index + 1 == s->frames;
-    f->info.frame = index;
-    f->info.first = index == 0;
-    f->info.last = last;
-    f->camera = cv_render_camera(s, f->scene, s->first_frame + index);
-    f->previous_camera = cv_render_camera(s, f->scene, s->first_frame + index - (s->first_frame + index > 0));
-    cv_result res = render_graph_enable_passes(f);
-    /* The graph's balancer splits the columns from the last frame's trace times. */
-    if (res == CV_OK)
-        res = render_stats_collect(f, &loop->pending, &loop->stats, index, last);
-    cv_graph_bake_desc bake = render_graph_bake_desc(f, NULL);
-    if (res == CV_OK)
-        res = cv_graph_bake(f->graph, &bake);
-    cv_partition part;
-    if (res == CV_OK)
-        res = cv_graph_get_partition(f->graph, &part);
-    /* An observer wants every frame's timings: the frame ends here (no
-     * pipelining); otherwise only the last frame waits. */
-    bool wait_now = last || (s->observer && s->observer->frame);
-    uint32_t n = 0;
-    double submitted = cv_now_ms();
-    if (res == CV_OK && wait_now) {
-        res = cv_graph_execute(f->graph, loop->pending.timings, RENDER_TIMINGS, &n);
-    } else if (res == CV_OK) {
-        uint64_t tickets[CV_MAX_DEVICES], *accumulated = loop->accumulated;
-        res = cv_graph_submit(f->graph, tickets);
-        accumulated[index % IN_FLIGHT_FRAMES] = tickets[0];
-        if (res == CV_OK && f->count > 1) {
-            loop->pending.uncollected[index % CV_GRAPH_FRAMES_KEPT] = cv_graph_frame_id(f->graph);
-            loop->pending.parts[index % CV_GRAPH_FRAMES_KEPT] = part;
-        }
-        if (res == CV_OK && index + 1 >= IN_FLIGHT_FRAMES && accumulated[(index + 1) % IN_FLIGHT_FRAMES])
-            res = cv_device_wait(f->devices[0], accumulated[(index + 1) % IN_FLIGHT_FRAMES], UINT64_MAX);
-    }
-    if (res != CV_OK)
-        return res;
-    double frame_wall = cv_now_ms() - submitted;
-    if (wait_now) {
-        render_stats_add_timings(f, &loop->stats, loop->pending.timings, n, &part, frame_wall);
-        render_observe_frame(&(render_frame_report){ f->devices, f->count, &part, s, index, f->height, submitted,
-                                                     frame_wall, loop->pending.timings, n, RENDER_TIMINGS });
-    }
-    render_stats_count_rays(f, &loop->stats, &part, index);
-    return CV_OK;
-}
-
-/* After a failed frame: drops the secondaries that are gone and builds the
- * graph for the survivors. True when the frame should run again. */
-static bool survive_lost_devices(cv_render_frame *f, render_loop *loop, cv_result *res) {
-    uint32_t dropped = render_devices_drop_lost(f);
-    if (!dropped)
-        return false;
-    loop->stats.devices_lost += dropped;
-    loop->stats.device_count = f->count;
-    memset(loop->stats.devices, 0, sizeof(loop->stats.devices));
-    memset(loop->pending.uncollected, 0, sizeof(loop->pending.uncollected)); /* the old graph's frames are gone */
-    *res = render_graph_build(f, render_band_capacity(f, &f->settings));
-    return *res == CV_OK;
 }
 
 static cv_result render_frames(cv_renderer *r, render_loop *loop, void (*progress)(uint32_t, uint32_t, void *),
@@ -230,18 +140,9 @@ static cv_result render_frames(cv_renderer *r, render_loop *loop, void (*progres
     cv_render_frame *f = &r->frame;
     uint32_t frames = f->settings.frames;
     cv_result res = CV_OK;
-    loop->generation = f->graph_generation;
     for (uint32_t index = 0; index < frames && res == CV_OK; index++) {
-        if (f->graph_generation != loop->generation) { /* a device added from the progress callback, or lost */
-            loop->generation = f->graph_generation;
-            memset(loop->pending.uncollected, 0, sizeof(loop->pending.uncollected)); /* went with the old graph */
-            loop->stats.device_count = f->count;
-        }
-        res = run_frame(f, loop, index);
-        if (res != CV_OK && survive_lost_devices(f, loop, &res)) {
-            index--; /* this frame again, on the survivors (index wraps to the loop's ++ at 0) */
-            continue;
-        }
+        /* Only the last frame waits: the frames before stay in flight. */
+        res = render_loop_frame(f, loop, index, index + 1 == frames);
         if (res == CV_OK && progress)
             progress(index + 1, frames, user);
     }
@@ -256,9 +157,12 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
         return cv_error(CV_ERROR_BAD_STATE, "renderer: render: already rendering");
     cv_render_frame *f = &r->frame;
     double setup_ms = 0.0;
-    cv_result res = prepare(r, settings);
-    if (res == CV_OK)
-        res = prebake(f, &setup_ms);
+    cv_render_settings s;
+    cv_result res = check_settings(f, settings, &s);
+    if (res != CV_OK)
+        return res;
+    r->accumulated = 0; /* the steps' image is gone with this render's frames */
+    res = apply_settings(r, &s, &setup_ms);
     if (res != CV_OK)
         return res;
     render_loop *loop = calloc(1, sizeof(*loop));
@@ -272,10 +176,59 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
     res = render_frames(r, loop, progress, user);
     r->rendering = false;
     loop->stats.frame_ms = (cv_now_ms() - frames_start) / f->settings.frames;
+    r->has_frame = res == CV_OK;
     if (res == CV_OK)
         res = render_read_output(f, f->settings.frames, out);
     if (res == CV_OK && stats)
         *stats = loop->stats;
     free(loop);
     return res;
+}
+
+cv_result cv_renderer_step(cv_renderer *r, const cv_render_settings *settings, cv_render_step *out) {
+    if (!r || !settings || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_step: NULL argument");
+    if (r->rendering)
+        return cv_error(CV_ERROR_BAD_STATE, "renderer: step: not during a render");
+    cv_render_frame *f = &r->frame;
+    double start = cv_now_ms(), setup_ms;
+    cv_render_settings s;
+    cv_result res = check_settings(f, settings, &s);
+    if (res != CV_OK)
+        return res;
+    if (!r->steps && !(r->steps = calloc(1, sizeof(*r->steps))))
+        return cv_error(CV_ERROR_OUT_OF_MEMORY, "renderer: step");
+    /* Step k of a history is frame k of a render of k + 1 frames from the history's first frame. */
+    uint32_t index = r->accumulated && render_step_goes_on(&r->history, &s) ? r->accumulated : 0;
+    if (index)
+        s.first_frame = r->history.first_frame;
+    s.frames = index + 1;
+    r->accumulated = 0; /* until the frame is submitted: a failed step leaves no history */
+    res = apply_settings(r, &s, &setup_ms);
+    /* Several devices wait for the frame, as a render's last frame does; one pipelines. */
+    if (res == CV_OK)
+        res = render_loop_frame(f, r->steps, index, f->count > 1);
+    if (res != CV_OK)
+        return res;
+    r->history = s;
+    r->accumulated = index + 1;
+    r->has_frame = true;
+    *out = (cv_render_step){ .display = f->textures[TEX_DISPLAY + f->display_slot],
+                             .radiance = f->textures[TEX_RADIANCE],
+                             .width = f->width,
+                             .height = f->height,
+                             .accumulated = r->accumulated,
+                             .ticket = r->steps->ticket,
+                             .frame_ms = cv_now_ms() - start };
+    return CV_OK;
+}
+
+cv_result cv_renderer_read_output(cv_renderer *r, cv_render_output *out) {
+    if (!r || !out)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_read_output: NULL argument");
+    if (r->rendering)
+        return cv_error(CV_ERROR_BAD_STATE, "renderer: read output: not during a render");
+    if (!r->has_frame)
+        return cv_error(CV_ERROR_BAD_STATE, "renderer: read output: no frame rendered since the last change");
+    return render_read_output(&r->frame, r->frame.settings.frames, out);
 }

@@ -32,6 +32,7 @@
 #include "node_internal.h"
 #include "peer.h"
 #include "proto_arena.h"
+#include "session_encode.h"
 
 /* grpc status codes used here (grpc/status.h; the session does not include gRPC). */
 enum {
@@ -62,7 +63,8 @@ typedef struct session {
     cv_context *ctx;
     cv_device *dev;
     uint32_t device_index;
-    cv_hash_map map; /* the client's handle ids -> the node's own (a client reaches only what it made) */
+    session_encoders encoders; /* OpenEncoder's streams (session_encode.h) */
+    cv_hash_map map;           /* the client's handle ids -> the node's own (a client reaches only what it made) */
     proto_arena arena;
 
     /* The blob being received, if any. */
@@ -696,6 +698,41 @@ static cv_result do_read_texture(session *s, uint64_t seq, const Corvid__ReadTex
     return r;
 }
 
+/* An encoded frame goes out like a read: in pieces of CV_NODE_CHUNK_BYTES, the first saying what it is. */
+static cv_result do_read_encoded(session *s, uint64_t seq, const Corvid__ReadEncoded *m) {
+    uint64_t id;
+    cv_result r = translate(s, m->id, CV_HANDLE_TEXTURE, "read_encoded", &id);
+    cv_encoded frame = { 0 };
+    if (r == CV_OK)
+        r = session_encode_read(&s->encoders, s->ctx, (cv_texture){ id }, m, &frame);
+    for (size_t done = 0; r == CV_OK;) { /* a frame of 0 bytes (an encoder may skip one) is one empty piece */
+        size_t n = frame.size - done < CV_NODE_CHUNK_BYTES ? frame.size - done : CV_NODE_CHUNK_BYTES;
+        Corvid__EncodedFrame piece = CORVID__ENCODED_FRAME__INIT;
+        piece.offset = done;
+        piece.data = (ProtobufCBinaryData){ n, frame.data + done };
+        piece.last = done + n == frame.size;
+        if (done == 0) {
+            piece.codec = (uint32_t)frame.codec;
+            piece.width = frame.width;
+            piece.height = frame.height;
+            piece.keyframe = frame.keyframe;
+            piece.size = frame.size;
+            piece.read_ms = frame.read_ms;
+            piece.encode_ms = frame.encode_ms;
+        }
+        Corvid__NodeMessage out = CORVID__NODE_MESSAGE__INIT;
+        out.seq = seq;
+        out.msg_case = CORVID__NODE_MESSAGE__MSG_ENCODED_FRAME;
+        out.encoded_frame = &piece;
+        r = send_node_message(s, &out);
+        done += n;
+        if (piece.last)
+            break;
+    }
+    cv_encoded_free(&frame);
+    return r;
+}
+
 static cv_result do_compile(session *s, const Corvid__CompileList *m) {
     uint64_t id;
     cv_result r = translate(s, m->id, CV_HANDLE_CMDLIST, "compile", &id);
@@ -991,15 +1028,22 @@ static bool handle(session *s, const Corvid__ClientMessage *m, int *status) {
         return true;
     case CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER:
     case CORVID__CLIENT_MESSAGE__MSG_READ_TEXTURE:
+    case CORVID__CLIENT_MESSAGE__MSG_READ_ENCODED:
         if (s->failure) { /* what it would read lacks a partition */
             char why[800];
             snprintf(why, sizeof(why), "read refused: %s", s->failure_message);
             send_reply_failure(s, seq, s->failure_result, why, s->failure);
             return true;
         }
-        r = m->msg_case == CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER ? do_read_buffer(s, seq, m->read_buffer)
-                                                                   : do_read_texture(s, seq, m->read_texture);
+        r = m->msg_case == CORVID__CLIENT_MESSAGE__MSG_READ_BUFFER    ? do_read_buffer(s, seq, m->read_buffer)
+            : m->msg_case == CORVID__CLIENT_MESSAGE__MSG_READ_TEXTURE ? do_read_texture(s, seq, m->read_texture)
+                                                                      : do_read_encoded(s, seq, m->read_encoded);
         break;
+    case CORVID__CLIENT_MESSAGE__MSG_OPEN_ENCODER:
+        r = session_encode_open(&s->encoders, s->dev, m->open_encoder);
+        send_reply(s, seq, r, r == CV_OK ? "" : cv_last_error());
+        return true;
+    case CORVID__CLIENT_MESSAGE__MSG_CLOSE_ENCODER: r = session_encode_close(&s->encoders, m->close_encoder); break;
     case CORVID__CLIENT_MESSAGE__MSG_PUSH_TRANSFER: r = do_push(s, m->push_transfer); break;
     case CORVID__CLIENT_MESSAGE__MSG_AWAIT_TRANSFER:
         r = do_await(s, m->await_transfer);
@@ -1064,6 +1108,7 @@ static bool work_finished(session *s) {
 static void session_finish(session *s) {
     end_upload(s);
     stop_watcher(s, true);
+    session_encode_finish(&s->encoders); /* its readers encode here: they use the device only while reading */
     peer_inbox_close(s->node->peer, s->inbox);
     cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -(int64_t)s->memory_bytes);
     /* An abandoned device's GPU may still use its memory: the context and device are

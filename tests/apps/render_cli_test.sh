@@ -46,7 +46,7 @@ check "--reflection-samples 2 reported" grep -q "reflections: 8192 rays with the
 "$render" --gpus 2 --adapters llvmpipe --size 64x32 --frames 1 --ao-samples 1 --quiet --out "$tmp/g/frame" \
   --dump-graph "$tmp/g/graph.txt" 2> "$tmp/err.txt"
 check "--dump-graph exits 0" test $? -eq 0
-for graph_pass in gbuffer trace accumulate filter composite; do
+for graph_pass in gbuffer trace accumulate filter composite present; do
   check "graph dump names pass '$graph_pass'" grep -q "pass '$graph_pass'" "$tmp/g/graph.txt"
 done
 check "graph dump: trace on both devices" grep -q "^      dev1 \[" "$tmp/g/graph.txt"
@@ -87,7 +87,7 @@ e = json.load(open(sys.argv[1]))["traceEvents"]
 names = {x["args"]["name"] for x in e if x["ph"] == "M" and x["name"] == "process_name"}
 assert names == {"gpu0", "gpu1", "host"}, names
 passes = [x for x in e if x["ph"] == "X" and x["cat"] == "pass"]
-assert len(passes) == 1 + 3 * (2 * 2 + 2) + 3, len(passes)  # gbuffer; trace, reflect x2, accumulate, reflect_filter a frame; reflect_denoise, filter, composite
+assert len(passes) == 1 + 3 * (2 * 2 + 2) + 4, len(passes)  # gbuffer; trace, reflect x2, accumulate, reflect_filter a frame; reflect_denoise, filter, composite, present
 assert all(x["dur"] >= 0 and x["ts"] >= 0 for x in e if x["ph"] == "X")' "$tmp/s/trace.json"
 compare_direct() { "$(dirname "$render")/corvid-compare" "$1" "$1" --layer direct > /dev/null; }
 check "corvid-compare reads the direct layer" compare_direct "$tmp/s/frame.exr"

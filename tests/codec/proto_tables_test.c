@@ -3,7 +3,7 @@
  * proto/ alone (the way schema_test.c holds corvid.proto to CV_COMMAND_TABLE):
  *  - service corvid.Node and grpc.health.v1.Health give exactly the method
  *    paths the node serves (node_protocol.h);
- *  - enum Result is CV_RESULT_TABLE, Format is CV_FORMAT_TABLE, HandleType is
+ *  - enum Result is CV_RESULT_TABLE, Format is CV_FORMAT_TABLE, Codec is cv_codec, HandleType is
  *    cv_handle_type, BufferUsage / TextureUsage are the usage bits, Filter and
  *    AddressMode the sampler's, ProtocolVersion and Limit the protocol's
  *    constants; corvid.proto's QueueType and TraceFlag are cv_queue_type and
@@ -122,6 +122,13 @@ static void test_formats_and_sampler(void) {
                                           { "CV_QUEUE_COPY", CV_QUEUE_COPY } };
     _Static_assert(CV_QUEUE_TYPE_COUNT == 3, "a new queue type: add it here and to QueueType in corvid.proto");
     check_enum(&corvid__queue_type__descriptor, queues, COUNT(queues), NULL);
+    static const named_value codecs[] = { { "CV_CODEC_RAW", CV_CODEC_RAW },
+                                          { "CV_CODEC_JPEG", CV_CODEC_JPEG },
+                                          { "CV_CODEC_H264", CV_CODEC_H264 },
+                                          { "CV_CODEC_PNG", CV_CODEC_PNG },
+                                          { "CV_CODEC_ZSTD", CV_CODEC_ZSTD } };
+    _Static_assert(CV_CODEC_COUNT == 5, "a new codec: add it here and to Codec in node.proto");
+    check_enum(&corvid__codec__descriptor, codecs, COUNT(codecs), NULL);
 }
 
 /* The bits listed must be all of the C enum's: their union is its _ALL mask. */
@@ -181,6 +188,11 @@ static void test_protocol_constants(void) {
         { "SESSION_KEY_BYTES", CV_NODE_SESSION_KEY_BYTES },
         { "PEER_MAX_BYTES", (int)CV_NODE_PEER_MAX_BYTES },
         { "MAX_BLOB_QUERY_HASHES", CV_NODE_MAX_BLOB_QUERY },
+        { "MAX_ENCODER_STREAMS", CV_NODE_MAX_ENCODER_STREAMS },
+        { "MAX_ENCODE_SIDE", CV_NODE_MAX_ENCODE_SIDE },
+        { "MAX_ENCODE_PIXELS", CV_NODE_MAX_ENCODE_PIXELS },
+        { "MAX_ENCODE_BITRATE_KBPS", CV_ENCODE_MAX_BITRATE_KBPS },
+        { "MAX_ENCODE_FPS", CV_ENCODE_MAX_FPS },
     };
     check_enum(&corvid__limit__descriptor, limits, COUNT(limits), "LIMIT_UNSPECIFIED");
     CHECK_EQ_INT(CV_NODE_UNPACK_BUDGET(100), 200 + CV_NODE_UNPACK_BUDGET_BASE_BYTES);

@@ -12,6 +12,7 @@ void conformance_resubmit(world *w);
 void conformance_lifetimes(world *w);
 void conformance_timings(world *w);
 void conformance_indirect(world *w);
+void conformance_encode(world *w);
 void conformance_transfers(const fixture *fx);
 void conformance_parallel(const fixture *fx);
 

@@ -4,6 +4,7 @@
 
 #include "check.h"
 #include "conformance.h"
+#include "corvid/frame_codec.h"
 
 int main(int argc, char **argv) {
     const char *name = argc > 1 ? argv[1] : "mock";
@@ -12,6 +13,8 @@ int main(int argc, char **argv) {
         fprintf(stderr, "conformance: unknown backend '%s'\n", name);
         return 2;
     }
+    check_live_counter("encoders", cv_live_encoders);
+    check_live_counter("decoders", cv_live_decoders);
     world w;
     cv_result r = world_init(&w, fx);
     CHECK_OK(r);
@@ -24,6 +27,7 @@ int main(int argc, char **argv) {
         conformance_lifetimes(&w);
         conformance_timings(&w);
         conformance_indirect(&w);
+        conformance_encode(&w);
     }
     world_finish(&w);
     conformance_transfers(fx);

@@ -199,13 +199,13 @@ static void check_trace(const char *path, uint32_t gpus) {
     CHECK_EQ_INT(named, gpus + 1);
     CHECK_EQ_INT(negative, 0);
     /* per frame: trace and reflect on every device, accumulate and reflect_filter on the primary;
-     * gbuffer on the first frame, reflect_denoise, filter and composite on the last */
-    CHECK_EQ_INT(passes, 1 + FRAMES * (2 * gpus + 2) + 3);
+     * gbuffer on the first frame, reflect_denoise, filter, composite and present on the last */
+    CHECK_EQ_INT(passes, 1 + FRAMES * (2 * gpus + 2) + 4);
     CHECK_EQ_INT(clocked, passes);
     CHECK_EQ_INT(outside, 0);
     for (uint32_t f = 0; f < FRAMES; f++) {
         CHECK_EQ_INT(traces[f], gpus);
-        CHECK_EQ_INT(per_frame[f], 2 * gpus + 2 + (f == 0) + 3 * (f == FRAMES - 1));
+        CHECK_EQ_INT(per_frame[f], 2 * gpus + 2 + (f == 0) + 4 * (f == FRAMES - 1));
     }
     if (gpus > 1)
         CHECK(transfers >= FRAMES); /* at least the visibility copy-back every frame */

@@ -75,6 +75,7 @@
 
 #include "corvid/context.h"
 #include "corvid/device_info.h"
+#include "corvid/encode_types.h"
 
 typedef struct cv_backend_device cv_backend_device; /* each backend's own */
 
@@ -198,6 +199,12 @@ struct cv_backend {
     /* The PEER transfer path (optional, see the contract above). */
     bool (*peer_capable)(cv_backend_device *bd);
     cv_result (*peer_move)(const cv_transfer_peer_region *region, uint64_t transfer_id);
+    /* Encoder streams on the device's machine (optional, see the contract above). */
+    cv_result (*encoder_open)(cv_backend_device *bd, uint32_t stream, cv_codec codec, uint32_t width,
+                              uint32_t height);
+    cv_result (*encoder_read)(cv_backend_device *bd, uint32_t stream, void *tex, const cv_texture_desc *desc,
+                              cv_rect rect, const cv_encode_params *params, cv_encoded *out);
+    void (*encoder_close)(cv_backend_device *bd, uint32_t stream);
 };
 
 /* A device's representation of one handle. */

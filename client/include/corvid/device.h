@@ -17,6 +17,7 @@
 
 #include "corvid/context.h"
 #include "corvid/device_info.h"
+#include "corvid/encode_types.h"
 
 cv_result cv_device_create(cv_context *ctx, const cv_backend *backend, const cv_device_desc *desc, cv_device **out);
 /* Waits for the device's work, releases everything it holds, detaches it. */
@@ -94,6 +95,26 @@ bool cv_device_is_lost(cv_device *dev);
  * of waiting on. Any thread, takes no lock. The work may still be running: do
  * not destroy the device or its context (both wait for the GPU); leak them. */
 void cv_device_abandon(cv_device *dev);
+
+/* Encoder streams on the device's machine: for a device whose GPU is on another
+ * machine (a proxy device), that machine reads the texture and encodes it there,
+ * so only the encoded bytes cross the link; an H.264 stream keeps its state
+ * between frames. Programs use them through frame_reader.h (media/), which
+ * encodes here for devices without them. A backend without encoder streams
+ * (cv_device_can_encode false) answers CV_ERROR_UNSUPPORTED.
+ * open checks the codec and size (cv_encode_check_stream); read checks, under
+ * the device lock, that t is a loaded texture, rect lies inside it with the
+ * stream's size (else CV_ERROR_OUT_OF_RANGE / CV_ERROR_FORMAT_MISMATCH), its
+ * format suits the codec (cv_encode_check_format) and the parameters
+ * (cv_encode_check_params); it waits for submitted work that writes the
+ * texture, like cv_device_read_texture, and fills *out (zeroed on failure). A
+ * refused call changes nothing and the stream goes on. Streams still open
+ * when the device is destroyed are closed with it. */
+bool cv_device_can_encode(cv_device *dev);
+cv_result cv_device_encoder_open(cv_device *dev, cv_codec codec, uint32_t width, uint32_t height, uint32_t *stream);
+cv_result cv_device_encoder_read(cv_device *dev, uint32_t stream, cv_texture t, cv_rect rect,
+                                 const cv_encode_params *params, cv_encoded *out);
+void cv_device_encoder_close(cv_device *dev, uint32_t stream);
 
 /* Built-in backends. */
 const cv_backend *cv_mock_backend(void);

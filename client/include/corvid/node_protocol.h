@@ -53,6 +53,12 @@
 #define CV_NODE_UNPACK_BUDGET(bytes) (2u * (size_t)(bytes) + CV_NODE_UNPACK_BUDGET_BASE_BYTES)
 /* Hashes in one BlobQuery, at most. */
 #define CV_NODE_MAX_BLOB_QUERY 4096u
+/* Encoder streams (OpenEncoder) one session holds open at most, the largest side
+ * of their frames and the most pixels (4096x2160): what a session may make the
+ * node allocate for them. */
+#define CV_NODE_MAX_ENCODER_STREAMS 4u
+#define CV_NODE_MAX_ENCODE_SIDE 8192u
+#define CV_NODE_MAX_ENCODE_PIXELS 8847360u
 
 /* A PushTransfer / AwaitTransfer region checked against the resource it names
  * (desc): a texture rect (width, height not 0) or a buffer range (size not 0,
@@ -89,6 +95,10 @@ typedef struct cv_node_info_storage {
 void cv_node_info_to_msg(const cv_device_info *info, const char *label, Corvid__DeviceInfo *msg,
                          cv_node_info_storage *storage);
 void cv_node_info_from_msg(const Corvid__DeviceInfo *msg, cv_device_info *out);
+
+/* Encode parameters both ways (a NULL message: every default). */
+void cv_node_encode_params_to_msg(const cv_encode_params *params, Corvid__EncodeParams *msg);
+void cv_node_encode_params_from_msg(const Corvid__EncodeParams *msg, cv_encode_params *out);
 
 /* A bytes field that must hold exactly one SHA-256. */
 cv_result cv_node_check_sha(ProtobufCBinaryData b, const char *field);

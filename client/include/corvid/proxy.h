@@ -68,6 +68,8 @@ typedef struct cv_proxy_stats {
        (awaits), the bytes those moved node to node (never through this client), and transfer failures the
        node reported (a frame that lacked a partition; the device goes on). */
     uint64_t peer_pushes, peer_awaits, peer_push_bytes, peer_await_bytes, transfer_failures;
+    /* Frames the node read and encoded (encoder streams, device.h) and their encoded bytes. */
+    uint64_t encoded_frames, encoded_bytes;
 } cv_proxy_stats;
 
 /* CV_ERROR_INVALID_ARGUMENT if dev is not a proxy device. */

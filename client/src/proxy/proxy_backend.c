@@ -10,14 +10,10 @@
 #include "corvid/command_codec.h"
 #include "corvid/parse.h"
 #include "corvid/sha256.h"
+#include "proxy_encode.h"
 #include "proxy_options.h"
 #include "proxy_peer.h"
 #include "proxy_session.h"
-
-/* A loaded resource: the node knows it by the client's id. */
-typedef struct proxy_resource {
-    uint64_t id;
-} proxy_resource;
 
 static bool contains_nocase(const char *text, const char *needle) {
     size_t n = strlen(needle);
@@ -574,6 +570,9 @@ static const cv_backend proxy_backend = {
     .timings = proxy_timings,
     .peer_capable = proxy_peer_capable,
     .peer_move = proxy_peer_move,
+    .encoder_open = proxy_encoder_open,
+    .encoder_read = proxy_encoder_read,
+    .encoder_close = proxy_encoder_close,
 };
 
 const cv_backend *cv_proxy_backend(void) { return &proxy_backend; }

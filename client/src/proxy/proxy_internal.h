@@ -24,6 +24,11 @@
 #define PROXY_INFLIGHT 1024u
 #define PROXY_AWAITS 64u
 
+/* A loaded resource: the node knows it by the client's id. */
+typedef struct proxy_resource {
+    uint64_t id;
+} proxy_resource;
+
 /* A list as compiled for the node: the node holds the list, this is its name. */
 typedef struct proxy_list {
     uint64_t id;
@@ -42,7 +47,9 @@ typedef struct proxy_pending {
     uint64_t session_id;
     uint8_t *read_into; /* reads: destination and its size */
     uint64_t read_size, read_received;
-    bool *present; /* blob queries: one flag per hash */
+    cv_encoded *encoded;                    /* encoded reads: the frame received (data malloc'd by the receiver) */
+    uint64_t encoded_max, encoded_received; /* the most bytes the frame may have; bytes so far */
+    bool *present;                          /* blob queries: one flag per hash */
     size_t present_count;
     uint8_t session_key[CV_NODE_SESSION_KEY_BYTES]; /* hello: the session's capability */
     bool has_session_key;

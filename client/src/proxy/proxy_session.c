@@ -195,6 +195,48 @@ static void on_read_data(proxy_device *p, uint64_t seq, const Corvid__ReadData *
     }
 }
 
+/* A piece of an encoded frame (ReadEncoded): the first says the frame's size and what it is. */
+static void on_encoded_frame(proxy_device *p, uint64_t seq, const Corvid__EncodedFrame *f) {
+    proxy_pending *w = &p->pending;
+    if (w->seq != seq || !w->encoded) {
+        set_dead(p, CV_ERROR_MALFORMED, "an encoded frame for no encoded read in flight");
+        return;
+    }
+    cv_encoded *e = w->encoded;
+    if (!e->data) {
+        if (f->offset != 0 || f->size > w->encoded_max) {
+            set_dead(p, CV_ERROR_MALFORMED, "an encoded frame that does not start at 0 or is larger than allowed");
+            return;
+        }
+        e->data = malloc(f->size ? f->size : 1);
+        if (!e->data) {
+            set_dead(p, CV_ERROR_OUT_OF_MEMORY, "no memory for an encoded frame");
+            return;
+        }
+        e->size = f->size;
+        e->codec = (cv_codec)f->codec;
+        e->width = f->width;
+        e->height = f->height;
+        e->keyframe = f->keyframe;
+        e->read_ms = f->read_ms;
+        e->encode_ms = f->encode_ms;
+    }
+    if (f->offset != w->encoded_received || f->data.len > e->size - w->encoded_received) {
+        set_dead(p, CV_ERROR_MALFORMED, "encoded frame data out of order or past the end");
+        return;
+    }
+    if (f->data.len)
+        memcpy(e->data + f->offset, f->data.data, f->data.len);
+    w->encoded_received += f->data.len;
+    if (f->last) {
+        w->result = w->encoded_received == e->size ? CV_OK : CV_ERROR_MALFORMED;
+        if (w->result != CV_OK)
+            snprintf(w->message, sizeof(w->message), "encoded frame ended after %" PRIu64 " of %zu bytes",
+                     w->encoded_received, e->size);
+        w->done = true;
+    }
+}
+
 static void on_completed(proxy_device *p, const Corvid__Completed *c) {
     if (c->ticket <= p->completed) {
         set_dead(p, CV_ERROR_MALFORMED, "a ticket completed twice or out of order");
@@ -267,6 +309,7 @@ static void on_message(proxy_device *p, const Corvid__NodeMessage *m) {
         break;
     case CORVID__NODE_MESSAGE__MSG_READ_DATA: on_read_data(p, m->seq, m->read_data); break;
     case CORVID__NODE_MESSAGE__MSG_COMPLETED: on_completed(p, m->completed); break;
+    case CORVID__NODE_MESSAGE__MSG_ENCODED_FRAME: on_encoded_frame(p, m->seq, m->encoded_frame); break;
     default: set_dead(p, CV_ERROR_MALFORMED, "an unknown message from the node"); break;
     }
     pthread_cond_broadcast(&p->cond);

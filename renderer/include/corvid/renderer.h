@@ -108,10 +108,10 @@ cv_result cv_renderer_render(cv_renderer *r, const cv_render_settings *settings,
 #define CV_RENDER_DISPLAY_SLOTS 3u
 
 typedef struct cv_render_step {
-    cv_texture display;   /* RGBA8_UNORM on the primary: tone-mapped (ACES, settings.exposure),
-                           * sRGB-encoded; one of CV_RENDER_DISPLAY_SLOTS textures, rewritten
-                           * CV_RENDER_DISPLAY_SLOTS steps later */
-    cv_texture radiance;  /* RGBA32F linear HDR on the primary (rewritten by the next step) */
+    cv_texture display;  /* RGBA8_UNORM on the primary: tone-mapped (ACES, settings.exposure),
+                          * sRGB-encoded; one of CV_RENDER_DISPLAY_SLOTS textures, rewritten
+                          * CV_RENDER_DISPLAY_SLOTS steps later */
+    cv_texture radiance; /* RGBA32F linear HDR on the primary (rewritten by the next step) */
     uint32_t width, height;
     uint32_t accumulated; /* frames in this image's history: 1 after a restart */
     uint64_t ticket;      /* on the primary: the display and radiance are complete after it */

@@ -16,6 +16,7 @@
     X(accumulate) \
     X(reflect_denoise) \
     X(filter) \
-    X(composite)
+    X(composite) \
+    X(present)
 
 #endif
