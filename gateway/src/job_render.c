@@ -82,28 +82,47 @@ static cv_result encode_images(const cv_render_output *o, float exposure, const 
     return r;
 }
 
-static void relay_progress(uint32_t frame, uint32_t frames, void *user) {
-    (void)frames;
-    const gw_render_input *in = user;
-    if (in->progress)
-        in->progress(frame, in->user);
+/* How long one frame may take on the GPU before the job gives up on its device. */
+#define FRAME_WAIT_NS (300ull * 1000000000ull)
+
+/* The frames, one step each, seeing a cancel between them; the last one's planes into *o. */
+static cv_result render_frames(const gw_render_input *in, cv_renderer *renderer, cv_render_output *o,
+                               bool *cancelled) {
+    cv_device *primary = in->devices->devices[0];
+    for (uint32_t k = 0; k < in->settings.frames; k++) {
+        if (atomic_load(in->cancel)) {
+            *cancelled = true;
+            return CV_OK;
+        }
+        cv_render_step step;
+        cv_result r = cv_renderer_step(renderer, &in->settings, &step);
+        if (r == CV_OK)
+            r = cv_device_wait(primary, step.ticket, FRAME_WAIT_NS);
+        if (r != CV_OK)
+            return cv_error(r, "frame %u: %s", k + 1, cv_last_error());
+        if (in->progress)
+            in->progress(k + 1, in->user);
+    }
+    cv_result r = cv_renderer_read_output(renderer, o);
+    return r == CV_OK ? CV_OK : cv_error(r, "reading the image: %s", cv_last_error());
 }
 
 cv_result gw_render_run(const gw_render_input *in, gw_render_result *out) {
     memset(out, 0, sizeof(*out));
-    if (atomic_load(in->cancel)) {
-        out->cancelled = true;
-        return CV_OK;
-    }
     cv_renderer *renderer = NULL;
     cv_render_output o = { 0 };
     cv_result r = cv_renderer_create(in->devices->devices, in->devices->count, in->scene, in->bvh, &renderer);
+    if (r != CV_OK)
+        r = cv_error(r, "renderer: %s", cv_last_error());
     if (r == CV_OK)
-        r = cv_renderer_render(renderer, &in->settings, &o, NULL, relay_progress, (void *)in);
+        r = render_frames(in, renderer, &o, &out->cancelled);
+    /* Destroying a renderer on a lost device may record errors of its own: keep the frame's. */
+    char error[CV_ERROR_MESSAGE_MAX];
+    snprintf(error, sizeof(error), "%s", r == CV_OK ? "" : cv_last_error());
     cv_renderer_destroy(renderer);
-    if (r == CV_OK && atomic_load(in->cancel))
-        out->cancelled = true;
-    else if (r == CV_OK)
+    if (r != CV_OK)
+        r = cv_error(r, "%s", error);
+    if (r == CV_OK && !out->cancelled)
         r = encode_images(&o, in->settings.exposure, in->temp_dir, out);
     cv_render_output_free(&o);
     return r;

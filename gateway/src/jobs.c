@@ -138,8 +138,11 @@ static cv_result run_job(gw_jobs *j, job *b, gw_render_result *images) {
                                               .user = &relay,
                                               .temp_dir = j->config.temp_dir },
                           images);
+    /* Closing a lost device may record errors of its own: the job's is the one it failed with. */
+    char error[CV_ERROR_MESSAGE_MAX];
+    snprintf(error, sizeof(error), "%s", r == CV_OK ? "" : cv_last_error());
     gw_devices_close(&devices);
-    return r;
+    return r == CV_OK ? CV_OK : cv_error(r, "%s", error);
 }
 
 static void *worker_main(void *arg) {
