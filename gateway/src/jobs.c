@@ -120,6 +120,10 @@ static cv_result room_scene(gw_jobs *j, const cv_scene **scene, const cv_bvh **b
 /* Runs one job (the lock not held): devices, render, images. */
 static cv_result run_job(gw_jobs *j, job *b, gw_render_result *images) {
     cv_gateway_devices devices = { 0 };
+    if (atomic_load(&b->cancel)) { /* cancelled as it left the queue: no devices opened for nothing */
+        images->cancelled = true;
+        return CV_OK;
+    }
     const cv_scene *scene = b->scene ? b->scene->scene : NULL;
     const cv_bvh *bvh = b->scene ? b->scene->bvh : NULL;
     cv_result r = b->scene ? CV_OK : room_scene(j, &scene, &bvh);

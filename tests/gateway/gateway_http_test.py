@@ -11,7 +11,9 @@ import base64
 import hashlib
 import json
 import os
+import shutil
 import signal
+import ssl
 import struct
 import subprocess
 import sys
@@ -53,20 +55,29 @@ def model():
 
 
 class Gateway:
-    def __init__(self, binary, args):
+    def __init__(self, binary, args, scheme="http"):
         self.proc = subprocess.Popen([binary] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         line = self.proc.stdout.readline()
-        check("serving http://127.0.0.1:" in line, f"the program prints where it serves: {line!r}")
+        check(f"serving {scheme}://127.0.0.1:" in line, f"the program prints where it serves: {line!r}")
         self.base = line.strip().split("serving ")[-1]
 
-    def call(self, method, path, body=None, token=TOKEN, content_type="application/json"):
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+    def call(self, method, path, body=None, token=TOKEN, content_type="application/json", context=None):
         req = urllib.request.Request(self.base.replace("/api/v1", "") + path, data=body, method=method)
         if token:
             req.add_header("Authorization", "Bearer " + token)
         if body is not None:
             req.add_header("Content-Type", content_type)
         try:
-            with urllib.request.urlopen(req, timeout=60) as r:
+            with urllib.request.urlopen(req, timeout=60, context=context) as r:
                 return r.status, r.headers.get("Content-Type", ""), r.read()
         except urllib.error.HTTPError as e:
             return e.code, e.headers.get("Content-Type", ""), e.read()
@@ -167,6 +178,26 @@ def test_stop_with_a_job_running(g):
     check("stopping" in g.proc.stderr.read(), "it says it stops")
 
 
+def test_tls(binary, tmp, token_file):
+    """With a certificate and key it serves HTTPS (the token still required)."""
+    if not shutil.which("openssl"):
+        print("gateway_http: no openssl program: the TLS check is not run")
+        return
+    cert, key = os.path.join(tmp, "cert.pem"), os.path.join(tmp, "key.pem")
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", key, "-out", cert,
+                    "-days", "1", "-subj", "/CN=127.0.0.1"], check=True, capture_output=True, timeout=60)
+    g = Gateway(binary, ["--port", "0", "--token-file", token_file, "--tls-cert", cert, "--tls-key", key],
+                scheme="https")
+    try:
+        context = ssl.create_default_context(cafile=cert)
+        context.check_hostname = False
+        status, _, data = g.call("GET", "/api/v1", context=context)
+        check(status == 200 and b'"version":1' in data, f"HTTPS with the token: 200 ({status} {data[:80]!r})")
+        check(g.call("GET", "/api/v1", token=None, context=context)[0] == 401, "HTTPS without the token: 401")
+    finally:
+        g.stop()
+
+
 def main():
     binary, root = sys.argv[1], sys.argv[2]
     with tempfile.TemporaryDirectory() as tmp:
@@ -191,6 +222,7 @@ def main():
             if g.proc.poll() is None:
                 g.proc.kill()
                 g.proc.wait()
+        test_tls(binary, tmp, token_file)
     print(f"gateway_http: {CHECKS[0] - len(FAILURES)} passed, {len(FAILURES)} failed")
     return 1 if FAILURES else 0
 
