@@ -4,6 +4,7 @@
  * once with different settings, each image bit for bit the renderer's own for
  * its settings (EXR radiance, PNG bytes). Lavapipe, 64x48. */
 #include <dirent.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,10 +17,40 @@
 #include "corvid/scene_procedural.h"
 #include "corvid/sha256.h"
 #include "corvid/tonemap.h"
+#include "corvid/clock.h"
 #include "gateway_support.h"
 #include "test_render.h"
 
 static char temp_dir[256];
+
+/* A gate in the jobs' open_devices: while armed, a job waits there until a second one comes, so two jobs
+ * that both pass it were on the two workers at once (or it times out and the test says so). */
+typedef struct job_gate {
+    pthread_mutex_t lock;
+    pthread_cond_t both;
+    bool armed;
+    int arrived;
+} job_gate;
+
+static job_gate gate = { .lock = PTHREAD_MUTEX_INITIALIZER, .both = PTHREAD_COND_INITIALIZER };
+
+static cv_result open_gated_gpu(void *user, cv_gateway_devices *out) {
+    pthread_mutex_lock(&gate.lock);
+    if (gate.armed) {
+        gate.arrived++;
+        pthread_cond_broadcast(&gate.both);
+        double deadline = cv_now_ms() + 60000;
+        while (gate.arrived < 2 && cv_now_ms() < deadline) {
+            struct timespec t;
+            clock_gettime(CLOCK_REALTIME, &t);
+            t.tv_sec += 1;
+            pthread_cond_timedwait(&gate.both, &gate.lock, &t);
+        }
+        gate.armed = false;
+    }
+    pthread_mutex_unlock(&gate.lock);
+    return gw_test_open_gpu(user, out);
+}
 
 static size_t temp_entries(void) {
     size_t n = 0;
@@ -279,6 +310,9 @@ static void test_concurrent_jobs(cv_gateway *g, const char *sha) {
              "{\"scene\": \"%s\", \"width\": 64, \"height\": 48, \"frames\": 2, \"camera\": {\"eye\": [3, 2.5, 4], "
              "\"target\": [0, 0.5, 0], \"fov_degrees\": 50}, \"settings\": {\"ao-samples\": 2, \"exposure\": 0.5}}",
              sha);
+    pthread_mutex_lock(&gate.lock);
+    gate.armed = true;
+    pthread_mutex_unlock(&gate.lock);
     uint64_t a = submit(g, body);
     uint64_t b = submit(g,
                         "{\"scene\": \"default\", \"width\": 64, \"height\": 48, \"frames\": 3, "
@@ -288,6 +322,9 @@ static void test_concurrent_jobs(cv_gateway *g, const char *sha) {
     CHECK_OK(cv_gateway_wait_job(g, b, UINT32_MAX, 120000));
     expect_state(g, a, "done");
     expect_state(g, b, "done");
+    pthread_mutex_lock(&gate.lock);
+    CHECK_EQ_INT(gate.arrived, 2); /* both jobs were opening their devices at once */
+    pthread_mutex_unlock(&gate.lock);
     gw_test_reply r = gw_call(g, "GET", "/api/v1/jobs", NULL, 0);
     CHECK_EQ_INT(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(r.json, "jobs")), 2);
     gw_reply_free(&r);
@@ -386,7 +423,7 @@ int main(void) {
         return 1;
     test_bad_desc();
     cv_gateway *g = NULL;
-    CHECK_OK(cv_gateway_create(&(cv_gateway_desc){ .open_devices = gw_test_open_gpu,
+    CHECK_OK(cv_gateway_create(&(cv_gateway_desc){ .open_devices = open_gated_gpu,
                                                    .workers = 2,
                                                    .max_scene_bytes = 64 * 1024,
                                                    .max_pixels = 1920 * 1080,
