@@ -7,8 +7,9 @@ checks that
   - frames arrive and the canvas shows the server's own frame: the canvas pixels
     (getImageData) against GET /api/v1/view/snapshot.png (lossless) within the
     codec's tolerance (JPEG about q85, 4:2:0, measured 3.5 at 160x90: mean error
-    per channel <= 5 of 255, 99.5% of the values within 48; H.264: mean <= 8,
-    99.5% within 64);
+    per channel <= 5 of 255, 99.5% of the values within 48; H.264 (BT.601 4:2:0,
+    measured 3 to 6): mean <= 10,
+    99.5% within 72);
   - a drag on the canvas (WebDriver Actions: pointer down, moves, up) moves the
     camera: the page's input seq is reflected by the frames, the image differs
     from before by more than noise, and it matches the snapshot again;
@@ -40,7 +41,7 @@ import zlib
 CHROMIUM = "/usr/bin/chromium"
 CHROMEDRIVER = "/usr/bin/chromedriver"
 ELEMENT = "element-6066-11e4-a52e-4f735466cecf"
-TOLERANCE = {"jpeg": (5.0, 48), "h264": (8.0, 64)}  # mean abs error, 99.5th percentile bound
+TOLERANCE = {"jpeg": (5.0, 48), "h264": (10.0, 72)}  # mean abs error, 99.5th percentile bound
 NO_PROXY = urllib.request.build_opener(urllib.request.ProxyHandler({}))
 
 
@@ -259,7 +260,7 @@ def run(args, tmp):
     try:
         wait_for("chromedriver", lambda: http("GET", wd.base + "/status")[0] == 200 if _up(dport) else False, 20)
         wd.start(["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--no-proxy-server",
-                  "--window-size=1000,640", "--user-data-dir=" + os.path.join(tmp, "profile")])
+                  "--window-size=1100,720", "--user-data-dir=" + os.path.join(tmp, "profile")])
         wd.go(url)
         wait_for("the first frame", lambda: (wd.js("return window.corvidView") or {}).get("frames"), 30)
         v = settled(wd, api)
@@ -288,7 +289,13 @@ def run(args, tmp):
         check(m2p > 0, "the stats overlay shows fps and motion-to-photon (%.1f ms measured by the page)" % m2p)
         print(text, flush=True)
 
-        n = v["frames"]
+        if args.screenshot:
+            settled(wd, api)
+            with open(args.screenshot, "wb") as f:
+                f.write(wd.screenshot())
+            print("wrote", args.screenshot)
+
+        n = wd.js("return window.corvidView.frames")
         errors = len(wd.js("return window.corvidView.errors"))
         _send_raw(wd, '{"seq": 999999, "colour": 1}')
         wait_for("the error message", lambda: len(wd.js("return window.corvidView.errors")) > errors, 10)
@@ -298,11 +305,6 @@ def run(args, tmp):
         wait_for("frames after the error", lambda: wd.js("return window.corvidView.frames") > n, 20)
         check(True, "frames go on after the refused input")
 
-        if args.screenshot:
-            settled(wd, api)
-            with open(args.screenshot, "wb") as f:
-                f.write(wd.screenshot())
-            print("wrote", args.screenshot)
     finally:
         wd.quit()
         driver.terminate()

@@ -147,7 +147,8 @@
 
   function showValue(input) {
     const out = input.parentElement.querySelector("output");
-    if (out) out.textContent = input.type === "checkbox" ? "" : input.value;
+    const v = Number(input.value);
+    if (out) out.textContent = Number.isInteger(v) ? String(v) : v.toPrecision(3);
   }
 
   function sunFromSliders() {
@@ -189,7 +190,7 @@
         input.type = "range";
         input.min = s.min;
         input.max = s.max;
-        input.step = s.kind === "whole" ? 1 : (s.max - s.min) / 100;
+        input.step = s.kind === "whole" ? 1 : "any";
         input.value = s.value;
       }
       label.append(input);

@@ -101,7 +101,7 @@ static int send_headers(cv_web_server *s, struct lws *wsi, web_session *ss) {
     if (lws_finalize_write_http_header(wsi, start, &p, end))
         return -1;
     if (ss->head || ss->out_size == 0)
-        return lws_http_transaction_completed(wsi) ? -1 : 0;
+        return ss->close_after || lws_http_transaction_completed(wsi) ? -1 : 0;
     lws_callback_on_writable(wsi);
     return 0;
 }
@@ -118,6 +118,7 @@ static int respond(cv_web_server *s, struct lws *wsi, web_session *ss) {
         ss->out_size = ss->resp.body_size;
     }
     int st = ss->resp.status;
+    ss->close_after = st == 413;
     count(s, st == 401 || st == 404 || st == 405 || st == 411 || st == 413);
     if (st >= 400)
         cv_log(CV_LOG_DEBUG, "web", "%s %s: %d", ss->method, ss->path, st);
@@ -244,8 +245,9 @@ int web_http_writeable(cv_web_server *s, struct lws *wsi, web_session *ss) {
         lws_callback_on_writable(wsi);
         return 0;
     }
+    bool close_after = ss->close_after;
     web_http_reset(ss);
-    return lws_http_transaction_completed(wsi) ? -1 : 0;
+    return close_after || lws_http_transaction_completed(wsi) ? -1 : 0;
 }
 
 /* A refusal of an upgrade, answered at once (small JSON body, no keep-alive). */

@@ -161,6 +161,13 @@ int web_ws_writeable(cv_web_conn *c) {
         c->binary = (web_message){ 0 };
     }
     more = c->text_count || c->binary.buf;
+    if (m.buf) { /* counted as it goes to lws, so a peer that has it sees it counted */
+        s->stats.bytes_sent += m.size;
+        if (text)
+            s->stats.text_sent++;
+        else
+            s->stats.binary_sent++;
+    }
     pthread_mutex_unlock(&s->lock);
     if (!m.buf)
         return 0;
@@ -171,13 +178,6 @@ int web_ws_writeable(cv_web_conn *c) {
         cv_log(CV_LOG_INFO, "web", "ws: write of %zu bytes failed: closing the connection", size);
         return -1;
     }
-    pthread_mutex_lock(&s->lock);
-    s->stats.bytes_sent += size;
-    if (text)
-        s->stats.text_sent++;
-    else
-        s->stats.binary_sent++;
-    pthread_mutex_unlock(&s->lock);
     if (more)
         lws_callback_on_writable(c->wsi);
     return 0;
