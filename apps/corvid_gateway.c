@@ -53,8 +53,8 @@ static void usage(FILE *f) {
             "  --gpus N              jobs render on N local devices (virtual GPUs added to reach N; default 1)\n"
             "  --virtual-gpus N      device instances per adapter (or CORVID_VIRTUAL_GPUS=N)\n"
             "  --adapters LIST       comma-separated adapter names or indices (e.g. llvmpipe, 0)\n"
-            "  --nodes H:P,...       jobs render on these corvid-nodes' devices instead (token and TLS toward\n"
-            "                        them from CORVID_NODE_*)\n"
+            "  --nodes H:P,...       jobs render on these corvid-nodes' devices instead (or CORVID_NODES; token\n"
+            "                        and TLS toward them from CORVID_NODE_*)\n"
             "  --max-scene-bytes N   largest model accepted (default 268435456; 413 above)\n"
             "  --jobs N              jobs rendering at once (1..64; default 2)\n"
             "  --validation          the Vulkan validation layer on local devices\n"
@@ -251,8 +251,19 @@ int main(int argc, char **argv) {
         usage(stdout);
         return 0;
     }
-    if (o.nodes &&
-        (devices.gpu_config.total || devices.gpu_config.virtual_per_adapter || devices.gpu_config.adapters)) {
+    bool local_choice = devices.gpu_config.total || devices.gpu_config.virtual_per_adapter ||
+                        devices.gpu_config.adapters;
+    const char *env_nodes = getenv("CORVID_NODES"); /* as corvid-render's and corvid-view's --nodes */
+    cv_endpoint nodes[CV_MAX_NODES];
+    uint32_t node_count;
+    if (!o.nodes && !local_choice && env_nodes && env_nodes[0]) {
+        if (cv_endpoints_parse(env_nodes, "CORVID_NODES", nodes, CV_MAX_NODES, &node_count) != CV_OK) {
+            fprintf(stderr, "corvid-gateway: %s\n", cv_last_error());
+            return 2;
+        }
+        o.nodes = env_nodes;
+    }
+    if (o.nodes && local_choice) {
         fprintf(stderr,
                 "corvid-gateway: --nodes renders on the nodes' devices; --gpus, --virtual-gpus and --adapters "
                 "choose local ones: give one or the other\n");
