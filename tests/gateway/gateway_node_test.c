@@ -1,7 +1,10 @@
 /* A job on a corvid-node that is killed mid-render (SIGKILL: no goodbye)
- * ends failed with the device's error, within the proxy's keepalive, never
- * hangs; GET /api/v1/nodes shows the node up before; a job started after the
- * node died fails on its devices. The node is a corvid-node process (argv[1]). */
+ * ends failed with the device's error at once, and one on a node that stops
+ * answering (SIGSTOP: its connection stays open) within the proxy's keepalive:
+ * never a hang. GET /api/v1/nodes shows the node up before; a job started
+ * after the node died fails on its devices. The nodes are corvid-node
+ * processes (argv[1]). */
+#include <signal.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -46,6 +49,32 @@ static void expect_failed(cv_gateway *g, uint64_t id, const char *needle) {
     gw_reply_free(&r);
 }
 
+/* A node that stops answering mid-render: the job fails when the keepalive notices (1 s pings here). */
+static void test_stopped_node(const char *binary) {
+    scratch_process_node node = { 0 };
+    CHECK_OK(scratch_process_node_start(&node, binary, 1, 0, NULL));
+    cv_gateway *g = NULL;
+    CHECK_OK(cv_gateway_create(&(cv_gateway_desc){ .open_devices = open_node_device,
+                                                   .user = &node,
+                                                   .nodes = node.endpoint,
+                                                   .health_interval_ms = 60000 },
+                               &g));
+    if (g && node.pid) {
+        uint64_t id = submit(g, "{\"width\": 64, \"height\": 48, \"frames\": 4096}");
+        CHECK_OK(cv_gateway_wait_job(g, id, 2, 120000));
+        double stopped = cv_now_ms();
+        kill(node.pid, SIGSTOP);
+        CHECK_OK(cv_gateway_wait_job(g, id, UINT32_MAX, 60000));
+        double ended_ms = cv_now_ms() - stopped;
+        fprintf(stderr, "the job ended %.0f ms after its node stopped answering\n", ended_ms);
+        CHECK(ended_ms < 30000);
+        expect_failed(g, id, "frame ");
+        kill(node.pid, SIGCONT);
+    }
+    cv_gateway_destroy(g);
+    scratch_process_node_stop(&node);
+}
+
 int main(int argc, char **argv) {
     if (argc != 2) {
         fprintf(stderr, "usage: gateway_node <corvid-node binary>\n");
@@ -85,6 +114,7 @@ int main(int argc, char **argv) {
     }
     cv_gateway_destroy(g);
     scratch_process_node_stop(&node);
+    test_stopped_node(argv[1]);
     CHECK_OK(cv_proxy_configure(NULL));
     CHECK_NOTHING_LIVE();
     return check_report("gateway_node");
