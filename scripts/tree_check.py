@@ -164,7 +164,7 @@ def long_functions(files):
     return sorted(found, reverse=True)
 
 
-LIBRARY_DIRS = ("client", "server", "renderer", "scene", "image", "partition", "core")
+LIBRARY_DIRS = ("client", "server", "renderer", "scene", "image", "partition", "core", "media", "live", "web", "gateway")
 STATE_RE = re.compile(r"^(static\s+)?(_Thread_local\s+|__thread\s+)?(volatile\s+)?"
                       r"(struct\s+\w+|_Atomic\([^)]*\)|[A-Za-z_]\w*)(\s+\w+)*[\s*]+\**\w+(\[[^]]*\])*\s*(=[^;]*)?;")
 
