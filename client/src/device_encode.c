@@ -1,6 +1,6 @@
 /* Encoder streams on the device's machine (device.h): the checks every backend
  * gets the same, the device's table of open streams, and the calls into the
- * backend's encoder ops under the device lock. */
+ * backend's encoder ops: under the device lock, except the wait for a frame. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,11 +56,12 @@ cv_result cv_device_encoder_open(cv_device *dev, cv_codec codec, uint32_t width,
 
 /* The stream, texture and rect of a read, checked (lock held). */
 static cv_result check_read(cv_device *dev, uint32_t stream, cv_texture t, cv_rect rect,
-                            const cv_encode_params *params, cv_device_resource **out) {
+                            const cv_encode_params *params, cv_device_resource **out, cv_codec *codec) {
     const encoder_stream *st = find_stream(dev, stream);
     if (!st)
         return cv_error(CV_ERROR_INVALID_HANDLE, "device '%s': encoder read: stream %u is not open", dev->label,
                         stream);
+    *codec = st->codec;
     cv_result r = cv_device_require(dev, t.id, CV_HANDLE_TEXTURE, "encoder read", out);
     if (r != CV_OK)
         return r;
@@ -88,12 +89,19 @@ cv_result cv_device_encoder_read(cv_device *dev, uint32_t stream, cv_texture t, 
         return unsupported(dev, "encoder read");
     pthread_mutex_lock(&dev->lock);
     cv_device_resource *s = NULL;
-    cv_result r = check_read(dev, stream, t, rect, params, &s);
+    cv_codec codec = CV_CODEC_COUNT;
+    cv_result r = check_read(dev, stream, t, rect, params, &s, &codec);
     if (r == CV_OK)
         r = cv_device_wait_for_resource(dev, s);
     if (r == CV_OK)
-        r = dev->backend->encoder_read(dev->bd, stream, s->obj, &s->desc.texture, rect, params, out);
+        r = dev->backend->encoder_send(dev->bd, stream, s->obj, &s->desc.texture, rect, params);
     pthread_mutex_unlock(&dev->lock);
+    if (r == CV_OK) /* the device's machine reads and encodes while other calls go on */
+        r = dev->backend->encoder_receive(dev->bd, stream, out);
+    if (r == CV_OK && (out->width != rect.width || out->height != rect.height || out->codec != codec))
+        r = cv_error(CV_ERROR_MALFORMED, "device '%s': stream %u: a %ux%u frame of codec %u came for a %ux%u %s read",
+                     dev->label, stream, out->width, out->height, (unsigned)out->codec, rect.width, rect.height,
+                     cv_codec_name(codec));
     if (r != CV_OK)
         cv_encoded_free(out);
     return r;

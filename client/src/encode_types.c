@@ -10,7 +10,7 @@ const char *cv_codec_name(cv_codec c) {
         [CV_CODEC_RAW] = "raw", [CV_CODEC_JPEG] = "jpeg", [CV_CODEC_H264] = "h264",
         [CV_CODEC_PNG] = "png", [CV_CODEC_ZSTD] = "zstd",
     };
-    return (unsigned)c < CV_CODEC_COUNT ? names[c] : "invalid";
+    return (unsigned)c < CV_CODEC_COUNT ? names[c] : "unknown";
 }
 
 void cv_encoded_free(cv_encoded *e) {

@@ -156,13 +156,17 @@ cv_result cv_live_set_codec(cv_live *l, cv_codec codec, const cv_encode_params *
     cv_encode_params p = encode ? *encode : (cv_encode_params){ 0 };
     pthread_mutex_lock(&l->lock);
     cv_result res = check_codec(codec, l->width, l->height);
+    /* A keyframe request alone (the same codec, no quality or bitrate) keeps what the adaptation chose. */
+    bool restart_rate = codec != l->codec || p.quality || p.bitrate_kbps;
     if (res == CV_OK) {
         double link = l->rate.link_bytes_per_s;
         l->codec = codec;
         l->encode = p;
         l->keyframe_request = l->keyframe_request || p.keyframe;
-        live_rate_init(&l->rate, p.quality, p.bitrate_kbps);
-        live_rate_link(&l->rate, link);
+        if (restart_rate) {
+            live_rate_init(&l->rate, p.quality, p.bitrate_kbps);
+            live_rate_link(&l->rate, link);
+        }
     }
     pthread_mutex_unlock(&l->lock);
     return res;

@@ -77,24 +77,22 @@ static void account(cv_live *l, const live_job *job, const cv_live_frame *f) {
     l->frame_height = f->height;
 }
 
-/* Hands the encoded frame to the consumer (lock not held). */
-static cv_live_frame deliver(cv_live *l, const live_job *job, const cv_encoded *e) {
+/* The consumer's view of the encoded frame (data: e's, valid until it is freed). */
+static cv_live_frame frame_of(const live_job *job, const cv_encoded *e) {
     const cv_render_step *s = &job->frame.info;
-    cv_live_frame f = { .index = job->index,
-                        .input_seq = job->frame.input_seq,
-                        .accumulated = s->accumulated,
-                        .width = s->width,
-                        .height = s->height,
-                        .codec = job->codec,
-                        .keyframe = e->keyframe,
-                        .data = e->data,
-                        .size = e->size,
-                        .render_ms = s->frame_ms,
-                        .read_ms = e->read_ms,
-                        .encode_ms = e->encode_ms };
-    f.input_age_ms = cv_now_ms() - job->frame.input_ms;
-    l->desc.frame(&f, l->desc.user);
-    return f;
+    return (cv_live_frame){ .index = job->index,
+                            .input_seq = job->frame.input_seq,
+                            .accumulated = s->accumulated,
+                            .width = s->width,
+                            .height = s->height,
+                            .codec = job->codec,
+                            .keyframe = e->keyframe,
+                            .data = e->data,
+                            .size = e->size,
+                            .render_ms = s->frame_ms,
+                            .read_ms = e->read_ms,
+                            .encode_ms = e->encode_ms,
+                            .input_age_ms = cv_now_ms() - job->frame.input_ms };
 }
 
 void *live_encode_main(void *arg) {
@@ -121,11 +119,13 @@ void *live_encode_main(void *arg) {
                              (unsigned long long)job.frame.step, why);
             break;
         }
-        pthread_mutex_unlock(&l->lock);
-        cv_live_frame f = deliver(l, &job, &e);
-        pthread_mutex_lock(&l->lock);
+        /* Counted before the consumer has it: stats read in the callback, or after it, include it. */
+        cv_live_frame f = frame_of(&job, &e);
         account(l, &job, &f);
+        pthread_mutex_unlock(&l->lock);
+        l->desc.frame(&f, l->desc.user);
         cv_encoded_free(&e);
+        pthread_mutex_lock(&l->lock);
     }
     pthread_mutex_unlock(&l->lock);
     cv_frame_reader_destroy(st.reader);

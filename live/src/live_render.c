@@ -8,15 +8,21 @@
 #include "live_internal.h"
 #include "live_passes.h"
 
-/* The render thread's own: the settings it renders and those of its last
- * good step (a refused update goes back to them). */
+/* How often a step is measured for stats.passes: a measured frame is not
+ * pipelined (the renderer waits for its timings, corvid/render_observer.h),
+ * which over a link of 20 ms round trip would cap the frame rate near 50. */
+#define LIVE_PASSES_PERIOD_MS 250.0
+
+/* The render thread's own: the settings it renders (with the caller's
+ * observer) and those of its last good step (a refused update goes back to
+ * them). */
 typedef struct live_render {
     cv_render_settings settings, good;
     uint64_t seq, good_seq;
     double input_ms, good_input_ms;
-    const cv_render_observer *good_observer;
     bool unproven;          /* settings not yet rendered by a step */
     uint32_t width, height; /* of the last good step; 0: none yet */
+    double measured_ms;     /* when a step was last measured; 0: never */
 } live_render;
 
 /* The renderer's report of a frame: its passes into the stats, then the
@@ -32,6 +38,20 @@ static void observe(const cv_render_frame_info *info, void *user) {
         l->user_observer->frame(info, l->user_observer->user);
 }
 
+/* The settings of the next step: the live's observer in them when the
+ * caller gave one (it sees every frame) or a measurement is due. */
+static cv_render_settings measured(cv_live *l, live_render *rs) {
+    cv_render_settings s = rs->settings;
+    double now = cv_now_ms();
+    l->user_observer = rs->settings.observer;
+    s.observer = NULL;
+    if (l->user_observer || !rs->measured_ms || now - rs->measured_ms >= LIVE_PASSES_PERIOD_MS) {
+        s.observer = &l->observer;
+        rs->measured_ms = now;
+    }
+    return s;
+}
+
 /* Takes the newest update (lock held): input never waits behind frames. */
 static void take_input(cv_live *l, live_render *rs) {
     if (!l->has_pending)
@@ -42,8 +62,6 @@ static void take_input(cv_live *l, live_render *rs) {
     rs->unproven = true;
     l->has_pending = false;
     l->still = false;
-    l->user_observer = rs->settings.observer;
-    rs->settings.observer = &l->observer;
 }
 
 static bool resizes(const live_render *rs) {
@@ -74,7 +92,6 @@ static void publish(cv_live *l, live_render *rs, const cv_render_step *step) {
     rs->good = rs->settings;
     rs->good_seq = rs->seq;
     rs->good_input_ms = rs->input_ms;
-    rs->good_observer = l->user_observer;
     rs->unproven = false;
     rs->width = step->width;
     rs->height = step->height;
@@ -94,7 +111,6 @@ static bool recover(cv_live *l, live_render *rs, cv_result res, const char *why)
         rs->settings = rs->good;
         rs->seq = rs->good_seq;
         rs->input_ms = rs->good_input_ms;
-        l->user_observer = rs->good_observer;
         rs->unproven = false;
         return true;
     }
@@ -106,8 +122,6 @@ void *live_render_main(void *arg) {
     cv_live *l = arg;
     live_render rs = { .settings = l->desc.settings, .input_ms = cv_now_ms(), .unproven = true };
     l->observer = (cv_render_observer){ .frame = observe, .user = l };
-    l->user_observer = rs.settings.observer;
-    rs.settings.observer = &l->observer;
     pthread_mutex_lock(&l->lock);
     while (!l->stopping && !l->failed) {
         take_input(l, &rs);
@@ -119,7 +133,8 @@ void *live_render_main(void *arg) {
         l->resizing = resizes(&rs);
         pthread_mutex_unlock(&l->lock);
         cv_render_step step;
-        cv_result res = cv_renderer_step(l->desc.renderer, &rs.settings, &step);
+        cv_render_settings settings = measured(l, &rs);
+        cv_result res = cv_renderer_step(l->desc.renderer, &settings, &step);
         char why[sizeof(l->error)] = "";
         if (res != CV_OK)
             snprintf(why, sizeof(why), "%s", cv_last_error());

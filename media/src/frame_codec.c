@@ -3,9 +3,9 @@
 #include "corvid/frame_codec.h"
 
 #include <stdatomic.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <zstd.h>
 
 #include "codec_ops.h"
 #include "corvid/clock.h"
@@ -45,21 +45,19 @@ cv_result cv_encoder_create(cv_codec codec, uint32_t width, uint32_t height, cv_
     if (!out)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "encoder: out is NULL");
     *out = NULL;
+    cv_result r = cv_encode_check_stream(codec, width, height, "encoder"); /* the rules of every encoder stream */
+    if (r != CV_OK)
+        return r;
     const codec_ops *ops = ops_of(codec);
-    if (!ops)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "encoder: unknown codec %d", (int)codec);
     const char *name = cv_codec_name(codec);
-    if (width == 0 || height == 0 || width > CV_CODEC_MAX_SIDE || height > CV_CODEC_MAX_SIDE)
+    if (width > CV_CODEC_MAX_SIDE || height > CV_CODEC_MAX_SIDE)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s encoder: size %ux%u out of range (1..%u a side)", name, width,
                         height, CV_CODEC_MAX_SIDE);
-    if (codec == CV_CODEC_H264 && (width % 2 || height % 2))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "h264 encoder: size %ux%u is odd (H.264 takes even sizes)", width,
-                        height);
     cv_encoder *e = calloc(1, sizeof *e);
     if (!e)
         return cv_error(CV_ERROR_OUT_OF_MEMORY, "%s encoder: no memory", name);
     *e = (cv_encoder){ .codec = codec, .ops = ops, .width = width, .height = height };
-    cv_result r = ops->encoder_create(width, height, &e->state);
+    r = ops->encoder_create(width, height, &e->state);
     if (r != CV_OK) {
         free(e);
         return r;
@@ -71,28 +69,21 @@ cv_result cv_encoder_create(cv_codec codec, uint32_t width, uint32_t height, cv_
 
 /* The params with their defaults (encode_types.h), or an error naming the field out of range. */
 static cv_result resolve_params(const cv_encoder *e, const cv_encode_params *in, cv_encode_params *p) {
-    const char *name = cv_codec_name(e->codec);
+    char what[32];
+    snprintf(what, sizeof what, "%s encoder", cv_codec_name(e->codec));
+    cv_result r = cv_encode_check_params(in, what);
+    if (r != CV_OK)
+        return r;
     *p = in ? *in : (cv_encode_params){ 0 };
-    if (p->quality > 100)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s encoder: quality %u out of range (1..100, 0 = 85)", name,
-                        p->quality);
-    if (p->fps > 1000)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s encoder: fps %u out of range (1..1000, 0 = 60)", name, p->fps);
-    if (p->bitrate_kbps > CV_CODEC_MAX_BITRATE_KBPS)
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s encoder: bitrate_kbps %u out of range (1..%u, 0 = default)",
-                        name, p->bitrate_kbps, CV_CODEC_MAX_BITRATE_KBPS);
-    if (p->zstd_level != 0 && (p->zstd_level < ZSTD_minCLevel() || p->zstd_level > ZSTD_maxCLevel()))
-        return cv_error(CV_ERROR_INVALID_ARGUMENT, "%s encoder: zstd_level %d out of range (%d..%d, 0 = 3)", name,
-                        p->zstd_level, ZSTD_minCLevel(), ZSTD_maxCLevel());
     if (p->quality == 0)
         p->quality = 85;
     if (p->fps == 0)
         p->fps = 60;
     if (p->bitrate_kbps == 0) {
         uint64_t kbps = (uint64_t)e->width * e->height * p->fps / 8000u;
-        p->bitrate_kbps = kbps < 1                           ? 1
-                          : kbps > CV_CODEC_MAX_BITRATE_KBPS ? CV_CODEC_MAX_BITRATE_KBPS
-                                                             : (uint32_t)kbps;
+        p->bitrate_kbps = kbps < 1                            ? 1
+                          : kbps > CV_ENCODE_MAX_BITRATE_KBPS ? CV_ENCODE_MAX_BITRATE_KBPS
+                                                              : (uint32_t)kbps;
     }
     if (p->zstd_level == 0)
         p->zstd_level = 3;

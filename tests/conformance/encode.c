@@ -236,10 +236,13 @@ static void refusals(world *w, cv_texture rgba8, const uint8_t *texels) {
     free(back);
 }
 
-/* Other calls on the device while a reader reads: the device locks each call. */
+/* Other calls on the device while readers read: plain reads on one thread, a
+ * second reader (its own stream) on another. The device locks each call; a
+ * remote reader waits for its frame without the lock. */
 typedef struct side_reads {
     world *w;
     cv_texture t;
+    bool encoded; /* through a ZSTD frame reader, else cv_device_read_texture */
     uint32_t wrong;
 } side_reads;
 
@@ -247,18 +250,39 @@ static void *read_beside(void *arg) {
     side_reads *s = arg;
     uint8_t *px = malloc(W * H * 4), *want = malloc(W * H * 4);
     pattern(want, 0);
-    for (int i = 0; i < 8; i++)
-        s->wrong += cv_device_read_texture(s->w->dev, s->t, (cv_rect){ 0, 0, W, H }, px) != CV_OK ||
-                    memcmp(px, want, W * H * 4) != 0;
+    cv_frame_reader *r = NULL;
+    if (s->encoded && cv_frame_reader_create(s->w->dev, CV_CODEC_ZSTD, W, H, &r) != CV_OK)
+        s->wrong++;
+    for (int i = 0; i < 8; i++) {
+        if (!s->encoded) {
+            s->wrong += cv_device_read_texture(s->w->dev, s->t, (cv_rect){ 0, 0, W, H }, px) != CV_OK ||
+                        memcmp(px, want, W * H * 4) != 0;
+            continue;
+        }
+        cv_encoded e = { 0 };
+        size_t n = 0;
+        uint8_t *out = NULL;
+        uint32_t width, height;
+        cv_decoder *d = NULL; /* no CHECK on this thread: check.h's counters are the main thread's */
+        if (r && cv_frame_reader_read(r, s->t, (cv_rect){ 0, 0, W, H }, NULL, &e) == CV_OK &&
+            cv_decoder_create(CV_CODEC_ZSTD, &d) == CV_OK)
+            cv_decoder_decode(d, e.data, e.size, &out, &n, &width, &height);
+        s->wrong += !out || n != W * H * 4 || memcmp(out, want, n) != 0;
+        cv_decoder_destroy(d);
+        free(out);
+        cv_encoded_free(&e);
+    }
+    cv_frame_reader_destroy(r);
     free(px);
     free(want);
     return NULL;
 }
 
 static void beside_other_calls(world *w, cv_texture rgba8, cv_texture other) {
-    side_reads side = { w, other, 0 };
-    pthread_t thread;
-    CHECK(pthread_create(&thread, NULL, read_beside, &side) == 0);
+    side_reads side[2] = { { w, other, false, 0 }, { w, other, true, 0 } };
+    pthread_t threads[2];
+    for (int i = 0; i < 2; i++)
+        CHECK(pthread_create(&threads[i], NULL, read_beside, &side[i]) == 0);
     cv_frame_reader *r;
     CHECK_OK(cv_frame_reader_create(w->dev, CV_CODEC_RAW, W, H, &r));
     uint8_t *want = malloc(W * H * 4);
@@ -270,9 +294,11 @@ static void beside_other_calls(world *w, cv_texture rgba8, cv_texture other) {
                  memcmp(e.data, want, e.size) != 0;
         cv_encoded_free(&e);
     }
-    pthread_join(thread, NULL);
+    for (int i = 0; i < 2; i++)
+        pthread_join(threads[i], NULL);
     CHECK_EQ_INT(wrong, 0);
-    CHECK_EQ_INT(side.wrong, 0);
+    CHECK_EQ_INT(side[0].wrong, 0);
+    CHECK_EQ_INT(side[1].wrong, 0);
     free(want);
     cv_frame_reader_destroy(r);
 }

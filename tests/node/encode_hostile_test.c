@@ -205,9 +205,11 @@ int main(void) {
     raw_client c; /* the node goes on serving */
     session(&c);
     make_texture(&c, TEX_ID(1), CV_FORMAT_RGBA8_UNORM);
-    EXPECT_REPLY(&c, send_open(&c, 1, CV_CODEC_JPEG, W, H), CV_OK, NULL);
-    uint64_t size = 0;
-    CHECK(expect_frame(&c, send_read(&c, 1, TEX_ID(1), (cv_rect){ 0, 0, W, H }, NULL), CV_CODEC_JPEG, &size));
+    EXPECT_REPLY(&c, send_open(&c, 1, CV_CODEC_RAW, W, H), CV_OK, NULL);
+    uint64_t size = 0, before = cv_node_get_stats(node.node).bytes_out;
+    CHECK(expect_frame(&c, send_read(&c, 1, TEX_ID(1), (cv_rect){ 0, 0, W, H }, NULL), CV_CODEC_RAW, &size));
+    uint64_t out = cv_node_get_stats(node.node).bytes_out - before; /* the frame counts in the node's bytes out */
+    CHECK(size == W * H * 4 && out >= size && out < size + 256);
     raw_close(&c);
     CHECK_EQ_INT(scratch_node_wait_sessions(&node, 5000), 0);
     scratch_node_stop(&node);

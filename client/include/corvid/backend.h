@@ -202,8 +202,9 @@ struct cv_backend {
     /* Encoder streams on the device's machine (optional, see the contract above). */
     cv_result (*encoder_open)(cv_backend_device *bd, uint32_t stream, cv_codec codec, uint32_t width,
                               uint32_t height);
-    cv_result (*encoder_read)(cv_backend_device *bd, uint32_t stream, void *tex, const cv_texture_desc *desc,
-                              cv_rect rect, const cv_encode_params *params, cv_encoded *out);
+    cv_result (*encoder_send)(cv_backend_device *bd, uint32_t stream, void *tex, const cv_texture_desc *desc,
+                              cv_rect rect, const cv_encode_params *params);
+    cv_result (*encoder_receive)(cv_backend_device *bd, uint32_t stream, cv_encoded *out);
     void (*encoder_close)(cv_backend_device *bd, uint32_t stream);
 };
 

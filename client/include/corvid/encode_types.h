@@ -29,7 +29,7 @@ typedef enum cv_codec {
     CV_CODEC_COUNT
 } cv_codec;
 
-/* "raw", "jpeg", "h264", "png", "zstd"; "invalid" for anything else. */
+/* "raw", "jpeg", "h264", "png", "zstd"; "unknown" for a value out of the enum. */
 const char *cv_codec_name(cv_codec c);
 
 typedef struct cv_encode_params {

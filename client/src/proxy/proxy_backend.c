@@ -66,6 +66,7 @@ static cv_result resolve_device(const char *endpoint, const char *text, uint32_t
 
 static void free_device(proxy_device *p) {
     proxy_peer_unregister(p);
+    cv_encoded_free(&p->encode_frame); /* a frame half-received when the session died */
     free(p->known);
     free(p->lists);
     pthread_cond_destroy(&p->cond);
@@ -571,7 +572,8 @@ static const cv_backend proxy_backend = {
     .peer_capable = proxy_peer_capable,
     .peer_move = proxy_peer_move,
     .encoder_open = proxy_encoder_open,
-    .encoder_read = proxy_encoder_read,
+    .encoder_send = proxy_encoder_send,
+    .encoder_receive = proxy_encoder_receive,
     .encoder_close = proxy_encoder_close,
 };
 

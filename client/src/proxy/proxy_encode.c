@@ -21,8 +21,8 @@ cv_result proxy_encoder_open(cv_backend_device *p, uint32_t stream, cv_codec cod
     return proxy_request(p, &m, &pending);
 }
 
-cv_result proxy_encoder_read(cv_backend_device *p, uint32_t stream, void *tex, const cv_texture_desc *desc,
-                             cv_rect rect, const cv_encode_params *params, cv_encoded *out) {
+cv_result proxy_encoder_send(cv_backend_device *p, uint32_t stream, void *tex, const cv_texture_desc *desc,
+                             cv_rect rect, const cv_encode_params *params) {
     Corvid__EncodeParams pm;
     cv_node_encode_params_to_msg(params, &pm);
     Corvid__ReadEncoded rd = CORVID__READ_ENCODED__INIT;
@@ -38,20 +38,25 @@ cv_result proxy_encoder_read(cv_backend_device *p, uint32_t stream, void *tex, c
     m.read_encoded = &rd;
     /* What a node may send for one frame: twice the texels (a codec's worst case is far below), plus headers. */
     uint64_t raw = (uint64_t)rect.width * rect.height * cv_format_bytes(desc->format);
-    proxy_pending pending = { .encoded = out, .encoded_max = 2 * raw + (64u << 10) };
-    cv_result r = proxy_request(p, &m, &pending);
-    if (r == CV_OK && (out->width != rect.width || out->height != rect.height))
-        r = cv_error(CV_ERROR_MALFORMED, "node '%s': stream %u: an encoded frame of %ux%u for a read of %ux%u",
-                     p->endpoint, stream, out->width, out->height, rect.width, rect.height);
-    if (r != CV_OK) {
-        cv_encoded_free(out);
-        return r;
-    }
+    proxy_pending pending = { .encoded = &p->encode_frame, .encoded_max = 2 * raw + (64u << 10) };
+    return proxy_request_start(p, &m, &pending);
+}
+
+cv_result proxy_encoder_receive(cv_backend_device *p, uint32_t stream, cv_encoded *out) {
+    (void)stream; /* one encoded read at a time: the one this thread sent */
+    proxy_pending pending = { 0 };
+    cv_result r = proxy_request_finish(p, &pending);
     pthread_mutex_lock(&p->lock);
-    p->stats.encoded_frames++;
-    p->stats.encoded_bytes += out->size;
+    *out = p->encode_frame; /* the receiver wrote it only while the read was in flight */
+    memset(&p->encode_frame, 0, sizeof(p->encode_frame));
+    if (r == CV_OK) {
+        p->stats.encoded_frames++;
+        p->stats.encoded_bytes += out->size;
+    }
     pthread_mutex_unlock(&p->lock);
-    return CV_OK;
+    if (r != CV_OK)
+        cv_encoded_free(out);
+    return r;
 }
 
 void proxy_encoder_close(cv_backend_device *p, uint32_t stream) {

@@ -3,7 +3,8 @@
  *
  * One proxy device = one gRPC stream to one node device. The device's calls
  * come under the core's device lock, so at most one request waits for an answer
- * at a time (the `pending` slot); a receiver thread reads every node message,
+ * at a time (the `pending` slot), besides one encoded read, whose answer is
+ * waited for outside the lock (`encode_pending`); a receiver thread reads every node message,
  * fills the pending request's answer, records finished tickets and wakes
  * whoever waits. Requests that need no answer (writes, destroy, compile, submit)
  * are sent and forgotten; if the node refuses one anyway, its error is kept
@@ -82,7 +83,9 @@ struct cv_backend_device {
     pthread_cond_t cond;
     atomic_uint_fast64_t next_seq;
     proxy_pending pending;
-    uint64_t completed;                      /* highest ticket the node finished */
+    proxy_pending encode_pending; /* an encoded read's answer, waited for without the device lock */
+    cv_encoded encode_frame;      /* ... the frame it brings (the receiver fills it; encoder_receive moves it out) */
+    uint64_t completed;           /* highest ticket the node finished */
     proxy_inflight inflight[PROXY_INFLIGHT]; /* submitted, not completed: ring by ticket */
     cv_result dead;                          /* CV_OK while the stream lives */
     char dead_message[512];

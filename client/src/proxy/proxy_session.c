@@ -62,38 +62,58 @@ cv_result proxy_send_now(proxy_device *p, Corvid__ClientMessage *m) {
     return r == CV_OK ? CV_OK : cv_error(CV_ERROR_CONNECTION, "node '%s': %s", p->endpoint, p->dead_message);
 }
 
-cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending) {
-    m->seq = atomic_fetch_add(&p->next_seq, 1) + 1;
+/* Registers the request in `slot` (waiting until the slot is free: the encoded reads' slot is shared by a
+ * device's streams) and sends it. On failure the slot is free again and *pending says why. */
+static cv_result request_send(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *slot,
+                              proxy_pending *pending) {
     pthread_mutex_lock(&p->lock);
+    while (slot->seq && p->dead == CV_OK)
+        pthread_cond_wait(&p->cond, &p->lock);
+    if (slot->seq) { /* the session died while another request held the slot */
+        cv_result r = cv_error(p->dead, "node '%s': %s", p->endpoint, p->dead_message);
+        pthread_mutex_unlock(&p->lock);
+        return r;
+    }
+    m->seq = atomic_fetch_add(&p->next_seq, 1) + 1;
     pending->seq = m->seq;
     pending->done = false;
     pending->result = CV_OK;
     pending->message[0] = '\0';
-    p->pending = *pending;
+    *slot = *pending;
     p->stats.round_trips++;
     pthread_mutex_unlock(&p->lock);
     cv_result r = proxy_send(p, m);
-    pthread_mutex_lock(&p->lock);
-    if (r == CV_OK) {
-        uint64_t deadline = cv_deadline_after_ms(p->timeout_ms);
-        while (!p->pending.done && p->dead == CV_OK)
-            if (cv_cond_wait_until(&p->cond, &p->lock, deadline) != 0)
-                break;
-        if (p->pending.done)
-            r = p->pending.result == CV_OK
-                    ? CV_OK
-                    : cv_error(p->pending.result, "node '%s': %s", p->endpoint, p->pending.message);
-        else if (p->dead != CV_OK)
-            r = cv_error(p->dead, "node '%s': %s", p->endpoint, p->dead_message);
-        else {
-            /* No answer in time: the session cannot be trusted to match any more. */
-            set_dead(p, CV_ERROR_TIMEOUT, "no answer within the request timeout");
-            r = cv_error(CV_ERROR_TIMEOUT, "node '%s': no answer to request %" PRIu64 " within %u ms", p->endpoint,
-                         m->seq, p->timeout_ms);
-        }
+    if (r != CV_OK) {
+        pthread_mutex_lock(&p->lock);
+        *pending = *slot;
+        *slot = (proxy_pending){ 0 };
+        pthread_cond_broadcast(&p->cond);
+        pthread_mutex_unlock(&p->lock);
     }
-    *pending = p->pending;
-    p->pending = (proxy_pending){ 0 };
+    return r;
+}
+
+/* Waits for the answer in `slot` (sent by request_send), copies it to *pending and frees the slot. */
+static cv_result request_wait(proxy_device *p, proxy_pending *slot, proxy_pending *pending) {
+    pthread_mutex_lock(&p->lock);
+    cv_result r = CV_OK;
+    uint64_t seq = slot->seq, deadline = cv_deadline_after_ms(p->timeout_ms);
+    while (!slot->done && p->dead == CV_OK)
+        if (cv_cond_wait_until(&p->cond, &p->lock, deadline) != 0)
+            break;
+    if (slot->done)
+        r = slot->result == CV_OK ? CV_OK : cv_error(slot->result, "node '%s': %s", p->endpoint, slot->message);
+    else if (p->dead != CV_OK)
+        r = cv_error(p->dead, "node '%s': %s", p->endpoint, p->dead_message);
+    else {
+        /* No answer in time: the session cannot be trusted to match any more. */
+        set_dead(p, CV_ERROR_TIMEOUT, "no answer within the request timeout");
+        r = cv_error(CV_ERROR_TIMEOUT, "node '%s': no answer to request %" PRIu64 " within %u ms", p->endpoint, seq,
+                     p->timeout_ms);
+    }
+    *pending = *slot;
+    *slot = (proxy_pending){ 0 };
+    pthread_cond_broadcast(&p->cond);
     uint64_t failure = r != CV_OK ? pending->transfer_failure : 0;
     if (failure > p->resumed) {
         p->resumed = failure; /* the caller learns of it now */
@@ -110,6 +130,19 @@ cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending
         r = cv_error(r, "%s", why);
     }
     return r;
+}
+
+cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending) {
+    cv_result r = request_send(p, m, &p->pending, pending);
+    return r == CV_OK ? request_wait(p, &p->pending, pending) : r;
+}
+
+cv_result proxy_request_start(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending) {
+    return request_send(p, m, &p->encode_pending, pending);
+}
+
+cv_result proxy_request_finish(proxy_device *p, proxy_pending *pending) {
+    return request_wait(p, &p->encode_pending, pending);
 }
 
 /* ---- receiving ------------------------------------------------------------- */
@@ -160,11 +193,14 @@ cv_result proxy_report_failure(proxy_device *p, uint64_t ticket) {
 }
 
 static void on_reply(proxy_device *p, uint64_t seq, const Corvid__Reply *reply) {
-    if (p->pending.seq == seq) {
-        p->pending.transfer_failure = reply->transfer_failure;
-        p->pending.result = (cv_result)reply->result;
-        snprintf(p->pending.message, sizeof(p->pending.message), "%s", reply->message ? reply->message : "");
-        p->pending.done = true;
+    proxy_pending *slot = p->pending.seq == seq          ? &p->pending
+                          : p->encode_pending.seq == seq ? &p->encode_pending
+                                                         : NULL;
+    if (slot) {
+        slot->transfer_failure = reply->transfer_failure;
+        slot->result = (cv_result)reply->result;
+        snprintf(slot->message, sizeof(slot->message), "%s", reply->message ? reply->message : "");
+        slot->done = true;
     } else if (reply->transfer_failure) {
         proxy_note_failure(p, reply->transfer_failure, seq, 0, (cv_result)reply->result, reply->message);
     } else if (reply->result != CV_OK && p->async_error == CV_OK) {
@@ -197,7 +233,7 @@ static void on_read_data(proxy_device *p, uint64_t seq, const Corvid__ReadData *
 
 /* A piece of an encoded frame (ReadEncoded): the first says the frame's size and what it is. */
 static void on_encoded_frame(proxy_device *p, uint64_t seq, const Corvid__EncodedFrame *f) {
-    proxy_pending *w = &p->pending;
+    proxy_pending *w = &p->encode_pending;
     if (w->seq != seq || !w->encoded) {
         set_dead(p, CV_ERROR_MALFORMED, "an encoded frame for no encoded read in flight");
         return;

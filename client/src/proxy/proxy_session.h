@@ -24,6 +24,11 @@ cv_result proxy_send_now(proxy_device *p, Corvid__ClientMessage *m);
 /* Sends a request and waits for its answer. `pending` (seq is set here) says
  * where the answer goes. */
 cv_result proxy_request(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending);
+/* A request whose answer is taken later, by another call (encoded reads: the device lock is not held while
+ * the node reads and encodes). One at a time per device: a second start waits until the first finished.
+ * Every successful start is followed by one finish. */
+cv_result proxy_request_start(proxy_device *p, Corvid__ClientMessage *m, proxy_pending *pending);
+cv_result proxy_request_finish(proxy_device *p, proxy_pending *pending);
 /* The error every call returns once the session is unusable, or CV_OK. */
 cv_result proxy_health(proxy_device *p);
 

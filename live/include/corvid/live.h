@@ -33,6 +33,11 @@
  * of its input_seq to its callback (the server's part); the viewer reports the
  * end-to-end figure with cv_live_report_display.
  *
+ * Stats (cv_live_get_stats): counts, rates and means over the last second,
+ * and the passes of the last measured frame: one step in 250 ms is measured
+ * (a measured step waits for its timings instead of pipelining), every step
+ * when the settings carry an observer of their own, which is still called.
+ *
  * Errors: a step or read that fails (a lost device) ends the live: no more
  * frames, stats.error says what failed, updates and snapshots return
  * CV_ERROR_BAD_STATE with it; every call still returns and cv_live_stop joins.
@@ -56,7 +61,7 @@
  *     cv_live_report_display(live, seq_shown, m2p_ms);
  *     ...
  *     cv_encoded png = { 0 };
- *     cv_live_snapshot(live, CV_CODEC_PNG, &png);  // the newest presented frame, lossless
+ *     cv_live_snapshot(live, CV_CODEC_PNG, &png);  // the newest frame, lossless
  *     cv_encoded_free(&png);
  *     cv_live_stop(live);
  */
@@ -85,7 +90,7 @@ typedef struct cv_live_frame {
 } cv_live_frame;
 
 typedef struct cv_live_desc {
-    cv_renderer *renderer;       /* the caller's; outlives the live */
+    cv_renderer *renderer;       /* the caller's; outlives the live, which alone steps it until stopped */
     cv_device *primary;          /* the renderer's devices[0] */
     cv_render_settings settings; /* the first frame's */
     cv_codec codec;              /* JPEG or H264 */
@@ -107,7 +112,8 @@ void cv_live_credit(cv_live *l, uint32_t n);
 
 /* JPEG or H264 from the next frame on (encode: its starting quality / bitrate,
  * NULL = defaults; keyframe = true asks for a keyframe, with the same codec
- * too). */
+ * too). The same codec with quality and bitrate 0 keeps what the adaptation
+ * chose (a keyframe request alone). */
 cv_result cv_live_set_codec(cv_live *l, cv_codec codec, const cv_encode_params *encode);
 
 /* The consumer's measured link bandwidth (bytes/s) and display report (input seq shown,

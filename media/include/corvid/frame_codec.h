@@ -14,7 +14,9 @@
  *     }
  *
  * Sizes: JPEG and PNG any size from 1x1; H.264 even widths and heights (odd ones are
- * refused with CV_ERROR_INVALID_ARGUMENT). Codec libraries: libturbojpeg, openh264 (the
+ * refused with CV_ERROR_INVALID_ARGUMENT). Streams and parameters keep the rules of
+ * encode_types.h (cv_encode_check_stream, cv_encode_check_params) that every encoder
+ * stream keeps, local or on a node. Codec libraries: libturbojpeg, openh264 (the
  * Debian build, BSD-2-Clause; docs/media.md), libpng, libzstd. An encoder or a decoder is
  * one stream: one thread at a time; different ones run in parallel. */
 #ifndef CORVID_FRAME_CODEC_H
@@ -30,8 +32,6 @@
 #define CV_CODEC_MAX_SIDE 16384u
 /* The most bytes a decoder gives out for one frame (ZSTD and RAW frames claiming more are refused). */
 #define CV_CODEC_MAX_DECODED_BYTES (1ull << 30)
-/* The highest H.264 bitrate taken (2 Gbit/s: openh264 counts bits per second in an int). */
-#define CV_CODEC_MAX_BITRATE_KBPS 2000000u
 
 typedef struct cv_encoder cv_encoder; /* one stream; H.264 keeps state between frames */
 

@@ -44,8 +44,9 @@ typedef struct cv_render_frame cv_render_frame;
 typedef struct cv_render_frame_view {
     const cv_render_settings *settings; /* resolved (defaults filled in) */
     uint32_t width, height;             /* of the image */
-    uint32_t frame;                     /* of this render call, 0 first */
-    bool first, last;                   /* the render's first / last frame (the composite runs on the last) */
+    uint32_t frame;                     /* of this render call, 0 first (a step: its index in the history) */
+    bool first, last;                   /* the render's first / last frame (the composite runs on the last;
+                                         * every step is the last frame of its history so far) */
     bool moving;                        /* a moving camera (settings.orbit_degrees): reprojection */
     bool reflections;                   /* reflection passes are in the graph */
     uint32_t filter_iterations;         /* a-trous iterations of the visibility filter */

@@ -15,7 +15,9 @@
  *                 (reprojected by the reflected point's and the surface's
  *                 motion when the camera orbits),
  *                 composite (sun + sky light, emission, Fresnel times the
- *                 reflection; metal/roughness materials) to linear HDR
+ *                 reflection; metal/roughness materials) to linear HDR,
+ *                 present (the HDR times 2^exposure, ACES, sRGB: an RGBA8
+ *                 display image, cv_renderer_step's)
  *
  * Columns are split with partition/ (tile-snapped, rebalanced every frame from
  * each device's measured trace time). Devices are any cv_device: virtual GPUs on
