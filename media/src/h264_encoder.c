@@ -22,6 +22,9 @@
  * one slice, a thread's handoff would cost more than it saves. */
 #define H264_SLICED_PIXELS (1280u * 720u)
 #define H264_SLICES 4
+/* The most openh264 takes (its MAX_BIT_RATE: level 5.2's 240 Mbit/s x 1.2); it refuses more, so a
+ * higher request (encode_types.h allows up to 1 Gbit/s) is served at this. */
+#define H264_MAX_BITRATE_KBPS 288000u
 
 typedef struct h264_encoder {
     ISVCEncoder *wels;
@@ -101,7 +104,11 @@ cv_result h264_encoder_create(uint32_t width, uint32_t height, void **state) {
 }
 
 /* Starts the stream on the first frame; afterwards applies a new bitrate or frame rate. */
-static cv_result configure(h264_encoder *e, const cv_encode_params *p) {
+static cv_result configure(h264_encoder *e, const cv_encode_params *params) {
+    cv_encode_params capped = *params;
+    if (capped.bitrate_kbps > H264_MAX_BITRATE_KBPS)
+        capped.bitrate_kbps = H264_MAX_BITRATE_KBPS;
+    const cv_encode_params *p = &capped;
     int rc = 0;
     if (e->frames == 0) {
         SEncParamExt param;

@@ -698,39 +698,17 @@ static cv_result do_read_texture(session *s, uint64_t seq, const Corvid__ReadTex
     return r;
 }
 
-/* An encoded frame goes out like a read: in pieces of CV_NODE_CHUNK_BYTES, the first saying what it is. */
+/* The session's send and reply for its encode worker (session_encode.h). */
+static cv_result encode_send(void *user, const Corvid__NodeMessage *m) { return send_node_message(user, m); }
+static void encode_reply(void *user, uint64_t seq, cv_result result, const char *message) {
+    send_reply(user, seq, result, message);
+}
+
+/* Reads the texels here, in order; the worker encodes and sends them while the session goes on. */
 static cv_result do_read_encoded(session *s, uint64_t seq, const Corvid__ReadEncoded *m) {
     uint64_t id;
     cv_result r = translate(s, m->id, CV_HANDLE_TEXTURE, "read_encoded", &id);
-    cv_encoded frame = { 0 };
-    if (r == CV_OK)
-        r = session_encode_read(&s->encoders, s->ctx, (cv_texture){ id }, m, &frame);
-    for (size_t done = 0; r == CV_OK;) { /* a frame of 0 bytes (an encoder may skip one) is one empty piece */
-        size_t n = frame.size - done < CV_NODE_CHUNK_BYTES ? frame.size - done : CV_NODE_CHUNK_BYTES;
-        Corvid__EncodedFrame piece = CORVID__ENCODED_FRAME__INIT;
-        piece.offset = done;
-        piece.data = (ProtobufCBinaryData){ n, frame.data + done };
-        piece.last = done + n == frame.size;
-        if (done == 0) {
-            piece.codec = (uint32_t)frame.codec;
-            piece.width = frame.width;
-            piece.height = frame.height;
-            piece.keyframe = frame.keyframe;
-            piece.size = frame.size;
-            piece.read_ms = frame.read_ms;
-            piece.encode_ms = frame.encode_ms;
-        }
-        Corvid__NodeMessage out = CORVID__NODE_MESSAGE__INIT;
-        out.seq = seq;
-        out.msg_case = CORVID__NODE_MESSAGE__MSG_ENCODED_FRAME;
-        out.encoded_frame = &piece;
-        r = send_node_message(s, &out);
-        done += n;
-        if (piece.last)
-            break;
-    }
-    cv_encoded_free(&frame);
-    return r;
+    return r == CV_OK ? session_encode_read(&s->encoders, s->dev, s->ctx, (cv_texture){ id }, seq, m) : r;
 }
 
 static cv_result do_compile(session *s, const Corvid__CompileList *m) {
@@ -1040,7 +1018,7 @@ static bool handle(session *s, const Corvid__ClientMessage *m, int *status) {
                                                                       : do_read_encoded(s, seq, m->read_encoded);
         break;
     case CORVID__CLIENT_MESSAGE__MSG_OPEN_ENCODER:
-        r = session_encode_open(&s->encoders, s->dev, m->open_encoder);
+        r = session_encode_open(&s->encoders, m->open_encoder);
         send_reply(s, seq, r, r == CV_OK ? "" : cv_last_error());
         return true;
     case CORVID__CLIENT_MESSAGE__MSG_CLOSE_ENCODER: r = session_encode_close(&s->encoders, m->close_encoder); break;
@@ -1108,7 +1086,7 @@ static bool work_finished(session *s) {
 static void session_finish(session *s) {
     end_upload(s);
     stop_watcher(s, true);
-    session_encode_finish(&s->encoders); /* its readers encode here: they use the device only while reading */
+    session_encode_finish(&s->encoders);
     peer_inbox_close(s->node->peer, s->inbox);
     cv_node_metrics_device_bytes(s->node->metrics, s->device_index, -(int64_t)s->memory_bytes);
     /* An abandoned device's GPU may still use its memory: the context and device are
@@ -1143,6 +1121,7 @@ void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
     pthread_cond_init(&s->cond, NULL);
     cv_hash_map_init(&s->map, cv_hash_map_random_seed()); /* the client chooses the keys */
     proto_arena_init(&s->arena);
+    session_encode_init(&s->encoders, &(session_encode_sink){ encode_send, encode_reply, s });
     atomic_fetch_add(&node->sessions_started, 1);
     atomic_fetch_add(&node->sessions_active, 1);
 
@@ -1186,6 +1165,7 @@ void cv_node_session_run(cv_node *node, cv_rpc_stream *stream) {
         snprintf(why, sizeof(why), "%s", node->stop_reason);
     }
     stop_watcher(s, status != STATUS_OK);
+    session_encode_stop(&s->encoders); /* its last frame goes out before the stream ends */
     if (status > 0) {
         atomic_fetch_add(&node->errors, 1);
         log_line(s, NODE_LOG_ALWAYS, "ended with status %d: %s", status, why);

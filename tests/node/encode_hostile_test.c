@@ -190,6 +190,22 @@ static void per_session(raw_client *a) {
     raw_close(&b); /* leaves with an open stream: the node frees it with the session */
 }
 
+/* Reads sent back to back (the worker encodes one while the session reads the next), then a close right
+ * behind them: every frame comes, in order, before the close takes the stream. */
+static void pipelined(raw_client *c) {
+    EXPECT_REPLY(c, send_open(c, 7, CV_CODEC_H264, W, H), CV_OK, NULL);
+    uint64_t seqs[3];
+    for (int i = 0; i < 3; i++)
+        seqs[i] = send_read(c, 7, TEX_ID(1), (cv_rect){ 0, 0, W, H }, NULL);
+    send_close(c, 7); /* answered only if it fails */
+    uint64_t size = 0;
+    for (int i = 0; i < 3; i++)
+        CHECK(expect_frame(c, seqs[i], CV_CODEC_H264, &size));
+    EXPECT_REPLY(c, send_read(c, 7, TEX_ID(1), (cv_rect){ 0, 0, W, H }, NULL), CV_ERROR_INVALID_HANDLE,
+                 "stream 7 is not open");
+    send_read(c, 1, TEX_ID(1), (cv_rect){ 0, 0, W, H }, NULL); /* and the session ends with a frame in flight */
+}
+
 int main(void) {
     check_live_counter("encoders", cv_live_encoders);
     CHECK_OK(scratch_node_start(&node, cv_mock_backend(), 1, false));
@@ -210,6 +226,7 @@ int main(void) {
     CHECK(expect_frame(&c, send_read(&c, 1, TEX_ID(1), (cv_rect){ 0, 0, W, H }, NULL), CV_CODEC_RAW, &size));
     uint64_t out = cv_node_get_stats(node.node).bytes_out - before; /* the frame counts in the node's bytes out */
     CHECK(size == W * H * 4 && out >= size && out < size + 256);
+    pipelined(&c);
     raw_close(&c);
     CHECK_EQ_INT(scratch_node_wait_sessions(&node, 5000), 0);
     scratch_node_stop(&node);

@@ -85,11 +85,15 @@ int main(int argc, char **argv) {
     int parsed = parse_args(argc, argv, &o);
     if (parsed)
         return parsed == 2 ? 0 : 2;
-    /* The relay's thread inherits the mask: the signals come to sigwait below. */
+    /* The relay's thread inherits the mask: the signals come to sigwait below. A shell starts a
+     * background program with SIGINT ignored, and an ignored signal is dropped, not waited for:
+     * the default action is restored first (blocked, it does not end the program). */
     sigset_t stop;
     sigemptyset(&stop);
     sigaddset(&stop, SIGINT);
     sigaddset(&stop, SIGTERM);
+    signal(SIGINT, SIG_DFL);
+    signal(SIGTERM, SIG_DFL);
     pthread_sigmask(SIG_BLOCK, &stop, NULL);
     tcp_relay_desc desc = { .listen_host = o.listen_host,
                             .listen_port = o.listen.port,

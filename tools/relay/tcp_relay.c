@@ -98,6 +98,16 @@ static size_t queue_limit(const tcp_relay *r) {
                                            : (size_t)bytes;
 }
 
+/* On a capped link, the kernel's receive buffer of a socket the relay reads is kept to the
+ * queue's size: left to grow (to megabytes on loopback), it would be a second, unbounded
+ * queue in front of the link, holding bytes the model never sees. */
+static void bound_receive_buffer(const tcp_relay *r, int fd) {
+    if (atomic_load(&r->rate) == 0)
+        return;
+    int bytes = (int)queue_limit(r);
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &bytes, sizeof bytes);
+}
+
 static void accept_one(tcp_relay *r) {
     int fd = accept4(r->listen_fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0)
@@ -107,6 +117,8 @@ static void accept_one(tcp_relay *r) {
         if (!r->conns[i].used)
             c = &r->conns[i];
     int up = c ? socket(r->target.ss_family, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0) : -1;
+    if (up >= 0)
+        bound_receive_buffer(r, up); /* before connect: the window it offers follows */
     int rc = up >= 0 ? connect(up, (struct sockaddr *)&r->target, r->target_len) : -1;
     if (up < 0 || (rc != 0 && errno != EINPROGRESS)) {
         if (up >= 0)
@@ -116,6 +128,7 @@ static void accept_one(tcp_relay *r) {
     }
     set_nodelay(up);
     set_nodelay(fd);
+    bound_receive_buffer(r, fd);
     *c = (conn){ .used = true, .connecting = rc != 0, .fd = { fd, up } };
     c->dir[0] = (direction){ .from = 0, .to = 1 };
     c->dir[1] = (direction){ .from = 1, .to = 0 };
@@ -346,8 +359,10 @@ static cv_result listen_on(tcp_relay *r, const char *host, uint16_t port) {
         return res;
     r->listen_fd = socket(a.ss_family, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
     int one = 1;
-    if (r->listen_fd >= 0)
+    if (r->listen_fd >= 0) {
         setsockopt(r->listen_fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+        bound_receive_buffer(r, r->listen_fd); /* accepted sockets start with it */
+    }
     if (r->listen_fd < 0 || bind(r->listen_fd, (struct sockaddr *)&a, len) != 0 || listen(r->listen_fd, 16) != 0 ||
         getsockname(r->listen_fd, (struct sockaddr *)&a, &len) != 0)
         return cv_error(CV_ERROR_IO, "relay: listen on %s:%u: %s", host, port, strerror(errno));

@@ -23,7 +23,8 @@
  * Memory is bounded: each direction of a connection holds at most its queue limit (16 MiB
  * without a rate; with one, what the link carries in the delay plus TCP_RELAY_BUFFER_MS, at
  * least 64 KiB, as a router's buffer); above that it stops reading from that side (TCP's
- * flow control pushes back on the sender). At most TCP_RELAY_MAX_CONNECTIONS connections at
+ * flow control pushes back on the sender). On a capped link the kernel's receive buffers of
+ * the relay's sockets are kept to that size too, so they add no hidden queue of their own. At most TCP_RELAY_MAX_CONNECTIONS connections at
  * once; more are refused (closed). A half-close is passed on after the bytes before it; an
  * error on either side closes both. tcp_relay_stop closes everything and joins the thread. */
 #ifndef CORVID_TOOLS_TCP_RELAY_H

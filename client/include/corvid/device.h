@@ -106,9 +106,11 @@ void cv_device_abandon(cv_device *dev);
  * the device lock, that t is a loaded texture, rect lies inside it with the
  * stream's size (else CV_ERROR_OUT_OF_RANGE / CV_ERROR_FORMAT_MISMATCH), its
  * format suits the codec (cv_encode_check_format) and the parameters
- * (cv_encode_check_params); it waits for submitted work that writes the
- * texture, like cv_device_read_texture, and fills *out (zeroed on failure). A
- * refused call changes nothing and the stream goes on. Streams still open
+ * (cv_encode_check_params); it is ordered after submitted work that writes
+ * the texture, like cv_device_read_texture, waits for the frame WITHOUT the
+ * device lock (submissions and other calls go on while the device's machine
+ * reads and encodes), and fills *out (zeroed on failure). A refused call
+ * changes nothing and the stream goes on. Streams still open
  * when the device is destroyed are closed with it. */
 bool cv_device_can_encode(cv_device *dev);
 cv_result cv_device_encoder_open(cv_device *dev, cv_codec codec, uint32_t width, uint32_t height, uint32_t *stream);
