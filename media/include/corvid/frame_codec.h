@@ -13,13 +13,13 @@
  *         cv_encoder_destroy(enc);
  *     }
  *
- * Sizes: JPEG and PNG any size from 1x1; H.264 even widths and heights (odd ones are
- * refused with CV_ERROR_INVALID_ARGUMENT). Streams and parameters keep the rules of
- * encode_types.h (cv_encode_check_stream, cv_encode_check_params) that every encoder
- * stream keeps, local or on a node. H.264 serves a bitrate over 288 Mbit/s (openh264's most)
- * at 288 Mbit/s. Codec libraries: libturbojpeg, openh264 (the
- * Debian build, BSD-2-Clause; docs/media.md), libpng, libzstd. An encoder or a decoder is
- * one stream: one thread at a time; different ones run in parallel. */
+ * Sizes: JPEG and PNG any size from 1x1 to CV_CODEC_MAX_SIDE; H.264 even widths and
+ * heights (odd ones are refused with CV_ERROR_INVALID_ARGUMENT). Streams and parameters keep
+ * the rules of encode_types.h (cv_encode_check_stream, cv_encode_check_params) that every
+ * encoder stream keeps, local or on a node; H.264 serves a bitrate over 288 Mbit/s
+ * (openh264's most) at 288 Mbit/s. Codec libraries: libturbojpeg, openh264 (the Debian
+ * build, BSD-2-Clause; docs/media.md), libpng, libzstd. An encoder or a decoder is one
+ * stream: one thread at a time; different ones run in parallel. */
 #ifndef CORVID_FRAME_CODEC_H
 #define CORVID_FRAME_CODEC_H
 
