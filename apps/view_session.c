@@ -230,10 +230,11 @@ void view_session_tick(view_session *s, cv_web_server *server) {
     cv_web_server_get_stats(server, &ws);
     pthread_mutex_lock(&s->lock);
     double now = cv_now_ms();
-    if (now > s->last_tick_ms)
+    if (now - s->last_tick_ms >= 1000.0) { /* over a second: a slow view sends a frame in several ticks */
         s->sent_bytes_per_s = (double)(ws.bytes_sent - s->last_bytes) * 1000.0 / (now - s->last_tick_ms);
-    s->last_bytes = ws.bytes_sent;
-    s->last_tick_ms = now;
+        s->last_bytes = ws.bytes_sent;
+        s->last_tick_ms = now;
+    }
     if (s->live && s->peers && s->last_frame > s->acked && now - s->last_ack_ms > VIEW_ACK_GIVE_UP_MS) {
         cv_live_credit(s->live, (uint32_t)(s->last_frame - s->acked));
         s->acked = s->last_frame;
