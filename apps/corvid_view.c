@@ -138,23 +138,12 @@ static cv_result create_renderer(view_run *run) {
     return r;
 }
 
-/* The live loop and the web server over it. */
-static cv_result start_serving(view_run *run) {
+/* The web server first, so that its refusals (an address in use, a host without a token)
+ * come before the scene and devices are made; pages that connect early wait for the live. */
+static cv_result start_server(view_run *run) {
     const view_options *o = &run->o;
-    view_session_init(&run->session, &o->settings, run->scene, o->codec);
+    view_session_init(&run->session, &o->settings, o->codec);
     run->session_ready = true;
-    cv_live_desc live = { .renderer = run->renderer,
-                          .primary = run->devices[0],
-                          .settings = o->settings,
-                          .codec = o->codec,
-                          .encode = { .quality = o->quality, .bitrate_kbps = o->bitrate_kbps },
-                          .max_accumulate = o->max_accumulate,
-                          .frame = view_session_frame,
-                          .user = &run->session };
-    cv_result r = cv_live_start(&live, &run->live);
-    if (r != CV_OK)
-        return r;
-    view_session_attach(&run->session, run->live);
     cv_web_desc web = { .host = o->host,
                         .port = (uint16_t)o->port,
                         .token = run->token[0] ? run->token : NULL,
@@ -169,6 +158,23 @@ static cv_result start_serving(view_run *run) {
                         .ws_close = view_session_close,
                         .ws_user = &run->session };
     return cv_web_server_start(&web, &run->server);
+}
+
+/* The live loop over the renderer, handed to the viewers. */
+static cv_result start_live(view_run *run) {
+    const view_options *o = &run->o;
+    cv_live_desc live = { .renderer = run->renderer,
+                          .primary = run->devices[0],
+                          .settings = o->settings,
+                          .codec = o->codec,
+                          .encode = { .quality = o->quality, .bitrate_kbps = o->bitrate_kbps },
+                          .max_accumulate = o->max_accumulate,
+                          .frame = view_session_frame,
+                          .user = &run->session };
+    cv_result r = cv_live_start(&live, &run->live);
+    if (r == CV_OK)
+        view_session_attach(&run->session, run->live, run->scene);
+    return r;
 }
 
 /* Until SIGINT or SIGTERM (blocked in every thread, taken here): stats four times a second. */
@@ -236,11 +242,13 @@ int main(int argc, char **argv) {
         code = read_environment(&run);
     if (code)
         return code;
-    cv_result r = load_scene(&run);
+    cv_result r = start_server(&run);
+    if (r == CV_OK)
+        r = load_scene(&run);
     if (r == CV_OK)
         r = create_renderer(&run);
     if (r == CV_OK)
-        r = start_serving(&run);
+        r = start_live(&run);
     if (r == CV_OK)
         serve_until_signal(&run, &stop);
     return finish(&run, r);

@@ -16,19 +16,12 @@
 /* Frames in flight to a page that has just connected. */
 #define VIEW_START_CREDITS 2u
 
-void view_session_init(view_session *s, const cv_render_settings *settings, const cv_scene *scene, cv_codec codec) {
+void view_session_init(view_session *s, const cv_render_settings *settings, cv_codec codec) {
     memset(s, 0, sizeof *s);
     pthread_mutex_init(&s->lock, NULL);
     s->settings = *settings;
-    s->scene = scene;
     s->codec = codec;
     s->last_ack_ms = s->last_tick_ms = cv_now_ms();
-}
-
-void view_session_attach(view_session *s, cv_live *live) {
-    pthread_mutex_lock(&s->lock);
-    s->live = live;
-    pthread_mutex_unlock(&s->lock);
 }
 
 void view_session_finish(view_session *s) {
@@ -103,6 +96,29 @@ static void send_json(cv_web_conn *c, char *json) {
     free(json);
 }
 
+/* A page to start (lock held, the live attached): its hello, a frame of a still view, credits. */
+static void greet(view_session *s, cv_web_conn *c) {
+    send_json(c, view_hello_json(&s->settings, s->scene, s->codec));
+    /* A new decoder starts at a keyframe; the same settings again make one more frame of a
+     * still view (its history goes on), so the page has a picture at once. */
+    if (s->codec == CV_CODEC_H264)
+        cv_live_set_codec(s->live, s->codec, &(cv_encode_params){ .keyframe = true });
+    if (cv_live_update(s->live, &s->settings, s->seq + 1) == CV_OK)
+        s->seq++;
+    cv_live_credit(s->live, VIEW_START_CREDITS);
+}
+
+void view_session_attach(view_session *s, cv_live *live, const cv_scene *scene) {
+    pthread_mutex_lock(&s->lock);
+    s->live = live;
+    s->scene = scene;
+    if (s->peers) /* the newest drives; the others get the hello alone */
+        greet(s, s->peers->conn);
+    for (view_peer *p = s->peers ? s->peers->next : NULL; p; p = p->next)
+        send_json(p->conn, view_hello_json(&s->settings, s->scene, s->codec));
+    pthread_mutex_unlock(&s->lock);
+}
+
 void view_session_open(void *user, cv_web_conn *c) {
     view_session *s = user;
     view_peer *p = calloc(1, sizeof *p);
@@ -118,16 +134,8 @@ void view_session_open(void *user, cv_web_conn *c) {
     s->last_ack_ms = cv_now_ms();
     s->rtt_count = s->rtt_head = 0; /* another page, another link */
     s->link_bytes_per_s = s->page_bytes_per_s = 0;
-    send_json(c, view_hello_json(&s->settings, s->scene, s->codec));
-    if (s->live) {
-        /* A new decoder starts at a keyframe; the same settings again make one more frame of a
-         * still view (its history goes on), so the page has a picture at once. */
-        if (s->codec == CV_CODEC_H264)
-            cv_live_set_codec(s->live, s->codec, &(cv_encode_params){ .keyframe = true });
-        if (cv_live_update(s->live, &s->settings, s->seq + 1) == CV_OK)
-            s->seq++;
-        cv_live_credit(s->live, VIEW_START_CREDITS);
-    }
+    if (s->live)
+        greet(s, c);
     pthread_mutex_unlock(&s->lock);
 }
 
@@ -222,10 +230,11 @@ void view_session_tick(view_session *s, cv_web_server *server) {
     cv_web_server_get_stats(server, &ws);
     pthread_mutex_lock(&s->lock);
     double now = cv_now_ms();
-    if (now > s->last_tick_ms)
+    if (now - s->last_tick_ms >= 1000.0) { /* over a second: a slow view sends a frame in several ticks */
         s->sent_bytes_per_s = (double)(ws.bytes_sent - s->last_bytes) * 1000.0 / (now - s->last_tick_ms);
-    s->last_bytes = ws.bytes_sent;
-    s->last_tick_ms = now;
+        s->last_bytes = ws.bytes_sent;
+        s->last_tick_ms = now;
+    }
     if (s->live && s->peers && s->last_frame > s->acked && now - s->last_ack_ms > VIEW_ACK_GIVE_UP_MS) {
         cv_live_credit(s->live, (uint32_t)(s->last_frame - s->acked));
         s->acked = s->last_frame;

@@ -5,11 +5,12 @@
  * its credits; stats go out about four times a second.
  *
  *     view_session s;
- *     view_session_init(&s, &settings, scene, CV_CODEC_JPEG);
- *     desc.frame = view_session_frame; desc.user = &s;       // the live's callback
- *     cv_live_start(&desc, &live);
- *     view_session_attach(&s, live);
+ *     view_session_init(&s, &settings, CV_CODEC_JPEG);
  *     web.ws_open = view_session_open; ...; web.ws_user = &s;  // the server's callbacks
+ *     cv_web_server_start(&web, &server);                      // pages wait for the live
+ *     desc.frame = view_session_frame; desc.user = &s;         // the live's callback
+ *     cv_live_start(&desc, &live);
+ *     view_session_attach(&s, live, scene);
  *     ...
  *     view_session_tick(&s, server);                           // every 250 ms
  *     cv_web_server_stop(server);                              // before the live
@@ -62,9 +63,10 @@ typedef struct view_session {
     double sent_bytes_per_s;
 } view_session;
 
-void view_session_init(view_session *s, const cv_render_settings *settings, const cv_scene *scene, cv_codec codec);
-/* The live, once started (frames arrive only after credits, which only peers give). */
-void view_session_attach(view_session *s, cv_live *live);
+void view_session_init(view_session *s, const cv_render_settings *settings, cv_codec codec);
+/* The live, once started, and its scene: pages that connected before get their hello and
+ * credits now (frames arrive only after credits, which only pages give). */
+void view_session_attach(view_session *s, cv_live *live, const cv_scene *scene);
 void view_session_finish(view_session *s);
 
 /* cv_live_desc.frame */

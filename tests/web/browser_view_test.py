@@ -13,8 +13,9 @@ checks that
   - a drag on the canvas (WebDriver Actions: pointer down, moves, up) moves the
     camera: the page's input seq is reflected by the frames, the image differs
     from before by more than noise, and it matches the snapshot again;
-  - "Save PNG" fetches the snapshot, and the stats overlay shows fps and
-    motion-to-photon figures;
+  - keys move the camera (two W presses: two inputs, reflected by the frames);
+  - "Save PNG" fetches the snapshot, snapshot.exr is an OpenEXR file, and the
+    stats overlay shows fps and motion-to-photon figures;
   - a bad input message gets an error naming the field, and frames go on.
 
 usage: browser_view_test.py CORVID_VIEW [--codec jpeg|h264] [--size WxH]
@@ -160,6 +161,13 @@ class WebDriver:
             {"type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"}, "actions": moves}]})
         self.cmd("DELETE", self.s("/actions"))
 
+    def keys(self, text):
+        acts = []
+        for ch in text:
+            acts += [{"type": "keyDown", "value": ch}, {"type": "keyUp", "value": ch}]
+        self.cmd("POST", self.s("/actions"), {"actions": [{"type": "key", "id": "keyboard", "actions": acts}]})
+        self.cmd("DELETE", self.s("/actions"))
+
     def screenshot(self):
         return base64.b64decode(self.cmd("GET", self.s("/screenshot")))
 
@@ -278,10 +286,19 @@ def run(args, tmp):
         moved, _ = stats_of(rgb_errors(before, after, 4, len(after) // 4))
         check(moved > 8, "the orbit changed the image (mean difference %.1f > 8)" % moved)
 
+        seq1 = v["seq"]
+        wd.keys("ww")
+        v = settled(wd, api)
+        check(v["seq"] == seq1 + 2 and v["lastInputSeq"] == v["seq"], "the W key moved the camera twice (seq %d)"
+              % v["seq"])
+
         saved = (wd.js("return window.corvidView.saved") or 0)
         wd.click(wd.element("#save-png"))
         wait_for("Save PNG", lambda: (wd.js("return window.corvidView.saved") or 0) > saved, 20)
         check(True, "Save PNG fetched the snapshot")
+        st, exr = http("GET", api + "/snapshot.exr")
+        check(st == 200 and exr[:4] == b"\x76\x2f\x31\x01", "GET snapshot.exr gives an OpenEXR file (%d bytes)"
+              % len(exr))
 
         text = wait_for("stats with motion-to-photon", lambda: (lambda t: t if "fps" in t and "motion-to-photon"
                         in t else None)(wd.js("return document.getElementById('stats').textContent")), 10)

@@ -119,6 +119,7 @@ static void test_http(fixture *f, uint16_t port) {
     memset(big, 'x', 65);
     big[65] = 0;
     CHECK_EQ_INT(status_of(port, "POST", "/api/v1/echo", NULL, big), 413);
+    CHECK_EQ_INT(status_of(port, "PATCH", "/api/v1/echo", "Transfer-Encoding: chunked\r\n", NULL), 411);
     pthread_mutex_lock(&f->lock);
     CHECK_EQ_INT(f->api_calls, calls); /* refused before the handler */
     pthread_mutex_unlock(&f->lock);

@@ -133,9 +133,10 @@
   }, { passive: false });
   const KEYS = { KeyW: [1, 0], ArrowUp: [1, 0], KeyS: [-1, 0], ArrowDown: [-1, 0],
     KeyA: [0, -1], ArrowLeft: [0, -1], KeyD: [0, 1], ArrowRight: [0, 1] };
-  canvas.addEventListener("keydown", (e) => {
+  // Anywhere on the page but in a control (whose own keys move sliders).
+  document.addEventListener("keydown", (e) => {
     const k = KEYS[e.code];
-    if (!k || !camera) return;
+    if (!k || !camera || e.target.closest("input, button, select, textarea")) return;
     e.preventDefault();
     walk(k[0], k[1]);
     sendCamera();

@@ -118,7 +118,7 @@ static int respond(cv_web_server *s, struct lws *wsi, web_session *ss) {
         ss->out_size = ss->resp.body_size;
     }
     int st = ss->resp.status;
-    ss->close_after = st == 413;
+    ss->close_after = st == 411 || st == 413;
     count(s, st == 401 || st == 404 || st == 405 || st == 411 || st == 413);
     if (st >= 400)
         cv_log(CV_LOG_DEBUG, "web", "%s %s: %d", ss->method, ss->path, st);
@@ -164,7 +164,13 @@ static int route(cv_web_server *s, struct lws *wsi, web_session *ss, int method)
         return respond(s, wsi, ss);
     }
     char len_text[32];
-    if (lws_hdr_copy(wsi, len_text, sizeof len_text, WSI_TOKEN_HTTP_CONTENT_LENGTH) > 0) {
+    bool has_length = lws_hdr_copy(wsi, len_text, sizeof len_text, WSI_TOKEN_HTTP_CONTENT_LENGTH) > 0;
+    if (!has_length && lws_hdr_total_length(wsi, WSI_TOKEN_HTTP_TRANSFER_ENCODING) > 0) {
+        /* A chunked body has no size to check against the limit before it is read. */
+        cv_http_respond_error(&ss->resp, 411, "%s: a body needs a Content-Length", ss->path);
+        return respond(s, wsi, ss);
+    }
+    if (has_length) {
         unsigned long long n = strtoull(len_text, NULL, 10);
         if (n > s->max_body_bytes) {
             cv_http_respond_error(&ss->resp, 413, "%s: body of %llu bytes is over the limit of %zu", ss->path, n,

@@ -47,7 +47,7 @@ typedef struct web_session {
     size_t body_size, body_expected;
     bool body_pending; /* waiting for body chunks before calling the handler */
     bool head;         /* HEAD: headers only */
-    bool close_after;  /* 413: the unread body would follow as a request: close instead */
+    bool close_after;  /* 411, 413: the unread body would follow as a request: close instead */
     cv_http_response resp;
     const uint8_t *out; /* resp.body or an asset's bytes */
     size_t out_size, out_sent;

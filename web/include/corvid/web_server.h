@@ -11,8 +11,8 @@
  * request must carry `Authorization: Bearer <token>`; the page and "/ws" may
  * carry it as `?token=<token>` instead (a browser cannot set headers on a
  * WebSocket or on the address a user opens). TLS when a certificate and key are
- * given. Refusals: 401 (token), 404 (unknown path), 405 (method), 413 (a body
- * over max_body_bytes, before the handler runs).
+ * given. Refusals: 401 (token), 404 (unknown path), 405 (method), 411 (a body
+ * without Content-Length), 413 (a body over max_body_bytes, before the handler runs).
  *
  *     static void api(void *user, const cv_http_request *req, cv_http_response *resp) {
  *         if (strcmp(req->path, "/api/v1/hello") == 0)
@@ -119,7 +119,7 @@ cv_result cv_web_send_binary(cv_web_conn *c, const void *data, size_t size);
 cv_result cv_web_send_text(cv_web_conn *c, const char *text);
 
 typedef struct cv_web_stats {
-    uint64_t http_requests, http_refused; /* refused: 401, 404, 405, 413 */
+    uint64_t http_requests, http_refused; /* refused: 401, 404, 405, 411, 413 */
     uint64_t ws_opened, ws_open_now;
     uint64_t binary_sent, binary_replaced; /* replaced: unsent frames a newer one replaced */
     uint64_t text_sent, text_dropped;      /* dropped: over text_queue_max */
