@@ -50,7 +50,7 @@ static cv_result check_desc(const cv_live_desc *d) {
                         : !d->renderer ? "renderer"
                         : !d->primary  ? "primary"
                                        : "frame callback");
-    cv_result res = cv_render_settings_check(&d->settings);
+    cv_result res = cv_renderer_check_settings(d->renderer, &d->settings);
     if (res != CV_OK)
         return cv_error(res, "live: start: %s", cv_last_error());
     uint32_t w, h;
@@ -120,7 +120,7 @@ cv_result cv_live_update(cv_live *l, const cv_render_settings *s, uint64_t seq) 
     if (!l || !s)
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "live: update %llu: NULL %s", (unsigned long long)seq,
                         l ? "settings" : "live");
-    cv_result res = cv_render_settings_check(s);
+    cv_result res = cv_renderer_check_settings(l->desc.renderer, s);
     if (res != CV_OK)
         return cv_error(res, "live: update %llu: %s", (unsigned long long)seq, cv_last_error());
     uint32_t w, h;

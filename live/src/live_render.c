@@ -101,9 +101,10 @@ static void publish(cv_live *l, live_render *rs, const cv_render_step *step) {
     pthread_cond_broadcast(&l->snapshot_cond);
 }
 
-/* A step that failed (lock held): settings the renderer refused (its checks
- * know the scene, cv_live_update's do not: a scene camera too wide) go back
- * to the last good ones and rendering goes on; anything else ends the live. */
+/* A step that failed (lock held): settings the renderer refused (cv_live_update
+ * checked them as cv_renderer_check_settings does, so only what a step alone
+ * finds) go back to the last good ones and rendering goes on; anything else
+ * ends the live. */
 static bool recover(cv_live *l, live_render *rs, cv_result res, const char *why) {
     bool refused = res == CV_ERROR_INVALID_ARGUMENT || res == CV_ERROR_OUT_OF_RANGE;
     if (refused && rs->unproven && rs->width) {

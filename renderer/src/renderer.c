@@ -119,6 +119,13 @@ static cv_result check_settings(const cv_render_frame *f, const cv_render_settin
     return res == CV_OK ? cv_render_camera_check(out, f->scene) : res;
 }
 
+cv_result cv_renderer_check_settings(const cv_renderer *r, const cv_render_settings *settings) {
+    if (!r || !settings)
+        return cv_error(CV_ERROR_INVALID_ARGUMENT, "cv_renderer_check_settings: NULL argument");
+    cv_render_settings resolved;
+    return check_settings(&r->frame, settings, &resolved);
+}
+
 /* Readies the targets and the graph for checked settings `s` and bakes a
  * new graph's first frame (render_loop_prebake: *setup_ms). */
 static cv_result apply_settings(cv_renderer *r, const cv_render_settings *s, double *setup_ms) {

@@ -120,6 +120,13 @@ typedef struct cv_render_step {
     double frame_ms;      /* host time of the step */
 } cv_render_step;
 
+/* Whether a render or step would take these settings, checked as they
+ * would be (the table's ranges, the camera against the scene), without
+ * rendering or changing anything. Reads only what creation fixed, so any
+ * thread may call it while another renders (corvid/live.h checks a viewer's
+ * input with it before the input reaches the render thread). */
+cv_result cv_renderer_check_settings(const cv_renderer *r, const cv_render_settings *settings);
+
 /* Renders one more frame of a progressive image and presents it (filter,
  * composite and the tone-mapping pass 'present' run on every step). The
  * history goes on from the previous step while the settings are equal
