@@ -2,7 +2,10 @@
  * loopback serve lavapipe devices; the client reaches them through the proxy
  * backend.
  *  - 1 node x 1 device, and 2 nodes x 2 virtual GPUs, render bit-identically to
- *    the local render on one lavapipe device;
+ *    the local render on one lavapipe device; so do three progressive steps
+ *    after it (cv_renderer_step), their display (the 8-bit image a live view
+ *    encodes) read through the encoded path (a frame reader, RAW: on the node
+ *    for a proxy primary) before any lossy codec;
  *  - a second render against the same node sends no scene bytes (they come
  *    from the node's content cache) and says how many it skipped;
  *  - a node that dies mid-session makes the client's calls fail with
@@ -12,6 +15,7 @@
 
 #include "check.h"
 #include "corvid/clock.h"
+#include "corvid/frame_reader.h"
 #include "test_adapter.h"
 #include "corvid/proxy.h"
 #include "corvid/renderer.h"
@@ -28,19 +32,44 @@ static cv_render_settings settings(void) {
     };
 }
 
+/* The display of three steps after a render, read as a live view reads it
+ * (the frame reader: on the node when the primary is remote). */
+static cv_result step_display(cv_renderer *r, cv_device *primary, uint8_t *display) {
+    cv_render_settings s = settings();
+    cv_render_step step = { 0 };
+    cv_result res = CV_OK;
+    for (int k = 0; k < 3 && res == CV_OK; k++)
+        res = cv_renderer_step(r, &s, &step);
+    cv_frame_reader *reader = NULL;
+    cv_encoded frame = { 0 };
+    if (res == CV_OK)
+        res = cv_frame_reader_create(primary, CV_CODEC_RAW, W, H, &reader);
+    if (res == CV_OK)
+        res = cv_frame_reader_read(reader, step.display, (cv_rect){ 0, 0, W, H }, &(cv_encode_params){ 0 }, &frame);
+    if (res == CV_OK && frame.size != (size_t)W * H * 4)
+        res = cv_error(CV_ERROR_MALFORMED, "display: %zu bytes", frame.size);
+    if (res == CV_OK)
+        memcpy(display, frame.data, frame.size);
+    cv_encoded_free(&frame);
+    cv_frame_reader_destroy(reader);
+    return res;
+}
+
 static cv_result render(cv_device **devices, uint32_t count, const cv_scene *scene, const cv_bvh *bvh,
-                        cv_render_output *out) {
+                        cv_render_output *out, uint8_t *display) {
     cv_renderer *r = NULL;
     cv_render_settings s = settings();
     cv_render_stats stats;
     cv_result res = cv_renderer_create(devices, count, scene, bvh, &r);
     if (res == CV_OK)
         res = cv_renderer_render(r, &s, out, &stats, NULL, NULL);
+    if (res == CV_OK && display)
+        res = step_display(r, devices[0], display);
     cv_renderer_destroy(r);
     return res;
 }
 
-static cv_result render_local(const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out) {
+static cv_result render_local(const cv_scene *scene, const cv_bvh *bvh, cv_render_output *out, uint8_t *display) {
     cv_context *ctx;
     cv_device *dev = NULL;
     cv_result res = cv_context_create(NULL, &ctx);
@@ -48,7 +77,7 @@ static cv_result render_local(const cv_scene *scene, const cv_bvh *bvh, cv_rende
         res = cv_device_create(ctx, cv_vulkan_backend(),
                                &(cv_device_desc){ .adapter = cv_test_adapter(), .validation = true }, &dev);
     if (res == CV_OK)
-        res = render(&dev, 1, scene, bvh, out);
+        res = render(&dev, 1, scene, bvh, out, display);
     if (ctx)
         cv_context_destroy(ctx);
     return res;
@@ -56,7 +85,7 @@ static cv_result render_local(const cv_scene *scene, const cv_bvh *bvh, cv_rende
 
 /* Renders on `per_node` devices of each node; stats of device 0's session. */
 static cv_result render_remote(scratch_node *nodes, uint32_t node_count, uint32_t per_node, const cv_scene *scene,
-                               const cv_bvh *bvh, cv_render_output *out, cv_proxy_stats *stats) {
+                               const cv_bvh *bvh, cv_render_output *out, uint8_t *display, cv_proxy_stats *stats) {
     cv_context *ctx;
     cv_device *devices[8] = { 0 };
     uint32_t count = 0;
@@ -72,7 +101,7 @@ static cv_result render_remote(scratch_node *nodes, uint32_t node_count, uint32_
                 count++;
         }
     if (res == CV_OK)
-        res = render(devices, count, scene, bvh, out);
+        res = render(devices, count, scene, bvh, out, display);
     if (res == CV_OK && stats)
         res = cv_proxy_get_stats(devices[0], stats);
     if (ctx)
@@ -179,25 +208,34 @@ int main(void) {
         return check_report("node_remote_render");
 
     cv_render_output local = { 0 }, one = { 0 }, again = { 0 }, four = { 0 };
-    CHECK_OK(render_local(scene, bvh, &local));
+    static uint8_t local_display[W * H * 4], one_display[W * H * 4], four_display[W * H * 4];
+    CHECK_OK(render_local(scene, bvh, &local, local_display));
 
     scratch_node nodes[2];
     CHECK_OK(scratch_node_start(&nodes[0], cv_vulkan_backend(), 2, true));
     CHECK_OK(scratch_node_start(&nodes[1], cv_vulkan_backend(), 2, true));
 
     cv_proxy_stats first, second;
-    CHECK_OK(render_remote(nodes, 1, 1, scene, bvh, &one, &first));
+    CHECK_OK(render_remote(nodes, 1, 1, scene, bvh, &one, one_display, &first));
     CHECK(same_image(&local, &one));
+    CHECK(memcmp(local_display, one_display, sizeof(one_display)) == 0);
     CHECK(first.upload_bytes_sent > 0);
 
     /* The same scene again, in a new session: every byte comes from the cache. */
-    CHECK_OK(render_remote(nodes, 1, 1, scene, bvh, &again, &second));
+    CHECK_OK(render_remote(nodes, 1, 1, scene, bvh, &again, NULL, &second));
     CHECK(same_image(&local, &again));
     CHECK_EQ_INT(second.upload_bytes_sent, 0);
     CHECK(second.upload_bytes_skipped >= first.upload_bytes_sent);
 
-    CHECK_OK(render_remote(nodes, 2, 2, scene, bvh, &four, NULL));
+    CHECK_OK(render_remote(nodes, 2, 2, scene, bvh, &four, four_display, NULL));
     CHECK(same_image(&local, &four));
+    CHECK(memcmp(local_display, four_display, sizeof(four_display)) == 0);
+    /* Not a display of nothing: the room's lit and shadowed texels give many levels. */
+    bool seen[256] = { false };
+    uint32_t levels = 0;
+    for (size_t i = 0; i < sizeof(local_display); i++)
+        levels += !seen[local_display[i]] ? (seen[local_display[i]] = true) : 0;
+    CHECK(levels > 64);
 
     for (int i = 0; i < 2; i++) {
         CHECK_EQ_INT(scratch_node_wait_sessions(&nodes[i], 5000), 0);
