@@ -8,7 +8,7 @@ cd /tmp/corvid/b/bin
   corvid-render --list-adapters
   pass=0; fail=0
   for t in vk_* "conformance vulkan" renderer_frames renderer_transfer_paths renderer_temporal renderer_reflect \
-           render_outputs render_log renderer_texture renderer_alpha trace_paths node_hostile node_peer_hostile node_isolation vk_device_churn "conformance proxy-vulkan" node_remote_render proxy_dead_session \
+           render_outputs render_log renderer_texture renderer_alpha renderer_step live live_link test_media_codec node_encode_hostile trace_paths node_hostile node_peer_hostile node_isolation vk_device_churn "conformance proxy-vulkan" node_remote_render proxy_dead_session \
            "node_cluster /tmp/corvid/b/bin/corvid-node"; do
     echo "== $t"
     unset CORVID_VIRTUAL_GPUS
