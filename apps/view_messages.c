@@ -53,6 +53,9 @@ static cJSON *setting_json(const cv_render_settings *resolved, const cv_render_s
     cJSON_AddBoolToObject(o, "pow2", (row->flags & CV_SETTING_POW2) != 0);
     cJSON_AddStringToObject(o, "name", row->name);
     cJSON_AddStringToObject(o, "unit", row->unit);
+    /* Its name in a gateway job's "settings" (the option without "--"; "sun" takes the cone with the
+     * direction: "DX,DY,DZ,A"), so that the page's job panel starts jobs with the page's settings. */
+    cJSON_AddStringToObject(o, "job", row->option ? row->option + 2 : row->field);
     return o;
 }
 
