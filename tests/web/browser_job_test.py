@@ -3,12 +3,15 @@
 Chromium through chromedriver, stdlib only): the gateway on the view's port.
 
 Starts corvid-view on lavapipe (96x54, 2 virtual GPUs), drags the view once (so
-the camera is not the scene's), then through the page's job panel:
+the camera is not the scene's) and moves the exposure slider, waits until the
+view has accumulated its 4 frames, then through the page's job panel:
   - "Start job" with 4 frames: the progress reaches done and the page shows the
     job's PNG; the <img> pixels (drawn on a canvas, getImageData) equal the
     PNG's bytes fetched by urllib and decoded here, exactly (a PNG is lossless);
-  - the job took what the page showed: the request the page sent carries the
-    page's camera; the same request sent by urllib renders the same image
+  - the job took what the page showed: its PNG equals the view's own frame
+    (snapshot.png after the same 4 frames) within 1 LSB (the GPU tone map of
+    the live frame against the job's CPU one; measured: equal); the request
+    the page sent carries the page's camera and exposure; the same request sent by urllib renders the same image
     exactly, and the same without the camera (the scene's) renders a different
     one (mean difference > 2 of 255), so the check cannot pass by accident;
   - "Cancel" on a long job (4000 frames) ends it cancelled; a second cancel by
@@ -42,6 +45,14 @@ const d = g.getImageData(0, 0, c.width, c.height).data;
 let s = '';
 for (let i = 0; i < d.length; i += 8192) s += String.fromCharCode.apply(null, d.subarray(i, i + 8192));
 return [c.width, c.height, btoa(s)];
+"""
+
+
+# The exposure slider moved to +0.5 EV as a user's input event does (a setting a job must carry).
+SET_EXPOSURE_JS = """
+const e = document.getElementById('setting-exposure');
+e.value = '0.5';
+e.dispatchEvent(new Event('input'));
 """
 
 
@@ -102,8 +113,8 @@ def check_request(wd, base, png, ch):
     cam = wd.js("return window.corvidView.camera")
     hello = wd.js("return window.corvidView.hello.camera")
     check(req["camera"] == {"eye": cam["eye"], "target": cam["target"], "fov_degrees": cam["fov"]}
-          and cam["eye"] != hello["eye"], "the page's job carries the page's camera, moved by the drag: %s"
-          % req["camera"])
+          and cam["eye"] != hello["eye"] and req["settings"]["exposure"] == 0.5,
+          "the page's job carries the page's camera, moved by the drag, and exposure: %s" % req["camera"])
     pixels = 96 * 54
     _, _, ch2, again = submit(base, req)
     worst = max(rgb_errors(_rgba(png, ch), again, ch2, pixels))
@@ -155,8 +166,15 @@ def run(view_binary, tmp):
                   and wd.js("return document.getElementById('job-width').value") == "96",
                   "the job panel starts from the view's scene (the gateway's \"default\") and size")
             wd.drag(wd.element("#frame"), 60, 16)
+            wd.js(SET_EXPOSURE_JS)
             settled(wd, base + "/view", FRAMES)
+            st, snap = http("GET", base + "/view/snapshot.png")
+            check(st == 200, "the view's snapshot after %d accumulated frames" % FRAMES)
             j, png, ch = run_job(wd, base)
+            sw, sh, sch, snap = decode_png(snap)
+            worst = max(rgb_errors(_rgba(png, ch), snap, sch, 96 * 54))
+            check(worst <= 1, "the job's image is the view's own frame after the same %d frames (largest difference "
+                  "%d <= 1: the GPU and CPU tone maps agree within 1 LSB)" % (FRAMES, worst))
             check_request(wd, base, png, ch)
             check_cancel(wd, base)
             check_refusal(wd)
