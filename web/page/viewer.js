@@ -361,7 +361,7 @@
     if (s.error) lines.push("error: " + s.error);
     statsEl.textContent = lines.join("\n");
     // The live ended (a node died): said where it is seen, once.
-    if (s.error && errorEl.textContent !== "live: " + s.error) fail("live: " + s.error);
+    if (s.error && errorEl.textContent !== s.error) fail(s.error);
   }
 
   function onText(text) {
