@@ -16,12 +16,11 @@
 #include "corvid/endpoint.h"
 #include "corvid/gateway.h"
 #include "corvid/parse.h"
-#include "corvid/vulkan.h"
 #include "corvid/web_server.h"
 #include "env_client.h"
 #include "env_log.h"
 #include "env_vulkan.h"
-#include "render_devices.h"
+#include "job_devices.h"
 
 typedef struct gateway_options {
     const char *host; /* NULL = 127.0.0.1 */
@@ -32,14 +31,6 @@ typedef struct gateway_options {
     uint32_t jobs;
     bool validation, help;
 } gateway_options;
-
-/* What open_devices needs: the local devices' table, or the node list. */
-typedef struct gateway_devices {
-    cv_vulkan_gpu_config gpu_config;
-    cv_vulkan_gpu_table table;
-    const char *nodes;
-    bool validation;
-} gateway_devices;
 
 static void usage(FILE *f) {
     fprintf(f,
@@ -155,49 +146,10 @@ static int read_token(const char *file, char *token, size_t size) {
     return 0;
 }
 
-/* A job's devices: a context of its own, and the local devices of the table or the nodes' devices. */
-static cv_result open_devices(void *user, cv_gateway_devices *out) {
-    const gateway_devices *d = user;
-    cv_result r = cv_context_create(NULL, &out->ctx);
-    if (r == CV_OK && d->nodes) {
-        r = render_node_devices(out->ctx, d->nodes, out->devices, &out->count, true);
-    } else if (r == CV_OK) {
-        r = cv_vulkan_create_devices(out->ctx, &d->table, d->validation, out->devices);
-        out->count = r == CV_OK ? d->table.count : 0;
-    }
-    if (r != CV_OK) {
-        for (uint32_t i = out->count; i-- > 0;)
-            cv_device_destroy(out->devices[i]);
-        if (out->ctx)
-            cv_context_destroy(out->ctx);
-        *out = (cv_gateway_devices){ 0 };
-    }
-    return r;
-}
-
-/* The devices' configuration: the local table (checked now, so a bad --gpus fails at start) or the nodes. */
-static cv_result configure_devices(const gateway_options *o, gateway_devices *d) {
-    d->nodes = o->nodes;
-    d->validation = o->validation;
-    if (o->nodes)
-        return CV_OK;
-    if (!d->gpu_config.total && !d->gpu_config.virtual_per_adapter && !d->gpu_config.adapters)
-        d->gpu_config.total = 1;
-    if (d->gpu_config.total && !d->gpu_config.virtual_per_adapter)
-        d->gpu_config.virtual_per_adapter = 1;
-    cv_result r = cv_env_vulkan_gpu_config(&d->gpu_config);
-    if (r == CV_OK)
-        r = cv_vulkan_gpu_table_build(&d->gpu_config, &d->table);
-    if (r == CV_OK && d->table.count > CV_MAX_DEVICES)
-        r = cv_error(CV_ERROR_LIMIT_EXCEEDED, "%u devices requested; a job takes at most %u", d->table.count,
-                     CV_MAX_DEVICES);
-    return r;
-}
-
-static int serve(const gateway_options *o, gateway_devices *devices, const char *token, const sigset_t *stop) {
+static int serve(const gateway_options *o, job_devices *devices, const char *token, const sigset_t *stop) {
     cv_gateway *gateway = NULL;
     cv_web_server *server = NULL;
-    cv_result r = cv_gateway_create(&(cv_gateway_desc){ .open_devices = open_devices,
+    cv_result r = cv_gateway_create(&(cv_gateway_desc){ .open_devices = job_devices_open,
                                                         .user = devices,
                                                         .nodes = o->nodes,
                                                         .max_scene_bytes = o->max_scene_bytes,
@@ -239,7 +191,7 @@ int main(int argc, char **argv) {
     pthread_sigmask(SIG_BLOCK, &stop, NULL);
     signal(SIGPIPE, SIG_IGN); /* a client that goes away is a closed connection, not a crash */
     gateway_options o = { .port = 7790 };
-    gateway_devices devices = { 0 };
+    job_devices devices = { 0 };
     if (cv_env_vulkan_gpu_args(&argc, argv, &devices.gpu_config) != CV_OK) {
         fprintf(stderr, "corvid-gateway: %s (see --help)\n", cv_last_error());
         return 2;
@@ -275,7 +227,7 @@ int main(int argc, char **argv) {
     env_log_apply();
     cv_result r = cv_env_client_configure(CV_ENV_CLIENT_ALL);
     if (r == CV_OK)
-        r = configure_devices(&o, &devices);
+        r = job_devices_configure(&devices, o.nodes, o.validation);
     if (r != CV_OK) {
         fprintf(stderr, "corvid-gateway: %s\n", cv_last_error());
         return 1;

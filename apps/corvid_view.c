@@ -1,8 +1,11 @@
 /* corvid-view: the interactive viewer. Renders a scene live on local devices
  * (virtual GPUs on lavapipe by default) or on corvid-nodes' (--nodes), and
  * serves a page that shows the frames and sends the input back: open the
- * printed URL in a browser. Its command line is view_args.c, its viewers
- * view_session.c, its API view_api.c; the page is web/page/ (embedded). */
+ * printed URL in a browser. The same port serves the REST gateway
+ * (corvid/gateway.h), whose jobs render on devices of their own chosen as the
+ * view's, and the page starts jobs of the scene it shows. Its command line is
+ * view_args.c, its viewers view_session.c, its API view_api.c; the page is
+ * web/page/ (embedded). */
 #include <errno.h>
 #include <signal.h>
 #include <stdio.h>
@@ -10,6 +13,7 @@
 #include <string.h>
 
 #include "corvid/bvh.h"
+#include "corvid/gateway.h"
 #include "corvid/live.h"
 #include "corvid/scene_import.h"
 #include "corvid/scene_procedural.h"
@@ -20,6 +24,7 @@
 #include "env_graph.h"
 #include "env_log.h"
 #include "env_vulkan.h"
+#include "job_devices.h"
 #include "render_devices.h"
 #include "view_api.h"
 #include "view_args.h"
@@ -39,6 +44,10 @@ typedef struct view_run {
     view_session session;
     bool session_ready;
     cv_live *live;
+    job_devices job_devices;
+    cv_gateway *gateway;
+    view_api api;
+    bool api_ready;
     cv_web_server *server;
 } view_run;
 
@@ -138,26 +147,57 @@ static cv_result create_renderer(view_run *run) {
     return r;
 }
 
-/* The web server first, so that its refusals (an address in use, a host without a token)
- * come before the scene and devices are made; pages that connect early wait for the live. */
+/* The gateway and the web server first, so that their refusals (a bad device choice, an
+ * address in use, a host without a token) come before the scene and devices are made;
+ * pages that connect early wait for the live. */
 static cv_result start_server(view_run *run) {
     const view_options *o = &run->o;
     view_session_init(&run->session, &o->settings, o->codec);
     run->session_ready = true;
+    run->job_devices.gpu_config = run->gpu_config;
+    cv_result r = job_devices_configure(&run->job_devices, o->nodes, o->validation);
+    if (r == CV_OK)
+        r = cv_gateway_create(&(cv_gateway_desc){ .open_devices = job_devices_open,
+                                                  .user = &run->job_devices,
+                                                  .nodes = o->nodes,
+                                                  .max_scene_bytes = o->max_scene_bytes,
+                                                  .workers = o->jobs },
+                              &run->gateway);
+    if (r != CV_OK)
+        return r;
+    view_api_init(&run->api, &run->session, run->gateway, o->settings.width, o->settings.height);
+    run->api_ready = true;
+    size_t max_body = o->max_scene_bytes ? (size_t)o->max_scene_bytes : (size_t)256 << 20;
     cv_web_desc web = { .host = o->host,
                         .port = (uint16_t)o->port,
                         .token = run->token[0] ? run->token : NULL,
                         .tls_cert = o->tls_cert,
                         .tls_key = o->tls_key,
+                        .max_body_bytes = max_body + 1,
                         .assets = cv_viewer_page,
                         .asset_count = cv_viewer_page_count,
                         .api = view_api_handle,
-                        .api_user = &run->session,
+                        .api_user = &run->api,
                         .ws_open = view_session_open,
                         .ws_text = view_session_text,
                         .ws_close = view_session_close,
                         .ws_user = &run->session };
     return cv_web_server_start(&web, &run->server);
+}
+
+/* The scene of the page's jobs: the gateway's built-in room is the view's default one, a
+ * model file is uploaded to the gateway's store; without one the page says why. */
+static void register_job_scene(view_run *run) {
+    const view_options *o = &run->o;
+    if (!strcmp(o->scene, "room") && o->seed == 1) {
+        view_api_register_scene(&run->api, NULL);
+    } else if (!strcmp(o->scene, "room") || o->stress_triangles) {
+        view_api_no_scene(&run->api,
+                          "jobs render the built-in room (seed 1) or a model file; this view's scene "
+                          "is another procedural one");
+    } else if (view_api_register_scene(&run->api, o->scene) != CV_OK) {
+        fprintf(stderr, "corvid-view: %s (the view goes on without jobs)\n", cv_last_error());
+    }
 }
 
 /* The live loop over the renderer, handed to the viewers. */
@@ -195,7 +235,10 @@ static void serve_until_signal(view_run *run, const sigset_t *stop) {
 }
 
 static int finish(view_run *run, cv_result r) {
-    cv_web_server_stop(run->server); /* first: no input reaches the live any more */
+    cv_web_server_stop(run->server); /* first: no input reaches the live or the gateway any more */
+    cv_gateway_destroy(run->gateway);
+    if (run->api_ready)
+        view_api_finish(&run->api);
     cv_live_stats st = { 0 };
     if (run->live)
         cv_live_get_stats(run->live, &st);
@@ -245,6 +288,8 @@ int main(int argc, char **argv) {
     cv_result r = start_server(&run);
     if (r == CV_OK)
         r = load_scene(&run);
+    if (r == CV_OK)
+        register_job_scene(&run);
     if (r == CV_OK)
         r = create_renderer(&run);
     if (r == CV_OK)

@@ -43,6 +43,12 @@ static bool opt_u32(view_options *o, const view_option *def, const char *value) 
     return true;
 }
 
+static bool opt_bytes(view_options *o, const view_option *def, const char *value) {
+    if (!cv_parse_uint(value, 1, UINT64_MAX / 2, (uint64_t *)field_of(o, def)))
+        return refuse(def->name, value, "a number of bytes, at least 1");
+    return true;
+}
+
 static bool opt_text(view_options *o, const view_option *def, const char *value) {
     if (!value[0])
         return refuse(def->name, value, def->metavar[0] == 'F' ? "a file name" : "a value");
@@ -123,6 +129,12 @@ static const view_option view_option_rows[] = {
       "Render settings of the first frame (the page changes them; --frames: a still view accumulates\n"
       "  this many frames, then rests until the view changes; default 256):" },
     { NULL, NULL, NULL, 0, 0, 0, NULL, NULL },
+    { NULL, NULL, NULL, 0, 0, 0, NULL,
+      "Jobs (the REST gateway of docs/gateway.md on the same port, under /api/v1; jobs render on devices of\n"
+      "  their own, chosen as the view's):" },
+    { "--jobs", "N", opt_u32, O(jobs), 1, 64, "2", "jobs rendering at once" },
+    { "--max-scene-bytes", "N", opt_bytes, O(max_scene_bytes), 0, 0, "268435456",
+      "largest model a job may upload (413 above)" },
     { NULL, NULL, NULL, 0, 0, 0, NULL, "Devices:" },
     { "--gpus", "N", NULL, 0, 0, 0, "2", "total local devices (virtual GPUs are added to reach N)" },
     { "--virtual-gpus", "N", NULL, 0, 0, 0, NULL, "device instances per adapter (or CORVID_VIRTUAL_GPUS=N)" },

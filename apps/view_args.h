@@ -27,6 +27,8 @@ typedef struct view_options {
     uint32_t bitrate_kbps;       /* H.264 starting bitrate; 0 = the encoder's default */
     uint32_t max_accumulate;     /* --frames: a still view accumulates this many frames, then rests */
     cv_render_settings settings; /* the first frame's (width, height default 640x360) */
+    uint32_t jobs;               /* gateway jobs rendering at once; 0 = the gateway's default */
+    uint64_t max_scene_bytes;    /* largest model uploaded to the gateway; 0 = the gateway's default */
     bool validation, quiet, help;
 } view_options;
 

@@ -53,6 +53,9 @@ static cJSON *setting_json(const cv_render_settings *resolved, const cv_render_s
     cJSON_AddBoolToObject(o, "pow2", (row->flags & CV_SETTING_POW2) != 0);
     cJSON_AddStringToObject(o, "name", row->name);
     cJSON_AddStringToObject(o, "unit", row->unit);
+    /* Its name in a gateway job's "settings" (the option without "--"; "sun" takes the cone with the
+     * direction: "DX,DY,DZ,A"), so that the page's job panel starts jobs with the page's settings. */
+    cJSON_AddStringToObject(o, "job", row->option ? row->option + 2 : row->field);
     return o;
 }
 
@@ -72,6 +75,9 @@ char *view_hello_json(const cv_render_settings *s, const cv_scene *scene, cv_cod
     cJSON_AddNumberToObject(camera, "fov", cam.vertical_fov * 180.0 / M_PI);
     cJSON_AddItemToObject(root, "camera", camera);
     cJSON_AddItemToObject(root, "sun", vec3(sun));
+    /* Whether the view's camera and sun are its own (else the scene's): a job from the page sets them only then. */
+    cJSON_AddBoolToObject(root, "camera_set", s->camera_fov_degrees != 0);
+    cJSON_AddBoolToObject(root, "sun_set", s->sun_toward[0] || s->sun_toward[1] || s->sun_toward[2]);
     for (uint32_t i = 0; i < view_page_setting_count; i++) {
         const cv_render_setting *row = &cv_render_setting_rows[view_page_settings[i]];
         cJSON_AddItemToObject(settings, row->field, setting_json(&r, row));

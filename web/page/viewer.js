@@ -1,7 +1,8 @@
 // corvid-view's page: shows the live frames (JPEG images or an H.264 stream) on a
 // canvas, and sends input back: the camera (orbit, pan, zoom, keys), the sun, the
 // settings; acknowledges each displayed frame (the renderer's credit) and reports
-// motion-to-photon. Protocol: docs/live-view.md.
+// motion-to-photon. The job panel starts a REST job (docs/gateway.md) of the scene
+// with the page's camera and settings. Protocol: docs/live-view.md.
 "use strict";
 
 (function () {
@@ -18,6 +19,7 @@
   const view = {
     connected: false, frames: 0, lastIndex: 0, lastInputSeq: 0, lastAccumulated: 0, lastCodec: 0,
     seq: 0, m2p: 0, m2pMax: 0, errors: [], stats: null, hello: null, decoder: "none",
+    camera: null, jobRequest: null, job: null, jobScene: null,
   };
   window.corvidView = view;
   // A message as it is (the tests send a malformed one to see it refused).
@@ -25,6 +27,9 @@
 
   let ws = null;
   let camera = null; // {eye, target, fov}
+  // Whether the view's camera and sun are set (else the scene's own, which a job takes by default).
+  let cameraSet = false, sunSet = false, sun = null;
+  const pageSettings = {}; // field -> {job: its name in a job's settings, value}
   const inputTime = new Map(); // seq -> performance.now() of the input event
   let shownSeq = 0;
   let drawnIndex = 0; // newest frame drawn (decodes may finish out of order)
@@ -50,6 +55,7 @@
   // The renderer's camera looks from eye at target with up +y (settings camera_eye,
   // camera_target, camera_fov_degrees); orbit turns the eye about the target.
   function sendCamera() {
+    cameraSet = true;
     view.seq += 1;
     const t = performance.now();
     inputTime.set(view.seq, t);
@@ -168,9 +174,11 @@
   for (const input of [azimuth, elevation]) {
     input.addEventListener("input", () => {
       showValue(input);
+      sunSet = true;
+      sun = sunFromSliders();
       view.seq += 1;
       inputTime.set(view.seq, performance.now());
-      send({ seq: view.seq, t: performance.now(), sun: sunFromSliders() });
+      send({ seq: view.seq, t: performance.now(), sun: sun });
     });
   }
 
@@ -198,6 +206,7 @@
       if (s.kind !== "on_off") label.append(document.createElement("output"));
       box.append(label);
       showValue(input);
+      pageSettings[field] = { job: s.job, value: s.value };
       input.addEventListener(s.kind === "on_off" ? "change" : "input", () => {
         let v = s.kind === "on_off" ? input.checked : Number(input.value);
         if (s.pow2 && v > 0) v = Math.pow(2, Math.round(Math.log2(v)));
@@ -205,6 +214,7 @@
           input.value = v;
           showValue(input);
         }
+        pageSettings[field].value = v;
         view.seq += 1;
         inputTime.set(view.seq, performance.now());
         send({ seq: view.seq, t: performance.now(), settings: { [field]: v } });
@@ -320,10 +330,15 @@
   function onHello(m) {
     view.hello = m;
     camera = { eye: m.camera.eye, target: m.camera.target, fov: m.camera.fov };
+    view.camera = camera;
     canvas.width = m.width;
     canvas.height = m.height;
     setSunSliders(m.sun);
+    cameraSet = m.camera_set;
+    sunSet = m.sun_set;
+    sun = m.sun;
     buildSettings(m.settings);
+    jobDefaults(m);
     if (m.codec === "h264" && typeof VideoDecoder === "undefined") {
       fail("this browser has no WebCodecs VideoDecoder: asking for JPEG frames");
       send({ codec: "jpeg" });
@@ -345,6 +360,8 @@
       (s.codec === "h264" ? `bitrate ${s.bitrate_kbps} kbit/s` : `quality ${s.quality}`));
     if (s.error) lines.push("error: " + s.error);
     statsEl.textContent = lines.join("\n");
+    // The live ended (a node died): said where it is seen, once.
+    if (s.error && errorEl.textContent !== s.error) fail(s.error);
   }
 
   function onText(text) {
@@ -371,18 +388,28 @@
   }
 
   // ---- saving ------------------------------------------------------------------------
+  // The API's error message ({"error"}) of a refused request, else its status.
+  async function apiError(r) {
+    try { return (await r.json()).error || r.statusText; } catch (e) { return r.status + " " + r.statusText; }
+  }
+
+  // A file of the API saved through a link (the token goes in a header, which a plain link cannot send).
+  async function download(path, name) {
+    const r = await fetch(path, { headers: authHeaders() });
+    if (!r.ok) throw new Error(await apiError(r));
+    const url = URL.createObjectURL(await r.blob());
+    const a = document.createElement("a");
+    a.href = url;
+    a.download = name;
+    document.body.append(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10000);
+  }
+
   async function save(ext) {
     try {
-      const r = await fetch("api/v1/view/snapshot." + ext, { headers: authHeaders() });
-      if (!r.ok) throw new Error((await r.json()).error || r.statusText);
-      const url = URL.createObjectURL(await r.blob());
-      const a = document.createElement("a");
-      a.href = url;
-      a.download = "corvid-view." + ext;
-      document.body.append(a);
-      a.click();
-      a.remove();
-      setTimeout(() => URL.revokeObjectURL(url), 10000);
+      await download("api/v1/view/snapshot." + ext, "corvid-view." + ext);
       view.saved = (view.saved || 0) + 1;
     } catch (e) {
       fail("Save " + ext.toUpperCase() + ": " + e.message);
@@ -390,6 +417,133 @@
   }
   document.getElementById("save-png").addEventListener("click", () => save("png"));
   document.getElementById("save-exr").addEventListener("click", () => save("exr"));
+
+  // ---- the render job panel -------------------------------------------------------------
+  const job = {
+    frames: document.getElementById("job-frames"), width: document.getElementById("job-width"),
+    height: document.getElementById("job-height"), start: document.getElementById("job-start"),
+    cancel: document.getElementById("job-cancel"), progress: document.getElementById("job-progress"),
+    state: document.getElementById("job-state"), error: document.getElementById("job-error"),
+    result: document.getElementById("job-result"), image: document.getElementById("job-image"),
+    png: document.getElementById("job-png"), exr: document.getElementById("job-exr"),
+  };
+  let jobId = 0, jobPoll = null, jobImageUrl = null;
+
+  // The size fields start at the view's size; the scene is the view's, as the gateway knows it.
+  async function jobDefaults(hello) {
+    if (!job.width.value) job.width.value = hello.width;
+    if (!job.height.value) job.height.value = hello.height;
+    try {
+      const r = await fetch("api/v1/view", { headers: authHeaders() });
+      if (!r.ok) throw new Error(await apiError(r));
+      const v = await r.json();
+      view.jobScene = v.scene;
+      job.start.disabled = !v.scene;
+      if (!v.scene) job.state.textContent = "no jobs of this scene: " + v.note;
+    } catch (e) {
+      job.error.textContent = "job: " + e.message;
+    }
+  }
+
+  // The job of what the page shows, as the live view renders it: the page's settings, and its
+  // camera and sun where the view has them set (else the scene's own, as in the view).
+  function jobRequest() {
+    const number = (input) => (input.value.trim() === "" ? input.value : Number(input.value));
+    const body = { scene: view.jobScene, width: number(job.width), height: number(job.height),
+      frames: number(job.frames), settings: {} };
+    if (cameraSet) body.camera = { eye: camera.eye, target: camera.target, fov_degrees: camera.fov };
+    for (const [field, p] of Object.entries(pageSettings))
+      if (field !== "sun_cone_degrees") body.settings[p.job] = p.value;
+    // "sun" is the direction and the cone together: only with a set direction.
+    const cone = pageSettings.sun_cone_degrees;
+    if (sunSet && cone) body.settings.sun = sun.concat([cone.value]).join(",");
+    return body;
+  }
+
+  function jobShow(j) {
+    view.job = j;
+    job.progress.max = j.frames || 1;
+    job.progress.value = j.frames_done || 0;
+    job.state.textContent = `job ${j.id}: ${j.state}${j.cancelling ? " (cancelling)" : ""}, ` +
+      `${j.frames_done} of ${j.frames} frames`;
+    if (j.error) job.error.textContent = `job ${j.id}: ${j.error}`;
+    const ended = ["done", "failed", "cancelled"].includes(j.state);
+    job.cancel.disabled = ended;
+    job.start.disabled = !ended;
+    return ended;
+  }
+
+  async function jobResult(j) {
+    const r = await fetch(j.png, { headers: authHeaders() });
+    if (!r.ok) throw new Error(await apiError(r));
+    if (jobImageUrl) URL.revokeObjectURL(jobImageUrl);
+    jobImageUrl = URL.createObjectURL(await r.blob());
+    job.image.onload = () => { view.jobImageLoaded = j.id; };
+    job.image.src = jobImageUrl;
+    job.png.href = j.png.replace(/^\//, "");
+    job.exr.href = j.exr.replace(/^\//, "");
+    job.png.download = `corvid-job-${j.id}.png`;
+    job.exr.download = `corvid-job-${j.id}.exr`;
+    job.result.hidden = false;
+  }
+
+  async function jobFollow(id) {
+    try {
+      const r = await fetch("api/v1/jobs/" + id, { headers: authHeaders() });
+      if (!r.ok) throw new Error(await apiError(r));
+      const j = await r.json();
+      if (id !== jobId) return; // a newer job took the panel
+      if (!jobShow(j)) {
+        jobPoll = setTimeout(() => jobFollow(id), 250);
+        return;
+      }
+      if (j.state === "done") await jobResult(j);
+    } catch (e) {
+      job.error.textContent = `job ${id}: ${e.message}`;
+      job.start.disabled = false;
+    }
+  }
+
+  job.start.addEventListener("click", async () => {
+    clearTimeout(jobPoll);
+    job.error.textContent = "";
+    job.result.hidden = true;
+    view.jobImageLoaded = 0;
+    const body = jobRequest();
+    view.jobRequest = body;
+    try {
+      const r = await fetch("api/v1/jobs", { method: "POST", body: JSON.stringify(body),
+        headers: Object.assign({ "Content-Type": "application/json" }, authHeaders()) });
+      if (!r.ok) throw new Error(await apiError(r));
+      jobId = (await r.json()).id;
+      job.start.disabled = true;
+      job.cancel.disabled = false;
+      jobFollow(jobId);
+    } catch (e) {
+      job.error.textContent = "Start job: " + e.message;
+      job.state.textContent = "";
+    }
+  });
+
+  job.cancel.addEventListener("click", async () => {
+    try {
+      const r = await fetch("api/v1/jobs/" + jobId, { method: "DELETE", headers: authHeaders() });
+      if (!r.ok) throw new Error(await apiError(r));
+      jobShow(await r.json());
+    } catch (e) {
+      job.error.textContent = `Cancel job ${jobId}: ${e.message}`;
+    }
+  });
+
+  for (const [link, ext] of [[job.png, "png"], [job.exr, "exr"]]) {
+    link.addEventListener("click", (e) => {
+      if (!token) return; // the plain link works
+      e.preventDefault();
+      download(link.getAttribute("href"), link.download).catch((err) => {
+        job.error.textContent = `image.${ext}: ${err.message}`;
+      });
+    });
+  }
 
   connect();
 })();
