@@ -27,6 +27,7 @@ typedef struct view_options {
     uint32_t bitrate_kbps;       /* H.264 starting bitrate; 0 = the encoder's default */
     uint32_t max_accumulate;     /* --frames: a still view accumulates this many frames, then rests */
     cv_render_settings settings; /* the first frame's (width, height default 640x360) */
+    const char *trace;           /* --trace FILE: the live's trace written there at the end; NULL = none */
     bool validation, quiet, help;
 } view_options;
 
