@@ -281,8 +281,19 @@ static void print_header(const options *o, const devices *d) {
     viewer_figures_print_header();
 }
 
+/* One step waited for: pipelines, the scene's upload and the first frame's resources before any run. */
+static cv_result warm_up(const options *o, cv_device *primary, cv_renderer *r) {
+    cv_render_step step;
+    cv_result res = cv_renderer_step(r, &(cv_render_settings){ .width = o->width, .height = o->height }, &step);
+    return res == CV_OK ? cv_device_wait(primary, step.ticket, UINT64_MAX) : res;
+}
+
 static int run(const options *o, devices *d, const cv_scene *scene, cv_renderer *r, cv_live_trace *trace) {
     print_header(o, d);
+    if (warm_up(o, d->dev[0], r) != CV_OK) {
+        fprintf(stderr, "bench_live: warm-up step: %s\n", cv_last_error());
+        return 1;
+    }
     cv_codec codecs[2];
     uint32_t n = 0;
     if (o->h264)
