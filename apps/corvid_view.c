@@ -15,6 +15,7 @@
 #include "corvid/bvh.h"
 #include "corvid/gateway.h"
 #include "corvid/live.h"
+#include "corvid/live_trace.h"
 #include "corvid/scene_import.h"
 #include "corvid/scene_procedural.h"
 #include "corvid/vulkan.h"
@@ -48,6 +49,7 @@ typedef struct view_run {
     cv_gateway *gateway;
     view_api api;
     bool api_ready;
+    cv_live_trace *trace; /* --trace */
     cv_web_server *server;
 } view_run;
 
@@ -211,7 +213,10 @@ static cv_result start_live(view_run *run) {
                           .max_accumulate = o->max_accumulate,
                           .frame = view_session_frame,
                           .user = &run->session };
-    cv_result r = cv_live_start(&live, &run->live);
+    cv_result r = o->trace ? cv_live_trace_create(&run->trace) : CV_OK;
+    live.trace = run->trace;
+    if (r == CV_OK)
+        r = cv_live_start(&live, &run->live);
     if (r == CV_OK)
         view_session_attach(&run->session, run->live, run->scene);
     return r;
@@ -243,6 +248,12 @@ static int finish(view_run *run, cv_result r) {
     if (run->live)
         cv_live_get_stats(run->live, &st);
     cv_live_stop(run->live);
+    if (r == CV_OK && run->trace) {
+        r = cv_live_trace_write(run->trace, run->o.trace);
+        if (r == CV_OK && !run->o.quiet)
+            fprintf(stderr, "corvid-view: trace written to %s\n", run->o.trace);
+    }
+    cv_live_trace_destroy(run->trace);
     if (run->session_ready)
         view_session_finish(&run->session);
     cv_renderer_destroy(run->renderer);

@@ -145,6 +145,9 @@ static const view_option view_option_rows[] = {
     { "--validation", NULL, opt_flag, O(validation), 0, 0, NULL, "enable VK_LAYER_KHRONOS_validation" },
     { NULL, NULL, NULL, 0, 0, 0, NULL, "Other:" },
     { "--quiet", NULL, opt_flag, O(quiet), 0, 0, NULL, "print only the URL and errors" },
+    { "--trace", "FILE", opt_text, O(trace), 0, 0, NULL,
+      "write the live's trace there when stopped (Chrome/Perfetto JSON: render, read, encode, link and send per "
+      "frame, spoiled frames; docs/live.md)" },
     { "--help", NULL, opt_flag, O(help), 0, 0, NULL, "this text (also -h)" },
     { "-h", NULL, opt_flag, O(help), 0, 0, NULL, NULL },
 };

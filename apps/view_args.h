@@ -29,6 +29,7 @@ typedef struct view_options {
     cv_render_settings settings; /* the first frame's (width, height default 640x360) */
     uint32_t jobs;               /* gateway jobs rendering at once; 0 = the gateway's default */
     uint64_t max_scene_bytes;    /* largest model uploaded to the gateway; 0 = the gateway's default */
+    const char *trace;           /* --trace FILE: the live's trace written there at the end; NULL = none */
     bool validation, quiet, help;
 } view_options;
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Packs a build for the NVIDIA device machine (Ubuntu 24.04, no Debian
-# packages): the test, tool and benchmark binaries (stripped), the shared
-# libraries they need that Ubuntu lacks (found with ldd, glibc's own left out),
+# packages): the test, tool (tools/: corvid-relay) and benchmark binaries (stripped), the shared
+# libraries they need that Ubuntu lacks (found with ldd, glibc's own left out: libturbojpeg,
+# libopenh264, libwebsockets and the like come along),
 # and the two assimp test models the trace tests read, into .carry/b.tar.gz.
 # bench/nvidia_env.sh unpacks it there. Usage: bench/nvidia_pack.sh [build dir]
 set -euo pipefail
@@ -10,7 +11,7 @@ build=${1:-build-nv}
 stage=$(mktemp -d)
 trap 'rm -rf "$stage"' EXIT
 mkdir -p "$stage/b/bin" "$stage/b/lib" "$stage/b/models" .carry
-find "$build/tests" "$build/apps" "$build/bench" -maxdepth 2 -type f -executable ! -name "*.so" \
+find "$build/tests" "$build/apps" "$build/bench" "$build/tools" -maxdepth 2 -type f -executable ! -name "*.so" \
   -newer "$build/CMakeCache.txt" -exec cp {} "$stage/b/bin/" \;
 rm -f "$stage/b/bin/bench_trace" "$stage/b/bin/bench_bvh"   # Embree peers: too large to carry
 strip "$stage/b/bin/"* 2>/dev/null || true

@@ -78,7 +78,7 @@ static void account(cv_live *l, const live_job *job, const cv_live_frame *f) {
 }
 
 /* The consumer's view of the encoded frame (data: e's, valid until it is freed). */
-static cv_live_frame frame_of(const live_job *job, const cv_encoded *e) {
+static cv_live_frame frame_of(const live_job *job, const cv_encoded *e, double fetch_ms) {
     const cv_render_step *s = &job->frame.info;
     return (cv_live_frame){ .index = job->index,
                             .input_seq = job->frame.input_seq,
@@ -92,7 +92,17 @@ static cv_live_frame frame_of(const live_job *job, const cv_encoded *e) {
                             .render_ms = s->frame_ms,
                             .read_ms = e->read_ms,
                             .encode_ms = e->encode_ms,
-                            .input_age_ms = cv_now_ms() - job->frame.input_ms };
+                            .input_age_ms = cv_now_ms() - job->frame.input_ms,
+                            .fetch_ms = fetch_ms };
+}
+
+/* The reader call's spans: read, then encode, from its start (a node's own clock is not ours), and
+ * the rest of the call (the link, for a proxy device) up to its end. */
+static void trace_fetch(cv_live_trace *t, const live_job *job, const cv_live_frame *f, double start, double end) {
+    double read_end = start + f->read_ms, encode_end = read_end + f->encode_ms;
+    cv_live_trace_span(t, "read", job->index, job->frame.step, start, read_end);
+    cv_live_trace_span(t, "encode", job->index, job->frame.step, read_end, encode_end);
+    cv_live_trace_span(t, "link", job->index, job->frame.step, encode_end < end ? encode_end : end, end);
 }
 
 void *live_encode_main(void *arg) {
@@ -107,7 +117,9 @@ void *live_encode_main(void *arg) {
         live_job job = take(l);
         pthread_mutex_unlock(&l->lock);
         cv_encoded e = { 0 };
+        double fetch_start = cv_now_ms();
         cv_result res = encode(l, &st, &job, &e);
+        double fetch_end = cv_now_ms();
         char why[sizeof(l->error)] = "";
         if (res != CV_OK)
             snprintf(why, sizeof(why), "%s", cv_last_error());
@@ -120,10 +132,13 @@ void *live_encode_main(void *arg) {
             break;
         }
         /* Counted before the consumer has it: stats read in the callback, or after it, include it. */
-        cv_live_frame f = frame_of(&job, &e);
+        cv_live_frame f = frame_of(&job, &e, fetch_end - fetch_start);
         account(l, &job, &f);
         pthread_mutex_unlock(&l->lock);
+        trace_fetch(l->desc.trace, &job, &f, fetch_start, fetch_end);
+        double send_start = cv_now_ms();
         l->desc.frame(&f, l->desc.user);
+        cv_live_trace_span(l->desc.trace, "send", job.index, job.frame.step, send_start, cv_now_ms());
         cv_encoded_free(&e);
         pthread_mutex_lock(&l->lock);
     }

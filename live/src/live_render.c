@@ -80,8 +80,10 @@ static bool may_step(const cv_live *l, const live_render *rs) {
 /* A finished step becomes the newest frame (lock held); the one it replaces
  * is spoiled if the encoder never took it. */
 static void publish(cv_live *l, live_render *rs, const cv_render_step *step) {
-    if (l->published.step && !l->published.taken)
+    if (l->published.step && !l->published.taken) {
         l->spoiled++;
+        cv_live_trace_instant(l->desc.trace, "spoiled", 0, l->published.step, cv_now_ms());
+    }
     l->steps++;
     l->rendered++;
     l->last_ticket = step->ticket;
@@ -135,7 +137,9 @@ void *live_render_main(void *arg) {
         pthread_mutex_unlock(&l->lock);
         cv_render_step step;
         cv_render_settings settings = measured(l, &rs);
+        double start_ms = cv_now_ms();
         cv_result res = cv_renderer_step(l->desc.renderer, &settings, &step);
+        double end_ms = cv_now_ms();
         char why[sizeof(l->error)] = "";
         if (res != CV_OK)
             snprintf(why, sizeof(why), "%s", cv_last_error());
@@ -143,9 +147,10 @@ void *live_render_main(void *arg) {
         l->stepping = l->resizing = false;
         pthread_cond_broadcast(&l->encode_cond);
         pthread_cond_broadcast(&l->snapshot_cond);
-        if (res == CV_OK)
+        if (res == CV_OK) {
             publish(l, &rs, &step);
-        else if (!recover(l, &rs, res, why))
+            cv_live_trace_span(l->desc.trace, "render", 0, l->steps, start_ms, end_ms);
+        } else if (!recover(l, &rs, res, why))
             break;
     }
     pthread_mutex_unlock(&l->lock);

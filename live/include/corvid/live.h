@@ -38,6 +38,9 @@
  * (a measured step waits for its timings instead of pipelining), every step
  * when the settings carry an observer of their own, which is still called.
  *
+ * Trace: with desc.trace, every step, read, encode and frame callback is a
+ * span, every spoiled step an instant (corvid/live_trace.h).
+ *
  * Errors: a step or read that fails (a lost device) ends the live: no more
  * frames, stats.error says what failed, updates and snapshots return
  * CV_ERROR_BAD_STATE with it; every call still returns and cv_live_stop joins.
@@ -73,6 +76,7 @@
 #include <stdint.h>
 
 #include "corvid/encode_types.h"
+#include "corvid/live_trace.h"
 #include "corvid/renderer.h"
 
 typedef struct cv_live cv_live;
@@ -87,6 +91,9 @@ typedef struct cv_live_frame {
     size_t size;
     double render_ms, read_ms, encode_ms; /* this frame's: step, device read, encode */
     double input_age_ms;                  /* from the cv_live_update of input_seq to now (server side m2p part) */
+    /* The whole frame reader call: read + encode, plus for a proxy device the request and reply on the
+     * link (so fetch_ms - read_ms - encode_ms is the link's part, with the node's overhead). */
+    double fetch_ms;
 } cv_live_frame;
 
 typedef struct cv_live_desc {
@@ -98,6 +105,7 @@ typedef struct cv_live_desc {
     uint32_t max_accumulate;     /* a still view stops rendering after this many frames; 0 = 256 */
     void (*frame)(const cv_live_frame *f, void *user); /* on the live's encode thread */
     void *user;
+    cv_live_trace *trace; /* optional (corvid/live_trace.h): the frames' spans are recorded into it */
 } cv_live_desc;
 
 cv_result cv_live_start(const cv_live_desc *desc, cv_live **out);
