@@ -40,7 +40,7 @@ static cv_result make_texture(world *w, cv_format f, const char *label, cv_textu
 
 /* Reads t through a new reader of `codec`: one frame, which *out gets. */
 static cv_result read_once(world *w, cv_codec codec, cv_texture t, const cv_encode_params *p, cv_encoded *out) {
-    cv_frame_reader *r;
+    cv_frame_reader *r = NULL;
     cv_result rr = cv_frame_reader_create(w->dev, codec, W, H, &r);
     if (rr != CV_OK)
         return rr;
@@ -52,7 +52,7 @@ static cv_result read_once(world *w, cv_codec codec, cv_texture t, const cv_enco
 
 /* The decoded picture of one frame (RGBA8, or the bytes for RAW/ZSTD); NULL if it failed. */
 static uint8_t *decode(cv_codec codec, const cv_encoded *e, size_t *size) {
-    cv_decoder *d;
+    cv_decoder *d = NULL;
     uint8_t *out = NULL;
     uint32_t width = 0, height = 0;
     *size = 0;
@@ -166,9 +166,9 @@ static void jpeg(world *w, cv_texture rgba8, const uint8_t *texels) {
 /* H.264: frames 1..3 of a moving pattern, then a keyframe asked for. The first
  * and the fourth are IDRs; each decodes to its frame with mean error at most 4. */
 static void h264(world *w, cv_texture rgba8) {
-    cv_frame_reader *r;
+    cv_frame_reader *r = NULL;
     CHECK_OK(cv_frame_reader_create(w->dev, CV_CODEC_H264, W, H, &r));
-    cv_decoder *d;
+    cv_decoder *d = NULL;
     CHECK_OK(cv_decoder_create(CV_CODEC_H264, &d));
     uint8_t *px = malloc(W * H * 4);
     const bool expect_key[4] = { true, false, false, true };
@@ -283,7 +283,7 @@ static void beside_other_calls(world *w, cv_texture rgba8, cv_texture other) {
     pthread_t threads[2];
     for (int i = 0; i < 2; i++)
         CHECK(pthread_create(&threads[i], NULL, read_beside, &side[i]) == 0);
-    cv_frame_reader *r;
+    cv_frame_reader *r = NULL;
     CHECK_OK(cv_frame_reader_create(w->dev, CV_CODEC_RAW, W, H, &r));
     uint8_t *want = malloc(W * H * 4);
     CHECK_OK(cv_device_read_texture(w->dev, rgba8, (cv_rect){ 0, 0, W, H }, want));

@@ -46,9 +46,8 @@ cv_result proxy_encoder_receive(cv_backend_device *p, uint32_t stream, cv_encode
     (void)stream; /* one encoded read at a time: the one this thread sent */
     proxy_pending pending = { 0 };
     cv_result r = proxy_request_finish(p, &pending);
+    *out = pending.frame; /* taken from the receiver's buffer before the slot went to another read */
     pthread_mutex_lock(&p->lock);
-    *out = p->encode_frame; /* the receiver wrote it only while the read was in flight */
-    memset(&p->encode_frame, 0, sizeof(p->encode_frame));
     if (r == CV_OK) {
         p->stats.encoded_frames++;
         p->stats.encoded_bytes += out->size;

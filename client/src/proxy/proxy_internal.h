@@ -50,7 +50,9 @@ typedef struct proxy_pending {
     uint64_t read_size, read_received;
     cv_encoded *encoded;                    /* encoded reads: the frame received (data malloc'd by the receiver) */
     uint64_t encoded_max, encoded_received; /* the most bytes the frame may have; bytes so far */
-    bool *present;                          /* blob queries: one flag per hash */
+    cv_encoded frame; /* encoded reads: the frame, moved out of *encoded as the request ends (request_wait),
+                       * before the slot is free for the next read's pieces */
+    bool *present;    /* blob queries: one flag per hash */
     size_t present_count;
     uint8_t session_key[CV_NODE_SESSION_KEY_BYTES]; /* hello: the session's capability */
     bool has_session_key;

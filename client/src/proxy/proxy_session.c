@@ -112,6 +112,10 @@ static cv_result request_wait(proxy_device *p, proxy_pending *slot, proxy_pendin
                      p->timeout_ms);
     }
     *pending = *slot;
+    if (slot->encoded) { /* the frame leaves with its request: the next read's pieces start a new one */
+        pending->frame = *slot->encoded;
+        memset(slot->encoded, 0, sizeof(*slot->encoded));
+    }
     *slot = (proxy_pending){ 0 };
     pthread_cond_broadcast(&p->cond);
     uint64_t failure = r != CV_OK ? pending->transfer_failure : 0;
