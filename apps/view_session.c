@@ -77,7 +77,11 @@ void view_session_frame(const cv_live_frame *f, void *user) {
     s->sent_bytes[k] = n;
     for (view_peer *p = s->peers; p; p = p->next) {
         view_frame_header(buf, f, page_seq_of(p, f->input_seq));
-        cv_web_send_binary(p->conn, buf, n); /* fails only while the connection closes */
+        /* An H.264 frame refers to the ones before it: none may give way to the next. */
+        if (f->codec == CV_CODEC_H264)
+            cv_web_send_binary_in_order(p->conn, buf, n); /* credits keep these to two */
+        else
+            cv_web_send_binary(p->conn, buf, n); /* fails only while the connection closes */
     }
     pthread_mutex_unlock(&s->lock);
     free(buf);

@@ -43,7 +43,8 @@ static void ws_open(void *user, cv_web_conn *c) {
     pthread_mutex_unlock(&f->lock);
 }
 
-/* On the service thread: two frames before it can write either, so the first is replaced. */
+/* On the service thread: two frames before it can write either, so the first is replaced;
+ * eight in-order frames, none replaced. */
 static void ws_text(void *user, cv_web_conn *c, const char *text, size_t size) {
     fixture *f = user;
     pthread_mutex_lock(&f->lock);
@@ -52,6 +53,13 @@ static void ws_text(void *user, cv_web_conn *c, const char *text, size_t size) {
     if (strcmp(text, "frames") == 0) {
         CHECK_OK(cv_web_send_binary(c, "old", 3));
         CHECK_OK(cv_web_send_binary(c, "newest", 6));
+    } else if (strcmp(text, "stream") == 0) { /* in-order frames: none gives way, the ninth is refused */
+        char frame[8];
+        for (int i = 0; i < 8; i++) {
+            snprintf(frame, sizeof frame, "f%d", i);
+            CHECK_OK(cv_web_send_binary_in_order(c, frame, 2));
+        }
+        CHECK_RESULT(cv_web_send_binary_in_order(c, "f8", 2), CV_ERROR_LIMIT_EXCEEDED);
     } else {
         CHECK_OK(cv_web_send_text(c, "{\"echo\":true}"));
     }
@@ -146,9 +154,20 @@ static void test_ws(fixture *f, cv_web_server *s, uint16_t port) {
     CHECK_EQ_INT(st.binary_replaced, 1);
     CHECK_EQ_INT(st.binary_sent, 1);
     CHECK_EQ_INT(st.ws_open_now, 1);
+    CHECK(web_ws_send_text(fd, "stream") == 0);
+    for (int i = 0; i < 8; i++) {
+        char want[8];
+        snprintf(want, sizeof want, "f%d", i);
+        CHECK_EQ_INT(web_ws_read(fd, &op, buf, sizeof buf), 2);
+        CHECK(op == 2 && memcmp(buf, want, 2) == 0);
+    }
+    cv_web_server_get_stats(s, &st);
+    CHECK_EQ_INT(st.binary_replaced, 1);
+    CHECK_EQ_INT(st.binary_dropped, 1);
+    CHECK_EQ_INT(st.binary_sent, 9);
     pthread_mutex_lock(&f->lock);
     CHECK_EQ_INT(f->opened, 1);
-    CHECK(strcmp(f->last_text, "frames") == 0);
+    CHECK(strcmp(f->last_text, "stream") == 0);
     pthread_mutex_unlock(&f->lock);
     /* A message over ws_max_message_bytes closes the connection. */
     char *huge = malloc(2000);

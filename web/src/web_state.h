@@ -20,12 +20,20 @@ typedef struct web_message {
     size_t size;
 } web_message;
 
+/* Unsent binary messages a connection holds: in-order streams (H.264) wait here
+ * behind each other; the live's credits keep them to one or two. */
+#define WEB_BINARY_QUEUE 8u
+
 struct cv_web_conn {
     cv_web_server *server;
     struct lws *wsi;
     cv_web_conn *prev, *next; /* the server's open connections (service thread) */
     /* Guarded by server->lock: */
-    web_message binary; /* the unsent frame; .buf NULL = none */
+    /* Unsent frames, oldest first: a replaceable one (cv_web_send_binary) gives way to
+     * the next frame; an in-order one (cv_web_send_binary_in_order) never does. */
+    web_message binary[WEB_BINARY_QUEUE];
+    bool binary_replaceable[WEB_BINARY_QUEUE];
+    uint32_t binary_head, binary_count;
     web_message *texts; /* ring of text_queue_max */
     uint32_t text_head, text_count;
     bool closing;     /* its close callback ran: sends are refused */

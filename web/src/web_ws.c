@@ -49,7 +49,8 @@ void web_ws_close(cv_web_conn *c) {
             break;
         }
     }
-    message_free(&c->binary);
+    for (uint32_t i = 0; i < c->binary_count; i++)
+        message_free(&c->binary[(c->binary_head + i) % WEB_BINARY_QUEUE]);
     for (uint32_t i = 0; i < c->text_count; i++)
         message_free(&c->texts[(c->text_head + i) % s->text_queue_max]);
     s->stats.ws_open_now--;
@@ -86,7 +87,26 @@ static cv_result message_copy(web_message *m, const void *data, size_t size) {
     return CV_OK;
 }
 
-cv_result cv_web_send_binary(cv_web_conn *c, const void *data, size_t size) {
+/* Queues frame m (lock held): over a replaceable unsent tail, or behind the unsent ones. */
+static cv_result queue_binary_locked(cv_web_conn *c, web_message *m, bool replaceable) {
+    cv_web_server *s = c->server;
+    uint32_t tail = (c->binary_head + c->binary_count - 1) % WEB_BINARY_QUEUE;
+    if (c->binary_count && c->binary_replaceable[tail] && replaceable) {
+        s->stats.binary_replaced++;
+        message_free(&c->binary[tail]);
+    } else if (c->binary_count == WEB_BINARY_QUEUE) {
+        s->stats.binary_dropped++;
+        return cv_error(CV_ERROR_LIMIT_EXCEEDED, "web: send binary: %u frames already wait", WEB_BINARY_QUEUE);
+    } else {
+        tail = (c->binary_head + c->binary_count++) % WEB_BINARY_QUEUE;
+    }
+    c->binary[tail] = *m;
+    c->binary_replaceable[tail] = replaceable;
+    *m = (web_message){ 0 };
+    return CV_OK;
+}
+
+static cv_result send_binary(cv_web_conn *c, const void *data, size_t size, bool replaceable) {
     if (!c || (!data && size))
         return cv_error(CV_ERROR_INVALID_ARGUMENT, "web: send binary: NULL connection or data");
     web_message m;
@@ -95,19 +115,21 @@ cv_result cv_web_send_binary(cv_web_conn *c, const void *data, size_t size) {
         return r;
     cv_web_server *s = c->server;
     pthread_mutex_lock(&s->lock);
-    if (c->closing || s->stopping) {
-        pthread_mutex_unlock(&s->lock);
-        message_free(&m);
-        return cv_error(CV_ERROR_CONNECTION, "web: send binary: the connection is closing");
-    }
-    if (c->binary.buf)
-        s->stats.binary_replaced++;
-    message_free(&c->binary);
-    c->binary = m;
-    if (wake_locked(c)) /* under the lock: stop may not destroy the context meanwhile */
+    r = c->closing || s->stopping ? cv_error(CV_ERROR_CONNECTION, "web: send binary: the connection is closing")
+                                  : queue_binary_locked(c, &m, replaceable);
+    if (r == CV_OK && wake_locked(c)) /* under the lock: stop may not destroy the context meanwhile */
         lws_cancel_service(s->context);
     pthread_mutex_unlock(&s->lock);
-    return CV_OK;
+    message_free(&m);
+    return r;
+}
+
+cv_result cv_web_send_binary(cv_web_conn *c, const void *data, size_t size) {
+    return send_binary(c, data, size, true);
+}
+
+cv_result cv_web_send_binary_in_order(cv_web_conn *c, const void *data, size_t size) {
+    return send_binary(c, data, size, false);
 }
 
 cv_result cv_web_send_text(cv_web_conn *c, const char *text) {
@@ -156,11 +178,13 @@ int web_ws_writeable(cv_web_conn *c) {
         c->text_head = (c->text_head + 1) % s->text_queue_max;
         c->text_count--;
         text = true;
-    } else if (c->binary.buf) {
-        m = c->binary;
-        c->binary = (web_message){ 0 };
+    } else if (c->binary_count) {
+        m = c->binary[c->binary_head];
+        c->binary[c->binary_head] = (web_message){ 0 };
+        c->binary_head = (c->binary_head + 1) % WEB_BINARY_QUEUE;
+        c->binary_count--;
     }
-    more = c->text_count || c->binary.buf;
+    more = c->text_count || c->binary_count;
     if (m.buf) { /* counted as it goes to lws, so a peer that has it sees it counted */
         s->stats.bytes_sent += m.size;
         if (text)

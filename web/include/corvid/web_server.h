@@ -29,9 +29,13 @@
  *         cv_web_server_stop(s);
  *     }
  *
- * Frames: a connection holds at most one unsent binary message. A newer one
- * replaces it (counted in cv_web_stats.binary_replaced): a slow browser sees the
- * newest frame, never a queue of stale ones. Text messages queue, up to
+ * Frames: a connection holds at most one unsent replaceable binary message
+ * (cv_web_send_binary): a newer one replaces it (counted in
+ * cv_web_stats.binary_replaced), so a slow browser sees the newest frame, never a
+ * queue of stale ones. Frames of a stream whose every frame counts (H.264: a
+ * dropped frame breaks the ones after it) go with cv_web_send_binary_in_order:
+ * never replaced, they wait behind each other (at most 8; the sender bounds
+ * them, as the live view's credits do). Text messages queue, up to
  * text_queue_max per connection (more are dropped and counted). Sends are
  * thread-safe and wake the service thread.
  *
@@ -113,8 +117,11 @@ uint16_t cv_web_server_port(const cv_web_server *s);
 /* Closes every connection (ws_close called for each), joins the thread, frees. */
 void cv_web_server_stop(cv_web_server *s);
 
-/* Queues a binary message, replacing an unsent one. Copies. Any thread. */
+/* Queues a binary message, replacing an unsent replaceable one. Copies. Any thread. */
 cv_result cv_web_send_binary(cv_web_conn *c, const void *data, size_t size);
+/* Queues a binary message behind the unsent ones, never replaced (CV_ERROR_LIMIT_EXCEEDED
+ * with 8 waiting, counted in binary_dropped). Copies. Any thread. */
+cv_result cv_web_send_binary_in_order(cv_web_conn *c, const void *data, size_t size);
 /* Queues a text message (NUL-terminated, copied) behind the unsent ones. Any thread. */
 cv_result cv_web_send_text(cv_web_conn *c, const char *text);
 
@@ -122,6 +129,7 @@ typedef struct cv_web_stats {
     uint64_t http_requests, http_refused; /* refused: 401, 404, 405, 411, 413 */
     uint64_t ws_opened, ws_open_now;
     uint64_t binary_sent, binary_replaced; /* replaced: unsent frames a newer one replaced */
+    uint64_t binary_dropped;               /* in-order frames refused: 8 already waited */
     uint64_t text_sent, text_dropped;      /* dropped: over text_queue_max */
     uint64_t bytes_sent;                   /* WebSocket payload bytes written */
 } cv_web_stats;
