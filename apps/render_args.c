@@ -12,6 +12,7 @@
 #include "corvid/parse.h"
 #include "corvid/render_options.h"
 #include "corvid/renderer.h"
+#include "option_walk.h"
 
 struct program_option;
 /* Parses `value` into *o, or says why it refuses it (naming the option, the
@@ -209,41 +210,21 @@ void render_args_usage(FILE *f) {
             "  CORVID_TRANSFER_ASYNC=0|1            0: every transfer synchronous (for comparisons); 1 default\n");
 }
 
-/* One option and its value (NULL for a flag): 0 = ok, 2 = refused (said on stderr). */
-static int apply(options *o, const program_option *def, const cv_render_setting *setting, const char *value) {
-    if (def)
-        return def->set(o, def, value) ? 0 : 2;
-    if (cv_render_option_apply(setting, value, &o->settings) == CV_OK)
-        return 0;
-    fprintf(stderr, "corvid-render: %s (see --help)\n", cv_last_error());
-    return 2;
+static const void *find_own(const char *name, size_t len, const char **canonical, bool *takes_value) {
+    const program_option *def = program_option_find(name, len);
+    if (def) {
+        *canonical = def->name;
+        *takes_value = def->metavar != NULL;
+    }
+    return def;
+}
+
+static bool set_own(void *o, const void *def, const char *value) {
+    const program_option *d = def;
+    return d->set(o, d, value);
 }
 
 int render_args_parse(int argc, char **argv, options *o) {
     *o = (options){ .scene = "room", .out = "out/frame", .seed = 1 };
-    for (int i = 1; i < argc; i++) {
-        const char *arg = argv[i], *eq = strchr(arg, '=');
-        size_t len = eq ? (size_t)(eq - arg) : strlen(arg);
-        const program_option *def = program_option_find(arg, len);
-        const cv_render_setting *setting = def ? NULL : cv_render_option_find(arg, len);
-        if (!def && !setting) {
-            fprintf(stderr, "corvid-render: unknown option '%.*s' (see --help)\n", (int)len, arg);
-            return 2;
-        }
-        const char *name = def ? def->name : setting->option, *value = eq ? eq + 1 : NULL;
-        bool takes_value = !def || def->metavar;
-        if (takes_value && !value) {
-            if (i + 1 == argc) {
-                fprintf(stderr, "corvid-render: %s needs a value (see --help)\n", name);
-                return 2;
-            }
-            value = argv[++i];
-        } else if (!takes_value && value) {
-            fprintf(stderr, "corvid-render: %s takes no value (see --help)\n", name);
-            return 2;
-        }
-        if (apply(o, def, setting, value))
-            return 2;
-    }
-    return 0;
+    return option_walk_run(&(option_walk){ "corvid-render", find_own, set_own, o, &o->settings }, argc, argv);
 }

@@ -10,6 +10,7 @@
 #include "corvid/parse.h"
 #include "corvid/render_options.h"
 #include "corvid/renderer.h"
+#include "option_walk.h"
 
 struct view_option;
 typedef bool (*option_fn)(view_options *o, const struct view_option *def, const char *value);
@@ -192,42 +193,24 @@ void view_args_usage(FILE *f) {
     fprintf(f, "Stop with Ctrl-C (SIGINT) or SIGTERM.\n");
 }
 
-/* One option and its value (NULL for a flag): 0 = ok, 2 = refused (said on stderr). */
-static int apply(view_options *o, const view_option *def, const cv_render_setting *setting, const char *value) {
-    if (def)
-        return def->set(o, def, value) ? 0 : 2;
-    if (cv_render_option_apply(setting, value, &o->settings) == CV_OK)
-        return 0;
-    fprintf(stderr, "corvid-view: %s (see --help)\n", cv_last_error());
-    return 2;
+static const void *find_own(const char *name, size_t len, const char **canonical, bool *takes_value) {
+    const view_option *def = view_option_find(name, len);
+    if (def) {
+        *canonical = def->name;
+        *takes_value = def->metavar != NULL;
+    }
+    return def;
+}
+
+static bool set_own(void *o, const void *def, const char *value) {
+    const view_option *d = def;
+    return d->set(o, d, value);
 }
 
 int view_args_parse(int argc, char **argv, view_options *o) {
     *o = (view_options){ .scene = "room", .seed = 1, .port = 8080, .codec = CV_CODEC_JPEG };
-    for (int i = 1; i < argc; i++) {
-        const char *arg = argv[i], *eq = strchr(arg, '=');
-        size_t len = eq ? (size_t)(eq - arg) : strlen(arg);
-        const view_option *def = view_option_find(arg, len);
-        const cv_render_setting *setting = def ? NULL : cv_render_option_find(arg, len);
-        if (!def && !setting) {
-            fprintf(stderr, "corvid-view: unknown option '%.*s' (see --help)\n", (int)len, arg);
-            return 2;
-        }
-        const char *name = def ? def->name : setting->option, *value = eq ? eq + 1 : NULL;
-        bool takes_value = !def || def->metavar;
-        if (takes_value && !value) {
-            if (i + 1 == argc) {
-                fprintf(stderr, "corvid-view: %s needs a value (see --help)\n", name);
-                return 2;
-            }
-            value = argv[++i];
-        } else if (!takes_value && value) {
-            fprintf(stderr, "corvid-view: %s takes no value (see --help)\n", name);
-            return 2;
-        }
-        if (apply(o, def, setting, value))
-            return 2;
-    }
+    if (option_walk_run(&(option_walk){ "corvid-view", find_own, set_own, o, &o->settings }, argc, argv))
+        return 2;
     o->max_accumulate = o->settings.frames;
     o->settings.frames = 0;
     if (!o->settings.width)
