@@ -22,6 +22,8 @@ void cv_live_get_stats(cv_live *l, cv_live_stats *out) {
     out->presented = l->presented;
     out->spoiled = l->spoiled;
     out->fps = live_window_last_second(&l->presented_window, now, means);
+    if (out->fps == 0) /* a view at rest: the figures of its last frame, not zeros */
+        live_window_newest(&l->presented_window, means);
     out->render_ms = means[0];
     out->read_ms = means[1];
     out->encode_ms = means[2];

@@ -26,3 +26,12 @@ uint32_t live_window_last_second(const live_window *w, double now_ms, double mea
         mean[j] = n ? sum[j] / n : 0;
     return n;
 }
+
+bool live_window_newest(const live_window *w, double v[3]) {
+    if (!w->count)
+        return false;
+    uint32_t i = (w->next + CV_LIVE_WINDOW_EVENTS - 1) % CV_LIVE_WINDOW_EVENTS;
+    for (int j = 0; j < 3; j++)
+        v[j] = w->v[i][j];
+    return true;
+}

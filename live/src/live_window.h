@@ -5,6 +5,7 @@
 #ifndef CORVID_LIVE_WINDOW_H
 #define CORVID_LIVE_WINDOW_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 /* Events kept: a rate above this many per second reads as this many. */
@@ -21,5 +22,7 @@ void live_window_add(live_window *w, double now_ms, const double v[3]);
 /* Events in (now_ms - CV_LIVE_WINDOW_MS, now_ms]; means of their values
  * into mean (0 when none). */
 uint32_t live_window_last_second(const live_window *w, double now_ms, double mean[3]);
+/* The newest event's values into v; false (v untouched) when there is none. */
+bool live_window_newest(const live_window *w, double v[3]);
 
 #endif

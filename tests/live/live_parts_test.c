@@ -73,6 +73,7 @@ static void window(void) {
     double mean[3];
     CHECK_EQ_INT(live_window_last_second(&w, 5000, mean), 0);
     CHECK(mean[0] == 0 && mean[1] == 0 && mean[2] == 0);
+    CHECK(!live_window_newest(&w, mean));
     live_window_add(&w, 3000, (double[3]){ 100, 100, 100 }); /* more than a second before 5000 */
     live_window_add(&w, 4500, (double[3]){ 1, 2, 3 });
     live_window_add(&w, 4900, (double[3]){ 3, 4, 5 });
@@ -80,6 +81,8 @@ static void window(void) {
     CHECK(mean[0] == 2 && mean[1] == 3 && mean[2] == 4);
     CHECK_EQ_INT(live_window_last_second(&w, 5600, mean), 1);
     CHECK(mean[0] == 3);
+    CHECK_EQ_INT(live_window_last_second(&w, 9000, mean), 0); /* at rest: none in the second */
+    CHECK(live_window_newest(&w, mean) && mean[0] == 3 && mean[1] == 4 && mean[2] == 5);
     /* More events than it keeps: the rate reads as the most it keeps. */
     for (uint32_t i = 0; i < 2 * CV_LIVE_WINDOW_EVENTS; i++)
         live_window_add(&w, 6000 + i * 0.1, NULL);

@@ -141,7 +141,8 @@ cv_result cv_live_snapshot(cv_live *l, cv_codec codec, cv_encoded *out);
 typedef struct cv_live_stats {
     uint64_t rendered, presented, spoiled;
     double fps;                                          /* presented per second, last second */
-    double render_ms, read_ms, encode_ms;                /* means over the last second */
+    double render_ms, read_ms, encode_ms;                /* means over the last second; with no frame in it
+                                                          * (a view at rest), the last frame's */
     uint64_t bytes;                                      /* encoded bytes presented, total */
     double link_bytes_per_s;                             /* last reported */
     double motion_to_photon_ms, motion_to_photon_max_ms; /* last, max reported */
